@@ -1,0 +1,20 @@
+#include <cstdio>
+#include <exception>
+
+#include <CLI/CLI.hpp>
+
+#include "tac3d/util/error.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"tac3d: software for mirror-stereo vision-based tactile sensors"};
+  app.require_subcommand(1);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const tac3d::Error& e) {
+    std::fprintf(stderr, "tac3d: error: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

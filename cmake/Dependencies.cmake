@@ -1,0 +1,26 @@
+# Every dependency of tac3d, all from Debian 12 packages (scripts/setup.sh installs them).
+find_package(Eigen3 3.4 REQUIRED NO_MODULE)
+find_package(OpenCV 4 REQUIRED COMPONENTS core imgproc imgcodecs calib3d features2d videoio)
+find_package(yaml-cpp REQUIRED)
+find_package(nlohmann_json 3 REQUIRED)
+find_package(fmt REQUIRED)
+find_package(Threads REQUIRED)
+
+# SuiteSparse ships no CMake config in Debian 12.
+find_path(CHOLMOD_INCLUDE_DIR cholmod.h PATH_SUFFIXES suitesparse REQUIRED)
+find_library(CHOLMOD_LIBRARY cholmod REQUIRED)
+if(NOT TARGET tac3d_cholmod)
+  add_library(tac3d_cholmod INTERFACE)
+  target_include_directories(tac3d_cholmod INTERFACE ${CHOLMOD_INCLUDE_DIR})
+  target_link_libraries(tac3d_cholmod INTERFACE ${CHOLMOD_LIBRARY})
+endif()
+
+if(NOT TAC3D_FIND_FOR_CONSUMER)
+  find_package(CLI11 REQUIRED)
+  if(TAC3D_BUILD_TESTS)
+    find_package(GTest REQUIRED)
+  endif()
+  if(TAC3D_BUILD_BENCHMARKS)
+    find_package(benchmark REQUIRED)
+  endif()
+endif()

@@ -1,0 +1,29 @@
+#pragma once
+
+#include <stdexcept>
+#include <string>
+
+#include <fmt/format.h>
+
+namespace tac3d {
+
+/// Bad input from a user, a file, a camera or the network. The message says what was
+/// wrong and where (the field, the bound, the file).
+class Error : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+namespace internal {
+[[noreturn]] void DemandFailed(const char* condition, const char* file, int line);
+}  // namespace internal
+
+}  // namespace tac3d
+
+/// A broken internal invariant is a bug: abort with the condition, file and line.
+#define TAC3D_DEMAND(condition)                                            \
+  do {                                                                     \
+    if (!(condition)) {                                                    \
+      ::tac3d::internal::DemandFailed(#condition, __FILE__, __LINE__);     \
+    }                                                                      \
+  } while (false)
