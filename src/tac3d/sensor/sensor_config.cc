@@ -1,0 +1,551 @@
+#include "tac3d/sensor/sensor_config.h"
+
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include <yaml-cpp/yaml.h>
+
+#include "tac3d/util/error.h"
+
+namespace tac3d {
+namespace {
+
+// ---- Validation -------------------------------------------------------------------------
+
+void Require(bool ok, const std::string& field, const std::string& bound, double value) {
+  if (!ok || std::isnan(value)) {
+    throw Error(fmt::format("sensor config: {} = {} is out of range: must be {}", field, value,
+                            bound));
+  }
+}
+
+void ValidateRotation(const Eigen::Matrix3d& r, const std::string& field) {
+  const double error = (r * r.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+  if (!(error < 1e-6) || !(std::abs(r.determinant() - 1.0) < 1e-6)) {
+    throw Error(fmt::format(
+        "sensor config: {} is not a rotation (orthonormality error {:.3g}, det {:.6f})", field,
+        error, r.determinant()));
+  }
+}
+
+void ValidateIntrinsics(const CameraIntrinsics& c, const std::string& field) {
+  Require(c.width > 1, field + ".width", "> 1", c.width);
+  Require(c.height > 1, field + ".height", "> 1", c.height);
+  Require(c.fx > 0, field + ".fx", "> 0", c.fx);
+  Require(c.fy > 0, field + ".fy", "> 0", c.fy);
+  Require(c.cx > 0 && c.cx < c.width, field + ".cx", "inside the image (0, width)", c.cx);
+  Require(c.cy > 0 && c.cy < c.height, field + ".cy", "inside the image (0, height)", c.cy);
+  for (int i = 0; i < 5; ++i) {
+    Require(std::isfinite(c.distortion[i]), fmt::format("{}.distortion[{}]", field, i), "finite",
+            c.distortion[i]);
+  }
+}
+
+void ValidateRectangle(const Rectangle3& r, const std::string& field) {
+  Require(r.half_u > 0, field + ".half_u_mm", "> 0", r.half_u);
+  Require(r.half_v > 0, field + ".half_v_mm", "> 0", r.half_v);
+  const double skew = std::abs(r.u_axis.dot(r.v_axis));
+  const double norm_error =
+      std::max(std::abs(r.u_axis.norm() - 1.0), std::abs(r.v_axis.norm() - 1.0));
+  if (!(skew < 1e-6) || !(norm_error < 1e-6)) {
+    throw Error(fmt::format("sensor config: {}: u_axis and v_axis must be orthonormal", field));
+  }
+}
+
+// ---- YAML reading with the key path in every error ------------------------------------
+
+class Reader {
+ public:
+  Reader(YAML::Node node, std::string path, const std::string* source)
+      : node_(std::move(node)), path_(std::move(path)), source_(source) {
+    if (!node_.IsMap()) Fail(path_.empty() ? "the document" : path_, "must be a mapping");
+  }
+
+  ~Reader() noexcept(false) {
+    if (std::uncaught_exceptions() > 0) return;
+    for (const auto& kv : node_) {
+      const std::string key = kv.first.as<std::string>();
+      if (!used_.count(key)) Fail(Join(key), "unknown key (misspelt?)");
+    }
+  }
+
+  YAML::Node Required(const std::string& key) {
+    used_.insert(key);
+    YAML::Node child = node_[key];
+    if (!child) Fail(Join(key), "missing");
+    return child;
+  }
+
+  bool Has(const std::string& key) const { return static_cast<bool>(node_[key]); }
+
+  Reader Child(const std::string& key) { return Reader(Required(key), Join(key), source_); }
+
+  double Double(const std::string& key) { return AsDouble(Required(key), Join(key)); }
+
+  int Int(const std::string& key) {
+    const YAML::Node n = Required(key);
+    try {
+      return n.as<int>();
+    } catch (const YAML::Exception&) {
+      Fail(Join(key), "must be an integer");
+    }
+  }
+
+  std::string String(const std::string& key) {
+    const YAML::Node n = Required(key);
+    if (!n.IsScalar()) Fail(Join(key), "must be a string");
+    return n.as<std::string>();
+  }
+
+  template <int N>
+  Eigen::Matrix<double, N, 1> Vector(const std::string& key) {
+    const YAML::Node n = Required(key);
+    if (!n.IsSequence() || n.size() != N) Fail(Join(key), fmt::format("must be a list of {} numbers", N));
+    Eigen::Matrix<double, N, 1> v;
+    for (int i = 0; i < N; ++i) v(i) = AsDouble(n[i], fmt::format("{}[{}]", Join(key), i));
+    return v;
+  }
+
+  Eigen::Matrix3d Matrix3(const std::string& key) {
+    const YAML::Node n = Required(key);
+    if (!n.IsSequence() || n.size() != 3) Fail(Join(key), "must be 3 rows of 3 numbers");
+    Eigen::Matrix3d m;
+    for (int r = 0; r < 3; ++r) {
+      if (!n[r].IsSequence() || n[r].size() != 3) Fail(Join(key), "must be 3 rows of 3 numbers");
+      for (int c = 0; c < 3; ++c) m(r, c) = AsDouble(n[r][c], fmt::format("{}[{}][{}]", Join(key), r, c));
+    }
+    return m;
+  }
+
+  [[noreturn]] void Fail(const std::string& where, const std::string& what) const {
+    throw Error(fmt::format("{}: {}: {}", *source_, where, what));
+  }
+
+  std::string Join(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
+
+ private:
+  double AsDouble(const YAML::Node& n, const std::string& where) const {
+    if (!n.IsScalar()) Fail(where, "must be a number");
+    try {
+      return n.as<double>();
+    } catch (const YAML::Exception&) {
+      Fail(where, fmt::format("'{}' is not a number", n.Scalar()));
+    }
+  }
+
+  YAML::Node node_;
+  std::string path_;
+  const std::string* source_;
+  std::set<std::string> used_;
+};
+
+CameraIntrinsics ReadIntrinsics(Reader r) {
+  CameraIntrinsics c;
+  c.width = r.Int("width");
+  c.height = r.Int("height");
+  c.fx = r.Double("fx");
+  c.fy = r.Double("fy");
+  c.cx = r.Double("cx");
+  c.cy = r.Double("cy");
+  const Eigen::Matrix<double, 5, 1> d = r.Vector<5>("distortion");
+  for (int i = 0; i < 5; ++i) c.distortion[i] = d(i);
+  return c;
+}
+
+Rigid3 ReadPose(Reader r) {
+  Rigid3 t = Rigid3::Identity();
+  t.translation() = r.Vector<3>("position_mm");
+  t.linear() = r.Matrix3("rotation");
+  return t;
+}
+
+Rectangle3 ReadRectangle(Reader& r) {
+  Rectangle3 rect;
+  rect.center = r.Vector<3>("center_mm");
+  rect.u_axis = r.Vector<3>("u_axis");
+  rect.v_axis = r.Vector<3>("v_axis");
+  rect.half_u = r.Double("half_u_mm");
+  rect.half_v = r.Double("half_v_mm");
+  return rect;
+}
+
+// ---- YAML writing with shortest exact doubles ------------------------------------------
+
+std::string ExactDouble(double v) {
+  char buffer[64];
+  const auto result = std::to_chars(buffer, buffer + sizeof(buffer), v);
+  std::string s(buffer, result.ptr);
+  // Keep it a float to a YAML reader ("1" would also parse, but "1.0" says what it is).
+  if (s.find_first_of(".eEn") == std::string::npos) s += ".0";
+  return s;
+}
+
+class Writer {
+ public:
+  YAML::Emitter& out() { return out_; }
+  void Key(const std::string& k) { out_ << YAML::Key << k << YAML::Value; }
+  void Double(const std::string& k, double v) {
+    Key(k);
+    out_ << ExactDouble(v);
+  }
+  template <typename Vec>
+  void Vector(const std::string& k, const Vec& v) {
+    Key(k);
+    out_ << YAML::Flow << YAML::BeginSeq;
+    for (int i = 0; i < v.size(); ++i) out_ << ExactDouble(v(i));
+    out_ << YAML::EndSeq;
+  }
+  void Matrix3(const std::string& k, const Eigen::Matrix3d& m) {
+    Key(k);
+    out_ << YAML::BeginSeq;
+    for (int r = 0; r < 3; ++r) {
+      out_ << YAML::Flow << YAML::BeginSeq;
+      for (int c = 0; c < 3; ++c) out_ << ExactDouble(m(r, c));
+      out_ << YAML::EndSeq;
+    }
+    out_ << YAML::EndSeq;
+  }
+  void Intrinsics(const std::string& k, const CameraIntrinsics& c) {
+    Key(k);
+    out_ << YAML::BeginMap;
+    Key("width");
+    out_ << c.width;
+    Key("height");
+    out_ << c.height;
+    Double("fx", c.fx);
+    Double("fy", c.fy);
+    Double("cx", c.cx);
+    Double("cy", c.cy);
+    Vector("distortion", Eigen::Map<const Eigen::Matrix<double, 5, 1>>(c.distortion.data()));
+    out_ << YAML::EndMap;
+  }
+  void Pose(const std::string& k, const Rigid3& t) {
+    Key(k);
+    out_ << YAML::BeginMap;
+    Vector("position_mm", t.translation());
+    Matrix3("rotation", t.linear());
+    out_ << YAML::EndMap;
+  }
+  void Rectangle(const Rectangle3& r) {
+    Vector("center_mm", r.center);
+    Vector("u_axis", r.u_axis);
+    Vector("v_axis", r.v_axis);
+    Double("half_u_mm", r.half_u);
+    Double("half_v_mm", r.half_v);
+  }
+
+ private:
+  YAML::Emitter out_;
+};
+
+ImageHalf ParseHalf(const std::string& s, const Reader& r, const std::string& key) {
+  if (s == "left") return ImageHalf::kLeft;
+  if (s == "right") return ImageHalf::kRight;
+  r.Fail(r.Join(key), fmt::format("'{}' must be left or right", s));
+}
+
+LateralFace ParseLateralFace(const std::string& s, const Reader& r) {
+  if (s == "free") return LateralFace::kFree;
+  if (s == "fixed") return LateralFace::kFixed;
+  r.Fail(r.Join("lateral_face"), fmt::format("'{}' must be free or fixed", s));
+}
+
+}  // namespace
+
+void SensorConfig::Validate() const {
+  const CameraIntrinsics& c = camera.intrinsics;
+  ValidateIntrinsics(c, "camera");
+  Require(camera.horizontal_fov_deg > 0 && camera.horizontal_fov_deg < 180,
+          "camera.horizontal_fov_deg", "in (0, 180) deg", camera.horizontal_fov_deg);
+  ValidateRotation(camera.sensor_from_cam.linear(), "camera.sensor_from_cam.rotation");
+
+  Require(light_path.h_mm > 0, "light_path.h_mm", "> 0", light_path.h_mm);
+  Require(light_path.l_mm > 0, "light_path.l_mm", "> 0", light_path.l_mm);
+  Require(light_path.d_mm > 0, "light_path.d_mm", "> 0", light_path.d_mm);
+  Require(light_path.fov_deg > 0 && light_path.fov_deg < 180, "light_path.fov_deg",
+          "in (0, 180) deg", light_path.fov_deg);
+
+  if (!mirrors.empty() && mirrors.size() != 4) {
+    throw Error(fmt::format("sensor config: mirrors: {} given, must be 4 (or none before design)",
+                            mirrors.size()));
+  }
+  for (size_t i = 0; i < mirrors.size(); ++i) {
+    ValidateRectangle(mirrors[i].surface, fmt::format("mirrors[{}]", i));
+  }
+  if (!virtual_cameras.empty() && virtual_cameras.size() != 2) {
+    throw Error(fmt::format(
+        "sensor config: virtual_cameras: {} given, must be 2 (or none before design)",
+        virtual_cameras.size()));
+  }
+  for (size_t i = 0; i < virtual_cameras.size(); ++i) {
+    const VirtualCameraConfig& v = virtual_cameras[i];
+    const std::string field = fmt::format("virtual_cameras[{}]", i);
+    ValidateIntrinsics(v.intrinsics, field + ".intrinsics");
+    ValidateRotation(v.sensor_from_vcam.linear(), field + ".sensor_from_vcam.rotation");
+    Require(v.column_begin >= 0 && v.column_begin < v.column_end, field + ".column_begin",
+            ">= 0 and < column_end", v.column_begin);
+    Require(v.column_end <= v.intrinsics.width, field + ".column_end", "<= the image width",
+            v.column_end);
+  }
+
+  const ElasticBodyConfig& b = elastic_body;
+  Require(b.outer_radius_mm > 0, "elastic_body.outer_radius_mm", "> 0", b.outer_radius_mm);
+  Require(b.thickness_mm > 0, "elastic_body.thickness_mm", "> 0", b.thickness_mm);
+  Require(b.base_diameter_mm > 0 && b.base_diameter_mm < 2 * b.outer_radius_mm,
+          "elastic_body.base_diameter_mm", "> 0 and < 2 * outer_radius_mm", b.base_diameter_mm);
+  Require(b.youngs_modulus_mpa > 0, "elastic_body.youngs_modulus_mpa", "> 0",
+          b.youngs_modulus_mpa);
+  Require(b.poisson_ratio > -1.0 && b.poisson_ratio < 0.5, "elastic_body.poisson_ratio",
+          "in (-1, 0.5)", b.poisson_ratio);
+  Require(b.refractive_index >= 1.0, "elastic_body.refractive_index", ">= 1",
+          b.refractive_index);
+  const double base_radius = 0.5 * b.base_diameter_mm;
+  const double edge_thickness = SphereCenter().z() + std::sqrt(b.outer_radius_mm * b.outer_radius_mm -
+                                                               base_radius * base_radius);
+  Require(edge_thickness > 0, "elastic_body.base_diameter_mm",
+          "small enough that the outer sphere stays above the base at its edge",
+          b.base_diameter_mm);
+
+  Require(glass.thickness_mm > 0, "glass.thickness_mm", "> 0", glass.thickness_mm);
+  Require(glass.refractive_index >= 1.0, "glass.refractive_index", ">= 1",
+          glass.refractive_index);
+
+  const MarkerConfig& m = markers;
+  Require(m.rows >= 2, "markers.rows", ">= 2", m.rows);
+  Require(m.cols >= 2, "markers.cols", ">= 2", m.cols);
+  Require(m.pitch_mm > 0, "markers.pitch_mm", "> 0", m.pitch_mm);
+  Require(m.dot_diameter_mm > 0 && m.dot_diameter_mm < m.pitch_mm, "markers.dot_diameter_mm",
+          "> 0 and < pitch_mm", m.dot_diameter_mm);
+  Require(m.depth_mm >= 0 && m.depth_mm < b.thickness_mm, "markers.depth_mm",
+          ">= 0 and < elastic_body.thickness_mm", m.depth_mm);
+  // The grid's corner dot must lie inside the base's footprint and under the surface.
+  const double half_x = 0.5 * (m.cols - 1) * m.pitch_mm;
+  const double half_y = 0.5 * (m.rows - 1) * m.pitch_mm;
+  const double corner = std::hypot(half_x, half_y) + 0.5 * m.dot_diameter_mm;
+  const double marker_radius = b.outer_radius_mm - m.depth_mm;
+  if (!(corner < base_radius) || !(corner < marker_radius)) {
+    throw Error(fmt::format(
+        "sensor config: markers: the {}x{} grid at pitch {} mm reaches {:.3f} mm from the axis, "
+        "beyond the fingertip (elastic_body.base_diameter_mm / 2 = {} mm)",
+        m.rows, m.cols, m.pitch_mm, corner, base_radius));
+  }
+  const double corner_z =
+      SphereCenter().z() + std::sqrt(marker_radius * marker_radius - corner * corner);
+  Require(corner_z > 0, "markers.depth_mm",
+          "small enough that the corner markers stay inside the elastic body", m.depth_mm);
+}
+
+Eigen::Vector3d SensorConfig::SphereCenter() const {
+  return {0, 0, elastic_body.thickness_mm - elastic_body.outer_radius_mm};
+}
+
+std::vector<Eigen::Vector3d> SensorConfig::MarkerPositions() const {
+  const double radius = elastic_body.outer_radius_mm - markers.depth_mm;
+  const Eigen::Vector3d center = SphereCenter();
+  std::vector<Eigen::Vector3d> positions;
+  positions.reserve(markers.rows * markers.cols);
+  for (int i = 0; i < markers.rows; ++i) {
+    for (int j = 0; j < markers.cols; ++j) {
+      const double x = (j - 0.5 * (markers.cols - 1)) * markers.pitch_mm;
+      const double y = (i - 0.5 * (markers.rows - 1)) * markers.pitch_mm;
+      positions.emplace_back(x, y, center.z() + std::sqrt(radius * radius - x * x - y * y));
+    }
+  }
+  return positions;
+}
+
+OpticalLayout SensorConfig::MakeOpticalLayout(bool with_gel) const {
+  if (mirrors.size() != 4) {
+    throw Error("sensor config has no mirrors: run `tac3d design` first");
+  }
+  OpticalLayout layout;
+  layout.intrinsics = camera.intrinsics;
+  layout.sensor_from_cam = camera.sensor_from_cam;
+  // Paper Fig. 2: the left half reflects on mirror 2 then 1, the right on 3 then 4.
+  layout.mirrors[static_cast<int>(ImageHalf::kLeft)] = {mirrors[1].surface, mirrors[0].surface};
+  layout.mirrors[static_cast<int>(ImageHalf::kRight)] = {mirrors[2].surface, mirrors[3].surface};
+  layout.has_gel = with_gel;
+  layout.glass_bottom_z_mm = -glass.thickness_mm;
+  layout.glass_index = glass.refractive_index;
+  layout.silicone_index = elastic_body.refractive_index;
+  return layout;
+}
+
+SensorConfig ParseSensorConfig(const std::string& yaml_text, const std::string& source) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    throw Error(fmt::format("{}: not valid YAML: {}", source, e.what()));
+  }
+  if (!root || root.IsNull()) throw Error(fmt::format("{}: empty sensor config", source));
+  SensorConfig c;
+  {
+    Reader r(root, "", &source);
+    {
+      Reader cam = r.Child("camera");
+      c.camera.intrinsics = ReadIntrinsics(cam.Child("intrinsics"));
+      c.camera.horizontal_fov_deg = cam.Double("horizontal_fov_deg");
+      c.camera.sensor_from_cam = ReadPose(cam.Child("sensor_from_cam"));
+    }
+    {
+      Reader lp = r.Child("light_path");
+      c.light_path.h_mm = lp.Double("h_mm");
+      c.light_path.l_mm = lp.Double("l_mm");
+      c.light_path.d_mm = lp.Double("d_mm");
+      c.light_path.fov_deg = lp.Double("fov_deg");
+    }
+    const YAML::Node mirrors = r.Required("mirrors");
+    if (!mirrors.IsSequence()) r.Fail("mirrors", "must be a list");
+    for (size_t i = 0; i < mirrors.size(); ++i) {
+      Reader m(mirrors[i], fmt::format("mirrors[{}]", i), &source);
+      MirrorConfig mirror;
+      mirror.name = m.String("name");
+      mirror.surface = ReadRectangle(m);
+      c.mirrors.push_back(mirror);
+    }
+    const YAML::Node vcams = r.Required("virtual_cameras");
+    if (!vcams.IsSequence()) r.Fail("virtual_cameras", "must be a list");
+    for (size_t i = 0; i < vcams.size(); ++i) {
+      Reader v(vcams[i], fmt::format("virtual_cameras[{}]", i), &source);
+      VirtualCameraConfig vcam;
+      vcam.name = v.String("name");
+      vcam.half = ParseHalf(v.String("half"), v, "half");
+      vcam.sensor_from_vcam = ReadPose(v.Child("sensor_from_vcam"));
+      vcam.intrinsics = ReadIntrinsics(v.Child("intrinsics"));
+      vcam.column_begin = v.Int("column_begin");
+      vcam.column_end = v.Int("column_end");
+      c.virtual_cameras.push_back(vcam);
+    }
+    {
+      Reader m = r.Child("markers");
+      c.markers.rows = m.Int("rows");
+      c.markers.cols = m.Int("cols");
+      c.markers.pitch_mm = m.Double("pitch_mm");
+      c.markers.dot_diameter_mm = m.Double("dot_diameter_mm");
+      c.markers.depth_mm = m.Double("depth_mm");
+    }
+    {
+      Reader b = r.Child("elastic_body");
+      c.elastic_body.outer_radius_mm = b.Double("outer_radius_mm");
+      c.elastic_body.thickness_mm = b.Double("thickness_mm");
+      c.elastic_body.base_diameter_mm = b.Double("base_diameter_mm");
+      c.elastic_body.youngs_modulus_mpa = b.Double("youngs_modulus_mpa");
+      c.elastic_body.poisson_ratio = b.Double("poisson_ratio");
+      c.elastic_body.refractive_index = b.Double("refractive_index");
+      c.elastic_body.lateral_face = ParseLateralFace(b.String("lateral_face"), b);
+    }
+    {
+      Reader g = r.Child("glass");
+      c.glass.thickness_mm = g.Double("thickness_mm");
+      c.glass.refractive_index = g.Double("refractive_index");
+    }
+  }
+  try {
+    c.Validate();
+  } catch (const Error& e) {
+    throw Error(fmt::format("{}: {}", source, e.what()));
+  }
+  return c;
+}
+
+SensorConfig LoadSensorConfig(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw Error(fmt::format("cannot open sensor config '{}'", path));
+  std::stringstream text;
+  text << in.rdbuf();
+  return ParseSensorConfig(text.str(), path);
+}
+
+std::string SensorConfigToYaml(const SensorConfig& c) {
+  Writer w;
+  YAML::Emitter& out = w.out();
+  out << YAML::Comment("tac3d sensor config: mm, MPa, degrees; frames as in docs/frames.md");
+  out << YAML::BeginMap;
+  w.Key("camera");
+  out << YAML::BeginMap;
+  w.Intrinsics("intrinsics", c.camera.intrinsics);
+  w.Double("horizontal_fov_deg", c.camera.horizontal_fov_deg);
+  w.Pose("sensor_from_cam", c.camera.sensor_from_cam);
+  out << YAML::EndMap;
+
+  w.Key("light_path");
+  out << YAML::BeginMap;
+  w.Double("h_mm", c.light_path.h_mm);
+  w.Double("l_mm", c.light_path.l_mm);
+  w.Double("d_mm", c.light_path.d_mm);
+  w.Double("fov_deg", c.light_path.fov_deg);
+  out << YAML::EndMap;
+
+  w.Key("mirrors");
+  out << YAML::BeginSeq;
+  for (const MirrorConfig& m : c.mirrors) {
+    out << YAML::BeginMap;
+    w.Key("name");
+    out << m.name;
+    w.Rectangle(m.surface);
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+
+  w.Key("virtual_cameras");
+  out << YAML::BeginSeq;
+  for (const VirtualCameraConfig& v : c.virtual_cameras) {
+    out << YAML::BeginMap;
+    w.Key("name");
+    out << v.name;
+    w.Key("half");
+    out << std::string(ToString(v.half));
+    w.Pose("sensor_from_vcam", v.sensor_from_vcam);
+    w.Intrinsics("intrinsics", v.intrinsics);
+    w.Key("column_begin");
+    out << v.column_begin;
+    w.Key("column_end");
+    out << v.column_end;
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+
+  w.Key("markers");
+  out << YAML::BeginMap;
+  w.Key("rows");
+  out << c.markers.rows;
+  w.Key("cols");
+  out << c.markers.cols;
+  w.Double("pitch_mm", c.markers.pitch_mm);
+  w.Double("dot_diameter_mm", c.markers.dot_diameter_mm);
+  w.Double("depth_mm", c.markers.depth_mm);
+  out << YAML::EndMap;
+
+  w.Key("elastic_body");
+  out << YAML::BeginMap;
+  w.Double("outer_radius_mm", c.elastic_body.outer_radius_mm);
+  w.Double("thickness_mm", c.elastic_body.thickness_mm);
+  w.Double("base_diameter_mm", c.elastic_body.base_diameter_mm);
+  w.Double("youngs_modulus_mpa", c.elastic_body.youngs_modulus_mpa);
+  w.Double("poisson_ratio", c.elastic_body.poisson_ratio);
+  w.Double("refractive_index", c.elastic_body.refractive_index);
+  w.Key("lateral_face");
+  out << (c.elastic_body.lateral_face == LateralFace::kFree ? "free" : "fixed");
+  out << YAML::EndMap;
+
+  w.Key("glass");
+  out << YAML::BeginMap;
+  w.Double("thickness_mm", c.glass.thickness_mm);
+  w.Double("refractive_index", c.glass.refractive_index);
+  out << YAML::EndMap;
+  out << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
+}
+
+void SaveSensorConfig(const SensorConfig& config, const std::string& path) {
+  std::ofstream out(path);
+  if (!out) throw Error(fmt::format("cannot write sensor config '{}'", path));
+  out << SensorConfigToYaml(config);
+  if (!out) throw Error(fmt::format("failed writing sensor config '{}'", path));
+}
+
+}  // namespace tac3d

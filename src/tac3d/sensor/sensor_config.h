@@ -1,0 +1,108 @@
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "tac3d/geometry/geometry.h"
+#include "tac3d/optics/camera.h"
+#include "tac3d/optics/optical_layout.h"
+
+namespace tac3d {
+
+/// The real camera (paper: IMX219-77, 48 deg horizontal field of view).
+struct CameraConfig {
+  CameraIntrinsics intrinsics = CameraIntrinsics::FromFieldOfView(640, 480, 48.0);
+  double horizontal_fov_deg = 48.0;
+  /// Camera frame: x to the image's right, y down, z along the optical axis.
+  Rigid3 sensor_from_cam = Rigid3(Eigen::Translation3d(0, 0, -40));
+};
+
+/// The light-path design parameters (paper Fig. 4).
+struct LightPathConfig {
+  double h_mm = 40.0;      ///< camera to the elastic body's face
+  double l_mm = 40.0;      ///< length of the fingertip seen by each virtual camera
+  double d_mm = 8.0;       ///< thickness of the elastic body
+  double fov_deg = 48.0;   ///< the camera's horizontal field of view (phi)
+};
+
+/// A plane mirror: reflects on the side its normal (u_axis x v_axis) points to.
+struct MirrorConfig {
+  std::string name;
+  Rectangle3 surface;
+};
+
+/// A virtual camera: the real one seen through the two mirrors of one image half.
+struct VirtualCameraConfig {
+  std::string name;  ///< "vcam_left" or "vcam_right"
+  ImageHalf half = ImageHalf::kLeft;
+  Rigid3 sensor_from_vcam = Rigid3::Identity();
+  CameraIntrinsics intrinsics;
+  /// The columns of the full image this camera owns: [column_begin, column_end).
+  int column_begin = 0;
+  int column_end = 0;
+};
+
+/// The marker layer: a rows x cols grid of dark dots under the outer surface.
+struct MarkerConfig {
+  int rows = 20;
+  int cols = 20;
+  double pitch_mm = 1.27;
+  double dot_diameter_mm = 0.6;
+  double depth_mm = 0.5;  ///< under the outer surface, along its normal
+};
+
+enum class LateralFace { kFree, kFixed };
+
+/// The silicone dome: base a disc on the glass at z = 0, outer surface a sphere.
+struct ElasticBodyConfig {
+  double outer_radius_mm = 45.0;
+  double thickness_mm = 8.0;       ///< on the axis
+  double base_diameter_mm = 40.0;
+  double youngs_modulus_mpa = 1.0;
+  double poisson_ratio = 0.48;
+  double refractive_index = 1.41;
+  LateralFace lateral_face = LateralFace::kFree;
+};
+
+/// The glass plate under the elastic body, from z = -thickness to 0.
+struct GlassConfig {
+  double thickness_mm = 2.0;
+  double refractive_index = 1.52;
+};
+
+/// One description of a sensor: everything the software needs to know about it. The
+/// defaults are the paper's prototype (DESIGN.md); `mirrors` and `virtual_cameras` are
+/// empty until `tac3d design` (or calibration) fills them.
+struct SensorConfig {
+  CameraConfig camera;
+  LightPathConfig light_path;
+  std::vector<MirrorConfig> mirrors;  ///< mirror_1 .. mirror_4 (paper Fig. 2)
+  std::vector<VirtualCameraConfig> virtual_cameras;
+  MarkerConfig markers;
+  ElasticBodyConfig elastic_body;
+  GlassConfig glass;
+
+  /// Checks every value against its physical bound.
+  /// @throws Error naming the field and the bound.
+  void Validate() const;
+
+  /// The outer-surface sphere's centre (on the axis, below the base).
+  Eigen::Vector3d SphereCenter() const;
+  /// Undeformed marker centres, row-major (index = row * cols + col), sensor frame:
+  /// a regular grid in x, y projected onto the sphere `depth_mm` under the outer surface.
+  std::vector<Eigen::Vector3d> MarkerPositions() const;
+  /// The mirrors and refracting layers as the ray tracer wants them.
+  /// @throws Error if the mirrors have not been designed.
+  OpticalLayout MakeOpticalLayout(bool with_gel = true) const;
+};
+
+/// Reads a sensor description. Every key is required; unknown keys are refused.
+/// @throws Error naming the file, the key and what is wrong.
+SensorConfig LoadSensorConfig(const std::string& path);
+/// Parses YAML text (`source` names it in error messages).
+SensorConfig ParseSensorConfig(const std::string& yaml_text, const std::string& source = "<text>");
+/// Writes YAML that LoadSensorConfig reads back bit for bit.
+std::string SensorConfigToYaml(const SensorConfig& config);
+void SaveSensorConfig(const SensorConfig& config, const std::string& path);
+
+}  // namespace tac3d
