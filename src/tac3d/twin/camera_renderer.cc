@@ -1,0 +1,319 @@
+#include "tac3d/twin/camera_renderer.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/LU>
+#include <opencv2/imgproc.hpp>
+
+#include "tac3d/util/error.h"
+
+namespace tac3d {
+namespace {
+
+// A flat dark disk in 3D (a marker, or a dot of the board).
+struct Disk {
+  Eigen::Vector3d center;
+  Eigen::Vector3d normal;  // unit
+  double radius_mm;
+  double reflectance;      // multiplies what is behind it
+};
+
+// Light falloff towards the corners (quadratic in the distance from the image centre),
+// with an optional left-to-right tilt of the illumination.
+cv::Mat MakeVignette(const CameraIntrinsics& c, const RenderOptions& o) {
+  cv::Mat v(c.height, c.width, CV_32FC1);
+  const double r2_corner = c.cx * c.cx + c.cy * c.cy;
+  for (int y = 0; y < c.height; ++y) {
+    float* row = v.ptr<float>(y);
+    for (int x = 0; x < c.width; ++x) {
+      const double r2 = ((x - c.cx) * (x - c.cx) + (y - c.cy) * (y - c.cy)) / r2_corner;
+      const double tilt = 1.0 + o.illumination_tilt * ((x - c.cx) / (c.width - 1));
+      row[x] = static_cast<float>((1.0 - o.vignetting * r2) * tilt);
+    }
+  }
+  return v;
+}
+
+// Fraction of a unit pixel on the inner side of a straight edge: the pixel centre is at
+// signed distance `s` (px, positive outside) from the edge, whose outward unit normal in
+// pixel space is `n`. The exact area of a square cut by a line (box-filter
+// anti-aliasing), so a dot's image has no sampling pattern and its centroid no bias.
+float InsideFraction(float s, const Eigen::Vector2f& n) {
+  float a = std::abs(n.x()), b = std::abs(n.y());
+  if (a < b) std::swap(a, b);
+  const float t = -s;  // how far the centre is inside
+  const float corner = 0.5f * (a + b), flat = 0.5f * (a - b);
+  if (t <= -corner) return 0.0f;
+  if (t >= corner) return 1.0f;
+  if (std::abs(t) <= flat) return 0.5f + t / a;
+  const float gap = corner - std::abs(t);
+  const float tip = gap * gap / (2.0f * a * b);
+  return t > 0 ? 1.0f - tip : tip;
+}
+
+// Darkens `image` (linear light) by every disk, with each pixel's exact ray: the signed
+// distance of the pixel centre's hit to the disk's rim, turned into covered area by the
+// local pixel -> disk-plane map.
+void SplatDisks(const RayField& rays, const std::vector<Disk>& disks, cv::Mat& image) {
+  const OpticalLayout& layout = rays.layout();
+  const int w = rays.width(), h = rays.height();
+  Eigen::Vector3f o, d;
+  for (const Disk& disk : disks) {
+    const Eigen::Vector3f c = disk.center.cast<float>();
+    const Eigen::Vector3f n = disk.normal.cast<float>();
+    const Eigen::Vector3f e1 = n.unitOrthogonal();
+    const Eigen::Vector3f e2 = n.cross(e1);
+    // Where the ray through a pixel point meets the disk's plane, in disk coordinates.
+    auto hit = [&](int u, int v, float fu, float fv, Eigen::Vector2f& q) {
+      rays.Sample(u, v, fu, fv, o, d);
+      const float denom = n.dot(d);
+      if (std::abs(denom) < 1e-6f) return false;
+      const Eigen::Vector3f p = o + (n.dot(c - o) / denom) * d - c;
+      q = {p.dot(e1), p.dot(e2)};
+      return true;
+    };
+    for (ImageHalf half : kImageHalves) {
+      const auto centre_px = ProjectPoint(layout, half, disk.center);
+      if (!centre_px) continue;
+      const int u0 = static_cast<int>(std::lround(centre_px->x()));
+      const int v0 = static_cast<int>(std::lround(centre_px->y()));
+      if (u0 < 0 || v0 < 0 || u0 + 1 >= w || v0 + 1 >= h) continue;
+      if (!rays.PixelValid(u0, v0) || rays.PixelHalf(u0, v0) != half) continue;
+      // The local map pixel -> disk plane: sizes the window and turns distances into px.
+      Eigen::Vector2f q00, q10, q01;
+      if (!hit(u0, v0, 0.5f, 0.5f, q00) || !hit(u0, v0, 1.5f, 0.5f, q10) ||
+          !hit(u0, v0, 0.5f, 1.5f, q01)) {
+        continue;
+      }
+      Eigen::Matrix2f jacobian;
+      jacobian << q10 - q00, q01 - q00;
+      if (std::abs(jacobian.determinant()) < 1e-12f) continue;
+      const Eigen::Matrix2f inverse = jacobian.inverse();
+      const float radius = static_cast<float>(disk.radius_mm);
+      const int half_u = static_cast<int>(std::ceil(radius * inverse.row(0).norm())) + 2;
+      const int half_v = static_cast<int>(std::ceil(radius * inverse.row(1).norm())) + 2;
+      const float darkening = static_cast<float>(1.0 - disk.reflectance);
+      for (int v = std::max(0, v0 - half_v); v <= std::min(h - 1, v0 + half_v); ++v) {
+        float* row = image.ptr<float>(v);
+        for (int u = std::max(0, u0 - half_u); u <= std::min(w - 1, u0 + half_u); ++u) {
+          if (!rays.PixelValid(u, v) || rays.PixelHalf(u, v) != half) continue;
+          Eigen::Vector2f q;
+          if (!hit(u, v, 0.5f, 0.5f, q)) continue;
+          const float distance = q.norm();
+          if (distance < 1e-9f) {
+            row[u] *= 1.0f - darkening;
+            continue;
+          }
+          // Gradient of the rim distance in pixel space.
+          const Eigen::Vector2f gradient = jacobian.transpose() * (q / distance);
+          const float scale = gradient.norm();
+          const float coverage =
+              InsideFraction((distance - radius) / scale, gradient / scale);
+          row[u] *= 1.0f - coverage * darkening;
+        }
+      }
+    }
+  }
+}
+
+// Blur, noise and 8-bit quantisation of linear light in [0, 1].
+cv::Mat Expose(cv::Mat irradiance, const RenderOptions& o, std::uint64_t frame_index) {
+  if (o.blur_sigma_px > 0) cv::GaussianBlur(irradiance, irradiance, cv::Size(0, 0), o.blur_sigma_px);
+  cv::Mat dn = irradiance * 255.0;
+  if (o.noise) {
+    cv::Mat gaussian(dn.size(), CV_32FC1);
+    cv::RNG rng(o.seed * 0x9E3779B97F4A7C15ULL + frame_index + 1);
+    rng.fill(gaussian, cv::RNG::NORMAL, 0.0, 1.0);
+    const float gain = static_cast<float>(o.shot_noise_gain);
+    const float read2 = static_cast<float>(o.read_noise_dn * o.read_noise_dn);
+    for (int y = 0; y < dn.rows; ++y) {
+      float* p = dn.ptr<float>(y);
+      const float* g = gaussian.ptr<float>(y);
+      for (int x = 0; x < dn.cols; ++x) p[x] += std::sqrt(gain * std::max(p[x], 0.0f) + read2) * g[x];
+    }
+  }
+  cv::Mat out;
+  dn.convertTo(out, CV_8UC1);  // rounds and saturates
+  return out;
+}
+
+// Unit normals of a deformed grid of markers, from its neighbours (central differences
+// inside, one-sided at the border), pointing out of the fingertip (+z).
+std::vector<Eigen::Vector3d> GridNormals(const std::vector<Eigen::Vector3d>& p, int rows,
+                                         int cols) {
+  std::vector<Eigen::Vector3d> normals(p.size());
+  for (int i = 0; i < rows; ++i) {
+    for (int j = 0; j < cols; ++j) {
+      const int jm = std::max(j - 1, 0), jp = std::min(j + 1, cols - 1);
+      const int im = std::max(i - 1, 0), ip = std::min(i + 1, rows - 1);
+      const Eigen::Vector3d along_x = p[i * cols + jp] - p[i * cols + jm];
+      const Eigen::Vector3d along_y = p[ip * cols + j] - p[im * cols + j];
+      Eigen::Vector3d n = along_x.cross(along_y);
+      if (n.norm() < 1e-12) n = Eigen::Vector3d::UnitZ();
+      normals[i * cols + j] = n.normalized();
+    }
+  }
+  return normals;
+}
+
+}  // namespace
+
+void RenderOptions::Validate() const {
+  auto require = [](bool ok, const char* field, const char* bound, double value) {
+    if (!ok || std::isnan(value)) {
+      throw Error(fmt::format("render options: {} = {} must be {}", field, value, bound));
+    }
+  };
+  require(film_level > 0 && film_level <= 1, "film_level", "in (0, 1]", film_level);
+  require(dot_reflectance >= 0 && dot_reflectance < 1, "dot_reflectance", "in [0, 1)", dot_reflectance);
+  require(board_level > 0 && board_level <= 1, "board_level", "in (0, 1]", board_level);
+  require(board_dot_reflectance >= 0 && board_dot_reflectance < 1, "board_dot_reflectance",
+          "in [0, 1)", board_dot_reflectance);
+  require(outside_level >= 0 && outside_level <= 1, "outside_level", "in [0, 1]", outside_level);
+  require(blur_sigma_px >= 0 && blur_sigma_px <= 10, "blur_sigma_px", "in [0, 10]", blur_sigma_px);
+  require(vignetting >= 0 && vignetting < 1, "vignetting", "in [0, 1)", vignetting);
+  require(std::abs(illumination_tilt) < 1, "illumination_tilt", "in (-1, 1)", illumination_tilt);
+  require(shot_noise_gain >= 0, "shot_noise_gain", ">= 0", shot_noise_gain);
+  require(read_noise_dn >= 0, "read_noise_dn", ">= 0", read_noise_dn);
+}
+
+void DotBoard::Validate() const {
+  auto require = [](bool ok, const char* field, const char* bound, double value) {
+    if (!ok || std::isnan(value)) {
+      throw Error(fmt::format("dot board: {} = {} must be {}", field, value, bound));
+    }
+  };
+  require(rows >= 2, "rows", ">= 2", rows);
+  require(cols >= 2, "cols", ">= 2", cols);
+  require(spacing_mm > 0, "spacing_mm", "> 0", spacing_mm);
+  const double min_gap = layout == Layout::kSymmetric ? spacing_mm : spacing_mm * std::sqrt(2.0);
+  require(dot_diameter_mm > 0 && dot_diameter_mm < min_gap, "dot_diameter_mm",
+          "> 0 and smaller than the distance between neighbouring dots", dot_diameter_mm);
+  require(margin_mm >= 0, "margin_mm", ">= 0", margin_mm);
+}
+
+std::vector<Eigen::Vector3d> DotBoard::DotCenters() const {
+  std::vector<Eigen::Vector3d> centers;
+  for (int r = 0; r < rows; ++r) {
+    for (int c = 0; c < cols; ++c) {
+      const double x = layout == Layout::kSymmetric ? c * spacing_mm : (2 * c + r % 2) * spacing_mm;
+      centers.emplace_back(x, r * spacing_mm, 0.0);
+    }
+  }
+  return centers;
+}
+
+Eigen::Vector2d DotBoard::Min() const {
+  return Eigen::Vector2d::Constant(-margin_mm - 0.5 * dot_diameter_mm);
+}
+
+Eigen::Vector2d DotBoard::Max() const {
+  const double width = layout == Layout::kSymmetric ? (cols - 1) * spacing_mm
+                                                    : (2 * (cols - 1) + 1) * spacing_mm;
+  return Eigen::Vector2d(width, (rows - 1) * spacing_mm) +
+         Eigen::Vector2d::Constant(margin_mm + 0.5 * dot_diameter_mm);
+}
+
+MarkerImageRenderer::MarkerImageRenderer(const SensorConfig& config, const RenderOptions& options)
+    : config_(config), options_(options), rays_((options.Validate(), config.MakeOpticalLayout(true))) {
+  // The film is seen where a pixel's ray reaches the marker layer inside the fingertip.
+  const cv::Mat vignette = MakeVignette(config.camera.intrinsics, options);
+  base_ = cv::Mat(rays_.height(), rays_.width(), CV_32FC1);
+  const Eigen::Vector3d center = config.SphereCenter();
+  const double radius = config.elastic_body.outer_radius_mm - config.markers.depth_mm;
+  const double base_radius = 0.5 * config.elastic_body.base_diameter_mm;
+  Eigen::Vector3f o, d;
+  for (int v = 0; v < rays_.height(); ++v) {
+    for (int u = 0; u < rays_.width(); ++u) {
+      float level = static_cast<float>(options.outside_level);
+      if (rays_.PixelValid(u, v)) {
+        rays_.Sample(u, v, 0.5f, 0.5f, o, d);
+        const Eigen::Vector3d od = o.cast<double>() - center, dd = d.cast<double>().normalized();
+        const double b = od.dot(dd), disc = b * b - (od.squaredNorm() - radius * radius);
+        if (disc > 0) {
+          const Eigen::Vector3d p = o.cast<double>() + (-b + std::sqrt(disc)) * dd;
+          if (p.head<2>().norm() < base_radius) {
+            level = static_cast<float>(options.film_level) * vignette.at<float>(v, u);
+          }
+        }
+      }
+      base_.at<float>(v, u) = level;
+    }
+  }
+}
+
+MarkerImageRenderer::~MarkerImageRenderer() = default;
+
+cv::Mat MarkerImageRenderer::RenderIrradiance(const std::vector<Eigen::Vector3d>& markers) const {
+  const int rows = config_.markers.rows, cols = config_.markers.cols;
+  if (static_cast<int>(markers.size()) != rows * cols) {
+    throw Error(fmt::format("render: {} marker positions given, the sensor has {} x {}",
+                            markers.size(), rows, cols));
+  }
+  const std::vector<Eigen::Vector3d> normals = GridNormals(markers, rows, cols);
+  std::vector<Disk> disks(markers.size());
+  for (size_t i = 0; i < markers.size(); ++i) {
+    disks[i] = {markers[i], normals[i], 0.5 * config_.markers.dot_diameter_mm,
+                options_.dot_reflectance};
+  }
+  cv::Mat image = base_.clone();
+  SplatDisks(rays_, disks, image);
+  return image;
+}
+
+cv::Mat MarkerImageRenderer::Render(const std::vector<Eigen::Vector3d>& markers,
+                                    std::uint64_t frame_index) const {
+  return Expose(RenderIrradiance(markers), options_, frame_index);
+}
+
+BoardImageRenderer::BoardImageRenderer(const SensorConfig& config, const RenderOptions& options)
+    : config_(config),
+      options_(options),
+      rays_((options.Validate(), config.MakeOpticalLayout(false))),
+      vignette_(MakeVignette(config.camera.intrinsics, options)) {}
+
+cv::Mat BoardImageRenderer::RenderIrradiance(const DotBoard& board,
+                                             const Rigid3& sensor_from_board) const {
+  board.Validate();
+  const Rigid3 board_from_sensor = sensor_from_board.inverse();
+  const Eigen::Vector3d n = sensor_from_board.linear().col(2);
+  const Eigen::Vector3d c = sensor_from_board.translation();
+  const Eigen::Vector2d lo = board.Min(), hi = board.Max();
+  cv::Mat image(rays_.height(), rays_.width(), CV_32FC1);
+  Eigen::Vector3f o, d;
+  for (int v = 0; v < rays_.height(); ++v) {
+    float* row = image.ptr<float>(v);
+    const float* vig = vignette_.ptr<float>(v);
+    for (int u = 0; u < rays_.width(); ++u) {
+      float level = static_cast<float>(options_.outside_level);
+      if (rays_.PixelValid(u, v)) {
+        rays_.Sample(u, v, 0.5f, 0.5f, o, d);
+        const Eigen::Vector3d od = o.cast<double>(), dd = d.cast<double>();
+        const double denom = n.dot(dd);
+        if (std::abs(denom) > 1e-9) {
+          const double t = n.dot(c - od) / denom;
+          const Eigen::Vector3d p = board_from_sensor * (od + t * dd);
+          if (t > 0 && p.x() >= lo.x() && p.x() <= hi.x() && p.y() >= lo.y() && p.y() <= hi.y()) {
+            level = static_cast<float>(options_.board_level) * vig[u];
+          }
+        }
+      }
+      row[u] = level;
+    }
+  }
+  std::vector<Disk> disks;
+  for (const Eigen::Vector3d& p : board.DotCenters()) {
+    disks.push_back({sensor_from_board * p, n, 0.5 * board.dot_diameter_mm,
+                     options_.board_dot_reflectance});
+  }
+  SplatDisks(rays_, disks, image);
+  return image;
+}
+
+cv::Mat BoardImageRenderer::Render(const DotBoard& board, const Rigid3& sensor_from_board,
+                                   std::uint64_t frame_index) const {
+  return Expose(RenderIrradiance(board, sensor_from_board), options_, frame_index);
+}
+
+}  // namespace tac3d

@@ -1,0 +1,102 @@
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "tac3d/sensor/sensor_config.h"
+#include "tac3d/twin/ray_field.h"
+
+namespace tac3d {
+
+/// How the twin's camera forms an image: scene levels (as fractions of the 8-bit full
+/// scale), lens blur, vignetting and sensor noise. Every random draw comes
+/// from `seed` and the frame index, so a render is reproducible.
+struct RenderOptions {
+  double film_level = 0.80;           ///< the bright reflective film behind the markers
+  double dot_reflectance = 0.2;       ///< a marker relative to the film
+  double board_level = 0.85;          ///< white of the calibration board
+  double board_dot_reflectance = 0.1; ///< its dots relative to its white
+  double outside_level = 0.04;        ///< where no fingertip or board is seen
+  double blur_sigma_px = 0.6;         ///< Gaussian lens blur (0: none)
+  double vignetting = 0.25;           ///< fractional light loss at the image corners
+  double illumination_tilt = 0.0;     ///< fractional light change from left to right edge
+  bool noise = true;
+  double shot_noise_gain = 0.04;      ///< shot-noise variance per DN of signal (DN)
+  double read_noise_dn = 0.8;         ///< read noise, DN (1 sigma)
+  std::uint64_t seed = 1;
+
+  /// @throws Error naming the field and the bound.
+  void Validate() const;
+};
+
+/// A dot calibration board (OpenCV circle grid). Symmetric: dot (r, c) at
+/// (c * spacing, r * spacing); asymmetric (OpenCV's layout): at
+/// ((2c + r % 2) * spacing, r * spacing). The board frame has its origin at dot (0, 0),
+/// the dots in its z = 0 plane and z pointing away from the camera.
+struct DotBoard {
+  enum class Layout { kSymmetric, kAsymmetric };
+  Layout layout = Layout::kSymmetric;
+  int rows = 7;
+  int cols = 7;
+  double spacing_mm = 2.5;
+  double dot_diameter_mm = 1.2;
+  double margin_mm = 3.0;  ///< white border around the outer dots
+
+  void Validate() const;
+  /// Dot centres in the board frame, row-major (OpenCV's order for findCirclesGrid).
+  std::vector<Eigen::Vector3d> DotCenters() const;
+  /// The board's white area, in its frame: [min.x, max.x] x [min.y, max.y].
+  Eigen::Vector2d Min() const;
+  Eigen::Vector2d Max() const;
+};
+
+/// The twin's camera looking at the marker layer through the mirrors, the glass and the
+/// silicone (DESIGN.md: the twin, not the inverse model). Construction traces every
+/// pixel corner once; Render is then cheap enough for video rates.
+class MarkerImageRenderer {
+ public:
+  /// @throws Error if the config has no mirrors or the options are invalid.
+  MarkerImageRenderer(const SensorConfig& config, const RenderOptions& options = {});
+  ~MarkerImageRenderer();
+
+  /// The full camera image (CV_8UC1) of markers at the given sensor-frame positions
+  /// (row-major over the grid, as SensorConfig::MarkerPositions).
+  /// @throws Error if the number of positions is not rows * cols.
+  cv::Mat Render(const std::vector<Eigen::Vector3d>& markers_in_sensor,
+                 std::uint64_t frame_index = 0) const;
+  /// The same before exposure: linear light in [0, 1], no blur or noise (CV_32FC1).
+  cv::Mat RenderIrradiance(const std::vector<Eigen::Vector3d>& markers_in_sensor) const;
+
+  const RayField& rays() const { return rays_; }
+
+ private:
+  SensorConfig config_;
+  RenderOptions options_;
+  RayField rays_;
+  cv::Mat base_;  // film and vignetting, CV_32FC1
+};
+
+/// The twin's camera looking at a dot board through the mirrors only (the elastic body
+/// and glass not yet mounted, as the paper calibrates).
+class BoardImageRenderer {
+ public:
+  BoardImageRenderer(const SensorConfig& config, const RenderOptions& options = {});
+
+  cv::Mat Render(const DotBoard& board, const Rigid3& sensor_from_board,
+                 std::uint64_t frame_index = 0) const;
+  cv::Mat RenderIrradiance(const DotBoard& board, const Rigid3& sensor_from_board) const;
+
+  const RayField& rays() const { return rays_; }
+
+ private:
+  SensorConfig config_;
+  RenderOptions options_;
+  RayField rays_;
+  cv::Mat vignette_;  // CV_32FC1
+};
+
+}  // namespace tac3d
