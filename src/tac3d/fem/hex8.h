@@ -1,0 +1,75 @@
+#pragma once
+
+#include <Eigen/Core>
+
+namespace tac3d::fem {
+
+/// Corner coordinates of an 8-node hexahedron, one node a row (mm). Node order is the
+/// usual one: parametric corners (-1,-1,-1), (1,-1,-1), (1,1,-1), (-1,1,-1), then the same
+/// four at zeta = +1. The face zeta = +1 (nodes 4..7) is the element's "top" face.
+using Hex8Nodes = Eigen::Matrix<double, 8, 3>;
+/// Nodal values of an 8-node hexahedron in DOF order (node a, component c) -> 3 * a + c.
+using Hex8Vector = Eigen::Matrix<double, 24, 1>;
+using Hex8Matrix = Eigen::Matrix<double, 24, 24>;
+
+/// An isotropic linear elastic material.
+struct ElasticMaterial {
+  /// Young's modulus E (MPa = N/mm^2).
+  double youngs_modulus_mpa = 1.0;
+  /// Poisson's ratio nu; up to 0.4999 (the element is locking-free, see CalcHex8Stiffness).
+  double poisson_ratio = 0.48;
+
+  /// @throws tac3d::Error naming the field and its bound: E > 0, -1 < nu <= 0.4999.
+  void Validate() const;
+  /// Shear modulus G = E / (2 (1 + nu)) (MPa).
+  double shear_modulus() const;
+  /// Bulk modulus K = E / (3 (1 - 2 nu)) (MPa).
+  double bulk_modulus() const;
+  /// Constrained (oedometric) modulus E (1 - nu) / ((1 + nu)(1 - 2 nu)) (MPa): stress over
+  /// strain in uniaxial strain, the stiffness of a laterally confined layer.
+  double constrained_modulus() const;
+};
+
+/// Trilinear shape functions N_a at the parametric point xi in [-1, 1]^3.
+Eigen::Matrix<double, 8, 1> CalcHex8Shape(const Eigen::Vector3d& xi);
+
+/// Their parametric derivatives dN_a / dxi_i, row a, column i.
+Eigen::Matrix<double, 8, 3> CalcHex8ShapeDerivatives(const Eigen::Vector3d& xi);
+
+/// The Jacobian determinant det(dx/dxi) at xi; positive for a valid element.
+double CalcHex8JacobianDeterminant(const Hex8Nodes& x, const Eigen::Vector3d& xi);
+
+/// The smallest Jacobian determinant over the 8 corners and the 8 Gauss points.
+double CalcHex8MinJacobianDeterminant(const Hex8Nodes& x);
+
+/// The element stiffness matrix (N/mm), B-bar (mean dilatation, Hughes 1980): the deviatoric
+/// part with 2x2x2 Gauss points, the volumetric part with the element's mean volumetric strain,
+/// K = int B^T D_dev B dV + K_bulk V b_mean b_mean^T. Free of volumetric locking as nu -> 1/2,
+/// and it passes the patch test on distorted elements.
+/// @pre positive Jacobian at every Gauss point (TAC3D_DEMAND).
+Hex8Matrix CalcHex8Stiffness(const Hex8Nodes& x, const ElasticMaterial& material);
+
+/// The Cauchy stress (MPa) at xi for nodal displacements u (mm), consistent with the B-bar
+/// stiffness: deviatoric part from the local strain, pressure from the element's mean
+/// volumetric strain.
+Eigen::Matrix3d CalcHex8Stress(const Hex8Nodes& x,
+                               const Hex8Vector& u,
+                               const ElasticMaterial& material,
+                               const Eigen::Vector3d& xi);
+
+/// Integrals over part of the top face (zeta = +1) of an element.
+struct TopFaceIntegrals {
+  /// int N_a dA for the face's nodes a = 4..7 (mm^2).
+  Eigen::Vector4d shape_integrals = Eigen::Vector4d::Zero();
+  /// int dA (mm^2), the sum of shape_integrals.
+  double area_mm2 = 0.0;
+};
+
+/// Integrates over the parametric rectangle [xi_min, xi_max] x [eta_min, eta_max] of the
+/// top face, on the curved face itself (3x3 Gauss points). A uniform traction t over that part
+/// of the face gives the nodal forces shape_integrals(a) * t.
+/// @pre -1 <= xi_min <= xi_max <= 1, the same for eta.
+TopFaceIntegrals IntegrateHex8TopFace(
+    const Hex8Nodes& x, double xi_min, double xi_max, double eta_min, double eta_max);
+
+}  // namespace tac3d::fem
