@@ -1,0 +1,250 @@
+#include "tac3d/fem/body_model.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "tac3d/fem/compliance.h"
+#include "tac3d/fem/evaluation.h"
+#include "tac3d/testing/testing.h"
+#include "tac3d/util/error.h"
+
+namespace tac3d::fem {
+namespace {
+
+// A dome small enough to factor in a fraction of a second; rows != cols so that a mix-up of
+// rows and columns shows.
+BodyModelOptions SmallDome() {
+  BodyModelOptions options;
+  options.base_diameter_mm = 12.0;
+  options.thickness_mm = 3.0;
+  options.sphere_radius_mm = 20.0;
+  options.marker_rows = 3;
+  options.marker_cols = 4;
+  return options;
+}
+
+TEST(BodyModelOptions, DefaultsAreThePaperPrototype) {
+  const BodyModelOptions options;
+  EXPECT_NO_THROW(options.Validate());
+  EXPECT_EQ(options.num_markers(), 400);
+  EXPECT_DOUBLE_EQ(options.marker_pitch_mm, 1.27);
+  EXPECT_DOUBLE_EQ(options.SurfaceHeight(0.0), 8.0);
+  EXPECT_DOUBLE_EQ(options.sphere_center_z_mm(), -37.0);
+  EXPECT_NEAR(options.SurfaceHeight(20.0), -37.0 + std::sqrt(45.0 * 45.0 - 400.0), 1e-12);
+}
+
+TEST(BodyModelOptions, ValidateThrowsForEveryBound) {
+  const auto throws = [](auto change) {
+    BodyModelOptions options;
+    change(options);
+    EXPECT_THROW(options.Validate(), Error);
+  };
+  throws([](auto& o) { o.base_diameter_mm = 0; });
+  throws([](auto& o) { o.thickness_mm = 0; });
+  throws([](auto& o) { o.sphere_radius_mm = -1; });
+  throws([](auto& o) { o.marker_pitch_mm = 0; });
+  throws([](auto& o) { o.sphere_radius_mm = 19.9; });  // <= base radius
+  throws([](auto& o) { o.thickness_mm = 4.6; });        // the sagitta is 4.689 mm
+  throws([](auto& o) { o.material.youngs_modulus_mpa = 0; });
+  throws([](auto& o) { o.material.poisson_ratio = 0.5; });
+  throws([](auto& o) { o.marker_rows = 0; });
+  throws([](auto& o) { o.marker_cols = 201; });
+  throws([](auto& o) { o.marker_pitch_mm = 1.35; });  // patches reach 19.09 > 0.95 * 20
+  throws([](auto& o) { o.marker_depth_mm = 0; });
+  throws([](auto& o) { o.marker_depth_mm = 4.3; });  // the body is 4.26 mm deep at the corner
+  throws([](auto& o) { o.refinement = 0.2; });
+  throws([](auto& o) { o.refinement = 4.1; });
+  BodyModelOptions near_bounds;
+  near_bounds.marker_depth_mm = 4.2;
+  near_bounds.refinement = 0.25;
+  EXPECT_NO_THROW(near_bounds.Validate());
+  near_bounds.marker_depth_mm = 0.5;
+  near_bounds.marker_pitch_mm = 1.34;
+  near_bounds.refinement = 4.0;
+  EXPECT_NO_THROW(near_bounds.Validate());
+}
+
+TEST(BodyModelOptions, JsonRoundTrip) {
+  BodyModelOptions options = SmallDome();
+  options.lateral_boundary = LateralBoundary::kFixed;
+  options.material.poisson_ratio = 0.45;
+  options.refinement = 1.5;
+  const BodyModelOptions back = BodyModelOptionsFromJson(ToJson(options));
+  EXPECT_EQ(ToJson(back), ToJson(options));
+  EXPECT_EQ(back.lateral_boundary, LateralBoundary::kFixed);
+  nlohmann::json broken = ToJson(options);
+  broken.erase("marker_rows");
+  EXPECT_THROW(BodyModelOptionsFromJson(broken), Error);
+  broken = ToJson(options);
+  broken["lateral_boundary"] = "glued";
+  EXPECT_THROW(BodyModelOptionsFromJson(broken), Error);
+}
+
+TEST(MarkerPositions, GridOrderAndDepth) {
+  const BodyModelOptions options;
+  const std::vector<Eigen::Vector3d> markers = CalcMarkerPositions(options);
+  ASSERT_EQ(markers.size(), 400u);
+  const Eigen::Vector3d center(0, 0, options.sphere_center_z_mm());
+  for (const Eigen::Vector3d& p : markers) EXPECT_NEAR((p - center).norm(), 44.5, 1e-12);
+  // Marker (row i, col j) has index i * cols + j, x along columns.
+  EXPECT_NEAR(markers[0].x(), -9.5 * 1.27, 1e-12);
+  EXPECT_NEAR(markers[0].y(), -9.5 * 1.27, 1e-12);
+  EXPECT_NEAR(markers[1].x(), -8.5 * 1.27, 1e-12);
+  EXPECT_NEAR(markers[20].y(), -8.5 * 1.27, 1e-12);
+  EXPECT_NEAR(markers[399].x(), 9.5 * 1.27, 1e-12);
+}
+
+TEST(DomeMesh, DefaultMeshIsValidWithThePapersElementSize) {
+  const BodyModelOptions options;
+  const DomeMesh dome = BuildDomeMesh(options);
+  EXPECT_GT(CalcMinJacobianDeterminant(dome.mesh), 0.0);
+  // In-plane edge pitch / 3 under the 20 x 20 grid: 60 elements over 25.4 mm.
+  EXPECT_EQ(dome.central_elements, 60);
+  EXPECT_NEAR(2.0 * dome.central_half_width_mm / dome.central_elements, 1.27 / 3.0, 1e-12);
+  const int quads = 60 * 60 + 4 * 60 * dome.ring_elements;
+  EXPECT_EQ(dome.mesh.num_elements(), quads * dome.layers);
+  EXPECT_EQ(static_cast<int>(dome.outer_surface_elements.size()), quads);
+  // The outer surface's nodes lie on the sphere, the base's at z = 0 and fixed, and with a
+  // free lateral face nothing else is fixed.
+  const Eigen::Vector3d center(0, 0, options.sphere_center_z_mm());
+  for (int e : dome.outer_surface_elements) {
+    for (int a = 4; a < 8; ++a) {
+      EXPECT_NEAR((dome.mesh.nodes[dome.mesh.elements[e][a]] - center).norm(), 45.0, 1e-9);
+    }
+  }
+  int fixed_nodes = 0;
+  for (int n = 0; n < dome.mesh.num_nodes(); ++n) {
+    const bool fixed = dome.fixed[3 * n];
+    EXPECT_EQ(fixed, dome.mesh.nodes[n].z() == 0.0) << "node " << n;
+    fixed_nodes += fixed;
+  }
+  EXPECT_EQ(fixed_nodes, dome.mesh.num_nodes() / (dome.layers + 1));
+  // The layer under the outer surface is the thinnest: about pitch / 3 on the axis.
+  const int top = dome.CentralTopElement(30, 30);
+  const double top_layer = dome.mesh.nodes[dome.mesh.elements[top][6]].z() -
+                           dome.mesh.nodes[dome.mesh.elements[top][2]].z();
+  EXPECT_GT(top_layer, 0.3);
+  EXPECT_LT(top_layer, 1.27 / 3.0);
+}
+
+TEST(DomeMesh, ExtremeValidOptionsGivePositiveJacobians) {
+  BodyModelOptions coarse;
+  coarse.refinement = 0.25;
+  BodyModelOptions wide;  // patches reaching 0.947 of the base radius
+  wide.marker_pitch_mm = 1.34;
+  BodyModelOptions thin = SmallDome();
+  thin.thickness_mm = 1.0;
+  thin.marker_depth_mm = 0.2;
+  BodyModelOptions single = SmallDome();
+  single.marker_rows = single.marker_cols = 1;
+  for (const BodyModelOptions& options : {coarse, wide, thin, single}) {
+    EXPECT_GT(CalcMinJacobianDeterminant(BuildDomeMesh(options).mesh), 0.0);
+  }
+}
+
+TEST(DomeMesh, FixedLateralFaceFixesTheRim) {
+  BodyModelOptions options = SmallDome();
+  options.lateral_boundary = LateralBoundary::kFixed;
+  const DomeMesh dome = BuildDomeMesh(options);
+  for (int n = 0; n < dome.mesh.num_nodes(); ++n) {
+    const Eigen::Vector3d& p = dome.mesh.nodes[n];
+    const bool on_rim = std::abs(p.head<2>().norm() - 6.0) < 1e-9;
+    EXPECT_EQ(dome.fixed[3 * n + 2], on_rim || p.z() == 0.0) << "node " << n;
+  }
+}
+
+TEST(BodyModel, PatchLoadsAreUnitForcesCentredOnTheMarkers) {
+  // At refinement 1.5 the patch edges cut through elements.
+  for (double refinement : {1.0, 1.5}) {
+    BodyModelOptions options = SmallDome();
+    options.refinement = refinement;
+    const BodyModel model(options);
+    const Eigen::SparseMatrix<double> loads = model.CalcMarkerPatchLoads();
+    const int n = options.num_markers();
+    ASSERT_EQ(loads.cols(), 3 * n);
+    for (int c = 0; c < 3; ++c) {
+      for (int k = 0; k < n; ++k) {
+        Eigen::Vector3d total = Eigen::Vector3d::Zero();
+        Eigen::Vector2d moment = Eigen::Vector2d::Zero();
+        for (Eigen::SparseMatrix<double>::InnerIterator it(loads, c * n + k); it; ++it) {
+          total(it.row() % 3) += it.value();
+          if (it.row() % 3 == c) moment += it.value() * model.mesh().nodes[it.row() / 3].head<2>();
+        }
+        EXPECT_THAT(total, EigenNear(Eigen::Vector3d::Unit(c), 1e-12));
+        // The force's centre is the marker's (x, y), up to the sphere's curvature.
+        EXPECT_THAT(moment, EigenNear(model.marker_positions()[k].head<2>().eval(), 2e-3));
+      }
+    }
+  }
+}
+
+TEST(BodyModel, PointInterpolationThrowsOutsideTheBody) {
+  const BodyModel model(SmallDome());
+  EXPECT_NO_THROW(model.CalcPointInterpolation(model.marker_positions()));
+  EXPECT_THROW(model.CalcPointInterpolation({Eigen::Vector3d(0, 0, 3.5)}), Error);
+  EXPECT_THROW(model.CalcPointInterpolation({Eigen::Vector3d(0, 0, -0.1)}), Error);
+}
+
+// The mirror image of H under x -> -x (mirror_x) or y -> -y.
+double MirroredEntry(const ComplianceModel& model, int row, int col, bool mirror_x) {
+  const int n = model.options.num_markers();
+  const int cols = model.options.marker_cols;
+  const int rows = model.options.marker_rows;
+  const auto mirror = [&](int index) {
+    const int c = index / n, k = index % n, i = k / cols, j = k % cols;
+    const int mirrored = mirror_x ? i * cols + (cols - 1 - j) : (rows - 1 - i) * cols + j;
+    return std::pair{c * n + mirrored, c == (mirror_x ? 0 : 1) ? -1.0 : 1.0};
+  };
+  const auto [r, sign_r] = mirror(row);
+  const auto [s, sign_s] = mirror(col);
+  return sign_r * sign_s * model.h(r, s);
+}
+
+TEST(ComplianceModel, RespectsTheDomesMirrorSymmetries) {
+  const ComplianceModel model = CalcComplianceModel(SmallDome());
+  const int size = static_cast<int>(model.h.rows());
+  ASSERT_EQ(size, 36);
+  const double scale = model.h.cwiseAbs().maxCoeff();
+  for (bool mirror_x : {true, false}) {
+    double worst = 0.0;
+    for (int r = 0; r < size; ++r) {
+      for (int s = 0; s < size; ++s) {
+        worst = std::max(worst, std::abs(model.h(r, s) - MirroredEntry(model, r, s, mirror_x)));
+      }
+    }
+    EXPECT_LT(worst, 1e-9 * scale) << (mirror_x ? "x mirror" : "y mirror");
+  }
+  // Pulling a patch outwards moves its marker outwards; pushing it along x moves it along x.
+  const int n = 12;
+  for (int k = 0; k < n; ++k) {
+    EXPECT_GT(model.h(2 * n + k, 2 * n + k), 0.0);
+    EXPECT_GT(model.h(k, k), 0.0);
+  }
+  EXPECT_EQ(model.provenance.num_elements, BuildDomeMesh(SmallDome()).mesh.num_elements());
+}
+
+TEST(ComplianceModel, FixedLateralFaceStiffensTheRim) {
+  BodyModelOptions fixed = SmallDome();
+  fixed.lateral_boundary = LateralBoundary::kFixed;
+  const ComplianceModel free_model = CalcComplianceModel(SmallDome());
+  const ComplianceModel fixed_model = CalcComplianceModel(fixed);
+  const int n = 12;
+  for (int k = 0; k < n; ++k) {
+    EXPECT_LT(fixed_model.h(k, k), free_model.h(k, k)) << "marker " << k;
+    EXPECT_LT(fixed_model.h(2 * n + k, 2 * n + k), free_model.h(2 * n + k, 2 * n + k));
+  }
+}
+
+TEST(ComplianceModel, CoarseDomeConvergesUnderRefinement) {
+  // The sensor's geometry with a 4 x 4 marker grid: the same check as the eval-labelled one
+  // on the full 20 x 20 sensor, at a tenth of the cost.
+  BodyModelOptions options;
+  options.marker_rows = options.marker_cols = 4;
+  const MeshConvergenceResult result = RunMeshConvergence(options, 1.5);
+  EXPECT_LT(result.relative_difference, 0.03);
+  EXPECT_GT(result.fine_free_dofs, 3 * result.coarse_free_dofs);
+}
+
+}  // namespace
+}  // namespace tac3d::fem
