@@ -3,17 +3,24 @@
 
 #include <CLI/CLI.hpp>
 
+#include "commands.h"
 #include "tac3d/util/error.h"
 
 int main(int argc, char** argv) {
-  CLI::App app{"tac3d: software for mirror-stereo vision-based tactile sensors"};
+  CLI::App app{"tac3d: software for mirror-stereo vision-based tactile sensors (Tac3D class)"};
   app.require_subcommand(1);
+  tac3d::cli::RegisterDesign(app);
+  tac3d::cli::RegisterRender(app);
+  tac3d::cli::RegisterDemo(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   } catch (const tac3d::Error& e) {
     std::fprintf(stderr, "tac3d: error: %s\n", e.what());
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tac3d: unexpected error: %s\n", e.what());
     return 1;
   }
   return 0;

@@ -215,6 +215,18 @@ Eigen::Vector2d DotBoard::Max() const {
          Eigen::Vector2d::Constant(margin_mm + 0.5 * dot_diameter_mm);
 }
 
+Rigid3 DotBoard::SensorFromBoard(const Eigen::Vector3d& centre_in_sensor,
+                                 const Eigen::Vector3d& rotation_vector_deg) const {
+  const Eigen::Vector2d centre = 0.5 * (Min() + Max());
+  const double angle = DegToRad(rotation_vector_deg.norm());
+  Rigid3 pose = Rigid3::Identity();
+  if (angle > 0) {
+    pose.linear() = Eigen::AngleAxisd(angle, rotation_vector_deg.normalized()).toRotationMatrix();
+  }
+  pose.translation() = centre_in_sensor - pose.linear() * Eigen::Vector3d(centre.x(), centre.y(), 0);
+  return pose;
+}
+
 MarkerImageRenderer::MarkerImageRenderer(const SensorConfig& config, const RenderOptions& options)
     : config_(config), options_(options), rays_((options.Validate(), config.MakeOpticalLayout(true))) {
   // The film is seen where a pixel's ray reaches the marker layer inside the fingertip.

@@ -52,6 +52,10 @@ struct DotBoard {
   /// The board's white area, in its frame: [min.x, max.x] x [min.y, max.y].
   Eigen::Vector2d Min() const;
   Eigen::Vector2d Max() const;
+  /// The pose that puts the board's centre at `centre_in_sensor` (mm), turned about that
+  /// centre by a rotation vector in degrees.
+  Rigid3 SensorFromBoard(const Eigen::Vector3d& centre_in_sensor,
+                         const Eigen::Vector3d& rotation_vector_deg = Eigen::Vector3d::Zero()) const;
 };
 
 /// The twin's camera looking at the marker layer through the mirrors, the glass and the

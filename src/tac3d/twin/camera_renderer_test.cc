@@ -127,15 +127,6 @@ TEST(RenderOptions, AreValidated) {
   EXPECT_THROW(o.Validate(), Error);
 }
 
-// A board pose in front of both virtual cameras: dots in the plane z = 0 of the sensor,
-// centred on the axis, as the paper calibrates before the elastic body is mounted.
-Rigid3 CentredBoardPose(const DotBoard& board, double z_mm) {
-  const Eigen::Vector2d centre = 0.5 * (board.Min() + board.Max());
-  Rigid3 pose = Rigid3::Identity();
-  pose.translation() = Eigen::Vector3d(-centre.x(), -centre.y(), z_mm);
-  return pose;
-}
-
 TEST(BoardImageRenderer, OpenCvFindsTheCircleGridInBothHalves) {
   for (const auto layout : {DotBoard::Layout::kSymmetric, DotBoard::Layout::kAsymmetric}) {
     DotBoard board;
@@ -143,7 +134,7 @@ TEST(BoardImageRenderer, OpenCvFindsTheCircleGridInBothHalves) {
     board.rows = layout == DotBoard::Layout::kSymmetric ? 7 : 9;
     board.cols = layout == DotBoard::Layout::kSymmetric ? 7 : 4;
     const BoardImageRenderer renderer(Sensor());
-    const cv::Mat image = renderer.Render(board, CentredBoardPose(board, 0.0));
+    const cv::Mat image = renderer.Render(board, board.SensorFromBoard(Eigen::Vector3d::Zero()));
     const int split = Sensor().virtual_cameras[1].column_begin;
     for (const cv::Rect roi : {cv::Rect(0, 0, split, 480), cv::Rect(split, 0, 640 - split, 480)}) {
       std::vector<cv::Point2f> centres;
@@ -154,6 +145,15 @@ TEST(BoardImageRenderer, OpenCvFindsTheCircleGridInBothHalves) {
                          << " grid in the half at x = " << roi.x;
     }
   }
+}
+
+TEST(DotBoard, PoseTurnsAboutTheBoardCentre) {
+  DotBoard board;
+  const Eigen::Vector3d centre(1, 2, 3);
+  const Rigid3 pose = board.SensorFromBoard(centre, {0, 30, 0});
+  const Eigen::Vector2d mid = 0.5 * (board.Min() + board.Max());
+  EXPECT_THAT((pose * Eigen::Vector3d(mid.x(), mid.y(), 0)).eval(), EigenNear(centre, 1e-12));
+  EXPECT_NEAR(RotationAngleDeg(pose.linear(), Eigen::Matrix3d::Identity()), 30.0, 1e-9);
 }
 
 TEST(DotBoard, Validates) {

@@ -1,0 +1,24 @@
+#pragma once
+
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "tac3d/sensor/sensor_config.h"
+
+namespace tac3d::cli {
+
+/// Each subcommand adds itself to the app; its callback does the work and may throw
+/// tac3d::Error, which main() reports as a one-line error and exit code 1.
+void RegisterDesign(CLI::App& app);
+void RegisterRender(CLI::App& app);
+void RegisterDemo(CLI::App& app);
+
+/// The sensor a command works on: the YAML file if one is given, else the built-in
+/// prototype with its designed mirrors.
+SensorConfig LoadSensorOrDefault(const std::string& path);
+
+/// Creates a directory (and its parents). @throws Error if it cannot.
+void MakeDirectory(const std::string& path);
+
+}  // namespace tac3d::cli

@@ -1,0 +1,99 @@
+#include <cstdio>
+#include <memory>
+#include <sstream>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "commands.h"
+#include "tac3d/io/marker_csv.h"
+#include "tac3d/twin/camera_renderer.h"
+#include "tac3d/util/error.h"
+
+namespace tac3d::cli {
+namespace {
+
+struct RenderArgs {
+  std::string config;
+  std::string out = "frame.png";
+  RenderOptions options;
+  bool no_noise = false;
+  std::uint64_t frame = 0;
+  // markers
+  std::string positions;
+  // board
+  DotBoard board;
+  bool asymmetric = false;
+  std::vector<double> pose = {0, 0, 0, 0, 0, 0};
+};
+
+void AddCommon(CLI::App* cmd, RenderArgs& a) {
+  cmd->add_option("--config", a.config, "sensor YAML (default: the built-in prototype)");
+  cmd->add_option("--out", a.out, "PNG to write")->capture_default_str();
+  cmd->add_option("--seed", a.options.seed, "noise seed")->capture_default_str();
+  cmd->add_option("--frame", a.frame, "frame index (varies the noise)")->capture_default_str();
+  cmd->add_flag("--no-noise", a.no_noise, "no shot or read noise");
+  cmd->add_option("--blur", a.options.blur_sigma_px, "lens blur sigma, px")->capture_default_str();
+  cmd->add_option("--vignetting", a.options.vignetting, "light loss at the corners, fraction")
+      ->capture_default_str();
+  cmd->add_option("--tilt", a.options.illumination_tilt, "illumination change left to right, fraction")
+      ->capture_default_str();
+  cmd->add_option("--read-noise", a.options.read_noise_dn, "read noise, DN")->capture_default_str();
+  cmd->add_option("--shot-gain", a.options.shot_noise_gain, "shot noise variance per DN")
+      ->capture_default_str();
+}
+
+void Write(const cv::Mat& image, const std::string& path) {
+  if (!cv::imwrite(path, image)) throw Error(fmt::format("cannot write '{}'", path));
+  std::printf("wrote %s (%dx%d)\n", path.c_str(), image.cols, image.rows);
+}
+
+void RunMarkers(RenderArgs a) {
+  a.options.noise = !a.no_noise;
+  const SensorConfig config = LoadSensorOrDefault(a.config);
+  const auto markers = a.positions.empty() ? config.MarkerPositions()
+                                           : ReadMarkerPositionsCsv(a.positions);
+  const MarkerImageRenderer renderer(config, a.options);
+  Write(renderer.Render(markers, a.frame), a.out);
+}
+
+void RunBoard(RenderArgs a) {
+  a.options.noise = !a.no_noise;
+  if (a.asymmetric) a.board.layout = DotBoard::Layout::kAsymmetric;
+  const SensorConfig config = LoadSensorOrDefault(a.config);
+  const BoardImageRenderer renderer(config, a.options);
+  const Rigid3 pose = a.board.SensorFromBoard({a.pose[0], a.pose[1], a.pose[2]},
+                                              {a.pose[3], a.pose[4], a.pose[5]});
+  Write(renderer.Render(a.board, pose, a.frame), a.out);
+}
+
+}  // namespace
+
+void RegisterRender(CLI::App& app) {
+  CLI::App* render = app.add_subcommand("render", "Render the twin's camera image (PNG)");
+  render->require_subcommand(1);
+
+  auto markers = std::make_shared<RenderArgs>();
+  CLI::App* m = render->add_subcommand(
+      "markers", "The marker layer through mirrors, glass and silicone (undeformed by default)");
+  AddCommon(m, *markers);
+  m->add_option("--positions", markers->positions,
+                "CSV of marker positions (x_mm,y_mm,z_mm, row-major), sensor frame");
+  m->callback([markers] { RunMarkers(*markers); });
+
+  auto board = std::make_shared<RenderArgs>();
+  CLI::App* b = render->add_subcommand(
+      "board", "A dot calibration board through the mirrors, before the elastic body is mounted");
+  AddCommon(b, *board);
+  b->add_option("--rows", board->board.rows, "dot rows")->capture_default_str();
+  b->add_option("--cols", board->board.cols, "dot columns")->capture_default_str();
+  b->add_option("--spacing", board->board.spacing_mm, "dot spacing, mm")->capture_default_str();
+  b->add_option("--dot", board->board.dot_diameter_mm, "dot diameter, mm")->capture_default_str();
+  b->add_flag("--asymmetric", board->asymmetric, "OpenCV's asymmetric circle grid");
+  b->add_option("--pose", board->pose,
+                "board centre x,y,z (mm) and rotation vector rx,ry,rz (deg), sensor frame")
+      ->expected(6)
+      ->delimiter(',');
+  b->callback([board] { RunBoard(*board); });
+}
+
+}  // namespace tac3d::cli

@@ -1,0 +1,17 @@
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace tac3d {
+
+/// Marker positions as CSV: a header line `x_mm,y_mm,z_mm`, then one line per marker in
+/// grid order (row-major), sensor frame. Blank lines and lines starting with # are skipped.
+/// @throws Error naming the file and line of anything malformed.
+std::vector<Eigen::Vector3d> ReadMarkerPositionsCsv(const std::string& path);
+void WriteMarkerPositionsCsv(const std::vector<Eigen::Vector3d>& positions,
+                             const std::string& path);
+
+}  // namespace tac3d

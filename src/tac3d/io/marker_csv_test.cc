@@ -1,0 +1,50 @@
+#include "tac3d/io/marker_csv.h"
+
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include "tac3d/testing/testing.h"
+#include "tac3d/util/error.h"
+
+namespace tac3d {
+namespace {
+
+using ::testing::HasSubstr;
+
+std::string WriteText(const std::string& text) {
+  const std::string path = testing::MakeTempDir("csv") + "/markers.csv";
+  std::ofstream(path) << text;
+  return path;
+}
+
+TEST(MarkerCsv, RoundTripIsExact) {
+  const std::vector<Eigen::Vector3d> p = {{0.1, -2.0 / 3.0, 7.5}, {1e-9, 3, -0.0}};
+  const std::string path = testing::MakeTempDir("csv") + "/m.csv";
+  WriteMarkerPositionsCsv(p, path);
+  const auto back = ReadMarkerPositionsCsv(path);
+  ASSERT_EQ(back.size(), 2u);
+  EXPECT_TRUE(back[0] == p[0]);
+  EXPECT_TRUE(back[1] == p[1]);
+}
+
+TEST(MarkerCsv, MalformedLinesAreRefusedWithTheirLineNumber) {
+  auto error_of = [](const std::string& text) {
+    try {
+      ReadMarkerPositionsCsv(WriteText(text));
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  EXPECT_THAT(error_of("x_mm,y_mm,z_mm\n1,2,3\n1,2\n"), HasSubstr(":3:"));
+  EXPECT_THAT(error_of("x_mm,y_mm,z_mm\n1,2,x\n"), HasSubstr(":2: field 3"));
+  EXPECT_THAT(error_of("x_mm,y_mm,z_mm\n1,2,3,4\n"), HasSubstr(":2:"));
+  EXPECT_THAT(error_of("x_mm,y_mm,z_mm\n1,nan,3\n"), HasSubstr("finite"));
+  EXPECT_THAT(error_of("1,2,3\n"), HasSubstr("header"));
+  EXPECT_THAT(error_of(""), HasSubstr("empty"));
+  EXPECT_THROW(ReadMarkerPositionsCsv("/nonexistent.csv"), Error);
+}
+
+}  // namespace
+}  // namespace tac3d
