@@ -1,6 +1,7 @@
 #include "tac3d/twin/camera_renderer.h"
 
 #include <cmath>
+#include <cstdio>
 
 #include <gtest/gtest.h>
 #include <opencv2/calib3d.hpp>
@@ -87,7 +88,8 @@ TEST(MarkerImageRenderer, DotCentroidsMatchTheRayTracedProjection) {
     }
   }
   EXPECT_EQ(measured, 800);
-  EXPECT_LT(worst, 0.05) << "worst centroid error " << worst << " px";
+  EXPECT_LT(worst, 0.05);
+  std::printf("worst centroid error over %d dot images: %.4f px\n", measured, worst);
 }
 
 TEST(MarkerImageRenderer, SameSeedSameImageOtherFrameOtherNoise) {
