@@ -1,0 +1,71 @@
+// FEM benchmarks: the element stiffness, assembly + factorisation over mesh sizes, and the
+// full build of the default sensor's compliance matrix H (run it alone: it takes ~45 s):
+//   build-fem/bin/bench_fem --benchmark_filter=DefaultSensor
+#include <cstdio>
+#include <string>
+
+#include <benchmark/benchmark.h>
+
+#include "tac3d/fem/body_model.h"
+#include "tac3d/fem/compliance.h"
+#include "tac3d/fem/hex8.h"
+
+namespace tac3d::fem {
+namespace {
+
+void BM_Hex8Stiffness(benchmark::State& state) {
+  Hex8Nodes x;
+  x << 0, 0, 0, 1, 0.1, 0, 1.1, 1, 0, 0, 0.9, 0.1, 0, 0, 1, 1, 0, 1.2, 1, 1, 1, -0.1, 1, 0.9;
+  const ElasticMaterial material;
+  for (auto _ : state) benchmark::DoNotOptimize(CalcHex8Stiffness(x, material));
+}
+BENCHMARK(BM_Hex8Stiffness);
+
+// Meshing, assembly and factorisation of the default dome at refinement range(0) / 4.
+void BM_DomeAssembleAndFactor(benchmark::State& state) {
+  BodyModelOptions options;
+  options.refinement = state.range(0) / 4.0;
+  for (auto _ : state) {
+    const BodyModel model(options);
+    const ElasticSolverSummary& summary = model.solver().summary();
+    state.counters["free_dofs"] = summary.num_free_dofs;
+    state.counters["assembly_s"] = summary.assembly_s;
+    state.counters["factor_s"] = summary.factorization_s;
+    state.counters["factor_nnz"] = summary.factor_nonzeros;
+  }
+}
+BENCHMARK(BM_DomeAssembleAndFactor)
+    ->Arg(2)
+    ->Arg(3)
+    ->Arg(4)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
+
+// The default sensor's H (400 markers, 1200 load cases), from options to matrix.
+void BM_DefaultSensorComplianceBuild(benchmark::State& state) {
+  for (auto _ : state) {
+    const ComplianceModel model = CalcComplianceModel(BodyModelOptions{});
+    state.counters["free_dofs"] = model.provenance.num_free_dofs;
+    state.counters["assembly_s"] = model.provenance.assembly_s;
+    state.counters["factor_s"] = model.provenance.factorization_s;
+    state.counters["solves_s"] = model.provenance.solves_s;
+  }
+}
+BENCHMARK(BM_DefaultSensorComplianceBuild)->Unit(benchmark::kSecond)->Iterations(1);
+
+// Loading a cached H of the default sensor's size (1200 x 1200; the matrix is random, which
+// costs the same to read and checksum).
+void BM_DefaultSensorCacheLoad(benchmark::State& state) {
+  ComplianceModel model;
+  model.h = Eigen::MatrixXd::Random(1200, 1200);
+  const std::string path = "/tmp/tac3d_bench_fem_cache.bin";
+  SaveComplianceModel(model, path);
+  for (auto _ : state) benchmark::DoNotOptimize(LoadComplianceModel(path).h.data());
+  std::remove(path.c_str());
+}
+BENCHMARK(BM_DefaultSensorCacheLoad)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+}  // namespace tac3d::fem
+
+BENCHMARK_MAIN();
