@@ -1,0 +1,57 @@
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+namespace tac3d {
+
+/// One calibration press: the sensor's resultant force (reconstructed with unit gains) and a
+/// reference force sensor's reading of the same press, both in the sensor frame (N).
+struct ForcePair {
+  Eigen::Vector3d measured_n = Eigen::Vector3d::Zero();
+  Eigen::Vector3d reference_n = Eigen::Vector3d::Zero();
+};
+
+/// The header line of a force-pair CSV file.
+inline constexpr const char* kForcePairCsvHeader = "fx_meas,fy_meas,fz_meas,fx_ref,fy_ref,fz_ref";
+
+/// Parses a force-pair CSV: the header line kForcePairCsvHeader, then one pair a line, six
+/// comma-separated finite numbers (N). Blank lines and lines starting with '#' are skipped;
+/// spaces around fields are allowed.
+/// @param source names the text in error messages (a file name).
+/// @throws tac3d::Error listing every malformed line as "source:line: what" (a wrong field
+///   count, a field that is not a finite number), a missing or different header, or no pairs.
+std::vector<ForcePair> ParseForcePairs(const std::string& csv_text,
+                                       const std::string& source = "<text>");
+
+/// Reads a force-pair CSV file (ParseForcePairs).
+/// @throws tac3d::Error if the file cannot be read or is malformed.
+std::vector<ForcePair> LoadForcePairs(const std::string& path);
+
+/// Writes pairs in the format ParseForcePairs reads (17 significant digits).
+std::string ForcePairsToCsv(const std::vector<ForcePair>& pairs);
+
+/// The per-axis gains and how well they fit.
+struct ForceGainFit {
+  /// (Cx, Cy, Cz): reference ~ C * measured per axis (dimensionless).
+  Eigen::Vector3d gains = Eigen::Vector3d::Ones();
+  /// 1 - SS_res / SS_tot per axis, SS_tot about the reference's mean (so a fit no better than
+  /// the mean scores <= 0, also for a line through the origin).
+  Eigen::Vector3d r_squared = Eigen::Vector3d::Zero();
+  /// sqrt(SS_res / pairs) per axis (N).
+  Eigen::Vector3d residual_rms_n = Eigen::Vector3d::Zero();
+  int num_pairs = 0;
+};
+
+nlohmann::json ToJson(const ForceGainFit& fit);
+
+/// Least squares through the origin per axis (paper section V.A):
+/// C_a = sum(meas_a ref_a) / sum(meas_a^2).
+/// @throws tac3d::Error if there is no pair, or an axis' measured values are all zero (the
+///   calibration did not excite it), or a gain comes out <= 0 (the axis' sign is wrong).
+ForceGainFit FitForceGains(const std::vector<ForcePair>& pairs);
+
+}  // namespace tac3d

@@ -1,0 +1,125 @@
+#include "tac3d/force/force_gains.h"
+
+#include <fstream>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "tac3d/testing/testing.h"
+#include "tac3d/util/error.h"
+
+namespace tac3d {
+namespace {
+
+std::vector<ForcePair> RandomPairs(const Eigen::Vector3d& gains, double noise_n, int count) {
+  std::mt19937_64 rng(testing::kRandomSeed);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  std::normal_distribution<double> normal(0.0, noise_n);
+  std::vector<ForcePair> pairs(count);
+  for (ForcePair& pair : pairs) {
+    pair.reference_n = Eigen::Vector3d(5 * uniform(rng), 5 * uniform(rng), -5 + 5 * uniform(rng));
+    for (int axis = 0; axis < 3; ++axis) {
+      pair.measured_n(axis) = (pair.reference_n(axis) + normal(rng)) / gains(axis);
+    }
+  }
+  return pairs;
+}
+
+TEST(FitForceGains, ExactOnNoiseFreePairs) {
+  const Eigen::Vector3d gains(1.12, 0.87, 1.31);
+  const ForceGainFit fit = FitForceGains(RandomPairs(gains, 0.0, 20));
+  EXPECT_THAT(fit.gains, EigenNear(gains, 1e-14));
+  EXPECT_THAT(fit.r_squared, EigenNear(Eigen::Vector3d::Ones(), 1e-14));
+  EXPECT_THAT(fit.residual_rms_n, EigenNear(Eigen::Vector3d::Zero(), 1e-13));
+  EXPECT_EQ(fit.num_pairs, 20);
+  EXPECT_EQ(ToJson(fit).at("gains").size(), 3u);
+}
+
+TEST(FitForceGains, ResidualIsTheReferenceNoise) {
+  const Eigen::Vector3d gains(1.12, 0.87, 1.31);
+  const ForceGainFit fit = FitForceGains(RandomPairs(gains, 0.05, 2000));
+  // Noise on the measured side: the slope is biased by var(noise)/var(ref) ~ 3e-4, below this.
+  EXPECT_THAT(fit.gains, EigenNear(gains, 0.005));
+  for (int axis = 0; axis < 3; ++axis) {
+    // 2000 residuals: the RMS's relative standard deviation is 1.6%.
+    EXPECT_NEAR(fit.residual_rms_n(axis) / 0.05, 1.0, 0.06) << axis;
+    EXPECT_GT(fit.r_squared(axis), 0.99);
+    EXPECT_LT(fit.r_squared(axis), 1.0);
+  }
+}
+
+TEST(FitForceGains, UnexcitedOrReversedAxisThrows) {
+  std::vector<ForcePair> pairs = RandomPairs(Eigen::Vector3d::Ones(), 0.0, 5);
+  EXPECT_THROW(FitForceGains({}), Error);
+  std::vector<ForcePair> no_y = pairs;
+  for (ForcePair& pair : no_y) pair.measured_n.y() = 0.0;
+  EXPECT_THROW(FitForceGains(no_y), Error);
+  std::vector<ForcePair> reversed = pairs;
+  for (ForcePair& pair : reversed) pair.measured_n.x() *= -1.0;
+  EXPECT_THROW(FitForceGains(reversed), Error);
+}
+
+TEST(ForcePairCsv, RoundTripsExactly) {
+  const std::vector<ForcePair> pairs = RandomPairs(Eigen::Vector3d(1.1, 0.9, 1.2), 0.01, 7);
+  const std::vector<ForcePair> parsed = ParseForcePairs(ForcePairsToCsv(pairs));
+  ASSERT_EQ(parsed.size(), pairs.size());
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    EXPECT_EQ(parsed[k].measured_n, pairs[k].measured_n);
+    EXPECT_EQ(parsed[k].reference_n, pairs[k].reference_n);
+  }
+}
+
+TEST(ForcePairCsv, AcceptsCommentsBlankLinesAndSpaces) {
+  const std::string text =
+      "# presses of 2022-11-22\n"
+      "fx_meas, fy_meas, fz_meas, fx_ref, fy_ref, fz_ref\r\n"
+      "\n"
+      " 0.1, -0.2, -3.5, 0.11 ,-0.19, -3.4\n"
+      "# a comment between pairs\n"
+      "0,0,-1e1,0,0,-9.5\n";
+  const std::vector<ForcePair> pairs = ParseForcePairs(text, "pairs.csv");
+  ASSERT_EQ(pairs.size(), 2u);
+  EXPECT_EQ(pairs[0].measured_n, Eigen::Vector3d(0.1, -0.2, -3.5));
+  EXPECT_EQ(pairs[1].reference_n, Eigen::Vector3d(0, 0, -9.5));
+}
+
+TEST(ForcePairCsv, MalformedLinesAreRefusedWithTheirNumbers) {
+  const std::string text =
+      "fx_meas,fy_meas,fz_meas,fx_ref,fy_ref,fz_ref\n"
+      "1,2,3,4,5,6\n"
+      "1,2,3,4,5\n"         // line 3: 5 fields
+      "1,2,3,4,5,6,\n"      // line 4: trailing comma
+      "1,2,x,4,5,6\n"       // line 5: not a number
+      "1,2,nan,4,5,6\n"     // line 6: not finite
+      "1,2,3,4,5,6\n";
+  try {
+    ParseForcePairs(text, "pairs.csv");
+    FAIL() << "no throw";
+  } catch (const Error& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("4 malformed"), std::string::npos) << message;
+    for (const char* where : {"pairs.csv:3: expected 6 fields, got 5",
+                              "pairs.csv:4: expected 6 fields, got 7", "pairs.csv:5: field 3 'x'",
+                              "pairs.csv:6: field 3 'nan'"}) {
+      EXPECT_NE(message.find(where), std::string::npos) << message;
+    }
+    EXPECT_EQ(message.find("pairs.csv:2:"), std::string::npos) << message;
+  }
+}
+
+TEST(ForcePairCsv, HeaderAndEmptinessAreChecked) {
+  EXPECT_THROW(ParseForcePairs(""), Error);
+  EXPECT_THROW(ParseForcePairs("1,2,3,4,5,6\n"), Error);
+  EXPECT_THROW(ParseForcePairs("fx_ref,fy_ref,fz_ref,fx_meas,fy_meas,fz_meas\n1,2,3,4,5,6\n"), Error);
+  EXPECT_THROW(ParseForcePairs(std::string(kForcePairCsvHeader) + "\n"), Error);
+}
+
+TEST(ForcePairCsv, LoadsAFile) {
+  const std::string path = testing::MakeTempDir("csv") + "/pairs.csv";
+  std::ofstream(path) << kForcePairCsvHeader << "\n1,2,3,1.1,2.2,3.3\n";
+  EXPECT_EQ(LoadForcePairs(path).size(), 1u);
+  EXPECT_THROW(LoadForcePairs(path + ".missing"), Error);
+}
+
+}  // namespace
+}  // namespace tac3d

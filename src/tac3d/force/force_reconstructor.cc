@@ -1,0 +1,185 @@
+#include "tac3d/force/force_reconstructor.h"
+
+#include <cmath>
+
+#include <Eigen/Geometry>
+
+#include "tac3d/util/error.h"
+
+namespace tac3d {
+namespace {
+
+void ValidateGains(const Eigen::Vector3d& gains, const char* where) {
+  for (int axis = 0; axis < 3; ++axis) {
+    if (!(gains(axis) > 0.0 && std::isfinite(gains(axis)))) {
+      throw Error(fmt::format("{}.gains.{} must be > 0 and finite, got {}", where, "xyz"[axis],
+                              gains(axis)));
+    }
+  }
+}
+
+}  // namespace
+
+void ForceReconstructorOptions::Validate() const {
+  if (!(weight > 0.0 && std::isfinite(weight))) {
+    throw Error(
+        fmt::format("ForceReconstructorOptions.weight must be > 0 and finite, got {}", weight));
+  }
+  ValidateGains(gains, "ForceReconstructorOptions");
+}
+
+Eigen::Vector3d ForceFrame::MarkerForce(int i) const {
+  const int n = num_markers();
+  TAC3D_DEMAND(i >= 0 && i < n);
+  return {forces_n(i), forces_n(n + i), forces_n(2 * n + i)};
+}
+
+ForceReconstructor::ForceReconstructor(const Eigen::MatrixXd& h,
+                                       std::vector<Eigen::Vector3d> marker_positions_mm,
+                                       const ForceReconstructorOptions& options)
+    : num_markers_(static_cast<int>(marker_positions_mm.size())),
+      marker_positions_(std::move(marker_positions_mm)),
+      options_(options) {
+  options_.Validate();
+  const int n = 3 * num_markers_;
+  if (num_markers_ == 0 || h.rows() != n || h.cols() != n) {
+    throw Error(fmt::format("ForceReconstructor: H must be 3N x 3N = {} x {} for N = {} markers, "
+                            "got {} x {}",
+                            n, n, num_markers_, h.rows(), h.cols()));
+  }
+  if (!h.allFinite()) throw Error("ForceReconstructor: H has a non-finite entry");
+  Eigen::MatrixXd normal = Eigen::MatrixXd::Identity(n, n) * options_.weight;
+  normal.selfadjointView<Eigen::Lower>().rankUpdate(h.transpose());
+  const Eigen::LLT<Eigen::MatrixXd> factor(normal);
+  if (factor.info() != Eigen::Success) {
+    throw Error(fmt::format("ForceReconstructor: H^T H + w I is not positive definite in double "
+                            "precision with w = {} (mm/N)^2; choose a larger weight",
+                            options_.weight));
+  }
+  k_double_ = factor.solve(h.transpose());
+  k_ = k_double_.cast<float>();
+  h_ = h;
+  d_work_.resize(n);
+  f_work_.resize(n);
+  invalid_.reserve(num_markers_);
+  cached_invalid_.reserve(num_markers_);
+}
+
+void ForceReconstructor::set_gains(const Eigen::Vector3d& gains) {
+  ValidateGains(gains, "ForceReconstructor::set_gains");
+  options_.gains = gains;
+}
+
+void ForceReconstructor::UpdateInvalidSet() {
+  const int n = 3 * num_markers_;
+  const int r = 3 * static_cast<int>(invalid_.size());
+  h_invalid_.resize(r, n);
+  k_invalid_.resize(n, r);
+  for (int axis = 0; axis < 3; ++axis) {
+    for (size_t k = 0; k < invalid_.size(); ++k) {
+      const int row = axis * num_markers_ + invalid_[k];
+      const int slot = axis * static_cast<int>(invalid_.size()) + static_cast<int>(k);
+      h_invalid_.row(slot) = h_.row(row);
+      k_invalid_.col(slot) = k_double_.col(row);
+    }
+  }
+  Eigen::MatrixXd restricted = Eigen::MatrixXd::Identity(r, r);
+  restricted.noalias() -= h_invalid_ * k_invalid_;
+  restricted_factor_.compute(restricted);
+  z_work_.resize(r);
+  cached_invalid_ = invalid_;
+}
+
+void ForceReconstructor::Reconstruct(const Eigen::VectorXd& d_mm,
+                                     const std::vector<bool>& valid,
+                                     ForceFrame* frame) {
+  TAC3D_DEMAND(frame != nullptr);
+  const int m = num_markers_;
+  if (d_mm.size() != 3 * m) {
+    throw Error(fmt::format("ForceReconstructor: D has {} entries, expected 3N = {}", d_mm.size(),
+                            3 * m));
+  }
+  if (!valid.empty() && static_cast<int>(valid.size()) != m) {
+    throw Error(fmt::format("ForceReconstructor: {} validity flags for {} markers", valid.size(), m));
+  }
+  frame->forces_n.resize(3 * m);
+  invalid_.clear();
+  for (int i = 0; i < m; ++i) {
+    const bool ok = (valid.empty() || valid[i]) && std::isfinite(d_mm(i)) &&
+                    std::isfinite(d_mm(m + i)) && std::isfinite(d_mm(2 * m + i));
+    if (!ok) invalid_.push_back(i);
+    for (int axis = 0; axis < 3; ++axis) {
+      d_work_(axis * m + i) = ok ? static_cast<float>(d_mm(axis * m + i)) : 0.0f;
+    }
+  }
+  frame->num_invalid_markers = static_cast<int>(invalid_.size());
+  frame->status = ForceStatus::kOk;
+  frame->resultant_force_n.setZero();
+  frame->resultant_moment_nmm.setZero();
+  if (frame->num_invalid_markers == m) {
+    frame->forces_n.setZero();
+    frame->status = ForceStatus::kNoValidMarkers;
+    return;
+  }
+
+  f_work_.noalias() = k_ * d_work_;
+  frame->forces_n = f_work_.cast<double>();
+  if (!invalid_.empty()) {
+    if (invalid_ != cached_invalid_) UpdateInvalidSet();
+    if (restricted_factor_.info() == Eigen::Success) {
+      z_work_.noalias() = h_invalid_ * frame->forces_n;
+      restricted_factor_.solveInPlace(z_work_);
+      frame->forces_n.noalias() += k_invalid_ * z_work_;
+    } else {
+      frame->status = ForceStatus::kRestrictedProblemIllConditioned;
+    }
+  }
+
+  for (int axis = 0; axis < 3; ++axis) frame->forces_n.segment(axis * m, m) *= options_.gains(axis);
+  size_t next_invalid = 0;
+  for (int i = 0; i < m; ++i) {
+    const bool is_invalid = next_invalid < invalid_.size() && invalid_[next_invalid] == i;
+    if (is_invalid) ++next_invalid;
+    Eigen::Vector3d p = marker_positions_[i];
+    if (!is_invalid) p += Eigen::Vector3d(d_mm(i), d_mm(m + i), d_mm(2 * m + i));
+    const Eigen::Vector3d f = frame->MarkerForce(i);
+    frame->resultant_force_n += f;
+    frame->resultant_moment_nmm += p.cross(f);
+  }
+}
+
+ForceFrame ForceReconstructor::Reconstruct(const Eigen::VectorXd& d_mm,
+                                           const std::vector<bool>& valid) {
+  ForceFrame frame;
+  Reconstruct(d_mm, valid, &frame);
+  return frame;
+}
+
+ForceUncertainty ForceReconstructor::CalcUncertainty(
+    const Eigen::Vector3d& noise_variance_mm2) const {
+  for (int axis = 0; axis < 3; ++axis) {
+    if (!(noise_variance_mm2(axis) >= 0.0 && std::isfinite(noise_variance_mm2(axis)))) {
+      throw Error(fmt::format("ForceReconstructor::CalcUncertainty: the {} noise variance must be "
+                              ">= 0 and finite, got {}",
+                              "xyz"[axis], noise_variance_mm2(axis)));
+    }
+  }
+  const int m = num_markers_;
+  // S is diagonal: diag(K S K^T)_j = sum_i K_ji^2 S_ii.
+  Eigen::VectorXd s(3 * m);
+  for (int axis = 0; axis < 3; ++axis) s.segment(axis * m, m).setConstant(noise_variance_mm2(axis));
+  const Eigen::VectorXd variance = k_double_.cwiseAbs2() * s;
+  ForceUncertainty uncertainty;
+  uncertainty.marker_sigma_n.resize(3, m);
+  for (int axis = 0; axis < 3; ++axis) {
+    uncertainty.marker_sigma_n.row(axis) =
+        options_.gains(axis) * variance.segment(axis * m, m).cwiseSqrt().transpose();
+    // The resultant component is a^T D with a the sum of K's rows of that axis.
+    const Eigen::VectorXd a = k_double_.middleRows(axis * m, m).colwise().sum().transpose();
+    uncertainty.resultant_sigma_n(axis) =
+        options_.gains(axis) * std::sqrt(a.cwiseAbs2().dot(s));
+  }
+  return uncertainty;
+}
+
+}  // namespace tac3d

@@ -1,0 +1,133 @@
+#pragma once
+
+#include <vector>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+
+namespace tac3d {
+
+struct ForceReconstructorOptions {
+  /// The Tikhonov weight w of eq. (3) ((mm/N)^2), e.g. from SelectRegularizationWeight.
+  double weight = 0.0;
+  /// Per-axis gains (Cx, Cy, Cz) multiplying the force components (paper section V.A), e.g.
+  /// from FitForceGains; dimensionless.
+  Eigen::Vector3d gains = Eigen::Vector3d::Ones();
+
+  /// @throws tac3d::Error naming the field: weight > 0 and finite; every gain > 0 and finite.
+  void Validate() const;
+};
+
+enum class ForceStatus {
+  kOk,
+  /// Every marker was invalid: the forces are zero, not an estimate.
+  kNoValidMarkers,
+  /// The problem restricted to the valid markers could not be factored (w far too small for
+  /// the markers lost): the forces are K D with the invalid markers' displacements set to 0.
+  kRestrictedProblemIllConditioned,
+};
+
+/// One frame's force distribution.
+struct ForceFrame {
+  /// The force on each marker's surface patch (N), gains applied, in the paper's ordering
+  /// F = (fx^1..fx^N, fy^1..fy^N, fz^1..fz^N) (eq. 1). A force into the body has f . n < 0.
+  Eigen::VectorXd forces_n;
+  /// Sum of the marker forces (N).
+  Eigen::Vector3d resultant_force_n = Eigen::Vector3d::Zero();
+  /// Sum of p_i x f_i about the sensor origin (N mm), p_i the marker's deformed position
+  /// (rest position + displacement; the rest position where the marker is invalid).
+  Eigen::Vector3d resultant_moment_nmm = Eigen::Vector3d::Zero();
+  /// Markers flagged invalid or with a non-finite displacement component.
+  int num_invalid_markers = 0;
+  ForceStatus status = ForceStatus::kOk;
+
+  int num_markers() const { return static_cast<int>(forces_n.size() / 3); }
+  /// (fx, fy, fz) of marker i (N).
+  Eigen::Vector3d MarkerForce(int i) const;
+};
+
+/// The per-marker force noise from the displacement noise: sqrt(diag(K S K^T)) (K with gains).
+struct ForceUncertainty {
+  /// 1-sigma of (fx, fy, fz) of each marker (N), one column a marker.
+  Eigen::Matrix3Xd marker_sigma_n;
+  /// 1-sigma of the resultant force's components (N) (its full covariance, not a sum of
+  /// independent terms: the marker forces are correlated).
+  Eigen::Vector3d resultant_sigma_n = Eigen::Vector3d::Zero();
+};
+
+/// The paper's inverse (section IV.A, eq. 3-4): K = (H^T H + w I)^-1 H^T computed once,
+/// then F = K D per frame as one single-precision row-major GEMV that allocates nothing.
+///
+/// Invalid markers (flagged, or any displacement component NaN/inf) are handled exactly as the
+/// Tikhonov problem restricted to the valid rows, min ||H_v F - D_v||^2 + w ||F||^2, without
+/// refactoring: its solution is the full solution K D~ for data D~ whose invalid rows R hold the
+/// model's own prediction H_R F. With F0 = K D (invalid rows of D zeroed) that is
+///   F = F0 + K_R z,  (I - H_R K_R) z = H_R F0,
+/// where I - H_R K_R = I - H_R (H^T H + w I)^-1 H_R^T is symmetric positive definite (w > 0).
+/// Its Cholesky factor is cached for the last validity mask, so a frame with the same mask costs
+/// one GEMV plus two thin ones of 3 x (invalid markers) columns; a new mask costs one small
+/// factorisation. The forces of invalid markers are then the regularised estimate from their
+/// neighbours, never NaN.
+///
+/// Not thread-safe (per-frame workspace): one instance per stream.
+class ForceReconstructor {
+ public:
+  /// @param h the compliance H (3N x 3N, mm/N), paper ordering.
+  /// @param marker_positions_mm the N rest positions (mm, sensor frame), for the moment.
+  /// @throws tac3d::Error if the options are invalid, h is not 3N x 3N or not finite, or
+  ///   H^T H + w I is not positive definite in double precision (w far too small).
+  ForceReconstructor(const Eigen::MatrixXd& h,
+                     std::vector<Eigen::Vector3d> marker_positions_mm,
+                     const ForceReconstructorOptions& options);
+
+  /// F = K D for one frame, into `frame` (resized on first use only).
+  /// @param d_mm marker displacements D (3N, mm), paper ordering; non-finite entries mark
+  ///   their marker invalid.
+  /// @param valid one flag a marker (false = lost), or empty for all valid.
+  /// @throws tac3d::Error if d_mm or valid has the wrong size.
+  void Reconstruct(const Eigen::VectorXd& d_mm, const std::vector<bool>& valid, ForceFrame* frame);
+  /// The same, returning a new frame (allocates).
+  ForceFrame Reconstruct(const Eigen::VectorXd& d_mm, const std::vector<bool>& valid = {});
+
+  /// The 1-sigma force noise of each marker and of the resultant, all markers valid.
+  /// @param noise_variance_mm2 the displacement noise variance along x, y, z (mm^2), the
+  ///   diagonal of S per axis (EstimateDisplacementNoise).
+  /// @throws tac3d::Error if a variance is negative or not finite.
+  ForceUncertainty CalcUncertainty(const Eigen::Vector3d& noise_variance_mm2) const;
+
+  /// Replaces the gains (e.g. after FitForceGains on frames reconstructed with unit gains).
+  /// @throws tac3d::Error if a gain is not > 0 and finite.
+  void set_gains(const Eigen::Vector3d& gains);
+
+  int num_markers() const { return num_markers_; }
+  double weight() const { return options_.weight; }
+  const Eigen::Vector3d& gains() const { return options_.gains; }
+  const std::vector<Eigen::Vector3d>& marker_positions() const { return marker_positions_; }
+  /// K without gains (3N x 3N, N/mm), single precision, row-major.
+  const Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>& k() const {
+    return k_;
+  }
+
+ private:
+  // Rebuilds the restricted-problem factor when the set of invalid markers changes.
+  void UpdateInvalidSet();
+
+  int num_markers_;
+  std::vector<Eigen::Vector3d> marker_positions_;
+  ForceReconstructorOptions options_;
+  Eigen::MatrixXd k_double_;  // K in double, for the uncertainty and the invalid-marker update
+  Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> k_;
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> h_;
+
+  // Per-frame workspace and the cache of the last validity mask.
+  Eigen::VectorXf d_work_;
+  Eigen::VectorXf f_work_;
+  std::vector<int> invalid_;         // this frame's invalid markers, increasing
+  std::vector<int> cached_invalid_;  // the markers the cache below was built for
+  Eigen::MatrixXd h_invalid_;        // H_R (3r x 3N)
+  Eigen::MatrixXd k_invalid_;        // K_R (3N x 3r)
+  Eigen::LLT<Eigen::MatrixXd> restricted_factor_;  // of I - H_R K_R
+  Eigen::VectorXd z_work_;
+};
+
+}  // namespace tac3d

@@ -1,0 +1,224 @@
+#include "tac3d/force/force_reconstructor.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <random>
+
+#include <Eigen/Geometry>
+
+#include <gtest/gtest.h>
+
+#include "tac3d/force/regularization.h"
+#include "tac3d/force/synthetic_compliance.h"
+#include "tac3d/force/test_loads.h"
+#include "tac3d/testing/testing.h"
+#include "tac3d/util/error.h"
+
+namespace tac3d {
+namespace {
+
+class ForceReconstructorTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    model_ = CalcSyntheticCompliance({.rows = 12, .cols = 12});
+    n_ = static_cast<int>(model_.marker_positions.size());
+    s_max2_ = std::pow(ComplianceSpectrum(model_.h).singular_values()(0), 2);
+    load_ = testing::MakeBumpLoad(model_.marker_positions, Eigen::Vector2d(0.7, -1.1), 3.5,
+                                  Eigen::Vector3d(0.8, -0.5, -4.0));
+    d_ = model_.h * load_;
+  }
+
+  ForceReconstructor Make(double relative_weight, const Eigen::Vector3d& gains = {1, 1, 1}) const {
+    return ForceReconstructor(model_.h, model_.marker_positions,
+                              {.weight = relative_weight * s_max2_, .gains = gains});
+  }
+
+  // (H_v^T H_v + w I)^-1 H_v^T D_v in double precision, straight from its definition.
+  Eigen::VectorXd RestrictedSolve(const std::vector<bool>& valid, double weight) const {
+    std::vector<int> rows;
+    for (int axis = 0; axis < 3; ++axis) {
+      for (int i = 0; i < n_; ++i) {
+        if (valid[i]) rows.push_back(axis * n_ + i);
+      }
+    }
+    const Eigen::MatrixXd h_v = model_.h(rows, Eigen::all);
+    const Eigen::VectorXd d_v = d_(rows);
+    const Eigen::MatrixXd normal =
+        h_v.transpose() * h_v + weight * Eigen::MatrixXd::Identity(3 * n_, 3 * n_);
+    return normal.llt().solve(h_v.transpose() * d_v);
+  }
+
+  std::vector<bool> RandomMask(double invalid_fraction, std::uint64_t seed) const {
+    std::mt19937_64 rng(seed);
+    std::vector<int> order(n_);
+    std::iota(order.begin(), order.end(), 0);
+    std::shuffle(order.begin(), order.end(), rng);
+    std::vector<bool> valid(n_, true);
+    for (int k = 0; k < static_cast<int>(invalid_fraction * n_); ++k) valid[order[k]] = false;
+    return valid;
+  }
+
+  SyntheticCompliance model_;
+  int n_ = 0;
+  double s_max2_ = 0.0;
+  Eigen::VectorXd load_, d_;
+};
+
+TEST_F(ForceReconstructorTest, RecoversAKnownForceFromExactDisplacements) {
+  ForceReconstructor reconstructor = Make(1e-10);
+  const ForceFrame frame = reconstructor.Reconstruct(d_);
+  EXPECT_EQ(frame.status, ForceStatus::kOk);
+  EXPECT_EQ(frame.num_invalid_markers, 0);
+  // Single-precision K: the error is rounding amplified by H's condition, far below 1e-3.
+  EXPECT_LT((frame.forces_n - load_).norm(), 1e-3 * load_.norm());
+  EXPECT_THAT(frame.resultant_force_n, EigenNear(Eigen::Vector3d(0.8, -0.5, -4.0), 1e-3));
+}
+
+TEST_F(ForceReconstructorTest, IsTheTikhonovSolution) {
+  const double w = 1e-4 * s_max2_;
+  ForceReconstructor reconstructor = Make(1e-4);
+  const Eigen::VectorXd expected = ComplianceSpectrum(model_.h).Solve(d_, w);
+  EXPECT_THAT(reconstructor.Reconstruct(d_).forces_n, EigenNear(expected, 1e-5 * expected.norm()));
+  EXPECT_EQ(reconstructor.weight(), w);
+}
+
+TEST_F(ForceReconstructorTest, ResultantMomentAndGains) {
+  ForceReconstructor unit = Make(1e-4);
+  const Eigen::Vector3d gains(1.2, 0.9, 1.05);
+  ForceReconstructor gained = Make(1e-4, gains);
+  const ForceFrame a = unit.Reconstruct(d_);
+  const ForceFrame b = gained.Reconstruct(d_);
+  Eigen::Vector3d force = Eigen::Vector3d::Zero(), moment = Eigen::Vector3d::Zero();
+  for (int i = 0; i < n_; ++i) {
+    const Eigen::Vector3d f = gains.cwiseProduct(a.MarkerForce(i));
+    EXPECT_THAT(b.MarkerForce(i), EigenNear(f, 1e-12));
+    const Eigen::Vector3d p =
+        model_.marker_positions[i] + Eigen::Vector3d(d_(i), d_(n_ + i), d_(2 * n_ + i));
+    force += f;
+    moment += p.cross(f);
+  }
+  EXPECT_THAT(b.resultant_force_n, EigenNear(force, 1e-12));
+  EXPECT_THAT(b.resultant_moment_nmm, EigenNear(moment, 1e-11));
+  // A pure normal load off the axis has a moment about x and y, none about z.
+  EXPECT_GT(std::abs(b.resultant_moment_nmm.x()), 1.0);
+  unit.set_gains(gains);
+  EXPECT_THAT(unit.Reconstruct(d_).forces_n, EigenNear(b.forces_n, 1e-12));
+}
+
+TEST_F(ForceReconstructorTest, InvalidMarkersSolveTheRestrictedProblemExactly) {
+  const double relative_weight = 1e-5;
+  ForceReconstructor reconstructor = Make(relative_weight);
+  const std::vector<bool> mask_a = RandomMask(0.1, 1), mask_b = RandomMask(0.25, 2);
+  ForceFrame frame;
+  // A, then B, then A again: the cached factor follows the mask.
+  for (const auto* mask : {&mask_a, &mask_b, &mask_a}) {
+    reconstructor.Reconstruct(d_, *mask, &frame);
+    const Eigen::VectorXd expected = RestrictedSolve(*mask, relative_weight * s_max2_);
+    EXPECT_EQ(frame.status, ForceStatus::kOk);
+    // K D is single precision and the restricted factor amplifies its rounding: 1e-4, where
+    // ignoring the invalid rows' coupling would be off by tens of percent.
+    EXPECT_THAT(frame.forces_n, EigenNear(expected, 1e-4 * expected.norm()));
+  }
+  // A NaN component invalidates its marker just as the flag does.
+  Eigen::VectorXd d_lost = d_;
+  std::vector<bool> all_valid(n_, true);
+  for (int i = 0; i < n_; ++i) {
+    if (!mask_a[i]) d_lost(2 * n_ + i) = NAN;
+  }
+  const ForceFrame lost = reconstructor.Reconstruct(d_lost, all_valid);
+  EXPECT_EQ(lost.num_invalid_markers, static_cast<int>(0.1 * n_));
+  EXPECT_THAT(lost.forces_n, EigenNear(frame.forces_n, 1e-12));
+}
+
+TEST_F(ForceReconstructorTest, TenPercentInvalidStaysCloseOnASmoothLoad) {
+  // With the weight the discrepancy principle picks for 0.005 mm of noise.
+  std::mt19937_64 rng(testing::kRandomSeed);
+  std::normal_distribution<double> normal(0.0, 0.005);
+  Eigen::VectorXd d = d_;
+  for (int j = 0; j < d.size(); ++j) d(j) += normal(rng);
+  DisplacementNoise noise;
+  noise.variance_mm2.setConstant(0.005 * 0.005);
+  const WeightSelection selection = SelectRegularizationWeight(
+      ComplianceSpectrum(model_.h), {d}, noise, WeightSelectionOptions{});
+  ASSERT_TRUE(selection.summary.converged);
+  ForceReconstructor reconstructor(model_.h, model_.marker_positions, {.weight = selection.weight});
+  const ForceFrame full = reconstructor.Reconstruct(d);
+  for (std::uint64_t seed : {1, 2, 3}) {
+    const ForceFrame partial = reconstructor.Reconstruct(d, RandomMask(0.1, seed));
+    EXPECT_TRUE(partial.forces_n.allFinite());
+    EXPECT_EQ(partial.num_invalid_markers, static_cast<int>(0.1 * n_));
+    // Losing 10% of the data costs accuracy, but not much more than the noise already does.
+    EXPECT_LT((partial.forces_n - load_).norm(), 1.5 * (full.forces_n - load_).norm()) << seed;
+    EXPECT_LT((partial.resultant_force_n - full.resultant_force_n).norm(),
+              0.05 * full.resultant_force_n.norm())
+        << seed;
+  }
+}
+
+TEST_F(ForceReconstructorTest, NoValidMarkerGivesZeroForcesAndAStatus) {
+  ForceReconstructor reconstructor = Make(1e-4);
+  const ForceFrame frame = reconstructor.Reconstruct(d_, std::vector<bool>(n_, false));
+  EXPECT_EQ(frame.status, ForceStatus::kNoValidMarkers);
+  EXPECT_EQ(frame.num_invalid_markers, n_);
+  EXPECT_EQ(frame.forces_n, Eigen::VectorXd::Zero(3 * n_));
+  EXPECT_EQ(frame.resultant_force_n, Eigen::Vector3d::Zero());
+}
+
+TEST_F(ForceReconstructorTest, UncertaintyMatchesMonteCarlo) {
+  const Eigen::Vector3d sigma(0.004, 0.005, 0.008);
+  const Eigen::Vector3d gains(1.1, 0.9, 1.3);
+  ForceReconstructor reconstructor = Make(1e-5, gains);
+  const ForceUncertainty predicted = reconstructor.CalcUncertainty(sigma.cwiseAbs2());
+  constexpr int kSamples = 4000;
+  std::mt19937_64 rng(testing::kRandomSeed);
+  std::normal_distribution<double> normal;
+  Eigen::ArrayXd sum_squares = Eigen::ArrayXd::Zero(3 * n_);
+  Eigen::Array3d resultant_squares = Eigen::Array3d::Zero();
+  ForceFrame frame;
+  Eigen::VectorXd e(3 * n_);
+  for (int k = 0; k < kSamples; ++k) {
+    for (int j = 0; j < 3 * n_; ++j) e(j) = sigma(j / n_) * normal(rng);
+    reconstructor.Reconstruct(e, {}, &frame);
+    sum_squares += frame.forces_n.array().square();
+    resultant_squares += frame.resultant_force_n.array().square();
+  }
+  const Eigen::ArrayXd sampled = (sum_squares / kSamples).sqrt();
+  // 4000 samples: a sampled sigma's relative standard deviation is 1/sqrt(8000) = 1.1%.
+  Eigen::ArrayXd ratio(3 * n_);
+  for (int j = 0; j < 3 * n_; ++j) ratio(j) = sampled(j) / predicted.marker_sigma_n(j / n_, j % n_);
+  EXPECT_LT((ratio - 1.0).abs().maxCoeff(), 0.05);
+  EXPECT_LT(std::abs(ratio.mean() - 1.0), 0.01);
+  // The resultant's moment arms do not enter; only the noise of D moves it (markers at rest).
+  const Eigen::Array3d resultant = (resultant_squares / kSamples).sqrt();
+  for (int axis = 0; axis < 3; ++axis) {
+    EXPECT_NEAR(resultant(axis) / predicted.resultant_sigma_n(axis), 1.0, 0.05) << axis;
+  }
+}
+
+TEST_F(ForceReconstructorTest, BadInputThrows) {
+  EXPECT_THROW(Make(0.0), Error);
+  EXPECT_THROW(Make(1e-4, Eigen::Vector3d(1, 0, 1)), Error);
+  EXPECT_THROW(Make(1e-4, Eigen::Vector3d(1, 1, NAN)), Error);
+  EXPECT_THROW(ForceReconstructor(model_.h.topRows(6), model_.marker_positions, {.weight = 1.0}),
+               Error);
+  std::vector<Eigen::Vector3d> too_few = model_.marker_positions;
+  too_few.pop_back();
+  EXPECT_THROW(ForceReconstructor(model_.h, too_few, {.weight = 1.0}), Error);
+  Eigen::MatrixXd h = model_.h;
+  h(0, 0) = NAN;
+  EXPECT_THROW(ForceReconstructor(h, model_.marker_positions, {.weight = 1.0}), Error);
+  // A rank-one H with a weight below double precision's reach: rounding leaves pivots <= 0.
+  EXPECT_THROW(ForceReconstructor(Eigen::MatrixXd::Constant(3 * n_, 3 * n_, 0.1),
+                                  model_.marker_positions,
+                                  {.weight = 1e-300}),
+               Error);
+  ForceReconstructor reconstructor = Make(1e-4);
+  EXPECT_THROW(reconstructor.Reconstruct(Eigen::VectorXd::Zero(5)), Error);
+  EXPECT_THROW(reconstructor.Reconstruct(d_, std::vector<bool>(3, true)), Error);
+  EXPECT_THROW(reconstructor.CalcUncertainty(Eigen::Vector3d(1e-6, -1e-6, 1e-6)), Error);
+  EXPECT_THROW(reconstructor.set_gains(Eigen::Vector3d(-1, 1, 1)), Error);
+}
+
+}  // namespace
+}  // namespace tac3d
