@@ -77,14 +77,14 @@ TracedRay TraceCameraRay(const OpticalLayout& layout, const Ray& ray) {
   for (ImageHalf half : kImageHalves) {
     const Rectangle3& inner = layout.pair(half).inner;
     const auto t = inner.Intersect(out.in_air, kMinTravelMm);
-    const double to_glass_z = layout.has_gel ? layout.glass_bottom_z_mm : 0.0;
+    const double to_glass_z = layout.layers.has_gel ? layout.layers.glass_bottom_z_mm : 0.0;
     if (t && out.in_air.At(*t).z() < to_glass_z) {
       out.status = TraceStatus::kBlocked;
       return out;
     }
   }
 
-  if (!layout.has_gel) {
+  if (!layout.layers.has_gel) {
     out.status = TraceStatus::kOk;
     return out;
   }
@@ -93,13 +93,13 @@ TracedRay TraceCameraRay(const OpticalLayout& layout, const Ray& ray) {
     return out;
   }
   const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
-  const double t_glass = (layout.glass_bottom_z_mm - out.in_air.origin.z()) / out.in_air.direction.z();
+  const double t_glass = (layout.layers.glass_bottom_z_mm - out.in_air.origin.z()) / out.in_air.direction.z();
   if (t_glass < 0.0) {
     out.status = TraceStatus::kMissedGel;
     return out;
   }
   const Eigen::Vector3d glass_entry = out.in_air.At(t_glass);
-  const auto in_glass = RefractDirection(out.in_air.direction, up, 1.0, layout.glass_index);
+  const auto in_glass = RefractDirection(out.in_air.direction, up, 1.0, layout.layers.glass_index);
   if (!in_glass) {
     out.status = TraceStatus::kTotalReflection;
     return out;
@@ -107,7 +107,7 @@ TracedRay TraceCameraRay(const OpticalLayout& layout, const Ray& ray) {
   const double t_top = -glass_entry.z() / in_glass->z();
   const Eigen::Vector3d silicone_entry = glass_entry + t_top * *in_glass;
   const auto in_silicone =
-      RefractDirection(*in_glass, up, layout.glass_index, layout.silicone_index);
+      RefractDirection(*in_glass, up, layout.layers.glass_index, layout.layers.silicone_index);
   if (!in_silicone) {
     out.status = TraceStatus::kTotalReflection;
     return out;
@@ -126,26 +126,33 @@ TracedRay TracePixel(const OpticalLayout& layout, const Eigen::Vector2d& pixel) 
 std::optional<Eigen::Vector2d> ProjectPoint(const OpticalLayout& layout,
                                             ImageHalf half,
                                             const Eigen::Vector3d& p_in_sensor) {
-  const Rigid3 sensor_from_vcam = layout.SensorFromVirtualCamera(half);
+  return ProjectThroughLayers(layout.SensorFromVirtualCamera(half), layout.intrinsics,
+                              layout.layers, p_in_sensor);
+}
+
+std::optional<Eigen::Vector2d> ProjectThroughLayers(const Rigid3& sensor_from_vcam,
+                                                    const CameraIntrinsics& intrinsics,
+                                                    const FlatLayers& layers,
+                                                    const Eigen::Vector3d& p_in_sensor) {
   const Eigen::Vector3d center = sensor_from_vcam.translation();
   const double z0 = center.z();
   const double z1 = p_in_sensor.z();
   if (z1 <= z0) return std::nullopt;
 
   // The layers the unfolded ray crosses between the virtual camera and the point.
-  std::vector<Layer> layers;
-  if (!layout.has_gel) {
-    layers.push_back({z1 - z0, 1.0});
+  std::vector<Layer> crossed;
+  if (!layers.has_gel) {
+    crossed.push_back({z1 - z0, 1.0});
   } else {
-    const double zg = layout.glass_bottom_z_mm;
+    const double zg = layers.glass_bottom_z_mm;
     auto add = [&](double lo, double hi, double index) {
       lo = std::max(lo, z0);
       hi = std::min(hi, z1);
-      if (hi > lo) layers.push_back({hi - lo, index});
+      if (hi > lo) crossed.push_back({hi - lo, index});
     };
     add(-std::numeric_limits<double>::infinity(), zg, 1.0);
-    add(zg, 0.0, layout.glass_index);
-    add(0.0, std::numeric_limits<double>::infinity(), layout.silicone_index);
+    add(zg, 0.0, layers.glass_index);
+    add(0.0, std::numeric_limits<double>::infinity(), layers.silicone_index);
   }
 
   // Snell's invariant k = n sin(theta) is the same in every layer; the horizontal travel
@@ -153,13 +160,13 @@ std::optional<Eigen::Vector2d> ProjectPoint(const OpticalLayout& layout,
   const Eigen::Vector2d horizontal = (p_in_sensor - center).head<2>();
   const double rho = horizontal.norm();
   double n_min = std::numeric_limits<double>::infinity();
-  for (const Layer& l : layers) n_min = std::min(n_min, l.index);
+  for (const Layer& l : crossed) n_min = std::min(n_min, l.index);
   double lo = 0.0, hi = n_min, k = 0.0;
   if (rho > 0.0) {
     k = 0.5 * n_min;
     for (int it = 0; it < 200; ++it) {
       double travel = -rho, slope = 0.0;
-      for (const Layer& l : layers) {
+      for (const Layer& l : crossed) {
         const double s = k / l.index;
         const double c = std::sqrt(1.0 - s * s);
         travel += l.thickness_mm * s / c;
@@ -172,13 +179,13 @@ std::optional<Eigen::Vector2d> ProjectPoint(const OpticalLayout& layout,
     }
   }
   // Direction of the ray at the virtual camera, in air (index 1).
-  const double n0 = layers.front().index;
+  const double n0 = crossed.front().index;
   const double s0 = k / n0;
   Eigen::Vector3d dir(0, 0, std::sqrt(1.0 - s0 * s0));
   if (rho > 0.0) dir.head<2>() = s0 * horizontal / rho;
   const Eigen::Vector3d d_in_vcam = sensor_from_vcam.linear().transpose() * dir;
   if (d_in_vcam.z() <= 1e-9) return std::nullopt;
-  return layout.intrinsics.Project(d_in_vcam);
+  return intrinsics.Project(d_in_vcam);
 }
 
 }  // namespace tac3d

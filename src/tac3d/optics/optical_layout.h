@@ -25,16 +25,21 @@ struct MirrorPair {
   Rectangle3 outer;
 };
 
-/// Everything a camera ray meets: the camera, the four mirrors, and the flat refracting
-/// layers under the elastic body (air, glass from glass_bottom_z_mm to 0, silicone above 0).
-struct OpticalLayout {
-  CameraIntrinsics intrinsics;
-  Rigid3 sensor_from_cam = Rigid3::Identity();
-  std::array<MirrorPair, 2> mirrors;  ///< indexed by ImageHalf
+/// The flat refracting layers under the fingertip: air below the glass, glass from
+/// glass_bottom_z_mm to 0, silicone above 0 (sensor frame).
+struct FlatLayers {
   bool has_gel = true;  ///< false: calibration set-up, the camera sees through air only
   double glass_bottom_z_mm = -2.0;
   double glass_index = 1.52;
   double silicone_index = 1.41;
+};
+
+/// Everything a camera ray meets: the camera, the four mirrors and the flat layers.
+struct OpticalLayout {
+  CameraIntrinsics intrinsics;
+  Rigid3 sensor_from_cam = Rigid3::Identity();
+  std::array<MirrorPair, 2> mirrors;  ///< indexed by ImageHalf
+  FlatLayers layers;
 
   const MirrorPair& pair(ImageHalf half) const { return mirrors[static_cast<int>(half)]; }
   /// The virtual camera of a half: the real camera mirrored by the inner mirror, then by
@@ -69,10 +74,16 @@ TracedRay TraceCameraRay(const OpticalLayout& layout, const Ray& ray_in_sensor);
 /// Follows the ray through a pixel (with distortion).
 TracedRay TracePixel(const OpticalLayout& layout, const Eigen::Vector2d& pixel);
 
-/// The exact image of a point through one half: the refracted path from the point to the
-/// virtual camera's centre through the flat layers (Snell's law solved to 1e-13), then the
-/// camera model. Returns nothing if the point is not in front of that virtual camera.
-/// Does not check that the mirrors are wide enough to see it (TracePixel does).
+/// The exact image of a point seen by a (virtual) camera through the flat layers: the
+/// refracted path from the point to the camera's centre (Snell's law solved to 1e-13),
+/// then the camera model. Returns nothing if the point is not in front of the camera.
+std::optional<Eigen::Vector2d> ProjectThroughLayers(const Rigid3& sensor_from_cam,
+                                                    const CameraIntrinsics& intrinsics,
+                                                    const FlatLayers& layers,
+                                                    const Eigen::Vector3d& p_in_sensor);
+
+/// ProjectThroughLayers for the virtual camera of one half. Does not check that the
+/// mirrors are wide enough to see the point (TracePixel does).
 std::optional<Eigen::Vector2d> ProjectPoint(const OpticalLayout& layout,
                                             ImageHalf half,
                                             const Eigen::Vector3d& p_in_sensor);

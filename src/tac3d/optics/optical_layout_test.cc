@@ -52,7 +52,7 @@ TEST(OpticalLayout, VirtualCameraIsARigidMotionOfTheCamera) {
 
 TEST(OpticalLayout, TracedRaysLeaveTheOuterMirrorAlongTheVirtualCamerasRay) {
   OpticalLayout layout = Periscope();
-  layout.has_gel = false;
+  layout.layers.has_gel = false;
   int traced = 0;
   for (double u = 5; u < 640; u += 30) {
     for (double v = 5; v < 480; v += 30) {
@@ -96,7 +96,7 @@ TEST(OpticalLayout, RefractionBendsTowardsTheNormal) {
   ASSERT_TRUE(r.ok());
   const double sin_air = r.in_air.direction.head<2>().norm();
   const double sin_silicone = r.in_silicone.direction.head<2>().norm();
-  EXPECT_NEAR(sin_air, layout.silicone_index * sin_silicone, 1e-12);
+  EXPECT_NEAR(sin_air, layout.layers.silicone_index * sin_silicone, 1e-12);
 }
 
 TEST(OpticalLayout, RayAwayFromTheMirrorsIsReported) {

@@ -367,11 +367,12 @@ OpticalLayout SensorConfig::MakeOpticalLayout(bool with_gel) const {
   // Paper Fig. 2: the left half reflects on mirror 2 then 1, the right on 3 then 4.
   layout.mirrors[static_cast<int>(ImageHalf::kLeft)] = {mirrors[1].surface, mirrors[0].surface};
   layout.mirrors[static_cast<int>(ImageHalf::kRight)] = {mirrors[2].surface, mirrors[3].surface};
-  layout.has_gel = with_gel;
-  layout.glass_bottom_z_mm = -glass.thickness_mm;
-  layout.glass_index = glass.refractive_index;
-  layout.silicone_index = elastic_body.refractive_index;
+  layout.layers = MakeFlatLayers(with_gel);
   return layout;
+}
+
+FlatLayers SensorConfig::MakeFlatLayers(bool with_gel) const {
+  return {with_gel, -glass.thickness_mm, glass.refractive_index, elastic_body.refractive_index};
 }
 
 SensorConfig ParseSensorConfig(const std::string& yaml_text, const std::string& source) {

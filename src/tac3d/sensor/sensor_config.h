@@ -94,6 +94,8 @@ struct SensorConfig {
   /// The mirrors and refracting layers as the ray tracer wants them.
   /// @throws Error if the mirrors have not been designed.
   OpticalLayout MakeOpticalLayout(bool with_gel = true) const;
+  /// The glass and silicone under the markers (with_gel false: air only, as calibrated).
+  FlatLayers MakeFlatLayers(bool with_gel = true) const;
 };
 
 /// Reads a sensor description. Every key is required; unknown keys are refused.

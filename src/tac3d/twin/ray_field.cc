@@ -12,7 +12,7 @@ RayField::RayField(const OpticalLayout& layout)
     for (int i = 0; i <= width_; ++i) {
       const TracedRay r = TracePixel(layout_, {i - 0.5, j - 0.5});
       if (!r.ok()) continue;
-      const Ray& final_ray = layout_.has_gel ? r.in_silicone : r.in_air;
+      const Ray& final_ray = layout_.layers.has_gel ? r.in_silicone : r.in_air;
       const int k = CornerIndex(i, j);
       origin_[k] = final_ray.origin.cast<float>();
       direction_[k] = final_ray.direction.cast<float>();
