@@ -12,6 +12,7 @@ int main(int argc, char** argv) {
   tac3d::cli::RegisterDesign(app);
   tac3d::cli::RegisterRender(app);
   tac3d::cli::RegisterDemo(app);
+  tac3d::cli::RegisterEval(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
