@@ -1,0 +1,81 @@
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "tac3d/stereo/refraction_compensation.h"
+#include "tac3d/stereo/stereo_rig.h"
+
+namespace tac3d {
+
+/// How stereo accounts for the glass and silicone between the cameras and the markers.
+enum class RefractionModel {
+  kNone,        ///< triangulate as if through air (for comparison only)
+  kPolynomial,  ///< the paper's fitted polynomial correction (default, fast)
+  kExact,       ///< reprojection through the flat layers (reference, slow)
+};
+
+/// The 3D markers of one frame, row-major over the grid (sensor frame, mm).
+struct MarkerField {
+  std::vector<Eigen::Vector3d> positions;
+  std::vector<Eigen::Vector3d> displacements;  ///< position - reference; zero without one
+  std::vector<std::uint8_t> valid;             ///< 0: lost, mismatched or not measured
+
+  int CountValid() const;
+};
+
+struct MarkerTriangulatorOptions {
+  RefractionModel model = RefractionModel::kPolynomial;
+  RefractionCompensationOptions compensation;
+  /// A pair whose rays miss each other by more than this is a mismatch, not a marker.
+  double max_ray_gap_mm = 0.15;
+
+  void Validate() const;
+};
+
+/// Triangulates the tracked markers of both image halves (paired by index) and corrects the
+/// refraction; a marker is valid only if both halves saw it and the two rays agree.
+class MarkerTriangulator {
+ public:
+  /// @param config a sensor with calibrated (or designed) virtual cameras.
+  /// @throws Error if it has none, or if the options are invalid.
+  MarkerTriangulator(const SensorConfig& config, const MarkerTriangulatorOptions& options = {});
+
+  /// @param left, right pixel centroids per marker (NaN when the tracker lost it).
+  /// @param out resized on the first call only; `displacements` are left untouched.
+  /// @throws Error if the two halves' counts differ from the grid's.
+  void Triangulate(const std::vector<Eigen::Vector2d>& left,
+                   const std::vector<Eigen::Vector2d>& right, MarkerField& out) const;
+
+  const StereoRig& rig() const { return rig_; }
+  const std::optional<RefractionCompensation>& compensation() const { return compensation_; }
+
+ private:
+  MarkerTriangulatorOptions options_;
+  int markers_;
+  StereoRig rig_;
+  std::optional<RefractionCompensation> compensation_;
+};
+
+/// The undeformed state markers are measured against (paper: displacement = position -
+/// undeformed position). Set from a frame (or the mean of several static frames) and
+/// re-set on request (`$C` zeroing).
+class DisplacementReference {
+ public:
+  /// Takes the mean of the valid positions over the frames as the reference; a marker valid
+  /// in none of them has no reference.
+  void Set(const std::vector<MarkerField>& frames);
+  bool empty() const { return reference_.empty(); }
+  /// Fills `displacements`; a marker without a reference becomes invalid.
+  void Apply(MarkerField& field) const;
+  const std::vector<Eigen::Vector3d>& positions() const { return reference_; }
+
+ private:
+  std::vector<Eigen::Vector3d> reference_;
+  std::vector<std::uint8_t> known_;
+};
+
+}  // namespace tac3d
