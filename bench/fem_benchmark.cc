@@ -1,10 +1,10 @@
 // FEM benchmarks: the element stiffness, assembly + factorisation over mesh sizes, and the
 // full build of the default sensor's compliance matrix H (run it alone: it takes ~45 s):
 //   build-fem/bin/bench_fem --benchmark_filter=DefaultSensor
+#include <benchmark/benchmark.h>
+
 #include <cstdio>
 #include <string>
-
-#include <benchmark/benchmark.h>
 
 #include "tac3d/fem/body_model.h"
 #include "tac3d/fem/compliance.h"

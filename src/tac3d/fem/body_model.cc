@@ -1,10 +1,9 @@
 #include "tac3d/fem/body_model.h"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <numbers>
-
-#include <Eigen/Geometry>
 
 #include "tac3d/util/error.h"
 
@@ -21,9 +20,10 @@ constexpr double kGradingRatio = 1.2;
 // refinement 1 chosen so that the first element is about first_size over length; n = m times
 // the refinement, so a refined mesh samples the same mapping more densely.
 std::vector<double> GradedFractions(double length, double first_size, double refinement) {
-  const int m = std::max(
-      1, static_cast<int>(std::ceil(std::log1p(length * (kGradingRatio - 1.0) / first_size) /
-                                    std::log(kGradingRatio))));
+  const int m =
+      std::max(1,
+               static_cast<int>(std::ceil(std::log1p(length * (kGradingRatio - 1.0) / first_size) /
+                                          std::log(kGradingRatio))));
   const int n = std::max(1, static_cast<int>(std::lround(m * refinement)));
   const double denominator = std::pow(kGradingRatio, m) - 1.0;
   std::vector<double> s(n + 1);
@@ -58,9 +58,10 @@ void BodyModelOptions::Validate() const {
   RequirePositive(sphere_radius_mm, "sphere_radius_mm");
   RequirePositive(marker_pitch_mm, "marker_pitch_mm");
   if (!(sphere_radius_mm > base_radius_mm())) {
-    throw Error(fmt::format(
-        "BodyModelOptions.sphere_radius_mm must be > the base radius {} mm, got {}",
-        base_radius_mm(), sphere_radius_mm));
+    throw Error(
+        fmt::format("BodyModelOptions.sphere_radius_mm must be > the base radius {} mm, got {}",
+                    base_radius_mm(),
+                    sphere_radius_mm));
   }
   const double sagitta =
       sphere_radius_mm - std::sqrt(std::pow(sphere_radius_mm, 2) - std::pow(base_radius_mm(), 2));
@@ -68,21 +69,24 @@ void BodyModelOptions::Validate() const {
     throw Error(fmt::format(
         "BodyModelOptions.thickness_mm must be > {} mm (the sphere's sagitta over the base), "
         "got {}",
-        sagitta, thickness_mm));
+        sagitta,
+        thickness_mm));
   }
   material.Validate();
-  for (const auto& [value, field] : {std::pair{marker_rows, "marker_rows"},
-                                     std::pair{marker_cols, "marker_cols"}}) {
+  for (const auto& [value, field] :
+       {std::pair{marker_rows, "marker_rows"}, std::pair{marker_cols, "marker_cols"}}) {
     if (value < 1 || value > 200) {
       throw Error(fmt::format("BodyModelOptions.{} must be in [1, 200], got {}", field, value));
     }
   }
   const double corner = std::numbers::sqrt2 * CentralHalfWidth(*this);
   if (!(corner <= 0.95 * base_radius_mm())) {
-    throw Error(fmt::format(
-        "BodyModelOptions.marker_rows/marker_cols/marker_pitch_mm: the marker grid's load patches reach {} mm from the "
-        "axis; they must stay within 0.95 x the base radius = {} mm",
-        corner, 0.95 * base_radius_mm()));
+    throw Error(
+        fmt::format("BodyModelOptions.marker_rows/marker_cols/marker_pitch_mm: the marker grid's "
+                    "load patches reach {} mm from the "
+                    "axis; they must stay within 0.95 x the base radius = {} mm",
+                    corner,
+                    0.95 * base_radius_mm()));
   }
   const double max_depth =
       sphere_radius_mm - std::hypot(OutermostMarkerRadius(*this), sphere_center_z_mm());
@@ -90,10 +94,12 @@ void BodyModelOptions::Validate() const {
     throw Error(fmt::format(
         "BodyModelOptions.marker_depth_mm must be in (0, {}) mm (the body's depth at the "
         "outermost marker), got {}",
-        max_depth, marker_depth_mm));
+        max_depth,
+        marker_depth_mm));
   }
   if (!(refinement >= 0.25 && refinement <= 4.0)) {
-    throw Error(fmt::format("BodyModelOptions.refinement must be in [0.25, 4], got {}", refinement));
+    throw Error(
+        fmt::format("BodyModelOptions.refinement must be in [0.25, 4], got {}", refinement));
   }
 }
 
@@ -106,8 +112,7 @@ nlohmann::json ToJson(const BodyModelOptions& options) {
       {"base_diameter_mm", options.base_diameter_mm},
       {"thickness_mm", options.thickness_mm},
       {"sphere_radius_mm", options.sphere_radius_mm},
-      {"lateral_boundary",
-       options.lateral_boundary == LateralBoundary::kFixed ? "fixed" : "free"},
+      {"lateral_boundary", options.lateral_boundary == LateralBoundary::kFixed ? "fixed" : "free"},
       {"youngs_modulus_mpa", options.material.youngs_modulus_mpa},
       {"poisson_ratio", options.material.poisson_ratio},
       {"marker_rows", options.marker_rows},
@@ -126,10 +131,11 @@ BodyModelOptions BodyModelOptionsFromJson(const nlohmann::json& json) {
     options.sphere_radius_mm = json.at("sphere_radius_mm").get<double>();
     const std::string lateral = json.at("lateral_boundary").get<std::string>();
     if (lateral != "free" && lateral != "fixed") {
-      throw Error(fmt::format("BodyModelOptions.lateral_boundary must be free or fixed, got {}",
-                              lateral));
+      throw Error(
+          fmt::format("BodyModelOptions.lateral_boundary must be free or fixed, got {}", lateral));
     }
-    options.lateral_boundary = lateral == "fixed" ? LateralBoundary::kFixed : LateralBoundary::kFree;
+    options.lateral_boundary =
+        lateral == "fixed" ? LateralBoundary::kFixed : LateralBoundary::kFree;
     options.material.youngs_modulus_mpa = json.at("youngs_modulus_mpa").get<double>();
     options.material.poisson_ratio = json.at("poisson_ratio").get<double>();
     options.marker_rows = json.at("marker_rows").get<int>();
@@ -170,8 +176,8 @@ DomeMesh BuildDomeMesh(const BodyModelOptions& options) {
   const double pitch_size = options.marker_pitch_mm / kElementsPerPitch;
   const double a = CentralHalfWidth(options);
   const double base_radius = options.base_radius_mm();
-  const int nc = std::max(
-      1, static_cast<int>(std::lround(2.0 * a / pitch_size * options.refinement)));
+  const int nc =
+      std::max(1, static_cast<int>(std::lround(2.0 * a / pitch_size * options.refinement)));
   // Ring and layers: the first element next to the central block (resp. the outer surface) is
   // about as large as the central block's elements.
   const std::vector<double> ring = GradedFractions(base_radius - a, pitch_size, options.refinement);
@@ -246,7 +252,8 @@ DomeMesh BuildDomeMesh(const BodyModelOptions& options) {
     }
   }
   const int num_quads = static_cast<int>(quads.size());
-  for (int q = 0; q < num_quads; ++q) dome.outer_surface_elements.push_back((nz - 1) * num_quads + q);
+  for (int q = 0; q < num_quads; ++q)
+    dome.outer_surface_elements.push_back((nz - 1) * num_quads + q);
 
   dome.fixed.assign(dome.mesh.num_dofs(), false);
   const auto fix_node = [&](int node) {
@@ -329,8 +336,11 @@ Eigen::SparseMatrix<double> BodyModel::CalcPointInterpolation(
   for (size_t p = 0; p < points_mm.size(); ++p) {
     const std::optional<ElementPoint> point = locator_.Locate(points_mm[p]);
     if (!point) {
-      throw Error(fmt::format("BodyModel: point {} ({}, {}, {}) mm is not inside the body", p,
-                              points_mm[p].x(), points_mm[p].y(), points_mm[p].z()));
+      throw Error(fmt::format("BodyModel: point {} ({}, {}, {}) mm is not inside the body",
+                              p,
+                              points_mm[p].x(),
+                              points_mm[p].y(),
+                              points_mm[p].z()));
     }
     located.push_back(*point);
   }

@@ -1,8 +1,8 @@
 #include "tac3d/fem/body_model.h"
 
-#include <cmath>
-
 #include <gtest/gtest.h>
+
+#include <cmath>
 
 #include "tac3d/fem/compliance.h"
 #include "tac3d/fem/evaluation.h"
@@ -45,7 +45,7 @@ TEST(BodyModelOptions, ValidateThrowsForEveryBound) {
   throws([](auto& o) { o.sphere_radius_mm = -1; });
   throws([](auto& o) { o.marker_pitch_mm = 0; });
   throws([](auto& o) { o.sphere_radius_mm = 19.9; });  // <= base radius
-  throws([](auto& o) { o.thickness_mm = 4.6; });        // the sagitta is 4.689 mm
+  throws([](auto& o) { o.thickness_mm = 4.6; });       // the sagitta is 4.689 mm
   throws([](auto& o) { o.material.youngs_modulus_mpa = 0; });
   throws([](auto& o) { o.material.poisson_ratio = 0.5; });
   throws([](auto& o) { o.marker_rows = 0; });

@@ -1,5 +1,7 @@
 #include "tac3d/fem/compliance.h"
 
+#include <unistd.h>
+
 #include <bit>
 #include <chrono>
 #include <cstring>
@@ -7,8 +9,6 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
-
-#include <unistd.h>
 
 #include "tac3d/util/error.h"
 
@@ -61,7 +61,11 @@ class Reader {
   const char* Take(size_t size, const char* what) {
     if (size > bytes_.size() - offset_) {
       throw Error(fmt::format("{}: truncated while reading {} ({} bytes at offset {}, file has {})",
-                              path_, what, size, offset_, bytes_.size()));
+                              path_,
+                              what,
+                              size,
+                              offset_,
+                              bytes_.size()));
     }
     const char* p = bytes_.data() + offset_;
     offset_ += size;
@@ -109,7 +113,8 @@ std::string FemCodeVersion() {
 
 ComplianceModel CalcComplianceModel(const BodyModel& model, bool show_progress) {
   const auto start = std::chrono::steady_clock::now();
-  const Eigen::SparseMatrix<double> readout = model.CalcPointInterpolation(model.marker_positions());
+  const Eigen::SparseMatrix<double> readout =
+      model.CalcPointInterpolation(model.marker_positions());
   const Eigen::SparseMatrix<double> loads = model.CalcMarkerPatchLoads();
   ComplianceModel result;
   result.options = model.options();
@@ -208,7 +213,8 @@ CacheFile ReadCacheFile(const std::string& path) {
   const size_t body_end = reader.offset();
   const auto checksum = reader.Get<std::uint64_t>("the checksum");
   if (reader.offset() != bytes.size()) {
-    throw Error(fmt::format("{}: {} bytes after the checksum", path, bytes.size() - reader.offset()));
+    throw Error(
+        fmt::format("{}: {} bytes after the checksum", path, bytes.size() - reader.offset()));
   }
   if (Fnv1a(bytes.data() + body_begin, body_end - body_begin) != checksum) {
     throw Error(fmt::format("{}: checksum mismatch (the file is corrupt)", path));
@@ -239,9 +245,12 @@ CacheFile ReadCacheFile(const std::string& path) {
 ComplianceModel LoadComplianceModel(const std::string& path) {
   CacheFile file = ReadCacheFile(path);
   if (file.key != CalcComplianceCacheKey(file.model.options)) {
-    throw Error(fmt::format("{}: key {:016x} does not match its options and this code ({}); it "
-                            "was built by other code",
-                            path, file.key, FemCodeVersion()));
+    throw Error(
+        fmt::format("{}: key {:016x} does not match its options and this code ({}); it "
+                    "was built by other code",
+                    path,
+                    file.key,
+                    FemCodeVersion()));
   }
   return std::move(file.model);
 }
@@ -253,8 +262,8 @@ ComplianceCacheResult LoadOrBuildComplianceModel(const BodyModelOptions& options
   const auto start = std::chrono::steady_clock::now();
   const std::uint64_t key = CalcComplianceCacheKey(options);
   ComplianceCacheResult result;
-  result.path = (std::filesystem::path(cache_dir) / fmt::format("compliance_{:016x}.bin", key))
-                    .string();
+  result.path =
+      (std::filesystem::path(cache_dir) / fmt::format("compliance_{:016x}.bin", key)).string();
   if (!std::filesystem::exists(result.path)) {
     result.status = ComplianceCacheStatus::kBuiltMissing;
   } else {
@@ -265,8 +274,8 @@ ComplianceCacheResult LoadOrBuildComplianceModel(const BodyModelOptions& options
         result.status = ComplianceCacheStatus::kLoaded;
       } else {
         result.status = ComplianceCacheStatus::kRebuiltStale;
-        result.reason = fmt::format("key {:016x}, expected {:016x} (other options or code)",
-                                    cached.key, key);
+        result.reason =
+            fmt::format("key {:016x}, expected {:016x} (other options or code)", cached.key, key);
       }
     } catch (const Error& e) {
       result.status = ComplianceCacheStatus::kRebuiltCorrupt;

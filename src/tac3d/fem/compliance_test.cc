@@ -1,10 +1,10 @@
 #include "tac3d/fem/compliance.h"
 
+#include <gtest/gtest.h>
+
 #include <filesystem>
 #include <fstream>
 #include <functional>
-
-#include <gtest/gtest.h>
 
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"

@@ -1,9 +1,8 @@
 #include "tac3d/fem/elastic_solver.h"
 
+#include <Eigen/CholmodSupport>
 #include <algorithm>
 #include <chrono>
-
-#include <Eigen/CholmodSupport>
 
 #include "tac3d/util/error.h"
 #include "tac3d/util/progress.h"
@@ -32,9 +31,9 @@ std::vector<std::vector<int>> NodeNeighbours(const HexMesh& mesh) {
 
 struct ElasticSolver::Impl {
   int num_dofs = 0;
-  std::vector<int> free_index;   // DOF -> free-DOF index, or -1
-  std::vector<int> fixed_index;  // DOF -> fixed-DOF index, or -1
-  Eigen::SparseMatrix<double> selection;          // num_dofs x free: embeds free DOFs
+  std::vector<int> free_index;                       // DOF -> free-DOF index, or -1
+  std::vector<int> fixed_index;                      // DOF -> fixed-DOF index, or -1
+  Eigen::SparseMatrix<double> selection;             // num_dofs x free: embeds free DOFs
   Eigen::SparseMatrix<double> stiffness_free_fixed;  // K_fp
   Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> llt;
   ElasticSolverSummary summary;
@@ -47,8 +46,8 @@ ElasticSolver::ElasticSolver(const HexMesh& mesh,
     : impl_(std::make_unique<Impl>()) {
   material.Validate();
   if (static_cast<int>(fixed.size()) != mesh.num_dofs()) {
-    throw Error(fmt::format("ElasticSolver: {} fixed-DOF flags for a mesh of {} DOFs",
-                            fixed.size(), mesh.num_dofs()));
+    throw Error(fmt::format(
+        "ElasticSolver: {} fixed-DOF flags for a mesh of {} DOFs", fixed.size(), mesh.num_dofs()));
   }
   const auto assembly_start = std::chrono::steady_clock::now();
   Impl& s = *impl_;

@@ -1,10 +1,9 @@
 #pragma once
 
-#include <memory>
-#include <vector>
-
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
+#include <memory>
+#include <vector>
 
 #include "tac3d/fem/hex8.h"
 #include "tac3d/fem/hex_mesh.h"

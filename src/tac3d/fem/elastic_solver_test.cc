@@ -26,7 +26,8 @@ TEST(ElasticSolver, ResponseInChunksMatchesSingleSolves) {
   const ElasticSolver solver(bar.mesh, ElasticMaterial{1.0, 0.48}, bar.fixed);
   const int cases = 7;
   Eigen::SparseMatrix<double> forces(bar.mesh.num_dofs(), cases);
-  for (int k = 0; k < cases; ++k) forces.insert(3 * (bar.mesh.num_nodes() - 1 - k) + k % 3, k) = 1.0;
+  for (int k = 0; k < cases; ++k)
+    forces.insert(3 * (bar.mesh.num_nodes() - 1 - k) + k % 3, k) = 1.0;
   Eigen::SparseMatrix<double> readout(2, bar.mesh.num_dofs());
   readout.insert(0, 3 * (bar.mesh.num_nodes() - 1) + 2) = 1.0;
   readout.insert(1, 3 * 5 + 0) = 0.5;

@@ -1,8 +1,8 @@
 // The full `tac3d eval fem` run on the default sensor (labelled eval: ~10 min, ~6 GB):
 //   ctest --test-dir build-fem -L eval -R fem/ --output-on-failure -V
-#include <cstdio>
-
 #include <gtest/gtest.h>
+
+#include <cstdio>
 
 #include "tac3d/fem/compliance.h"
 #include "tac3d/fem/evaluation.h"

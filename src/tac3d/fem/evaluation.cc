@@ -1,7 +1,8 @@
 #include "tac3d/fem/evaluation.h"
 
-#include <chrono>
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <random>
 
@@ -15,7 +16,7 @@ namespace {
 
 // Tolerances of EvaluateFem's checks.
 constexpr double kPatchDisplacementTolerance = 1e-10;  // mm
-constexpr double kPatchStressTolerance = 1e-8;          // relative
+constexpr double kPatchStressTolerance = 1e-8;         // relative
 constexpr double kConfinedTolerance = 0.01;
 constexpr double kPointLoadTolerance = 0.10;
 constexpr double kConvergenceTolerance = 0.03;
@@ -88,9 +89,12 @@ nlohmann::json Check(const std::string& name, double value, double tolerance) {
 
 void Report(const EvalFemOptions& options, const nlohmann::json& check) {
   if (!options.show_progress) return;
-  std::fprintf(stderr, "fem eval: %-48s %.3e (tolerance %.0e) %s\n",
-               check.at("name").get<std::string>().c_str(), check.at("value").get<double>(),
-               check.at("tolerance").get<double>(), check.at("pass").get<bool>() ? "pass" : "FAIL");
+  std::fprintf(stderr,
+               "fem eval: %-48s %.3e (tolerance %.0e) %s\n",
+               check.at("name").get<std::string>().c_str(),
+               check.at("value").get<double>(),
+               check.at("tolerance").get<double>(),
+               check.at("pass").get<bool>() ? "pass" : "FAIL");
 }
 
 }  // namespace
@@ -117,8 +121,11 @@ PatchTestResult RunPatchTest(const PatchTestOptions& options) {
   const int n = 3;
   const double size = 3.0;
   HexMesh mesh = BuildBoxMesh(Uniform(size, n), Uniform(size, n), Uniform(size, n));
-  DistortInterior(&mesh, Eigen::Vector3d::Zero(), Eigen::Vector3d::Constant(size),
-                  options.distortion * size / n, options.seed);
+  DistortInterior(&mesh,
+                  Eigen::Vector3d::Zero(),
+                  Eigen::Vector3d::Constant(size),
+                  options.distortion * size / n,
+                  options.seed);
   TAC3D_DEMAND(CalcMinJacobianDeterminant(mesh) > 0.0);
   const ElasticMaterial material{1.0, options.poisson_ratio};
 
@@ -154,9 +161,9 @@ PatchTestResult RunPatchTest(const PatchTestOptions& options) {
     }
     for (const Eigen::Vector3d& xi : points) {
       const Eigen::Matrix3d stress = CalcHex8Stress(mesh.ElementNodes(e), ue, material, xi);
-      result.max_relative_stress_error =
-          std::max(result.max_relative_stress_error,
-                   (stress - exact_stress).cwiseAbs().maxCoeff() / exact_stress.cwiseAbs().maxCoeff());
+      result.max_relative_stress_error = std::max(
+          result.max_relative_stress_error,
+          (stress - exact_stress).cwiseAbs().maxCoeff() / exact_stress.cwiseAbs().maxCoeff());
     }
   }
   return result;
@@ -166,8 +173,8 @@ ConfinedBlockResult RunConfinedBlock(double poisson_ratio) {
   const int n = 4;
   const double width = 10.0, height = 6.0, pressure = 0.01;
   HexMesh mesh = BuildBoxMesh(Uniform(width, n), Uniform(width, n), Uniform(height, n));
-  DistortInterior(&mesh, Eigen::Vector3d::Zero(), Eigen::Vector3d(width, width, height),
-                  0.2 * height / n, 7);
+  DistortInterior(
+      &mesh, Eigen::Vector3d::Zero(), Eigen::Vector3d(width, width, height), 0.2 * height / n, 7);
   const ElasticMaterial material{1.0, poisson_ratio};
   std::vector<bool> fixed(mesh.num_dofs(), false);
   for (int node = 0; node < mesh.num_nodes(); ++node) {
@@ -256,7 +263,8 @@ PointLoadResult RunPointLoad(const PointLoadOptions& options) {
 
   // The quarter [0, a]^2 of the loaded square carries a quarter of the force.
   const double a = options.patch_half_width_mm;
-  const Eigen::Vector3d force = options.tangential ? Eigen::Vector3d(1, 0, 0) : Eigen::Vector3d(0, 0, -1);
+  const Eigen::Vector3d force =
+      options.tangential ? Eigen::Vector3d(1, 0, 0) : Eigen::Vector3d(0, 0, -1);
   const Eigen::Vector3d traction = force / (4.0 * a * a);
   std::vector<int> loaded;
   for (int e : TopLayer(nx, nx, nz)) {
@@ -327,14 +335,16 @@ nlohmann::json EvaluateFem(const EvalFemOptions& options) {
   for (double nu : {0.3, 0.4999}) {
     const PatchTestResult patch = RunPatchTest({.poisson_ratio = nu});
     add(Check(fmt::format("patch test nu={} interior displacement (mm)", nu),
-              patch.max_displacement_error_mm, kPatchDisplacementTolerance));
+              patch.max_displacement_error_mm,
+              kPatchDisplacementTolerance));
     add(Check(fmt::format("patch test nu={} stress (relative)", nu),
-              patch.max_relative_stress_error, kPatchStressTolerance));
+              patch.max_relative_stress_error,
+              kPatchStressTolerance));
   }
   for (double nu : {0.3, 0.48, 0.499}) {
     const ConfinedBlockResult block = RunConfinedBlock(nu);
-    nlohmann::json check = Check(fmt::format("confined block nu={} modulus", nu),
-                                 block.relative_error, kConfinedTolerance);
+    nlohmann::json check = Check(
+        fmt::format("confined block nu={} modulus", nu), block.relative_error, kConfinedTolerance);
     check["fem_modulus_mpa"] = block.fem_modulus_mpa;
     check["exact_modulus_mpa"] = block.exact_modulus_mpa;
     add(check);
@@ -342,9 +352,10 @@ nlohmann::json EvaluateFem(const EvalFemOptions& options) {
   for (double nu : {0.3, 0.48}) {
     for (bool tangential : {false, true}) {
       const PointLoadResult load = RunPointLoad({.poisson_ratio = nu, .tangential = tangential});
-      nlohmann::json check =
-          Check(fmt::format("{} point load nu={} (3-8 mm)", tangential ? "Cerruti" : "Boussinesq", nu),
-                load.max_relative_error, kPointLoadTolerance);
+      nlohmann::json check = Check(
+          fmt::format("{} point load nu={} (3-8 mm)", tangential ? "Cerruti" : "Boussinesq", nu),
+          load.max_relative_error,
+          kPointLoadTolerance);
       check["num_free_dofs"] = load.num_free_dofs;
       add(check);
     }
@@ -363,12 +374,12 @@ nlohmann::json EvaluateFem(const EvalFemOptions& options) {
     model = {{"provenance", ToJson(built.provenance)}};
   }
   if (options.convergence_refinement > 0.0) {
-    const MeshConvergenceResult convergence =
-        RunMeshConvergence(options.body, options.convergence_refinement, options.cache_dir,
-                           options.show_progress);
-    nlohmann::json check = Check(
-        fmt::format("H change on {}x refinement (relative Frobenius)", options.convergence_refinement),
-        convergence.relative_difference, kConvergenceTolerance);
+    const MeshConvergenceResult convergence = RunMeshConvergence(
+        options.body, options.convergence_refinement, options.cache_dir, options.show_progress);
+    nlohmann::json check = Check(fmt::format("H change on {}x refinement (relative Frobenius)",
+                                             options.convergence_refinement),
+                                 convergence.relative_difference,
+                                 kConvergenceTolerance);
     check["coarse_free_dofs"] = convergence.coarse_free_dofs;
     check["fine_free_dofs"] = convergence.fine_free_dofs;
     check["coarse_build_s"] = convergence.coarse_build_s;

@@ -1,10 +1,10 @@
 #include "tac3d/fem/evaluation.h"
 
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <numbers>
 #include <random>
-
-#include <gtest/gtest.h>
 
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
@@ -60,9 +60,11 @@ TEST(HalfSpace, MatchesJohnsonsFormsInE) {
   EXPECT_THAT(across, EigenNear(Eigen::Vector3d((1 - nu * nu) / (pi * e * r), 0, 0), 1e-15));
   const Eigen::Vector3d ahead =
       CalcHalfSpaceSurfaceDisplacement({1, 0, 0}, material, Eigen::Vector2d(r, 0));
-  EXPECT_THAT(ahead, EigenNear(Eigen::Vector3d((1 + nu) / (pi * e * r), 0,
-                                               -(1 - 2 * nu) * (1 + nu) / (2 * pi * e * r)),
-                               1e-15));
+  EXPECT_THAT(
+      ahead,
+      EigenNear(
+          Eigen::Vector3d((1 + nu) / (pi * e * r), 0, -(1 - 2 * nu) * (1 + nu) / (2 * pi * e * r)),
+          1e-15));
 }
 
 TEST(PointLoad, MatchesBoussinesqAndCerruti) {

@@ -1,12 +1,11 @@
 #include "tac3d/fem/hex8.h"
 
+#include <Eigen/Geometry>
+#include <Eigen/LU>
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
-
-#include <Eigen/Geometry>
-#include <Eigen/LU>
 
 #include "tac3d/util/error.h"
 
@@ -73,8 +72,8 @@ Eigen::Matrix<double, 8, 3> MeanShapeGradient(const std::array<GaussData, 8>& da
 
 void ElasticMaterial::Validate() const {
   if (!(youngs_modulus_mpa > 0.0)) {
-    throw Error(fmt::format("ElasticMaterial.youngs_modulus_mpa must be > 0, got {}",
-                            youngs_modulus_mpa));
+    throw Error(
+        fmt::format("ElasticMaterial.youngs_modulus_mpa must be > 0, got {}", youngs_modulus_mpa));
   }
   if (!(poisson_ratio > -1.0 && poisson_ratio <= 0.4999)) {
     throw Error(fmt::format("ElasticMaterial.poisson_ratio must be in (-1, 0.4999], got {}",
@@ -197,9 +196,8 @@ TopFaceIntegrals IntegrateHex8TopFace(
   TopFaceIntegrals result;
   for (int p = 0; p < 3; ++p) {
     for (int q = 0; q < 3; ++q) {
-      const Eigen::Vector3d xi(xi_min + half_xi * (points[p] + 1.0),
-                               eta_min + half_eta * (points[q] + 1.0),
-                               1.0);
+      const Eigen::Vector3d xi(
+          xi_min + half_xi * (points[p] + 1.0), eta_min + half_eta * (points[q] + 1.0), 1.0);
       const Eigen::Matrix3d jac = Jacobian(x, CalcHex8ShapeDerivatives(xi));
       const double area_scale = jac.row(0).cross(jac.row(1)).norm();
       const double w = weights[p] * weights[q] * half_xi * half_eta * area_scale;

@@ -1,9 +1,9 @@
 #include "tac3d/fem/hex8.h"
 
-#include <random>
+#include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
-#include <gtest/gtest.h>
+#include <random>
 
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
@@ -60,8 +60,8 @@ TEST(Hex8, StiffnessIsSymmetricWithExactlySixRigidBodyModes) {
     Hex8Vector u;
     for (int a = 0; a < 8; ++a) {
       const Eigen::Vector3d p = x.row(a).transpose();
-      u.segment<3>(3 * a) = mode < 3 ? Eigen::Vector3d::Unit(mode)
-                                     : Eigen::Vector3d::Unit(mode - 3).cross(p).eval();
+      u.segment<3>(3 * a) =
+          mode < 3 ? Eigen::Vector3d::Unit(mode) : Eigen::Vector3d::Unit(mode - 3).cross(p).eval();
     }
     EXPECT_LT((k * u).norm(), 1e-12 * k.norm()) << "mode " << mode;
   }
@@ -80,9 +80,10 @@ TEST(Hex8, StiffnessGivesTheUniaxialStressNodalForces) {
   const Hex8Nodes x = UnitCube(dx, dy, dz);
   Hex8Vector u;
   for (int a = 0; a < 8; ++a) {
-    u.segment<3>(3 * a) = s / material.youngs_modulus_mpa *
-                          Eigen::Vector3d(x(a, 0), -material.poisson_ratio * x(a, 1),
-                                          -material.poisson_ratio * x(a, 2));
+    u.segment<3>(3 * a) =
+        s / material.youngs_modulus_mpa *
+        Eigen::Vector3d(
+            x(a, 0), -material.poisson_ratio * x(a, 1), -material.poisson_ratio * x(a, 2));
   }
   const Hex8Vector f = CalcHex8Stiffness(x, material) * u;
   for (int a = 0; a < 8; ++a) {

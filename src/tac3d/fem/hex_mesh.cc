@@ -1,10 +1,9 @@
 #include "tac3d/fem/hex_mesh.h"
 
+#include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
 #include <limits>
-
-#include <Eigen/LU>
 
 #include "tac3d/util/error.h"
 
@@ -51,9 +50,14 @@ HexMesh BuildBoxMesh(const std::vector<double>& x_coords,
   for (int k = 0; k + 1 < nz; ++k) {
     for (int j = 0; j + 1 < ny; ++j) {
       for (int i = 0; i + 1 < nx; ++i) {
-        mesh.elements.push_back({id(i, j, k), id(i + 1, j, k), id(i + 1, j + 1, k),
-                                 id(i, j + 1, k), id(i, j, k + 1), id(i + 1, j, k + 1),
-                                 id(i + 1, j + 1, k + 1), id(i, j + 1, k + 1)});
+        mesh.elements.push_back({id(i, j, k),
+                                 id(i + 1, j, k),
+                                 id(i + 1, j + 1, k),
+                                 id(i, j + 1, k),
+                                 id(i, j, k + 1),
+                                 id(i + 1, j, k + 1),
+                                 id(i + 1, j + 1, k + 1),
+                                 id(i, j + 1, k + 1)});
       }
     }
   }
@@ -96,8 +100,8 @@ PointLocator::PointLocator(const HexMesh& mesh) : mesh_(mesh) {
   const auto cell_of = [&](const Eigen::Vector3d& p) {
     Eigen::Vector3i c;
     for (int i = 0; i < 3; ++i) {
-      c(i) = std::clamp(static_cast<int>(std::floor((p(i) - origin_(i)) / cell_size_(i))), 0,
-                        dims_(i) - 1);
+      c(i) = std::clamp(
+          static_cast<int>(std::floor((p(i) - origin_(i)) / cell_size_(i))), 0, dims_(i) - 1);
     }
     return c;
   };
@@ -125,8 +129,7 @@ PointLocator::PointLocator(const HexMesh& mesh) : mesh_(mesh) {
   }
 }
 
-std::optional<ElementPoint> PointLocator::Locate(const Eigen::Vector3d& p,
-                                                 double tolerance) const {
+std::optional<ElementPoint> PointLocator::Locate(const Eigen::Vector3d& p, double tolerance) const {
   Eigen::Vector3i c;
   for (int i = 0; i < 3; ++i) {
     const double t = std::floor((p(i) - origin_(i)) / cell_size_(i));

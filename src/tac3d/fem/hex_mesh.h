@@ -1,11 +1,10 @@
 #pragma once
 
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
 #include <array>
 #include <optional>
 #include <vector>
-
-#include <Eigen/Core>
-#include <Eigen/SparseCore>
 
 #include "tac3d/fem/hex8.h"
 

@@ -1,8 +1,8 @@
 #include "tac3d/fem/hex_mesh.h"
 
-#include <random>
-
 #include <gtest/gtest.h>
+
+#include <random>
 
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
