@@ -1,0 +1,214 @@
+#include "tac3d/tracking/blob_detector.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+#include "tac3d/util/error.h"
+
+namespace tac3d {
+
+void BlobOptions::Validate() const {
+  auto require = [](bool ok, const char* field, const char* bound, double value) {
+    if (!ok || std::isnan(value)) {
+      throw Error(fmt::format("blob options: {} = {} must be {}", field, value, bound));
+    }
+  };
+  require(min_contrast_dn > 0 && min_contrast_dn < 255, "min_contrast_dn", "in (0, 255)",
+          min_contrast_dn);
+  require(min_relative_contrast >= 0 && min_relative_contrast < 1, "min_relative_contrast",
+          "in [0, 1)", min_relative_contrast);
+  require(weight_threshold >= 0 && weight_threshold < 1, "weight_threshold", "in [0, 1)",
+          weight_threshold);
+  require(min_spread_px >= 0, "min_spread_px", ">= 0", min_spread_px);
+  require(max_spread_px > min_spread_px, "max_spread_px", "> min_spread_px", max_spread_px);
+  require(max_elongation >= 1, "max_elongation", ">= 1", max_elongation);
+  require(min_fill >= 0, "min_fill", ">= 0", min_fill);
+  require(min_core_darkness >= 0 && min_core_darkness <= 1, "min_core_darkness", "in [0, 1]",
+          min_core_darkness);
+  require(background_kernel_px >= 3 && background_kernel_px % 2 == 1, "background_kernel_px",
+          "odd and >= 3", background_kernel_px);
+  require(min_area_px >= 1, "min_area_px", ">= 1", min_area_px);
+  require(max_area_px > min_area_px, "max_area_px", "> min_area_px", max_area_px);
+}
+
+std::string_view ToString(BlobStatus status) {
+  switch (status) {
+    case BlobStatus::kFound: return "found";
+    case BlobStatus::kNoBlob: return "no blob";
+    case BlobStatus::kBadShape: return "bad shape";
+  }
+  return "?";
+}
+
+BlobStatus MeasureBlob(const cv::Mat& image,
+                       const cv::Rect& roi,
+                       const Eigen::Vector2d& predicted,
+                       double search_radius_px,
+                       double blob_radius_px,
+                       const BlobOptions& options,
+                       Blob& blob) {
+  TAC3D_DEMAND(image.type() == CV_8UC1);
+  TAC3D_DEMAND(search_radius_px > 0 && blob_radius_px > 0);
+  if (!predicted.allFinite()) return BlobStatus::kNoBlob;
+  const int roi_x1 = roi.x + roi.width - 1, roi_y1 = roi.y + roi.height - 1;
+  const double qx = predicted.x(), qy = predicted.y();
+  const double s = search_radius_px;
+  if (qx + s < roi.x || qx - s > roi_x1 || qy + s < roi.y || qy - s > roi_y1) {
+    return BlobStatus::kNoBlob;
+  }
+
+  // The darkest pixel in the search disk seeds the blob.
+  int darkest = 256, bx = -1, by = -1;
+  const int y0 = std::max(roi.y, static_cast<int>(std::ceil(qy - s)));
+  const int y1 = std::min(roi_y1, static_cast<int>(std::floor(qy + s)));
+  for (int y = y0; y <= y1; ++y) {
+    const double dy = y - qy;
+    const double half_width = std::sqrt(std::max(0.0, s * s - dy * dy));
+    const int x0 = std::max(roi.x, static_cast<int>(std::ceil(qx - half_width)));
+    const int x1 = std::min(roi_x1, static_cast<int>(std::floor(qx + half_width)));
+    const std::uint8_t* row = image.ptr<std::uint8_t>(y);
+    for (int x = x0; x <= x1; ++x) {
+      if (row[x] < darkest) {
+        darkest = row[x];
+        bx = x;
+        by = y;
+      }
+    }
+  }
+  if (bx < 0) return BlobStatus::kNoBlob;
+
+  // Local background: the median of a ring just outside the blob's disk, robust to a
+  // neighbouring dot covering part of it.
+  constexpr int kMaxRing = 512;
+  std::array<std::uint8_t, kMaxRing> ring;
+  int ring_size = 0;
+  const double r_in2 = (blob_radius_px + 0.5) * (blob_radius_px + 0.5);
+  const double r_out2 = (blob_radius_px + 2.0) * (blob_radius_px + 2.0);
+  const int reach = static_cast<int>(std::ceil(blob_radius_px + 2.0));
+  for (int dy = -reach; dy <= reach; ++dy) {
+    const int y = by + dy;
+    if (y < roi.y || y > roi_y1) continue;
+    const std::uint8_t* row = image.ptr<std::uint8_t>(y);
+    for (int dx = -reach; dx <= reach && ring_size < kMaxRing; ++dx) {
+      const int x = bx + dx;
+      const int d2 = dx * dx + dy * dy;
+      if (x < roi.x || x > roi_x1 || d2 < r_in2 || d2 > r_out2) continue;
+      ring[ring_size++] = row[x];
+    }
+  }
+  if (ring_size < 8) return BlobStatus::kNoBlob;
+  std::nth_element(ring.begin(), ring.begin() + ring_size / 2, ring.begin() + ring_size);
+  const double background = ring[ring_size / 2];
+  const double contrast = background - darkest;
+  if (contrast < std::max(options.min_contrast_dn, options.min_relative_contrast * background)) {
+    return BlobStatus::kNoBlob;
+  }
+
+  // Darkness-weighted moments over the blob's disk: first about the darkest pixel, then
+  // about the pixel nearest that centroid, so that a darkest pixel at the rim of a flat
+  // dark core does not cut the disk off-centre.
+  const double level = background - options.weight_threshold * contrast;
+  const double r2 = blob_radius_px * blob_radius_px;
+  const int r = static_cast<int>(std::floor(blob_radius_px));
+  int cx = bx, cy = by;
+  double sw = 0, sx = 0, sy = 0, sxx = 0, sxy = 0, syy = 0;
+  int count = 0;
+  for (int pass = 0; pass < 2; ++pass) {
+    if (pass == 1) {
+      const int nx = cx + static_cast<int>(std::lround(sx / sw));
+      const int ny = cy + static_cast<int>(std::lround(sy / sw));
+      if (nx == cx && ny == cy) break;
+      cx = nx;
+      cy = ny;
+    }
+    sw = sx = sy = sxx = sxy = syy = 0;
+    count = 0;
+    for (int dy = -r; dy <= r; ++dy) {
+      const int y = cy + dy;
+      if (y < roi.y || y > roi_y1) continue;
+      const std::uint8_t* row = image.ptr<std::uint8_t>(y);
+      for (int dx = -r; dx <= r; ++dx) {
+        const int x = cx + dx;
+        if (x < roi.x || x > roi_x1 || dx * dx + dy * dy > r2) continue;
+        const double w = level - row[x];
+        if (w <= 0) continue;
+        sw += w;
+        sx += w * dx;
+        sy += w * dy;
+        sxx += w * dx * dx;
+        sxy += w * dx * dy;
+        syy += w * dy * dy;
+        ++count;
+      }
+    }
+    if (sw <= 0) return BlobStatus::kNoBlob;
+  }
+  const double mx = sx / sw, my = sy / sw;
+  // A pixel is a unit square: its own variance (1/12 per axis) keeps a one-pixel blob finite.
+  const double cxx = sxx / sw - mx * mx + 1.0 / 12, cyy = syy / sw - my * my + 1.0 / 12;
+  const double cxy = sxy / sw - mx * my;
+  const double mean = 0.5 * (cxx + cyy);
+  const double deviation = std::sqrt(0.25 * (cxx - cyy) * (cxx - cyy) + cxy * cxy);
+  const double major = mean + deviation, minor = std::max(mean - deviation, 1.0 / 12);
+  const double spread = std::sqrt(major), elongation = std::sqrt(major / minor);
+  const double fill = count / (4.0 * M_PI * std::sqrt(major * minor));
+  const Eigen::Vector2d center(cx + mx, cy + my);
+  // Mean darkness of the 3 x 3 core at the centroid.
+  const int ux = static_cast<int>(std::lround(center.x())), uy = static_cast<int>(std::lround(center.y()));
+  double core = 0;
+  int core_count = 0;
+  for (int y = std::max(roi.y, uy - 1); y <= std::min(roi_y1, uy + 1); ++y) {
+    for (int x = std::max(roi.x, ux - 1); x <= std::min(roi_x1, ux + 1); ++x) {
+      core += background - image.at<std::uint8_t>(y, x);
+      ++core_count;
+    }
+  }
+  if (spread < options.min_spread_px || spread > options.max_spread_px ||
+      elongation > options.max_elongation || fill < options.min_fill ||
+      core < options.min_core_darkness * contrast * core_count) {
+    return BlobStatus::kBadShape;
+  }
+  blob.center = center;
+  blob.contrast_dn = contrast;
+  blob.spread_px = spread;
+  blob.elongation = elongation;
+  return BlobStatus::kFound;
+}
+
+std::vector<Blob> DetectBlobs(const cv::Mat& image, const cv::Rect& roi, const BlobOptions& options) {
+  options.Validate();
+  TAC3D_DEMAND(image.type() == CV_8UC1);
+  TAC3D_DEMAND((roi & cv::Rect(0, 0, image.cols, image.rows)) == roi);
+  const cv::Mat view = image(roi);
+  // The film without its dots: a closing wider than a dot fills them in.
+  const int k = options.background_kernel_px;
+  cv::Mat film;
+  cv::morphologyEx(view, film, cv::MORPH_CLOSE, cv::getStructuringElement(cv::MORPH_RECT, {k, k}));
+  cv::blur(film, film, {k, k});
+  cv::Mat darkness, threshold, mask;
+  cv::subtract(film, view, darkness);  // saturates at 0
+  film.convertTo(threshold, CV_8U, options.min_relative_contrast);
+  threshold = cv::max(threshold, options.min_contrast_dn);
+  cv::compare(darkness, threshold, mask, cv::CMP_GT);
+
+  cv::Mat labels, stats, centroids;
+  const int components = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
+  std::vector<Blob> blobs;
+  for (int c = 1; c < components; ++c) {  // 0 is the background
+    const int area = stats.at<int>(c, cv::CC_STAT_AREA);
+    if (area < options.min_area_px || area > options.max_area_px) continue;
+    const int size = std::max(stats.at<int>(c, cv::CC_STAT_WIDTH), stats.at<int>(c, cv::CC_STAT_HEIGHT));
+    const Eigen::Vector2d center(roi.x + centroids.at<double>(c, 0), roi.y + centroids.at<double>(c, 1));
+    Blob blob;
+    if (MeasureBlob(image, roi, center, std::max(1.0, 0.5 * size), 0.5 * size + 1.0, options, blob) ==
+        BlobStatus::kFound) {
+      blobs.push_back(blob);
+    }
+  }
+  return blobs;
+}
+
+}  // namespace tac3d

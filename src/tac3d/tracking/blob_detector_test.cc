@@ -1,0 +1,118 @@
+#include "tac3d/tracking/blob_detector.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "tac3d/design/light_path_design.h"
+#include "tac3d/twin/camera_renderer.h"
+#include "tac3d/util/error.h"
+
+namespace tac3d {
+namespace {
+
+// A dark Gaussian dot (sigma 1.2 px, 150 DN deep) on a film that brightens linearly across
+// the image (uneven light), exactly sampled at pixel centres, no noise.
+cv::Mat Dot(const Eigen::Vector2d& center, double film_slope_dn_per_px = 0.0) {
+  cv::Mat image(40, 40, CV_8UC1);
+  for (int y = 0; y < image.rows; ++y) {
+    for (int x = 0; x < image.cols; ++x) {
+      const double r2 = (Eigen::Vector2d(x, y) - center).squaredNorm();
+      const double film = 180.0 + film_slope_dn_per_px * (x - 20);
+      image.at<std::uint8_t>(y, x) =
+          cv::saturate_cast<std::uint8_t>(film - 150.0 * std::exp(-r2 / (2 * 1.2 * 1.2)));
+    }
+  }
+  return image;
+}
+
+const cv::Rect kWhole(0, 0, 40, 40);
+
+TEST(MeasureBlob, SubPixelCentroidOfASymmetricDot) {
+  // 8-bit rounding of the samples is the only error: it stays under 0.02 px.
+  for (const Eigen::Vector2d& center : {Eigen::Vector2d(20.0, 20.0), Eigen::Vector2d(19.3, 20.45),
+                                       Eigen::Vector2d(20.71, 19.86)}) {
+    Blob blob;
+    ASSERT_EQ(MeasureBlob(Dot(center), kWhole, Eigen::Vector2d(20, 20), 3.0, 4.5, {}, blob),
+              BlobStatus::kFound);
+    EXPECT_LT((blob.center - center).norm(), 0.02) << center.transpose();
+    EXPECT_NEAR(blob.contrast_dn, 150.0, 3.0);
+    EXPECT_LT(blob.elongation, 1.2);
+  }
+}
+
+TEST(MeasureBlob, UnevenLightBarelyMovesTheCentroid) {
+  // 3 DN per px across the dot (a strong vignetting edge): the ring median and the
+  // threshold follow it; without them the centroid would move by over 0.1 px.
+  const Eigen::Vector2d center(20.3, 19.6);
+  Blob blob;
+  ASSERT_EQ(MeasureBlob(Dot(center, 3.0), kWhole, Eigen::Vector2d(20, 20), 3.0, 4.5, {}, blob),
+            BlobStatus::kFound);
+  EXPECT_LT((blob.center - center).norm(), 0.05);
+}
+
+TEST(MeasureBlob, FlatDarkOrOutOfViewImagesHaveNoBlob) {
+  Blob blob;
+  const cv::Mat flat(40, 40, CV_8UC1, cv::Scalar(180));
+  EXPECT_EQ(MeasureBlob(flat, kWhole, Eigen::Vector2d(20, 20), 3.0, 4.5, {}, blob), BlobStatus::kNoBlob);
+  const cv::Mat black = cv::Mat::zeros(40, 40, CV_8UC1);
+  EXPECT_EQ(MeasureBlob(black, kWhole, Eigen::Vector2d(20, 20), 3.0, 4.5, {}, blob), BlobStatus::kNoBlob);
+  const cv::Mat dot = Dot({20, 20});
+  EXPECT_EQ(MeasureBlob(dot, kWhole, Eigen::Vector2d(60, 20), 3.0, 4.5, {}, blob), BlobStatus::kNoBlob);
+  EXPECT_EQ(MeasureBlob(dot, kWhole, Eigen::Vector2d(NAN, 20), 3.0, 4.5, {}, blob), BlobStatus::kNoBlob);
+  // The dot is outside the region the caller may read (the other image half).
+  EXPECT_EQ(MeasureBlob(dot, cv::Rect(0, 0, 14, 40), Eigen::Vector2d(12, 20), 3.0, 4.5, {}, blob),
+            BlobStatus::kNoBlob);
+}
+
+TEST(MeasureBlob, MergedPairAndSpeckleAreBadShapes) {
+  // Two dots 3.5 px apart make one long blob.
+  cv::Mat pair = Dot({18.25, 20});
+  cv::min(pair, Dot({21.75, 20}), pair);
+  Blob blob;
+  EXPECT_EQ(MeasureBlob(pair, kWhole, Eigen::Vector2d(20, 20), 3.0, 5.5, {}, blob),
+            BlobStatus::kBadShape);
+  // Sparse dark speckle on the film.
+  cv::Mat speckle(40, 40, CV_8UC1, cv::Scalar(180));
+  cv::RNG rng(7);
+  for (int k = 0; k < 60; ++k) speckle.at<std::uint8_t>(rng.uniform(14, 27), rng.uniform(14, 27)) = 40;
+  EXPECT_EQ(MeasureBlob(speckle, kWhole, Eigen::Vector2d(20, 20), 3.0, 5.5, {}, blob),
+            BlobStatus::kBadShape);
+}
+
+TEST(DetectBlobs, FindsEveryMarkerOfATwinFrameAndNothingInBlackOrNoise) {
+  const SensorConfig sensor = DefaultSensorConfig();
+  const cv::Mat image = MarkerImageRenderer(sensor).Render(sensor.MarkerPositions());
+  for (const VirtualCameraConfig& camera : sensor.virtual_cameras) {
+    const cv::Rect roi(camera.column_begin, 0, camera.column_end - camera.column_begin, image.rows);
+    const std::vector<Blob> blobs = DetectBlobs(image, roi, {});
+    EXPECT_EQ(blobs.size(), 400u) << camera.name;
+    for (const Blob& b : blobs) EXPECT_TRUE(roi.contains(cv::Point(b.center.x(), b.center.y())));
+  }
+  const cv::Rect whole(0, 0, 640, 480);
+  EXPECT_TRUE(DetectBlobs(cv::Mat::zeros(480, 640, CV_8UC1), whole, {}).empty());
+  cv::Mat noise(480, 640, CV_8UC1);
+  cv::RNG(11).fill(noise, cv::RNG::UNIFORM, 0, 256);
+  // Uniform noise is one huge dark component, not a field of dots.
+  EXPECT_LT(DetectBlobs(noise, whole, {}).size(), 20u);
+}
+
+TEST(BlobOptions, ValidateNamesTheField) {
+  BlobOptions options;
+  options.max_spread_px = 0.1;
+  try {
+    options.Validate();
+    FAIL() << "no throw";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("max_spread_px"), std::string::npos);
+  }
+  options = {};
+  options.background_kernel_px = 4;
+  EXPECT_THROW(options.Validate(), Error);
+  options = {};
+  options.weight_threshold = 1.0;
+  EXPECT_THROW(options.Validate(), Error);
+}
+
+}  // namespace
+}  // namespace tac3d

@@ -1,0 +1,178 @@
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string_view>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "tac3d/optics/optical_layout.h"
+#include "tac3d/sensor/sensor_config.h"
+#include "tac3d/tracking/blob_detector.h"
+#include "tac3d/tracking/grid_indexer.h"
+
+namespace tac3d {
+
+/// How the markers are followed from frame to frame. Distances are fractions of each
+/// marker's local pitch in the image (the distance to its nearest grid neighbour in the
+/// nominal sensor's image, 9-16 px for the built-in sensor), so they hold across the
+/// perspective-distorted grid.
+struct MarkerTrackerOptions {
+  BlobOptions blob;
+  GridIndexOptions index;
+  /// A marker's blob is looked for within this distance of its prediction; its centroid
+  /// must land there too.
+  double search_radius = 0.35;
+  /// The disk a centroid is taken over (the local background is read just outside it).
+  double blob_radius = 0.45;
+  /// Two markers whose blobs are closer than this are one blob: the later one is refused.
+  double min_separation = 0.5;
+  /// Below this fraction of valid markers a half's grid is lost and re-acquired.
+  double min_valid_fraction = 0.5;
+  /// Predict each marker from its last displacement too (constant velocity), not only
+  /// from its last position.
+  bool constant_velocity = true;
+
+  /// @throws Error naming the field and the bound.
+  void Validate() const;
+};
+
+/// Why a marker has, or has not, a measurement in a frame.
+enum class MarkerState : std::uint8_t {
+  kValid,
+  kNotFound,      ///< no dark blob near its prediction (hidden, out of view, dark frame)
+  kBadShape,      ///< a blob of implausible size or shape (merged, smeared, partly hidden)
+  kInconsistent,  ///< the blob lies off the prediction from its grid neighbours' motion
+  kConflict,      ///< the blob is already a grid neighbour's
+  kGridLost,      ///< the half's grid was not found: nothing measured in it
+};
+inline constexpr int kMarkerStateCount = 6;
+std::string_view ToString(MarkerState state);
+
+/// The markers seen in one image half.
+struct HalfObservation {
+  /// Per marker, row-major (index = row * cols + col): the sub-pixel centroid in the full
+  /// image (px), NaN unless valid.
+  std::vector<Eigen::Vector2d> uv;
+  std::vector<MarkerState> state;
+  /// The grid was indexed from a full-image detection in this frame (first frame, or
+  /// re-acquisition after the tracked grid was lost).
+  bool acquired = false;
+  /// No grid in this half (too few markers): every marker is kGridLost; acquisition is
+  /// tried again on the next frame.
+  bool grid_lost = false;
+  int valid_markers = 0;
+  std::array<int, kMarkerStateCount> state_counts{};  ///< markers per MarkerState
+
+  bool valid(int i) const { return state[i] == MarkerState::kValid; }
+};
+
+/// The markers of one frame in both halves. Left and right are paired by index: marker i
+/// is the same physical marker in both.
+struct MarkerObservation {
+  int rows = 0;
+  int cols = 0;
+  std::array<HalfObservation, 2> halves;  ///< indexed by ImageHalf
+
+  const HalfObservation& half(ImageHalf h) const { return halves[static_cast<int>(h)]; }
+  /// Marker i is measured in both halves (triangulable).
+  bool paired(int i) const { return halves[0].valid(i) && halves[1].valid(i); }
+
+  struct Summary {
+    std::int64_t frame_index = 0;  ///< frames tracked by this tracker before this one
+    int paired_markers = 0;
+    int invalid_markers = 0;       ///< over both halves
+    bool acquired = false;         ///< either half was (re)acquired
+    bool grid_lost = false;        ///< either half has no grid
+    double seconds = 0.0;          ///< wall time of Track
+  } summary;
+};
+
+/// Finds the 20 x 20 marker grid in both halves of the camera image and follows it from
+/// frame to frame (paper section IV.A: the displacement field comes from tracking the
+/// markers).
+///
+/// Acquisition (first frame, and whenever a half's grid is lost): every dark blob of the
+/// half is detected (DetectBlobs), indexed onto the grid against the nominal sensor's
+/// marker pixels (IndexGrid), and the markers it could not match are grown from their
+/// matched grid neighbours as in tracking.
+///
+/// Tracking (every other frame, in small windows only, no allocation): each marker is
+/// predicted from its last position (plus its last displacement) corrected by the mean
+/// unexpected motion of its already measured grid neighbours, measured there
+/// (MeasureBlob), and accepted if its blob is plausible, near the prediction and not a
+/// neighbour's. The grid is grown breadth-first from its outer ring (where the elastic
+/// body is thinnest and moves least), so the motion carried inward from neighbour to
+/// neighbour keeps identities through up to about one pitch of motion per frame where
+/// the motion varies smoothly across the grid. A uniform jump of the whole grid by a
+/// whole pitch in one frame cannot be told from no motion by any local method; only the
+/// grid's border reveals it.
+class MarkerTracker {
+ public:
+  /// @throws Error if the options are invalid, the config has no designed mirrors or
+  /// virtual cameras, or a marker of the nominal sensor is not seen in its half.
+  explicit MarkerTracker(const SensorConfig& config, const MarkerTrackerOptions& options = {});
+
+  /// Measures the markers in a camera frame, writing into `observation` (whose storage is
+  /// reused: no allocation once it has been filled once).
+  /// @param image CV_8UC1 of the camera's size.
+  /// @throws Error if the image is empty, not CV_8UC1 or not the camera's size.
+  void Track(const cv::Mat& image, MarkerObservation& observation);
+  /// The same, returning a new observation.
+  MarkerObservation Track(const cv::Mat& image);
+
+  /// Forgets the tracked grid: the next frame is acquired afresh.
+  void Reset();
+
+  /// The nominal sensor's marker pixels in a half (the acquisition's prediction).
+  const std::vector<Eigen::Vector2d>& nominal_uv(ImageHalf half) const {
+    return halves_[static_cast<int>(half)].nominal;
+  }
+  /// Per marker, the distance to its nearest grid neighbour in nominal_uv, px.
+  const std::vector<double>& pitch_px(ImageHalf half) const {
+    return halves_[static_cast<int>(half)].pitch;
+  }
+  const MarkerTrackerOptions& options() const { return options_; }
+
+ private:
+  // Everything one half needs between frames, and its per-frame scratch.
+  struct Half {
+    cv::Rect roi;
+    std::vector<Eigen::Vector2d> nominal;
+    std::vector<double> pitch;
+    bool tracking = false;
+    std::vector<Eigen::Vector2d> estimate;  // last position (measured or predicted), px
+    std::vector<Eigen::Vector2d> velocity;  // px per frame
+    // Scratch.
+    std::vector<Eigen::Vector2d> base;      // prediction before the neighbours' correction
+    std::vector<Eigen::Vector2d> found;
+    std::vector<MarkerState> state;
+    std::vector<std::uint8_t> accepted, queued, tries;
+    std::vector<int> queue;
+  };
+
+  void AcquireHalf(const cv::Mat& image, Half& half) const;
+  // Keeps, of the accepted markers, the largest set connected through grid neighbours whose
+  // deviations from their base agree; the others are to be grown again.
+  void KeepLargestConsistentSeeds(Half& half) const;
+  void TrackHalf(const cv::Mat& image, Half& half) const;
+  // Grows the accepted set breadth-first from the queue: see the class comment.
+  void Grow(const cv::Mat& image, Half& half, int head, int tail) const;
+  // Prediction of marker i: its base, moved by the mean unexpected motion (found - base)
+  // of its accepted neighbours.
+  Eigen::Vector2d Predict(const Half& half, int i) const;
+  int CountValid(const Half& half) const;
+  // Ends a frame of a half: estimates and velocities for the next one.
+  void Commit(Half& half, bool keep_velocity) const;
+
+  SensorConfig config_;
+  MarkerTrackerOptions options_;
+  int rows_ = 0;
+  int cols_ = 0;
+  std::array<Half, 2> halves_;
+  std::int64_t frame_index_ = 0;
+};
+
+}  // namespace tac3d

@@ -1,0 +1,334 @@
+#include "tac3d/tracking/marker_tracker.h"
+
+#include <cmath>
+#include <fstream>
+#include <numeric>
+#include <random>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "tac3d/design/light_path_design.h"
+#include "tac3d/testing/testing.h"
+#include "tac3d/twin/camera_renderer.h"
+#include "tac3d/util/error.h"
+
+namespace tac3d {
+namespace {
+
+// Centroid accuracy on twin frames: the darkness-weighted centroid of a dot's image against
+// the exact ray-traced projection of its centre. The twin's noise (about 3 DN on a film of
+// 150-210 DN) alone moves a centroid by a few hundredths of a pixel; 0.1 px is a fifth of
+// the smallest dot's radius, and a swapped identity would be off by a pitch (>= 9 px).
+constexpr double kCentroidTolerancePx = 0.1;
+
+const SensorConfig& Sensor() {
+  static const SensorConfig config = DefaultSensorConfig();
+  return config;
+}
+
+const MarkerImageRenderer& Renderer() {
+  static const MarkerImageRenderer renderer(Sensor());
+  return renderer;
+}
+
+// The exact pixels of the markers, per half, through a sensor's optics.
+std::array<std::vector<Eigen::Vector2d>, 2> TruePixels(const SensorConfig& sensor,
+                                                       const std::vector<Eigen::Vector3d>& markers) {
+  const OpticalLayout layout = sensor.MakeOpticalLayout(true);
+  std::array<std::vector<Eigen::Vector2d>, 2> uv;
+  for (ImageHalf half : kImageHalves) {
+    for (const auto& p : markers) uv[static_cast<int>(half)].push_back(ProjectPoint(layout, half, p).value());
+  }
+  return uv;
+}
+
+struct Errors {
+  int valid = 0;
+  double max_px = 0.0;
+  double rms_px = 0.0;
+};
+
+// Centroid errors of the valid markers against the truth (over both halves).
+Errors Compare(const MarkerObservation& observation,
+               const std::array<std::vector<Eigen::Vector2d>, 2>& truth) {
+  Errors e;
+  for (int h = 0; h < 2; ++h) {
+    const HalfObservation& half = observation.halves[h];
+    for (size_t i = 0; i < half.uv.size(); ++i) {
+      if (!half.valid(static_cast<int>(i))) {
+        EXPECT_TRUE(std::isnan(half.uv[i].x()) && std::isnan(half.uv[i].y())) << "invalid marker " << i;
+        continue;
+      }
+      const double error = (half.uv[i] - truth[h][i]).norm();
+      e.max_px = std::max(e.max_px, error);
+      e.rms_px += error * error;
+      ++e.valid;
+    }
+  }
+  e.rms_px = std::sqrt(e.rms_px / std::max(1, e.valid));
+  return e;
+}
+
+// Smooth fields on the marker layer (mm): a lateral shift with a Gaussian profile about the
+// centre (shear under a rubbing object), and a dent pushed in along -z.
+std::vector<Eigen::Vector3d> Sheared(const Eigen::Vector2d& shift_mm, double sigma_mm) {
+  auto markers = Sensor().MarkerPositions();
+  for (auto& p : markers) {
+    const double g = sigma_mm > 0 ? std::exp(-p.head<2>().squaredNorm() / (2 * sigma_mm * sigma_mm)) : 1.0;
+    p.head<2>() += g * shift_mm;
+  }
+  return markers;
+}
+
+std::vector<Eigen::Vector3d> Dented(double depth_mm, double sigma_mm) {
+  auto markers = Sensor().MarkerPositions();
+  for (auto& p : markers) p.z() -= depth_mm * std::exp(-p.head<2>().squaredNorm() / (2 * sigma_mm * sigma_mm));
+  return markers;
+}
+
+// The film without markers (the twin's markers moved behind the camera): paints markers out.
+cv::Mat FilmOnly() {
+  std::vector<Eigen::Vector3d> away(Sensor().MarkerPositions().size(), Eigen::Vector3d(0, 0, -1000));
+  return Renderer().Render(away, 77);
+}
+
+TEST(MarkerTracker, UndeformedFrameEveryMarkerFoundWithinTolerance) {
+  const auto markers = Sensor().MarkerPositions();
+  MarkerTracker tracker(Sensor());
+  const MarkerObservation observation = tracker.Track(Renderer().Render(markers));
+  const Errors e = Compare(observation, TruePixels(Sensor(), markers));
+  EXPECT_EQ(e.valid, 800);
+  EXPECT_EQ(observation.summary.paired_markers, 400);
+  EXPECT_TRUE(observation.summary.acquired);
+  EXPECT_FALSE(observation.summary.grid_lost);
+  EXPECT_LT(e.max_px, kCentroidTolerancePx);
+  std::printf("undeformed: rms %.4f px, max %.4f px\n", e.rms_px, e.max_px);
+}
+
+// A real sensor is not the nominal one: the twin's camera is turned 1 deg about its axis and
+// moved 0.3 mm sideways; the tracker still indexes against the nominal sensor.
+TEST(MarkerTracker, AcquiresGridOfAMiscalibratedSensor) {
+  SensorConfig truth = Sensor();
+  truth.camera.sensor_from_cam.rotate(Eigen::AngleAxisd(DegToRad(1.0), Eigen::Vector3d::UnitZ()));
+  truth.camera.sensor_from_cam.pretranslate(Eigen::Vector3d(0.3, -0.2, 0.0));
+  const MarkerImageRenderer renderer(truth);
+  const auto markers = Sensor().MarkerPositions();
+  const auto true_uv = TruePixels(truth, markers);
+  MarkerTracker tracker(Sensor());
+  // How far the real grid is from the nominal one.
+  double offset = 0;
+  for (ImageHalf h : kImageHalves) {
+    for (size_t i = 0; i < markers.size(); ++i) {
+      offset = std::max(offset, (true_uv[static_cast<int>(h)][i] - tracker.nominal_uv(h)[i]).norm());
+    }
+  }
+  EXPECT_GT(offset, 4.0);
+  const MarkerObservation observation = tracker.Track(renderer.Render(markers));
+  const Errors e = Compare(observation, true_uv);
+  EXPECT_EQ(e.valid, 800);
+  EXPECT_LT(e.max_px, kCentroidTolerancePx);
+  std::printf("miscalibrated by up to %.1f px: rms %.4f px, max %.4f px\n", offset, e.rms_px, e.max_px);
+}
+
+// Acquisition of already deformed frames: the affine fit cannot follow a dent or a shear, the
+// growth from matched neighbours does.
+TEST(MarkerTracker, AcquiresShearedAndDentedFrames) {
+  const std::vector<std::pair<const char*, std::vector<Eigen::Vector3d>>> cases = {
+      {"uniform shear 0.5 mm", Sheared({0.5, 0.0}, 0.0)},
+      {"local shear 1 mm", Sheared({0.0, 1.0}, 4.0)},
+      {"dent 1 mm", Dented(1.0, 4.0)},
+  };
+  for (const auto& [name, markers] : cases) {
+    MarkerTracker tracker(Sensor());
+    const MarkerObservation observation = tracker.Track(Renderer().Render(markers));
+    const Errors e = Compare(observation, TruePixels(Sensor(), markers));
+    EXPECT_EQ(e.valid, 800) << name;
+    EXPECT_LT(e.max_px, kCentroidTolerancePx) << name;
+    std::printf("%s: rms %.4f px, max %.4f px\n", name, e.rms_px, e.max_px);
+  }
+}
+
+// A shear that grows and shrinks by up to one marker pitch (1.27 mm) per frame at its
+// centre, in two directions: identities are kept by tracking alone (no re-acquisition).
+TEST(MarkerTracker, SequenceMovingUpToOnePitchPerFrameKeepsIdentities) {
+  const double pitch = Sensor().markers.pitch_mm;
+  const std::vector<double> amplitude_pitches = {0, 0.5, 1.5, 2.5, 2.5, 1.5, 0.5, -0.5, -1.5, -0.5, 0};
+  const Eigen::Vector2d direction(std::cos(DegToRad(30)), std::sin(DegToRad(30)));
+  MarkerTracker tracker(Sensor());
+  MarkerObservation observation;
+  for (size_t k = 0; k < amplitude_pitches.size(); ++k) {
+    const auto markers = Sheared(amplitude_pitches[k] * pitch * direction, 4.5);
+    tracker.Track(Renderer().Render(markers, k), observation);
+    const Errors e = Compare(observation, TruePixels(Sensor(), markers));
+    EXPECT_EQ(e.valid, 800) << "frame " << k;
+    EXPECT_LT(e.max_px, kCentroidTolerancePx) << "frame " << k;
+    EXPECT_EQ(observation.summary.acquired, k == 0) << "frame " << k;
+  }
+}
+
+// Markers hidden (painted over with the film), in the first frame and while tracking.
+TEST(MarkerTracker, TenPercentOfMarkersHiddenAreFlaggedAndTheRestMeasured) {
+  const auto markers = Sensor().MarkerPositions();
+  const auto truth = TruePixels(Sensor(), markers);
+  const cv::Mat film = FilmOnly();
+  std::mt19937 rng(testing::kRandomSeed);
+  std::vector<int> order(markers.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::shuffle(order.begin(), order.end(), rng);
+  const std::vector<int> hidden(order.begin(), order.begin() + 40);
+  cv::Mat image = Renderer().Render(markers, 1);
+  for (int h = 0; h < 2; ++h) {
+    for (int i : hidden) {
+      cv::Mat mask = cv::Mat::zeros(image.size(), CV_8UC1);
+      cv::circle(mask, cv::Point(std::lround(truth[h][i].x()), std::lround(truth[h][i].y())), 5, 255, -1);
+      film.copyTo(image, mask);
+    }
+  }
+  MarkerTracker tracker(Sensor());
+  for (const bool first_frame : {true, false}) {
+    if (!first_frame) {
+      tracker.Reset();
+      tracker.Track(Renderer().Render(markers, 2));
+    }
+    const MarkerObservation observation = tracker.Track(image);
+    for (int h = 0; h < 2; ++h) {
+      for (int i : hidden) {
+        EXPECT_EQ(observation.halves[h].state[i], MarkerState::kNotFound) << "marker " << i;
+      }
+      EXPECT_EQ(observation.halves[h].valid_markers, 360);
+      EXPECT_FALSE(observation.halves[h].grid_lost);
+    }
+    const Errors e = Compare(observation, truth);
+    EXPECT_EQ(e.valid, 720);
+    EXPECT_LT(e.max_px, kCentroidTolerancePx);
+    EXPECT_EQ(observation.summary.acquired, first_frame);
+  }
+}
+
+// Five dark specks (dust, a scratch) drawn into a tracked frame: the markers they touch are
+// flagged or still right; none is measured wrong; the others are all measured.
+TEST(MarkerTracker, FiveSpuriousBlobsNeverGiveWrongMarkers) {
+  const auto markers = Sensor().MarkerPositions();
+  const auto truth = TruePixels(Sensor(), markers);
+  MarkerTracker tracker(Sensor());
+  std::mt19937 rng(testing::kRandomSeed);
+  std::vector<Eigen::Vector2d> specks;
+  cv::Mat image = Renderer().Render(markers, 3);
+  for (int k = 0; k < 5; ++k) {
+    const int h = k % 2;
+    const auto& nominal = tracker.nominal_uv(kImageHalves[h]);
+    std::uniform_int_distribution<int> pick(0, static_cast<int>(nominal.size()) - 2);
+    const int i = pick(rng);
+    // Between a marker and its right neighbour, or on top of a marker.
+    const Eigen::Vector2d p = k < 3 ? Eigen::Vector2d(0.5 * (nominal[i] + nominal[i + 1]))
+                                    : Eigen::Vector2d(nominal[i] + Eigen::Vector2d(1.5, 0));
+    specks.push_back(p);
+    cv::circle(image, cv::Point(std::lround(p.x()), std::lround(p.y())), 3, 30, -1, cv::LINE_AA);
+  }
+  for (const bool first_frame : {true, false}) {
+    if (!first_frame) {
+      tracker.Reset();
+      tracker.Track(Renderer().Render(markers, 4));
+    }
+    const MarkerObservation observation = tracker.Track(image);
+    const Errors e = Compare(observation, truth);
+    EXPECT_LT(e.max_px, kCentroidTolerancePx);
+    // Markers more than a pitch and a speck away from every speck are all measured.
+    for (int h = 0; h < 2; ++h) {
+      const auto& pitch = tracker.pitch_px(kImageHalves[h]);
+      for (size_t i = 0; i < markers.size(); ++i) {
+        double nearest = 1e9;
+        for (const auto& s : specks) nearest = std::min(nearest, (truth[h][i] - s).norm());
+        if (nearest > pitch[i] + 3) {
+          EXPECT_TRUE(observation.halves[h].valid(i)) << "marker " << i;
+        }
+      }
+    }
+    EXPECT_GE(e.valid, 800 - 10);
+    std::printf("5 specks (%s): %d markers valid, max error %.4f px\n",
+                first_frame ? "acquisition" : "tracking", e.valid, e.max_px);
+  }
+}
+
+void ExpectGridLost(const MarkerObservation& observation) {
+  EXPECT_TRUE(observation.summary.grid_lost);
+  EXPECT_EQ(observation.summary.paired_markers, 0);
+  EXPECT_EQ(observation.summary.invalid_markers, 800);
+  for (const HalfObservation& half : observation.halves) {
+    EXPECT_TRUE(half.grid_lost);
+    EXPECT_EQ(half.state_counts[static_cast<int>(MarkerState::kGridLost)], 400);
+    for (const auto& uv : half.uv) EXPECT_TRUE(std::isnan(uv.x()));
+  }
+}
+
+TEST(MarkerTracker, PureNoiseFrameIsFlaggedAndTrackingRecovers) {
+  const auto markers = Sensor().MarkerPositions();
+  MarkerTracker tracker(Sensor());
+  tracker.Track(Renderer().Render(markers, 5));
+  cv::Mat noise(480, 640, CV_8UC1);
+  cv::RNG rng(testing::kRandomSeed);
+  rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
+  ExpectGridLost(tracker.Track(noise));
+  ExpectGridLost(tracker.Track(noise));  // as the first frame after a loss, too
+  const MarkerObservation back = tracker.Track(Renderer().Render(markers, 6));
+  EXPECT_TRUE(back.summary.acquired);
+  EXPECT_EQ(back.summary.paired_markers, 400);
+  EXPECT_LT(Compare(back, TruePixels(Sensor(), markers)).max_px, kCentroidTolerancePx);
+}
+
+TEST(MarkerTracker, BlackFrameIsFlaggedAndTrackingRecovers) {
+  const auto markers = Sensor().MarkerPositions();
+  MarkerTracker tracker(Sensor());
+  ExpectGridLost(tracker.Track(cv::Mat::zeros(480, 640, CV_8UC1)));
+  const MarkerObservation back = tracker.Track(Renderer().Render(markers, 7));
+  EXPECT_TRUE(back.summary.acquired);
+  EXPECT_EQ(back.summary.paired_markers, 400);
+  EXPECT_LT(Compare(back, TruePixels(Sensor(), markers)).max_px, kCentroidTolerancePx);
+  ExpectGridLost(tracker.Track(cv::Mat::zeros(480, 640, CV_8UC1)));  // while tracking
+}
+
+TEST(MarkerTracker, ImageOfWrongSizeTypeOrEmptyThrows) {
+  MarkerTracker tracker(Sensor());
+  EXPECT_THROW(tracker.Track(cv::Mat::zeros(240, 320, CV_8UC1)), Error);
+  EXPECT_THROW(tracker.Track(cv::Mat::zeros(480, 640, CV_8UC3)), Error);
+  EXPECT_THROW(tracker.Track(cv::Mat::zeros(480, 640, CV_16UC1)), Error);
+  EXPECT_THROW(tracker.Track(cv::Mat()), Error);
+  // A bad frame changes nothing: the next good one is acquired as usual.
+  EXPECT_EQ(tracker.Track(Renderer().Render(Sensor().MarkerPositions())).summary.paired_markers, 400);
+}
+
+TEST(MarkerTracker, CorruptPngFileThrows) {
+  std::vector<std::uint8_t> png;
+  cv::imencode(".png", Renderer().Render(Sensor().MarkerPositions()), png);
+  // Keep the signature and header, garble the compressed data, cut the end off.
+  for (size_t k = 64; k < png.size(); k += 7) png[k] ^= 0x5A;
+  png.resize(png.size() / 2);
+  const std::string path = testing::MakeTempDir("corrupt") + "/frame.png";
+  std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(png.data()), png.size());
+  const cv::Mat image = cv::imread(path, cv::IMREAD_GRAYSCALE);
+  ASSERT_TRUE(image.empty());
+  MarkerTracker tracker(Sensor());
+  EXPECT_THROW(tracker.Track(image), Error);
+  EXPECT_THROW(tracker.Track(cv::imdecode(png, cv::IMREAD_GRAYSCALE)), Error);
+}
+
+TEST(MarkerTracker, InvalidOptionsOrSensorThrow) {
+  MarkerTrackerOptions options;
+  options.search_radius = 0.6;
+  EXPECT_THROW(MarkerTracker(Sensor(), options), Error);
+  options = {};
+  options.min_valid_fraction = 0.0;
+  EXPECT_THROW(MarkerTracker(Sensor(), options), Error);
+  options = {};
+  options.blob.background_kernel_px = 10;
+  EXPECT_THROW(MarkerTracker(Sensor(), options), Error);
+  options = {};
+  options.index.match_gate = 0.5;
+  EXPECT_THROW(MarkerTracker(Sensor(), options), Error);
+  EXPECT_THROW(MarkerTracker(SensorConfig{}), Error);  // no mirrors designed
+}
+
+}  // namespace
+}  // namespace tac3d
