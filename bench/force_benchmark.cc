@@ -1,0 +1,115 @@
+// Per-frame cost of the force inverse F = K D (paper eq. 4) over grid sizes, against the bare
+// double- and single-precision GEMV it is built on, with and without invalid markers.
+// Run on one core: taskset -c 0 build/bin/bench_force --benchmark_repetitions=20
+//   --benchmark_report_aggregates_only=true
+
+#include <memory>
+#include <random>
+
+#include <benchmark/benchmark.h>
+
+#include "tac3d/force/force_reconstructor.h"
+#include "tac3d/force/synthetic_compliance.h"
+
+namespace tac3d {
+namespace {
+
+// A reconstructor for a side x side grid and a displacement frame (the values do not matter
+// to the timing; a half-space H keeps K realistic).
+struct Fixture {
+  explicit Fixture(int side) {
+    const SyntheticCompliance model = CalcSyntheticCompliance({.rows = side, .cols = side});
+    h = model.h;
+    reconstructor = std::make_unique<ForceReconstructor>(model.h, model.marker_positions,
+                                                         ForceReconstructorOptions{.weight = 1e-3});
+    std::mt19937_64 rng(1);
+    std::normal_distribution<double> normal(0.0, 0.01);
+    d.resize(h.rows());
+    for (Eigen::Index j = 0; j < d.size(); ++j) d(j) = normal(rng);
+  }
+
+  // 10% of the markers lost, at random.
+  std::vector<bool> Mask(std::uint64_t seed) const {
+    std::mt19937_64 rng(seed);
+    const int n = reconstructor->num_markers();
+    std::vector<bool> valid(n, true);
+    for (int k = 0; k < n / 10;) {
+      const int i = static_cast<int>(rng() % n);
+      if (valid[i]) valid[i] = false, ++k;
+    }
+    return valid;
+  }
+
+  Eigen::MatrixXd h;
+  std::unique_ptr<ForceReconstructor> reconstructor;
+  Eigen::VectorXd d;
+};
+
+void SetCounters(benchmark::State& state, int side) {
+  state.counters["markers"] = side * side;
+  state.counters["frames_per_s"] = benchmark::Counter(state.iterations(), benchmark::Counter::kIsRate);
+}
+
+void BM_Reconstruct(benchmark::State& state) {
+  const int side = static_cast<int>(state.range(0));
+  Fixture fixture(side);
+  ForceFrame frame;
+  for (auto _ : state) {
+    fixture.reconstructor->Reconstruct(fixture.d, {}, &frame);
+    benchmark::DoNotOptimize(frame.forces_n.data());
+  }
+  SetCounters(state, side);
+}
+BENCHMARK(BM_Reconstruct)->Arg(10)->Arg(20)->Arg(30)->Unit(benchmark::kMicrosecond);
+
+// The same mask every frame: the cached restricted factor is reused.
+void BM_ReconstructTenPercentInvalid(benchmark::State& state) {
+  const int side = static_cast<int>(state.range(0));
+  Fixture fixture(side);
+  const std::vector<bool> valid = fixture.Mask(2);
+  ForceFrame frame;
+  for (auto _ : state) {
+    fixture.reconstructor->Reconstruct(fixture.d, valid, &frame);
+    benchmark::DoNotOptimize(frame.forces_n.data());
+  }
+  SetCounters(state, side);
+}
+BENCHMARK(BM_ReconstructTenPercentInvalid)->Arg(20)->Unit(benchmark::kMicrosecond);
+
+// A different mask every frame: the restricted factor is rebuilt each time (the worst case).
+void BM_ReconstructNewMaskEveryFrame(benchmark::State& state) {
+  const int side = static_cast<int>(state.range(0));
+  Fixture fixture(side);
+  const std::vector<bool> masks[2] = {fixture.Mask(2), fixture.Mask(3)};
+  ForceFrame frame;
+  int k = 0;
+  for (auto _ : state) {
+    fixture.reconstructor->Reconstruct(fixture.d, masks[k++ % 2], &frame);
+    benchmark::DoNotOptimize(frame.forces_n.data());
+  }
+  SetCounters(state, side);
+}
+BENCHMARK(BM_ReconstructNewMaskEveryFrame)->Arg(20)->Unit(benchmark::kMicrosecond);
+
+// The bare products, to show what single precision buys: K is 3N x 3N, read once a frame.
+template <typename Scalar>
+void BM_Gemv(benchmark::State& state) {
+  const int n = 3 * static_cast<int>(state.range(0) * state.range(0));
+  using Matrix = Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  using Vector = Eigen::Matrix<Scalar, Eigen::Dynamic, 1>;
+  const Matrix k = Matrix::Random(n, n);
+  const Vector d = Vector::Random(n);
+  Vector f(n);
+  for (auto _ : state) {
+    f.noalias() = k * d;
+    benchmark::DoNotOptimize(f.data());
+  }
+  state.counters["bytes_of_K"] = static_cast<double>(sizeof(Scalar)) * n * n;
+}
+BENCHMARK(BM_Gemv<double>)->Arg(20)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Gemv<float>)->Arg(20)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
+}  // namespace tac3d
+
+BENCHMARK_MAIN();

@@ -1,0 +1,62 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "tac3d/fem/body_model.h"
+#include "tac3d/force/marker_surface.h"
+#include "tac3d/force/regularization.h"
+
+namespace tac3d {
+
+/// What `tac3d eval force` runs: the inverse built on the nominal H, fed displacements of an
+/// independent "true" sensor (a finer FEM mesh, elastic constants off nominal, never H itself)
+/// under surface tractions of contact shapes, with Gaussian noise added.
+struct EvalForceOptions {
+  /// The nominal sensor whose H the inverse uses.
+  fem::BodyModelOptions body;
+  /// Where the nominal H is cached (fem::LoadOrBuildComplianceModel); empty = build it.
+  std::string cache_dir;
+  /// The true sensor's mesh refinement relative to the nominal one; 2 halves every edge
+  /// (the acceptance asks for edges at most half as long).
+  double truth_refinement = 2.0;
+  /// The true sensor's E and nu, as multiples of the nominal ones.
+  double truth_modulus_factor = 1.1;
+  double truth_poisson_factor = 0.9;
+  /// 1-sigma Gaussian noise added to every displacement component (mm).
+  double noise_mm = 0.005;
+  /// Unloaded noisy frames the noise variance is estimated from.
+  int static_frames = 50;
+  /// Sphere presses for the gain fit and the choice of w, and separate ones for the test.
+  int calibration_presses = 30;
+  int test_presses = 30;
+  /// Full scale of the normal (z) and tangential (x, y) force (N): presses span it, errors are
+  /// a percentage of it.
+  double full_scale_normal_n = 10.0;
+  double full_scale_tangential_n = 5.0;
+  WeightSelectionOptions weight;
+  ContactOptions contact;
+  std::uint64_t seed = 20221122;
+  bool show_progress = true;
+
+  /// @throws tac3d::Error naming the field and its bound: truth_refinement in [1, 4];
+  ///   factors in (0, 2] with the true nu valid; noise_mm >= 0; static_frames >= 2;
+  ///   presses >= 3 each; full scales > 0; and the body, weight and contact options.
+  void Validate() const;
+};
+
+/// Runs the evaluation and returns every figure with its tolerance:
+/// {"checks": [{name, value, tolerance, pass, unit}], "resultant_error_pct_fs",
+///  "probe_center_error_mm", "pins_dip_ratio", "weight", "gains", "noise", "uncertainty",
+///  "presses", "probes", "pins", "truth_model", "timing_s", "all_pass"}.
+/// Checks: resultant force error <= 2% of full scale (max over test presses and axes, gains
+/// fitted on the calibration presses); 2 mm probe centre error <= one pitch (max over probe
+/// positions); two pins 2.54 mm apart resolved, the dip between them <= 70% of the smaller
+/// peak (max over pin placements relative to the markers); the true mesh's edges at most half
+/// the nominal ones.
+/// @throws tac3d::Error if the options are invalid.
+nlohmann::json EvaluateForce(const EvalForceOptions& options);
+
+}  // namespace tac3d
