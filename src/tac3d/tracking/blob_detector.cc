@@ -9,6 +9,15 @@
 #include "tac3d/util/error.h"
 
 namespace tac3d {
+namespace {
+
+// Largest |dx| with dx^2 + dy^2 <= r2 (-1 if none): one row of a disk.
+int HalfWidth(double r2, int dy) {
+  const double left = r2 - dy * dy;
+  return left < 0 ? -1 : static_cast<int>(std::floor(std::sqrt(left)));
+}
+
+}  // namespace
 
 void BlobOptions::Validate() const {
   auto require = [](bool ok, const char* field, const char* bound, double value) {
@@ -87,17 +96,25 @@ BlobStatus MeasureBlob(const cv::Mat& image,
   int ring_size = 0;
   const double r_in2 = (blob_radius_px + 0.5) * (blob_radius_px + 0.5);
   const double r_out2 = (blob_radius_px + 2.0) * (blob_radius_px + 2.0);
-  const int reach = static_cast<int>(std::ceil(blob_radius_px + 2.0));
+  const int reach = static_cast<int>(std::floor(blob_radius_px + 2.0));
+  auto take = [&](const std::uint8_t* row, int x0, int x1) {
+    x0 = std::max(x0, roi.x);
+    x1 = std::min(x1, roi_x1);
+    for (int x = x0; x <= x1 && ring_size < kMaxRing; ++x) ring[ring_size++] = row[x];
+  };
   for (int dy = -reach; dy <= reach; ++dy) {
     const int y = by + dy;
     if (y < roi.y || y > roi_y1) continue;
     const std::uint8_t* row = image.ptr<std::uint8_t>(y);
-    for (int dx = -reach; dx <= reach && ring_size < kMaxRing; ++dx) {
-      const int x = bx + dx;
-      const int d2 = dx * dx + dy * dy;
-      if (x < roi.x || x > roi_x1 || d2 < r_in2 || d2 > r_out2) continue;
-      ring[ring_size++] = row[x];
+    const int outer = HalfWidth(r_out2, dy);
+    const double inside2 = r_in2 - dy * dy;  // |dx| < sqrt(inside2) is inside the ring
+    if (inside2 <= 0) {
+      take(row, bx - outer, bx + outer);
+      continue;
     }
+    const int inner = static_cast<int>(std::ceil(std::sqrt(inside2)));
+    take(row, bx - outer, bx - inner);
+    take(row, bx + inner, bx + outer);
   }
   if (ring_size < 8) return BlobStatus::kNoBlob;
   std::nth_element(ring.begin(), ring.begin() + ring_size / 2, ring.begin() + ring_size);
@@ -130,10 +147,10 @@ BlobStatus MeasureBlob(const cv::Mat& image,
       const int y = cy + dy;
       if (y < roi.y || y > roi_y1) continue;
       const std::uint8_t* row = image.ptr<std::uint8_t>(y);
-      for (int dx = -r; dx <= r; ++dx) {
-        const int x = cx + dx;
-        if (x < roi.x || x > roi_x1 || dx * dx + dy * dy > r2) continue;
-        const double w = level - row[x];
+      const int half_width = HalfWidth(r2, dy);
+      const int dx0 = std::max(-half_width, roi.x - cx), dx1 = std::min(half_width, roi_x1 - cx);
+      for (int dx = dx0; dx <= dx1; ++dx) {
+        const double w = level - row[cx + dx];
         if (w <= 0) continue;
         sw += w;
         sx += w * dx;

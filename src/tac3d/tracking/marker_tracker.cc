@@ -37,6 +37,7 @@ void MarkerTrackerOptions::Validate() const {
   };
   require(search_radius > 0 && search_radius < 0.5, "search_radius", "in (0, 0.5) pitch",
           search_radius);
+  require(gate > 0 && gate <= search_radius, "gate", "in (0, search_radius] pitch", gate);
   require(blob_radius > 0 && blob_radius < 1, "blob_radius", "in (0, 1) pitch", blob_radius);
   require(min_separation > 0 && min_separation < 1, "min_separation", "in (0, 1) pitch",
           min_separation);
@@ -101,7 +102,6 @@ MarkerTracker::MarkerTracker(const SensorConfig& config, const MarkerTrackerOpti
       }
     }
     half.estimate.assign(n, Eigen::Vector2d::Zero());
-    half.velocity.assign(n, Eigen::Vector2d::Zero());
     half.base.assign(n, Eigen::Vector2d::Zero());
     half.found.assign(n, Eigen::Vector2d::Zero());
     half.state.assign(n, MarkerState::kGridLost);
@@ -150,7 +150,8 @@ void MarkerTracker::Grow(const cv::Mat& image, Half& half, int head, int tail) c
         half.state[i] = status == BlobStatus::kNoBlob ? MarkerState::kNotFound : MarkerState::kBadShape;
         continue;
       }
-      if ((blob.center - prediction).squaredNorm() > search * search) {
+      const double gate = options_.gate * pitch;
+      if ((blob.center - prediction).squaredNorm() > gate * gate) {
         half.state[i] = MarkerState::kInconsistent;
         continue;
       }
@@ -186,11 +187,9 @@ int MarkerTracker::CountValid(const Half& half) const {
   return static_cast<int>(std::count(half.accepted.begin(), half.accepted.end(), 1));
 }
 
-void MarkerTracker::Commit(Half& half, bool keep_velocity) const {
+void MarkerTracker::Commit(Half& half) const {
   for (int i = 0; i < rows_ * cols_; ++i) {
-    const Eigen::Vector2d next = half.accepted[i] ? half.found[i] : Predict(half, i);
-    half.velocity[i] = keep_velocity ? Eigen::Vector2d(next - half.estimate[i]) : Eigen::Vector2d::Zero();
-    half.estimate[i] = next;
+    half.estimate[i] = half.accepted[i] ? half.found[i] : Predict(half, i);
   }
 }
 
@@ -198,7 +197,6 @@ void MarkerTracker::TrackHalf(const cv::Mat& image, Half& half) const {
   const int n = rows_ * cols_;
   for (int i = 0; i < n; ++i) {
     half.base[i] = half.estimate[i];
-    if (options_.constant_velocity) half.base[i] += half.velocity[i];
     half.accepted[i] = half.queued[i] = half.tries[i] = 0;
     half.state[i] = MarkerState::kNotFound;
   }
@@ -213,14 +211,14 @@ void MarkerTracker::TrackHalf(const cv::Mat& image, Half& half) const {
   for (int c = cols_ - 2; c >= 0 && rows_ > 1; --c) push((rows_ - 1) * cols_ + c);
   for (int r = rows_ - 2; r >= 1 && cols_ > 1; --r) push(r * cols_);
   Grow(image, half, 0, tail);
-  Commit(half, true);
+  Commit(half);
   half.tracking = CountValid(half) >= options_.min_valid_fraction * n;
 }
 
 void MarkerTracker::KeepLargestConsistentSeeds(Half& half) const {
   const int n = rows_ * cols_;
   // Label the seeds' components: neighbours join when their deviations from the affine
-  // map differ by less than the search radius (a smooth field, not a seam).
+  // map differ by less than the gate (a smooth field, not a seam or a pulled centroid).
   std::vector<int> label(n, -1);
   int best_label = -1, best_size = 0;
   for (int start = 0, next_label = 0; start < n; ++start) {
@@ -232,7 +230,7 @@ void MarkerTracker::KeepLargestConsistentSeeds(Half& half) const {
       const int i = half.queue[head++];
       ++size;
       const Eigen::Vector2d deviation = half.found[i] - half.base[i];
-      const double limit = options_.search_radius * half.pitch[i];
+      const double limit = options_.gate * half.pitch[i];
       ForNeighbours(i, rows_, cols_, [&](int j) {
         if (!half.accepted[j] || label[j] >= 0) return;
         if ((half.found[j] - half.base[j] - deviation).squaredNorm() > limit * limit) return;
@@ -312,7 +310,7 @@ void MarkerTracker::AcquireHalf(const cv::Mat& image, Half& half) const {
   half.found = std::move(best_found);
   half.state = std::move(best_state);
   half.accepted = std::move(best_accepted);
-  Commit(half, false);
+  Commit(half);
   half.tracking = best_valid >= options_.min_valid_fraction * n;
 }
 

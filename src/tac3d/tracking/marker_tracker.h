@@ -22,18 +22,18 @@ namespace tac3d {
 struct MarkerTrackerOptions {
   BlobOptions blob;
   GridIndexOptions index;
-  /// A marker's blob is looked for within this distance of its prediction; its centroid
-  /// must land there too.
+  /// A marker's blob is looked for within this distance of its prediction.
   double search_radius = 0.35;
+  /// Its centroid must land within this distance of the prediction; matched seeds of an
+  /// acquisition must agree with their neighbours' deviations from the affine map as
+  /// closely. Rejects a dot merged with a speck beside it (its centroid is pulled off).
+  double gate = 0.2;
   /// The disk a centroid is taken over (the local background is read just outside it).
   double blob_radius = 0.45;
   /// Two markers whose blobs are closer than this are one blob: the later one is refused.
   double min_separation = 0.5;
   /// Below this fraction of valid markers a half's grid is lost and re-acquired.
   double min_valid_fraction = 0.5;
-  /// Predict each marker from its last displacement too (constant velocity), not only
-  /// from its last position.
-  bool constant_velocity = true;
 
   /// @throws Error naming the field and the bound.
   void Validate() const;
@@ -100,8 +100,8 @@ struct MarkerObservation {
 /// matched grid neighbours as in tracking.
 ///
 /// Tracking (every other frame, in small windows only, no allocation): each marker is
-/// predicted from its last position (plus its last displacement) corrected by the mean
-/// unexpected motion of its already measured grid neighbours, measured there
+/// predicted at its last position moved by the mean motion of its already measured grid
+/// neighbours, measured there
 /// (MeasureBlob), and accepted if its blob is plausible, near the prediction and not a
 /// neighbour's. The grid is grown breadth-first from its outer ring (where the elastic
 /// body is thinnest and moves least), so the motion carried inward from neighbour to
@@ -144,7 +144,6 @@ class MarkerTracker {
     std::vector<double> pitch;
     bool tracking = false;
     std::vector<Eigen::Vector2d> estimate;  // last position (measured or predicted), px
-    std::vector<Eigen::Vector2d> velocity;  // px per frame
     // Scratch.
     std::vector<Eigen::Vector2d> base;      // prediction before the neighbours' correction
     std::vector<Eigen::Vector2d> found;
@@ -164,8 +163,8 @@ class MarkerTracker {
   // of its accepted neighbours.
   Eigen::Vector2d Predict(const Half& half, int i) const;
   int CountValid(const Half& half) const;
-  // Ends a frame of a half: estimates and velocities for the next one.
-  void Commit(Half& half, bool keep_velocity) const;
+  // Ends a frame of a half: every marker's estimate for the next one.
+  void Commit(Half& half) const;
 
   SensorConfig config_;
   MarkerTrackerOptions options_;

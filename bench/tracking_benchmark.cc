@@ -1,0 +1,76 @@
+// Marker tracking on 640x480 twin frames of the built-in sensor: full-image acquisition
+// (blob detection, grid indexing, growth) and the per-frame tracking that follows it.
+// Run: taskset -c 0 build-tracking/bin/bench_tracking --benchmark_repetitions=10
+//        --benchmark_report_aggregates_only=true
+#include <cmath>
+
+#include <benchmark/benchmark.h>
+
+#include "tac3d/design/light_path_design.h"
+#include "tac3d/tracking/marker_tracker.h"
+#include "tac3d/twin/camera_renderer.h"
+
+namespace tac3d {
+namespace {
+
+const SensorConfig& Sensor() {
+  static const SensorConfig config = DefaultSensorConfig();
+  return config;
+}
+
+// A shear sweeping back and forth across 16 frames, up to 1 mm at the centre (about 0.1
+// pitch between frames): every frame moves every tracked marker.
+const std::vector<cv::Mat>& Frames() {
+  static const std::vector<cv::Mat> frames = [] {
+    const MarkerImageRenderer renderer(Sensor());
+    std::vector<cv::Mat> out;
+    for (int k = 0; k < 16; ++k) {
+      auto markers = Sensor().MarkerPositions();
+      const double amplitude_mm = std::sin(2 * M_PI * k / 16.0);
+      for (auto& p : markers) p.x() += amplitude_mm * std::exp(-p.head<2>().squaredNorm() / 72.0);
+      out.push_back(renderer.Render(markers, k));
+    }
+    return out;
+  }();
+  return frames;
+}
+
+void BM_DetectBlobsOneHalf(benchmark::State& state) {
+  const VirtualCameraConfig& camera = Sensor().virtual_cameras.front();
+  const cv::Rect roi(camera.column_begin, 0, camera.column_end - camera.column_begin, 480);
+  for (auto _ : state) benchmark::DoNotOptimize(DetectBlobs(Frames()[0], roi, {}));
+}
+BENCHMARK(BM_DetectBlobsOneHalf)->Unit(benchmark::kMillisecond);
+
+// First frame (and re-acquisition): detection + indexing + growth in both halves.
+void BM_AcquireFrame(benchmark::State& state) {
+  MarkerTracker tracker(Sensor());
+  MarkerObservation observation;
+  for (auto _ : state) {
+    tracker.Reset();
+    tracker.Track(Frames()[0], observation);
+    if (observation.summary.paired_markers != 400) state.SkipWithError("grid not acquired");
+  }
+}
+BENCHMARK(BM_AcquireFrame)->Unit(benchmark::kMillisecond);
+
+// Every later frame: 800 markers predicted, measured in small windows, gated.
+void BM_TrackFrame(benchmark::State& state) {
+  MarkerTracker tracker(Sensor());
+  MarkerObservation observation;
+  tracker.Track(Frames()[0], observation);
+  size_t k = 1;
+  for (auto _ : state) {
+    tracker.Track(Frames()[k++ % Frames().size()], observation);
+    if (observation.summary.acquired || observation.summary.paired_markers != 400) {
+      state.SkipWithError("tracking lost markers");
+    }
+  }
+  state.counters["markers"] = 2.0 * observation.rows * observation.cols;
+}
+BENCHMARK(BM_TrackFrame)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
+}  // namespace tac3d
+
+BENCHMARK_MAIN();
