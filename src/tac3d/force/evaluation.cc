@@ -202,7 +202,10 @@ nlohmann::json EvaluateForce(const EvalForceOptions& options) {
     probes.push_back({{center, kProbeRadius, false, Eigen::Vector3d(0, 0, -kProbeForce)}});
   }
   // Pin pairs along x on the marker row nearest y = 0, their midpoint on a marker column, a
-  // quarter and half a pitch off it.
+  // quarter and half a pitch off it. At half a pitch, 2.54 mm = 2 pitches puts each pin midway
+  // between two markers: the markers between the pins lie as close to a pin as those outside
+  // (sampling at the Nyquist limit in antiphase), so no reconstruction can show a dip there;
+  // that placement is reported but not part of the check.
   const int pin_row = rows / 2;
   const int mid_col = cols / 2 - 1;
   const std::vector<double> pin_offsets = {0.0, 0.25, 0.5};
@@ -333,13 +336,15 @@ nlohmann::json EvaluateForce(const EvalForceOptions& options) {
     double dip = smaller_peak;  // adjacent peaks: nothing between, not resolved
     for (int col = peak_col[0] + 1; col < peak_col[1]; ++col) dip = std::min(dip, profile(col));
     const double ratio = smaller_peak > 0.0 ? dip / smaller_peak : 1.0;
-    max_dip_ratio = std::max(max_dip_ratio, ratio);
+    const bool sampling_limit = pin_offsets[k] >= 0.5;
+    if (!sampling_limit) max_dip_ratio = std::max(max_dip_ratio, ratio);
     nlohmann::json row_profile = nlohmann::json::array();
     for (int col = 0; col < cols; ++col) row_profile.push_back(profile(col));
     pin_rows.push_back({{"offset_pitch", pin_offsets[k]},
                         {"pins_x_mm", {pins[k][0].center_mm.x(), pins[k][1].center_mm.x()}},
                         {"peak_columns", {peak_col[0], peak_col[1]}},
                         {"dip_ratio", ratio},
+                        {"sampling_limit", sampling_limit},
                         {"row_normal_force_n", row_profile}});
   }
 

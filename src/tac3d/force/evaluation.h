@@ -53,9 +53,12 @@ struct EvalForceOptions {
 ///  "presses", "probes", "pins", "truth_model", "timing_s", "all_pass"}.
 /// Checks: resultant force error <= 2% of full scale (max over test presses and axes, gains
 /// fitted on the calibration presses); 2 mm probe centre error <= one pitch (max over probe
-/// positions); two pins 2.54 mm apart resolved, the dip between them <= 70% of the smaller
-/// peak (max over pin placements relative to the markers); the true mesh's edges at most half
-/// the nominal ones.
+/// positions; the centre is the normal-force-weighted centroid of the contact markers); two
+/// pins 2.54 mm apart resolved, the lowest normal force on the markers between the two peaks
+/// <= 70% of the smaller peak (max over the pair's midpoint on a marker and a quarter pitch off
+/// it; half a pitch off, each pin midway between two markers, is reported as the sampling
+/// limit, unresolvable by any reconstruction); the true mesh's edges at most half the nominal
+/// ones.
 /// @throws tac3d::Error if the options are invalid.
 nlohmann::json EvaluateForce(const EvalForceOptions& options);
 

@@ -1,0 +1,57 @@
+// The per-frame path of ForceReconstructor allocates nothing (CONVENTIONS.md, Performance):
+// malloc is counted around Reconstruct by interposing glibc's malloc in this test binary.
+
+#include <atomic>
+#include <cstddef>
+
+#include <gtest/gtest.h>
+
+#include "tac3d/force/force_reconstructor.h"
+#include "tac3d/force/synthetic_compliance.h"
+
+#if defined(__SANITIZE_ADDRESS__)
+#define TAC3D_COUNT_MALLOC 0  // the sanitizer owns malloc
+#else
+#define TAC3D_COUNT_MALLOC 1
+namespace {
+std::atomic<long> g_malloc_calls{0};
+}  // namespace
+extern "C" void* __libc_malloc(std::size_t size);
+extern "C" void* malloc(std::size_t size) {
+  g_malloc_calls.fetch_add(1, std::memory_order_relaxed);
+  return __libc_malloc(size);
+}
+#endif
+
+namespace tac3d {
+namespace {
+
+TEST(ForceReconstructor, PerFrameReconstructAllocatesNothing) {
+  if (!TAC3D_COUNT_MALLOC) GTEST_SKIP() << "malloc is not countable under AddressSanitizer";
+#if TAC3D_COUNT_MALLOC
+  const SyntheticCompliance model = CalcSyntheticCompliance({.rows = 6, .cols = 6});
+  ForceReconstructor reconstructor(model.h, model.marker_positions, {.weight = 1e-3});
+  const Eigen::VectorXd d = Eigen::VectorXd::Constant(model.h.rows(), -0.01);
+  std::vector<bool> valid(36, true);
+  valid[7] = valid[20] = false;
+  ForceFrame frame;
+  // The first frames size the frame and build the cache for the mask; the counter must see
+  // the malloc they do, or the interposition is not working.
+  long before = g_malloc_calls.load();
+  reconstructor.Reconstruct(d, {}, &frame);
+  reconstructor.Reconstruct(d, valid, &frame);
+  ASSERT_GT(g_malloc_calls.load(), before);
+  before = g_malloc_calls.load();
+  for (int k = 0; k < 10; ++k) {
+    reconstructor.Reconstruct(d, valid, &frame);
+    reconstructor.Reconstruct(d, valid, &frame);
+  }
+  EXPECT_EQ(g_malloc_calls.load(), before);
+  // Without invalid markers, too (the cache stays).
+  reconstructor.Reconstruct(d, {}, &frame);
+  EXPECT_EQ(g_malloc_calls.load(), before);
+#endif
+}
+
+}  // namespace
+}  // namespace tac3d
