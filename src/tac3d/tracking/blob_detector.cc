@@ -11,6 +11,21 @@
 namespace tac3d {
 namespace {
 
+// Directions (cos, sin) of the background samples around a blob.
+constexpr int kRingSamples = 16;
+const std::array<std::pair<double, double>, kRingSamples> kRingDirections = [] {
+  std::array<std::pair<double, double>, kRingSamples> d;
+  for (int k = 0; k < kRingSamples; ++k) {
+    d[k] = {std::cos(2 * M_PI * k / kRingSamples), std::sin(2 * M_PI * k / kRingSamples)};
+  }
+  return d;
+}();
+
+// A centroid this far (squared, px^2) from the disk's centre is measured again about it.
+constexpr double kRecentreDistance2 = 0.75 * 0.75;
+
+int Round(double v) { return static_cast<int>(std::floor(v + 0.5)); }
+
 // Largest |dx| with dx^2 + dy^2 <= r2 (-1 if none): one row of a disk.
 int HalfWidth(double r2, int dy) {
   const double left = r2 - dy * dy;
@@ -79,44 +94,28 @@ BlobStatus MeasureBlob(const cv::Mat& image,
     const int x0 = std::max(roi.x, static_cast<int>(std::ceil(qx - half_width)));
     const int x1 = std::min(roi_x1, static_cast<int>(std::floor(qx + half_width)));
     const std::uint8_t* row = image.ptr<std::uint8_t>(y);
-    for (int x = x0; x <= x1; ++x) {
-      if (row[x] < darkest) {
-        darkest = row[x];
-        bx = x;
-        by = y;
-      }
-    }
+    // The row's minimum first (vectorises), its position only when it is a new darkest.
+    int row_min = 256;
+    for (int x = x0; x <= x1; ++x) row_min = std::min<int>(row_min, row[x]);
+    if (row_min >= darkest) continue;
+    darkest = row_min;
+    bx = static_cast<int>(std::find(row + x0, row + x1 + 1, row_min) - row);
+    by = y;
   }
   if (bx < 0) return BlobStatus::kNoBlob;
 
-  // Local background: the median of a ring just outside the blob's disk, robust to a
-  // neighbouring dot covering part of it.
-  constexpr int kMaxRing = 512;
-  std::array<std::uint8_t, kMaxRing> ring;
+  // Local background: the median of 16 pixels on a circle just outside the blob's disk,
+  // robust to a neighbouring dot covering part of it.
+  std::array<std::uint8_t, kRingSamples> ring;
   int ring_size = 0;
-  const double r_in2 = (blob_radius_px + 0.5) * (blob_radius_px + 0.5);
-  const double r_out2 = (blob_radius_px + 2.0) * (blob_radius_px + 2.0);
-  const int reach = static_cast<int>(std::floor(blob_radius_px + 2.0));
-  auto take = [&](const std::uint8_t* row, int x0, int x1) {
-    x0 = std::max(x0, roi.x);
-    x1 = std::min(x1, roi_x1);
-    for (int x = x0; x <= x1 && ring_size < kMaxRing; ++x) ring[ring_size++] = row[x];
-  };
-  for (int dy = -reach; dy <= reach; ++dy) {
-    const int y = by + dy;
-    if (y < roi.y || y > roi_y1) continue;
-    const std::uint8_t* row = image.ptr<std::uint8_t>(y);
-    const int outer = HalfWidth(r_out2, dy);
-    const double inside2 = r_in2 - dy * dy;  // |dx| < sqrt(inside2) is inside the ring
-    if (inside2 <= 0) {
-      take(row, bx - outer, bx + outer);
-      continue;
-    }
-    const int inner = static_cast<int>(std::ceil(std::sqrt(inside2)));
-    take(row, bx - outer, bx - inner);
-    take(row, bx + inner, bx + outer);
+  const double ring_radius = blob_radius_px + 1.25;
+  for (const auto& [cos_a, sin_a] : kRingDirections) {
+    const int x = bx + Round(ring_radius * cos_a);
+    const int y = by + Round(ring_radius * sin_a);
+    if (x < roi.x || x > roi_x1 || y < roi.y || y > roi_y1) continue;
+    ring[ring_size++] = image.ptr<std::uint8_t>(y)[x];
   }
-  if (ring_size < 8) return BlobStatus::kNoBlob;
+  if (ring_size < kRingSamples / 2) return BlobStatus::kNoBlob;
   std::nth_element(ring.begin(), ring.begin() + ring_size / 2, ring.begin() + ring_size);
   const double background = ring[ring_size / 2];
   const double contrast = background - darkest;
@@ -124,10 +123,10 @@ BlobStatus MeasureBlob(const cv::Mat& image,
     return BlobStatus::kNoBlob;
   }
 
-  // Darkness-weighted moments over the blob's disk: first about the darkest pixel, then
-  // about the pixel nearest that centroid, so that a darkest pixel at the rim of a flat
-  // dark core does not cut the disk off-centre.
-  const double level = background - options.weight_threshold * contrast;
+  // Darkness-weighted moments over the blob's disk about the darkest pixel; again about
+  // the pixel nearest the centroid if that is far off, so that a darkest pixel at the rim
+  // of a flat dark core does not cut the disk off-centre. Branch-free inner loop.
+  const int level = Round(background - options.weight_threshold * contrast);
   const double r2 = blob_radius_px * blob_radius_px;
   const int r = static_cast<int>(std::floor(blob_radius_px));
   int cx = bx, cy = by;
@@ -135,11 +134,10 @@ BlobStatus MeasureBlob(const cv::Mat& image,
   int count = 0;
   for (int pass = 0; pass < 2; ++pass) {
     if (pass == 1) {
-      const int nx = cx + static_cast<int>(std::lround(sx / sw));
-      const int ny = cy + static_cast<int>(std::lround(sy / sw));
-      if (nx == cx && ny == cy) break;
-      cx = nx;
-      cy = ny;
+      const double ox = sx / sw, oy = sy / sw;
+      if (ox * ox + oy * oy <= kRecentreDistance2) break;
+      cx += Round(ox);
+      cy += Round(oy);
     }
     sw = sx = sy = sxx = sxy = syy = 0;
     count = 0;
@@ -149,17 +147,22 @@ BlobStatus MeasureBlob(const cv::Mat& image,
       const std::uint8_t* row = image.ptr<std::uint8_t>(y);
       const int half_width = HalfWidth(r2, dy);
       const int dx0 = std::max(-half_width, roi.x - cx), dx1 = std::min(half_width, roi_x1 - cx);
+      // Integer sums (exact, and they vectorise).
+      int rw = 0, rx = 0, rxx = 0, rc = 0;
       for (int dx = dx0; dx <= dx1; ++dx) {
-        const double w = level - row[cx + dx];
-        if (w <= 0) continue;
-        sw += w;
-        sx += w * dx;
-        sy += w * dy;
-        sxx += w * dx * dx;
-        sxy += w * dx * dy;
-        syy += w * dy * dy;
-        ++count;
+        const int w = std::max(0, level - row[cx + dx]);
+        rw += w;
+        rx += w * dx;
+        rxx += w * dx * dx;
+        rc += w > 0;
       }
+      sw += rw;
+      sx += rx;
+      sy += static_cast<double>(rw) * dy;
+      sxx += rxx;
+      sxy += static_cast<double>(rx) * dy;
+      syy += static_cast<double>(rw) * dy * dy;
+      count += rc;
     }
     if (sw <= 0) return BlobStatus::kNoBlob;
   }
@@ -174,7 +177,7 @@ BlobStatus MeasureBlob(const cv::Mat& image,
   const double fill = count / (4.0 * M_PI * std::sqrt(major * minor));
   const Eigen::Vector2d center(cx + mx, cy + my);
   // Mean darkness of the 3 x 3 core at the centroid.
-  const int ux = static_cast<int>(std::lround(center.x())), uy = static_cast<int>(std::lround(center.y()));
+  const int ux = Round(center.x()), uy = Round(center.y());
   double core = 0;
   int core_count = 0;
   for (int y = std::max(roi.y, uy - 1); y <= std::min(roi_y1, uy + 1); ++y) {

@@ -59,7 +59,7 @@ struct Blob {
 
 /// Measures the dark blob around a predicted position: the darkest pixel within
 /// `search_radius_px` of `predicted`, the local background as the median of a ring just
-/// outside `blob_radius_px` around it (so uneven light and vignetting cancel), then the
+/// outside `blob_radius_px` around it (16 samples; so uneven light and vignetting cancel), then the
 /// darkness-weighted centroid (weight = background - threshold - image, clipped at 0) over
 /// the disk of `blob_radius_px`. Reads only pixels inside `roi`; allocates nothing.
 /// @param image CV_8UC1. @param roi the part of the image that may be read (one half).
