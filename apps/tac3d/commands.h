@@ -12,12 +12,14 @@ namespace tac3d::cli {
 /// tac3d::Error, which main() reports as a one-line error and exit code 1.
 void RegisterDesign(CLI::App& app);
 void RegisterRender(CLI::App& app);
+void RegisterCalibrate(CLI::App& app);
 void RegisterDemo(CLI::App& app);
 
 /// `tac3d eval <what>`: accuracy evaluations against the twin's truth or analytic oracles,
 /// each printing its figures (JSON with --json). Each adds itself to the `eval` group.
 void RegisterEval(CLI::App& app);
 void RegisterEvalRender(CLI::App& eval);
+void RegisterEvalCalibration(CLI::App& eval);
 
 /// The sensor a command works on: the YAML file if one is given, else the built-in
 /// prototype with its designed mirrors.

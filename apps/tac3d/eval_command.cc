@@ -7,6 +7,7 @@ void RegisterEval(CLI::App& app) {
       "eval", "Measure a stage's accuracy against the twin's truth or an analytic oracle");
   eval->require_subcommand(1);
   RegisterEvalRender(*eval);
+  RegisterEvalCalibration(*eval);
 }
 
 }  // namespace tac3d::cli

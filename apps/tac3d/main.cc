@@ -11,6 +11,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   tac3d::cli::RegisterDesign(app);
   tac3d::cli::RegisterRender(app);
+  tac3d::cli::RegisterCalibrate(app);
   tac3d::cli::RegisterDemo(app);
   tac3d::cli::RegisterEval(app);
   try {

@@ -1,0 +1,52 @@
+#pragma once
+
+#include <limits>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "tac3d/calib/calibration_board.h"
+#include "tac3d/optics/camera.h"
+
+namespace tac3d {
+
+/// The board's dots found in one part of an image.
+struct DotGridDetection {
+  bool found = false;
+  /// Dot centres in full-image pixels (pixel centres at integer coordinates), in the
+  /// board's row-major order (CalibrationBoard::DotCenters), sub-pixel refined.
+  std::vector<Eigen::Vector2d> centers;
+  /// How blurred the dots are: the median over the dots of (dot contrast) / (steepest
+  /// intensity gradient at its rim), px. About 2.5 sigma for a Gaussian blur of sigma px;
+  /// ~1.5 px for a sharp 8-bit image.
+  double edge_width_px = std::numeric_limits<double>::quiet_NaN();
+};
+
+/// Finds the board in `roi` of an 8-bit grey image (cv::findCirclesGrid), puts the dots
+/// in a canonical order, and refines each centre to sub-pixel accuracy.
+///
+/// Order: of the orderings the grid's symmetries allow (a symmetric grid looks the same
+/// turned by 180 deg), the one whose rows run to the image's right and whose columns run
+/// down, so both halves of a mirror-stereo image and the reference placement agree.
+/// Refinement: the darkness-weighted centroid (darkness = local white level - intensity)
+/// over a window of half the nearest-dot distance around each dot, the window mapped into
+/// the image by the affine fit of the dot's grid neighbours; iterated three times. For a
+/// dot seen at an angle this is the centroid of its image, which is off the image of its
+/// centre by a perspective bias that grows with the dot's size (docs/calibration.md).
+/// @pre `gray` is CV_8UC1 and `roi` lies inside it.
+DotGridDetection DetectDotGrid(const cv::Mat& gray, const cv::Rect& roi,
+                               const CalibrationBoard& board);
+
+/// The perspective bias of a dot's centroid (Heikkila 2000): the image of the dot's rim is
+/// an ellipse (the circle through the board -> image homography) whose centre, which a
+/// centroid finds, is not the image of the dot's centre. Returns centre of the ellipse
+/// minus image of the centre, px; distortion is applied to both points, not to the shape.
+/// @param cam_from_board the board's pose in the camera frame.
+/// @param dot_in_board the dot's centre, board frame (z = 0).
+/// @param radius_mm the dot's radius.
+/// @pre the dot is in front of the camera.
+Eigen::Vector2d DotCentroidBias(const CameraIntrinsics& camera, const Rigid3& cam_from_board,
+                                const Eigen::Vector3d& dot_in_board, double radius_mm);
+
+}  // namespace tac3d
