@@ -166,6 +166,9 @@ void RegisterCalibrate(CLI::App& app) {
   cmd->add_option("--max-view-rms", args->options.max_view_rms_px,
                   "refuse views whose reprojection RMS is larger, px")
       ->capture_default_str();
+  cmd->add_option("--bias-rounds", args->options.bias_correction_rounds,
+                  "rounds of the dots' perspective-bias correction (0: none)")
+      ->capture_default_str();
 
   auto set = std::make_shared<RenderSetArgs>();
   CLI::App* render = cmd->add_subcommand(

@@ -29,11 +29,12 @@ struct DotGridDetection {
 /// Order: of the orderings the grid's symmetries allow (a symmetric grid looks the same
 /// turned by 180 deg), the one whose rows run to the image's right and whose columns run
 /// down, so both halves of a mirror-stereo image and the reference placement agree.
-/// Refinement: the darkness-weighted centroid (darkness = local white level - intensity)
-/// over a window of half the nearest-dot distance around each dot, the window mapped into
-/// the image by the affine fit of the dot's grid neighbours; iterated three times. For a
-/// dot seen at an angle this is the centroid of its image, which is off the image of its
-/// centre by a perspective bias that grows with the dot's size (docs/calibration.md).
+/// Refinement: the darkness-weighted centroid over a window of half the nearest-dot
+/// distance around each dot (mapped into the image by the affine fit of the dot's grid
+/// neighbours), darkness = 1 - intensity / white, the white level a plane fitted to the
+/// window's outer ring (so vignetting does not pull the centroid); iterated three times.
+/// This is the centroid of the dot's image, off the image of its centre by a perspective
+/// bias (DotCentroidBias) that grows as the dot's radius squared.
 /// @pre `gray` is CV_8UC1 and `roi` lies inside it.
 DotGridDetection DetectDotGrid(const cv::Mat& gray, const cv::Rect& roi,
                                const CalibrationBoard& board);

@@ -202,6 +202,9 @@ TEST(CalibrateVirtualStereo, RefusesBadImagesWithTheReasonAndCalibratesWithTheRe
   EXPECT_EQ(refusal("no_grid_right.png"), "grid not found in the right half");
   EXPECT_EQ(refusal("small.png"), "image is 320x240, the camera's is 640x480");
   EXPECT_EQ(refusal("corrupt.png"), "unreadable or corrupt file");
+  for (const CalibrationViewReport& v : c.views) {
+    if (!v.used) std::printf("%s refused: %s\n", v.name.c_str(), v.refusal.c_str());
+  }
   EXPECT_LT(RotationError(c, ImageHalf::kLeft), 0.1);
   EXPECT_LT(RotationError(c, ImageHalf::kRight), 0.1);
 }
