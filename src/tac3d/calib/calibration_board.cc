@@ -3,6 +3,7 @@
 #include <cmath>
 #include <fstream>
 #include <set>
+#include <type_traits>
 
 #include <yaml-cpp/yaml.h>
 
@@ -36,13 +37,14 @@ class Section {
   template <typename T>
   T Scalar(const std::string& key) {
     const YAML::Node n = Required(key);
+    const char* expected = std::is_same_v<T, int>      ? "must be an integer"
+                           : std::is_same_v<T, double> ? "must be a number"
+                                                       : "must be a string";
+    if (!n.IsScalar()) Fail(Join(key), expected);
     try {
-      if (!n.IsScalar()) throw YAML::Exception(YAML::Mark::null_mark(), "");
       return n.as<T>();
     } catch (const YAML::Exception&) {
-      Fail(Join(key), std::is_same_v<T, int> ? "must be an integer"
-                      : std::is_same_v<T, double> ? "must be a number"
-                                                  : "must be a string");
+      Fail(Join(key), expected);
     }
   }
 

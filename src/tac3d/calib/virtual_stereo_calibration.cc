@@ -6,7 +6,6 @@
 #include <filesystem>
 
 #include <Eigen/Cholesky>
-#include <Eigen/LU>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>

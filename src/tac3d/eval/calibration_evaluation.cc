@@ -140,7 +140,11 @@ nlohmann::json EvaluateDisplacement(const DisplacementEvaluationOptions& options
       for (size_t i = 0; i < detections[0].centers.size(); ++i) {
         const Triangulation t =
             TriangulateMidpoint(rigs[r], detections[0].centers[i], detections[1].centers[i]);
-        TAC3D_DEMAND(t.valid);
+        if (!t.valid) {
+          throw Error(fmt::format("displacement evaluation: dot {} at pose {} does not triangulate "
+                                  "(the {} rig's rays do not meet in front of it)",
+                                  i, pose, r == 0 ? "calibrated" : "true"));
+        }
         points.push_back(t.point);
       }
       measured[r].push_back(std::move(points));
