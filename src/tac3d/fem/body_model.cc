@@ -107,6 +107,23 @@ double BodyModelOptions::SurfaceHeight(double r_mm) const {
   return sphere_center_z_mm() + std::sqrt(sphere_radius_mm * sphere_radius_mm - r_mm * r_mm);
 }
 
+BodyModelOptions BodyModelOptionsFromSensor(const SensorConfig& config) {
+  const ElasticBodyConfig& body = config.elastic_body;
+  BodyModelOptions options;
+  options.base_diameter_mm = body.base_diameter_mm;
+  options.thickness_mm = body.thickness_mm;
+  options.sphere_radius_mm = body.outer_radius_mm;
+  options.lateral_boundary =
+      body.lateral_face == LateralFace::kFixed ? LateralBoundary::kFixed : LateralBoundary::kFree;
+  options.material.youngs_modulus_mpa = body.youngs_modulus_mpa;
+  options.material.poisson_ratio = body.poisson_ratio;
+  options.marker_rows = config.markers.rows;
+  options.marker_cols = config.markers.cols;
+  options.marker_pitch_mm = config.markers.pitch_mm;
+  options.marker_depth_mm = config.markers.depth_mm;
+  return options;
+}
+
 nlohmann::json ToJson(const BodyModelOptions& options) {
   return {
       {"base_diameter_mm", options.base_diameter_mm},

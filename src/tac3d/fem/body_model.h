@@ -10,6 +10,7 @@
 #include "tac3d/fem/elastic_solver.h"
 #include "tac3d/fem/hex8.h"
 #include "tac3d/fem/hex_mesh.h"
+#include "tac3d/sensor/sensor_config.h"
 
 namespace tac3d::fem {
 
@@ -56,6 +57,9 @@ struct BodyModelOptions {
   double SurfaceHeight(double r_mm) const;
   int num_markers() const { return marker_rows * marker_cols; }
 };
+
+/// The body a SensorConfig describes (elastic body, markers), at refinement 1.
+BodyModelOptions BodyModelOptionsFromSensor(const SensorConfig& config);
 
 nlohmann::json ToJson(const BodyModelOptions& options);
 /// @throws tac3d::Error on a missing field or a wrong type.

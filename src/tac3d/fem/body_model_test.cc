@@ -81,6 +81,27 @@ TEST(BodyModelOptions, JsonRoundTrip) {
   EXPECT_THROW(BodyModelOptionsFromJson(broken), Error);
 }
 
+TEST(BodyModelOptions, FromSensorConfigMatchesItsMarkersAndBody) {
+  SensorConfig config;
+  config.elastic_body.thickness_mm = 6.0;
+  config.elastic_body.poisson_ratio = 0.45;
+  config.elastic_body.lateral_face = LateralFace::kFixed;
+  config.markers.rows = 18;
+  config.markers.depth_mm = 0.7;
+  const BodyModelOptions options = BodyModelOptionsFromSensor(config);
+  EXPECT_NO_THROW(options.Validate());
+  EXPECT_DOUBLE_EQ(options.thickness_mm, 6.0);
+  EXPECT_DOUBLE_EQ(options.material.poisson_ratio, 0.45);
+  EXPECT_EQ(options.lateral_boundary, LateralBoundary::kFixed);
+  // The FEM's markers are where the sensor model (and so the renderer) puts them.
+  const std::vector<Eigen::Vector3d> fem_markers = CalcMarkerPositions(options);
+  const std::vector<Eigen::Vector3d> sensor_markers = config.MarkerPositions();
+  ASSERT_EQ(fem_markers.size(), sensor_markers.size());
+  for (size_t k = 0; k < fem_markers.size(); ++k) {
+    EXPECT_LT((fem_markers[k] - sensor_markers[k]).norm(), 1e-9) << "marker " << k;
+  }
+}
+
 TEST(MarkerPositions, GridOrderAndDepth) {
   const BodyModelOptions options;
   const std::vector<Eigen::Vector3d> markers = CalcMarkerPositions(options);
