@@ -14,16 +14,22 @@ void RegisterDesign(CLI::App& app);
 void RegisterRender(CLI::App& app);
 void RegisterCalibrate(CLI::App& app);
 void RegisterDemo(CLI::App& app);
+void RegisterBuildModel(CLI::App& app);
 
 /// `tac3d eval <what>`: accuracy evaluations against the twin's truth or analytic oracles,
 /// each printing its figures (JSON with --json). Each adds itself to the `eval` group.
 void RegisterEval(CLI::App& app);
 void RegisterEvalRender(CLI::App& eval);
 void RegisterEvalCalibration(CLI::App& eval);
+void RegisterEvalFem(CLI::App& eval);
 
 /// The sensor a command works on: the YAML file if one is given, else the built-in
 /// prototype with its designed mirrors.
 SensorConfig LoadSensorOrDefault(const std::string& path);
+
+/// Where compliance models are cached unless --cache says otherwise: $TAC3D_CACHE_DIR, else
+/// $XDG_CACHE_HOME/tac3d, else $HOME/.cache/tac3d, else .tac3d-cache.
+std::string DefaultCacheDir();
 
 /// Creates a directory (and its parents). @throws Error if it cannot.
 void MakeDirectory(const std::string& path);

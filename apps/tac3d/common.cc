@@ -1,3 +1,4 @@
+#include <cstdlib>
 #include <filesystem>
 
 #include <fmt/format.h>
@@ -10,6 +11,13 @@ namespace tac3d::cli {
 
 SensorConfig LoadSensorOrDefault(const std::string& path) {
   return path.empty() ? DefaultSensorConfig() : LoadSensorConfig(path);
+}
+
+std::string DefaultCacheDir() {
+  if (const char* dir = std::getenv("TAC3D_CACHE_DIR"); dir && *dir) return dir;
+  if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg) return std::string(xdg) + "/tac3d";
+  if (const char* home = std::getenv("HOME"); home && *home) return std::string(home) + "/.cache/tac3d";
+  return ".tac3d-cache";
 }
 
 void MakeDirectory(const std::string& path) {

@@ -5,6 +5,7 @@
 
 #include "commands.h"
 #include "tac3d/eval/calibration_evaluation.h"
+#include "tac3d/eval/marker_evaluation.h"
 
 namespace tac3d::cli {
 namespace {
@@ -69,6 +70,24 @@ void RegisterEvalCalibration(CLI::App& eval) {
     const char* keys[] = {"step_mm", "dots_per_move", "rmse_mm", "rmse_mm_true_rig",
                           "calibration_reprojection_rms_px", "acceptance_mm", "pass"};
     Print(j, displacement->json, keys, std::size(keys));
+  });
+
+  auto markers = std::make_shared<Args>();
+  auto known_sensor = std::make_shared<bool>(false);
+  CLI::App* m = eval.add_subcommand(
+      "markers", "The marker layer under shear, dent and twist through the gel: tracked, triangulated, compensated");
+  AddCommon(m, *markers);
+  m->add_flag("--known-sensor", *known_sensor,
+              "render the designed sensor and measure with it exactly (no calibration)");
+  m->callback([markers, known_sensor] {
+    MarkerEvaluationOptions options;
+    options.calibration = Prepare(*markers);
+    options.calibrate = !*known_sensor;
+    const nlohmann::json j = EvaluateMarkers(options);
+    const char* keys[] = {"position_rmse_mm", "displacement_rmse_mm", "by_model",
+                          "undeformed_position_rmse_mm", "min_valid_markers", "calibration",
+                          "acceptance", "pass"};
+    Print(j, markers->json, keys, std::size(keys));
   });
 }
 

@@ -8,6 +8,7 @@ void RegisterEval(CLI::App& app) {
   eval->require_subcommand(1);
   RegisterEvalRender(*eval);
   RegisterEvalCalibration(*eval);
+  RegisterEvalFem(*eval);
 }
 
 }  // namespace tac3d::cli

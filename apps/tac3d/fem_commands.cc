@@ -1,0 +1,105 @@
+#include <cstdio>
+#include <memory>
+
+#include <nlohmann/json.hpp>
+
+#include "commands.h"
+#include "tac3d/fem/compliance.h"
+#include "tac3d/fem/evaluation.h"
+
+namespace tac3d::cli {
+namespace {
+
+const char* Describe(fem::ComplianceCacheStatus status) {
+  switch (status) {
+    case fem::ComplianceCacheStatus::kLoaded: return "loaded from the cache";
+    case fem::ComplianceCacheStatus::kBuiltMissing: return "built (not cached yet)";
+    case fem::ComplianceCacheStatus::kRebuiltStale: return "rebuilt (the cached file was stale)";
+    case fem::ComplianceCacheStatus::kRebuiltCorrupt: return "rebuilt (the cached file was corrupt)";
+  }
+  return "?";
+}
+
+struct ModelArgs {
+  std::string config;
+  std::string cache_dir = DefaultCacheDir();
+  double refinement = 1.0;
+  bool json = false;
+
+  void Add(CLI::App* cmd) {
+    cmd->add_option("--config", config, "sensor YAML (default: the built-in prototype)");
+    cmd->add_option("--cache", cache_dir, "directory of cached compliance models")->capture_default_str();
+    cmd->add_option("--refinement", refinement, "mesh refinement (1 = the paper's mesh)")
+        ->capture_default_str();
+    cmd->add_flag("--json", json, "print JSON");
+  }
+  fem::BodyModelOptions Body() const {
+    fem::BodyModelOptions body = fem::BodyModelOptionsFromSensor(LoadSensorOrDefault(config));
+    body.refinement = refinement;
+    return body;
+  }
+};
+
+}  // namespace
+
+void RegisterBuildModel(CLI::App& app) {
+  auto args = std::make_shared<ModelArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "build-model", "Build the FEM compliance matrix H of the sensor's elastic body (cached)");
+  args->Add(cmd);
+  cmd->callback([args] {
+    const fem::BodyModelOptions body = args->Body();
+    MakeDirectory(args->cache_dir);
+    const fem::ComplianceCacheResult r =
+        fem::LoadOrBuildComplianceModel(body, args->cache_dir, /*show_progress=*/!args->json);
+    const nlohmann::json provenance = fem::ToJson(r.model.provenance);
+    if (args->json) {
+      const nlohmann::json j = {{"path", r.path},
+                                {"status", Describe(r.status)},
+                                {"reason", r.reason},
+                                {"elapsed_s", r.elapsed_s},
+                                {"markers", r.model.marker_positions.size()},
+                                {"options", fem::ToJson(body)},
+                                {"provenance", provenance}};
+      std::printf("%s\n", j.dump(2).c_str());
+      return;
+    }
+    std::printf("H (%ld x %ld) %s in %.2f s: %s\n", static_cast<long>(r.model.h.rows()),
+                static_cast<long>(r.model.h.cols()), Describe(r.status), r.elapsed_s, r.path.c_str());
+    if (!r.reason.empty()) std::printf("why not the cached file: %s\n", r.reason.c_str());
+    std::printf("provenance: %s\n", provenance.dump().c_str());
+  });
+}
+
+void RegisterEvalFem(CLI::App& eval) {
+  auto args = std::make_shared<ModelArgs>();
+  auto convergence = std::make_shared<double>(fem::EvalFemOptions{}.convergence_refinement);
+  CLI::App* cmd = eval.add_subcommand(
+      "fem", "FEM against analytic oracles: patch test, confined block, Boussinesq, Cerruti, refinement");
+  args->Add(cmd);
+  cmd->add_option("--convergence-refinement", *convergence,
+                  "refinement of the mesh-convergence check (0 skips it)")
+      ->capture_default_str();
+  cmd->callback([args, convergence] {
+    fem::EvalFemOptions options;
+    options.body = args->Body();
+    options.cache_dir = args->cache_dir;
+    options.convergence_refinement = *convergence;
+    options.show_progress = !args->json;
+    MakeDirectory(options.cache_dir);
+    const nlohmann::json j = fem::EvaluateFem(options);
+    if (args->json) {
+      std::printf("%s\n", j.dump(2).c_str());
+      return;
+    }
+    for (const nlohmann::json& check : j.at("checks")) {
+      std::printf("%-4s %-52s %.3g (tolerance %.3g)\n", check.at("pass").get<bool>() ? "ok" : "FAIL",
+                  check.at("name").get<std::string>().c_str(), check.at("value").get<double>(),
+                  check.at("tolerance").get<double>());
+    }
+    std::printf("model: %s\nall pass: %s\n", j.at("model").dump().c_str(),
+                j.at("all_pass").get<bool>() ? "yes" : "no");
+  });
+}
+
+}  // namespace tac3d::cli
