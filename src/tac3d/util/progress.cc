@@ -37,11 +37,9 @@ void ProgressBar::Update(long done) {
 
 void ProgressBar::Finish() {
   if (finished_) return;
-  if (enabled_) {
-    last_decile_ = -1;
-    Draw(total_);
-    if (is_terminal_) std::fputc('\n', stderr);
-  }
+  // In a log the last Update may already have printed the 100% line.
+  if (enabled_ && (is_terminal_ || last_decile_ != 10)) Draw(total_);
+  if (enabled_ && is_terminal_) std::fputc('\n', stderr);
   finished_ = true;
 }
 
