@@ -1,0 +1,190 @@
+#include "tac3d/source/frame_source.h"
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+
+#include <fmt/format.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "tac3d/source/threaded_capture.h"
+#include "tac3d/util/error.h"
+
+namespace tac3d {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A camera's driver is given this long to deliver each frame before the source fails.
+constexpr double kCameraTimeoutS = 2.0;
+
+std::string Lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
+  return s;
+}
+
+bool IsImageFile(const fs::path& path) {
+  static const char* const kExtensions[] = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".pgm"};
+  const std::string ext = Lower(path.extension().string());
+  return std::any_of(std::begin(kExtensions), std::end(kExtensions),
+                     [&](const char* e) { return ext == e; });
+}
+
+// "0" -> "/dev/video0"; a path stays as it is.
+std::string DevicePath(const std::string& device) {
+  const bool number = !device.empty() && std::all_of(device.begin(), device.end(), ::isdigit);
+  return number ? "/dev/video" + device : device;
+}
+
+class VideoFileSource : public FrameSource {
+ public:
+  explicit VideoFileSource(const std::string& path) : path_(path) {
+    if (!fs::is_regular_file(path)) throw Error(fmt::format("video file '{}' does not exist", path));
+    if (!capture_.open(path) || !capture_.isOpened()) {
+      throw Error(fmt::format("video file '{}': no OpenCV backend can read it", path));
+    }
+  }
+  ReadStatus Read(Frame& frame) override {
+    if (!capture_.read(bgr_) || bgr_.empty()) {
+      last_error_ = fmt::format("{}: end of the video after {} frames", path_, next_index_);
+      return ReadStatus::kEnd;
+    }
+    if (bgr_.channels() == 3) {
+      cv::cvtColor(bgr_, frame.image, cv::COLOR_BGR2GRAY);
+    } else {
+      bgr_.copyTo(frame.image);
+    }
+    frame.timestamp_s = capture_.get(cv::CAP_PROP_POS_MSEC) / 1000.0;
+    frame.index = next_index_++;
+    last_error_.clear();
+    return ReadStatus::kOk;
+  }
+  std::string Describe() const override { return fmt::format("video file {}", path_); }
+
+ private:
+  std::string path_;
+  cv::VideoCapture capture_;
+  cv::Mat bgr_;
+  std::int64_t next_index_ = 0;
+};
+
+class ImageFolderSource : public FrameSource {
+ public:
+  ImageFolderSource(const std::string& folder, double fps)
+      : folder_(folder), files_(ListImageFiles(folder)), fps_(fps) {
+    if (files_.empty()) throw Error(fmt::format("image folder '{}' holds no image file", folder));
+    if (!(fps > 0)) throw Error(fmt::format("image folder: fps = {} must be > 0", fps));
+  }
+  ReadStatus Read(Frame& frame) override {
+    if (next_ >= files_.size()) {
+      last_error_ = fmt::format("{}: all {} images read", folder_, files_.size());
+      return ReadStatus::kEnd;
+    }
+    const std::string& file = files_[next_];
+    frame.index = static_cast<std::int64_t>(next_);
+    frame.timestamp_s = static_cast<double>(next_) / fps_;
+    ++next_;
+    frame.image = cv::imread(file, cv::IMREAD_GRAYSCALE);
+    if (frame.image.empty()) {
+      last_error_ = fmt::format("'{}' is not a readable image (corrupt or truncated)", file);
+      return ReadStatus::kBadFrame;
+    }
+    last_error_.clear();
+    return ReadStatus::kOk;
+  }
+  std::string Describe() const override {
+    return fmt::format("image folder {} ({} images at {} fps)", folder_, files_.size(), fps_);
+  }
+
+ private:
+  std::string folder_;
+  std::vector<std::string> files_;
+  double fps_;
+  size_t next_ = 0;
+};
+
+}  // namespace
+
+void CameraSourceOptions::Validate() const {
+  if (device.empty()) throw Error("camera: device must not be empty");
+  if (width < 16 || width > 8192 || height < 16 || height > 8192) {
+    throw Error(fmt::format("camera: width x height = {} x {} must be within 16..8192", width, height));
+  }
+  if (!(fps > 0 && fps <= 1000)) throw Error(fmt::format("camera: fps = {} must be in (0, 1000]", fps));
+  if (exposure && !(*exposure > 0)) {
+    throw Error(fmt::format("camera: exposure = {} must be > 0 (omit it for automatic)", *exposure));
+  }
+}
+
+std::unique_ptr<FrameSource> OpenCamera(const CameraSourceOptions& options) {
+  options.Validate();
+  const std::string path = DevicePath(options.device);
+  if (!fs::exists(path)) {
+    throw Error(fmt::format("camera {}: no such device (is it plugged in? `ls /dev/video*` lists cameras)",
+                            path));
+  }
+  auto capture = std::make_shared<cv::VideoCapture>();
+  if (!capture->open(path, cv::CAP_V4L2) || !capture->isOpened()) {
+    throw Error(fmt::format("camera {}: the V4L2 driver refused to open it (in use by another "
+                            "program, or no permission: is the user in group 'video'?)", path));
+  }
+  capture->set(cv::CAP_PROP_FRAME_WIDTH, options.width);
+  capture->set(cv::CAP_PROP_FRAME_HEIGHT, options.height);
+  capture->set(cv::CAP_PROP_FPS, options.fps);
+  if (options.exposure) {
+    capture->set(cv::CAP_PROP_AUTO_EXPOSURE, 1);  // V4L2: 1 = manual
+    capture->set(cv::CAP_PROP_EXPOSURE, *options.exposure);
+  }
+  const int width = static_cast<int>(capture->get(cv::CAP_PROP_FRAME_WIDTH));
+  const int height = static_cast<int>(capture->get(cv::CAP_PROP_FRAME_HEIGHT));
+  if (width != options.width || height != options.height) {
+    throw Error(fmt::format("camera {}: asked for {} x {}, the driver gives {} x {}", path,
+                            options.width, options.height, width, height));
+  }
+  auto grab = [capture, path](cv::Mat& image, std::string& error) {
+    if (capture->read(image)) return true;
+    error = fs::exists(path) ? "the driver stopped delivering frames" : "the device is gone (unplugged)";
+    return false;
+  };
+  return std::make_unique<ThreadedCapture>(
+      fmt::format("camera {} {}x{} @ {} fps", path, width, height, capture->get(cv::CAP_PROP_FPS)),
+      grab, kCameraTimeoutS);
+}
+
+std::unique_ptr<FrameSource> OpenVideoFile(const std::string& path) {
+  return std::make_unique<VideoFileSource>(path);
+}
+
+std::vector<std::string> ListImageFiles(const std::string& folder) {
+  if (!fs::is_directory(folder)) throw Error(fmt::format("image folder '{}' does not exist", folder));
+  std::vector<std::string> files;
+  for (const fs::directory_entry& entry : fs::directory_iterator(folder)) {
+    if (entry.is_regular_file() && IsImageFile(entry.path())) files.push_back(entry.path().string());
+  }
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+std::unique_ptr<FrameSource> OpenImageFolder(const std::string& path, double fps) {
+  return std::make_unique<ImageFolderSource>(path, fps);
+}
+
+std::unique_ptr<FrameSource> OpenFrameSource(const std::string& uri, const CameraSourceOptions& camera) {
+  CameraSourceOptions options = camera;
+  if (uri.rfind("camera:", 0) == 0) {
+    options.device = uri.substr(7);
+    return OpenCamera(options);
+  }
+  if (uri.rfind("/dev/video", 0) == 0) {
+    options.device = uri;
+    return OpenCamera(options);
+  }
+  if (fs::is_directory(uri)) return OpenImageFolder(uri);
+  if (fs::exists(uri)) return OpenVideoFile(uri);
+  throw Error(fmt::format("frame source '{}': no such file or folder (a camera is camera:N or /dev/videoN)",
+                          uri));
+}
+
+}  // namespace tac3d

@@ -1,0 +1,81 @@
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace tac3d {
+
+/// One camera image as the pipeline receives it.
+struct Frame {
+  cv::Mat image;              ///< CV_8UC1 (colour sources are converted to grey)
+  double timestamp_s = 0.0;   ///< since the source was opened (or the file's own clock)
+  std::int64_t index = 0;     ///< 0, 1, 2, ... in the order read
+};
+
+enum class ReadStatus {
+  kOk,        ///< `frame` holds a new image
+  kBadFrame,  ///< this frame is unusable (a corrupt file, say); the next Read may succeed
+  kEnd,       ///< no more frames (end of a file or folder)
+  kFailed,    ///< the source broke (a camera unplugged): no further frames will come
+};
+
+/// Where images come from: a camera, a video file, an image folder, a twin dataset. The
+/// pipeline reads them through this interface and does not know which one it has.
+class FrameSource {
+ public:
+  virtual ~FrameSource() = default;
+  /// Reads the next frame into `frame` (its buffers are reused when they fit). Never throws
+  /// for a frame's content; the reason for anything but kOk is in last_error().
+  virtual ReadStatus Read(Frame& frame) = 0;
+  /// What this source is, for messages ("camera /dev/video0 640x480 @ 30 fps").
+  virtual std::string Describe() const = 0;
+  /// Why the last Read did not return kOk (empty after kOk).
+  const std::string& last_error() const { return last_error_; }
+
+ protected:
+  std::string last_error_;
+};
+
+/// A V4L2 camera through OpenCV's VideoCapture.
+struct CameraSourceOptions {
+  std::string device = "/dev/video0";  ///< a device path, or its number ("0")
+  int width = 640;
+  int height = 480;
+  double fps = 30.0;
+  /// Manual exposure in the driver's units (V4L2: 100 us steps); empty = automatic.
+  std::optional<double> exposure;
+
+  /// @throws Error naming the field and its bound.
+  void Validate() const;
+};
+
+/// @throws Error (naming the device and what went wrong) if the camera cannot be opened
+///   or does not deliver the requested resolution.
+std::unique_ptr<FrameSource> OpenCamera(const CameraSourceOptions& options);
+
+/// A video file (any container and codec OpenCV's backends read; MJPEG AVI always works).
+/// Timestamps are the file's own presentation times.
+/// @throws Error naming the file if it is missing or no backend can read it.
+std::unique_ptr<FrameSource> OpenVideoFile(const std::string& path);
+
+/// The PNG, JPEG, BMP or TIFF images of a folder, in lexicographic order of their names.
+/// Timestamps are index / fps. A file that does not decode is a kBadFrame (named in
+/// last_error) and reading continues with the next.
+/// @throws Error if the folder is missing or holds no image file.
+std::unique_ptr<FrameSource> OpenImageFolder(const std::string& path, double fps = 30.0);
+
+/// The image files OpenImageFolder would read, sorted.
+std::vector<std::string> ListImageFiles(const std::string& folder);
+
+/// Opens what a command-line argument names: "camera:N" or "/dev/videoN" a camera (the
+/// camera options' device replaced), a folder an image folder, any other file a video.
+/// @throws Error as the opener does, or if the path does not exist.
+std::unique_ptr<FrameSource> OpenFrameSource(const std::string& uri,
+                                             const CameraSourceOptions& camera = {});
+
+}  // namespace tac3d

@@ -1,0 +1,105 @@
+#include "tac3d/source/threaded_capture.h"
+
+#include <chrono>
+#include <condition_variable>
+#include <mutex>
+#include <thread>
+
+#include <fmt/format.h>
+#include <opencv2/imgproc.hpp>
+
+namespace tac3d {
+
+struct ThreadedCapture::Shared {
+  std::mutex mutex;
+  std::condition_variable changed;
+  cv::Mat latest;  // grey
+  double latest_s = 0.0;
+  bool has_new = false;
+  bool failed = false;
+  bool stop = false;
+  bool exited = false;
+  std::string error;
+  std::thread thread;
+};
+
+namespace {
+
+void ToGrey(const cv::Mat& image, cv::Mat& grey) {
+  if (image.channels() == 3) {
+    cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  } else if (image.channels() == 4) {
+    cv::cvtColor(image, grey, cv::COLOR_BGRA2GRAY);
+  } else {
+    image.copyTo(grey);
+  }
+}
+
+}  // namespace
+
+ThreadedCapture::ThreadedCapture(std::string description, Grab grab, double timeout_s)
+    : description_(std::move(description)), timeout_s_(timeout_s), shared_(std::make_shared<Shared>()) {
+  // The thread owns a reference to the shared state, so a thread left behind by the
+  // destructor still has valid memory when its blocked read finally returns.
+  shared_->thread = std::thread([shared = shared_, grab = std::move(grab)] {
+    const auto start = std::chrono::steady_clock::now();
+    cv::Mat image;
+    while (true) {
+      std::string error;
+      const bool ok = grab(image, error);
+      const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      std::lock_guard lock(shared->mutex);
+      if (shared->stop) break;
+      if (!ok || image.empty() || image.depth() != CV_8U) {
+        shared->failed = true;
+        shared->error = ok ? "the camera delivered an empty or non-8-bit image" : error;
+        break;
+      }
+      ToGrey(image, shared->latest);
+      shared->latest_s = t;
+      shared->has_new = true;
+      shared->changed.notify_all();
+    }
+    std::lock_guard lock(shared->mutex);
+    shared->exited = true;
+    shared->changed.notify_all();
+  });
+}
+
+ThreadedCapture::~ThreadedCapture() {
+  std::unique_lock lock(shared_->mutex);
+  shared_->stop = true;
+  // A grab that returns within a frame period or two ends the thread; one stuck in the
+  // driver is left behind rather than hanging the caller.
+  const bool exited = shared_->changed.wait_for(lock, std::chrono::milliseconds(500),
+                                                [&] { return shared_->exited; });
+  lock.unlock();
+  if (exited) {
+    shared_->thread.join();
+  } else {
+    shared_->thread.detach();
+  }
+}
+
+ReadStatus ThreadedCapture::Read(Frame& frame) {
+  if (timed_out_) return ReadStatus::kFailed;  // last_error_ still says why
+  std::unique_lock lock(shared_->mutex);
+  const bool ready = shared_->changed.wait_for(
+      lock, std::chrono::duration<double>(timeout_s_),
+      [&] { return shared_->has_new || shared_->failed; });
+  if (shared_->has_new) {
+    shared_->latest.copyTo(frame.image);
+    frame.timestamp_s = shared_->latest_s;
+    frame.index = next_index_++;
+    shared_->has_new = false;
+    last_error_.clear();
+    return ReadStatus::kOk;
+  }
+  last_error_ = ready ? fmt::format("{}: {}", description_, shared_->error)
+                      : fmt::format("{}: no frame within {} s (unplugged or stalled?)",
+                                    description_, timeout_s_);
+  timed_out_ = !ready;
+  return ReadStatus::kFailed;
+}
+
+}  // namespace tac3d

@@ -1,0 +1,39 @@
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "tac3d/source/frame_source.h"
+
+namespace tac3d {
+
+/// Runs a blocking grab function (a camera driver's read) on its own thread and hands the
+/// newest image to Read, which waits at most `timeout_s`. A driver that stops returning
+/// (a camera unplugged mid-run can leave a read blocked) then costs one timeout, not a hang:
+/// Read reports kFailed and the destructor leaves the stuck thread behind instead of
+/// joining it. When the pipeline is slower than the camera, older images are dropped
+/// (the newest is what a controller wants).
+class ThreadedCapture : public FrameSource {
+ public:
+  /// Fills the image (any 8-bit type) and returns true, or returns false with a reason.
+  using Grab = std::function<bool(cv::Mat& image, std::string& error)>;
+
+  ThreadedCapture(std::string description, Grab grab, double timeout_s);
+  ~ThreadedCapture() override;
+
+  ReadStatus Read(Frame& frame) override;
+  std::string Describe() const override { return description_; }
+
+ private:
+  struct Shared;
+  std::string description_;
+  double timeout_s_;
+  std::shared_ptr<Shared> shared_;
+  std::int64_t next_index_ = 0;
+  bool timed_out_ = false;  // a stalled driver is not waited for twice
+};
+
+}  // namespace tac3d
