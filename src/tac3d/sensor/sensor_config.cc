@@ -3,11 +3,11 @@
 #include <charconv>
 #include <cmath>
 #include <fstream>
-#include <set>
 #include <sstream>
 
 #include <yaml-cpp/yaml.h>
 
+#include "tac3d/sensor/yaml_reader.h"
 #include "tac3d/util/error.h"
 
 namespace tac3d {
@@ -55,94 +55,7 @@ void ValidateRectangle(const Rectangle3& r, const std::string& field) {
   }
 }
 
-// ---- YAML reading with the key path in every error ------------------------------------
-
-class Reader {
- public:
-  Reader(YAML::Node node, std::string path, const std::string* source)
-      : node_(std::move(node)), path_(std::move(path)), source_(source) {
-    if (!node_.IsMap()) Fail(path_.empty() ? "the document" : path_, "must be a mapping");
-  }
-
-  ~Reader() noexcept(false) {
-    if (std::uncaught_exceptions() > 0) return;
-    for (const auto& kv : node_) {
-      const std::string key = kv.first.as<std::string>();
-      if (!used_.count(key)) Fail(Join(key), "unknown key (misspelt?)");
-    }
-  }
-
-  YAML::Node Required(const std::string& key) {
-    used_.insert(key);
-    YAML::Node child = node_[key];
-    if (!child) Fail(Join(key), "missing");
-    return child;
-  }
-
-  bool Has(const std::string& key) const { return static_cast<bool>(node_[key]); }
-
-  Reader Child(const std::string& key) { return Reader(Required(key), Join(key), source_); }
-
-  double Double(const std::string& key) { return AsDouble(Required(key), Join(key)); }
-
-  int Int(const std::string& key) {
-    const YAML::Node n = Required(key);
-    try {
-      return n.as<int>();
-    } catch (const YAML::Exception&) {
-      Fail(Join(key), "must be an integer");
-    }
-  }
-
-  std::string String(const std::string& key) {
-    const YAML::Node n = Required(key);
-    if (!n.IsScalar()) Fail(Join(key), "must be a string");
-    return n.as<std::string>();
-  }
-
-  template <int N>
-  Eigen::Matrix<double, N, 1> Vector(const std::string& key) {
-    const YAML::Node n = Required(key);
-    if (!n.IsSequence() || n.size() != N) Fail(Join(key), fmt::format("must be a list of {} numbers", N));
-    Eigen::Matrix<double, N, 1> v;
-    for (int i = 0; i < N; ++i) v(i) = AsDouble(n[i], fmt::format("{}[{}]", Join(key), i));
-    return v;
-  }
-
-  Eigen::Matrix3d Matrix3(const std::string& key) {
-    const YAML::Node n = Required(key);
-    if (!n.IsSequence() || n.size() != 3) Fail(Join(key), "must be 3 rows of 3 numbers");
-    Eigen::Matrix3d m;
-    for (int r = 0; r < 3; ++r) {
-      if (!n[r].IsSequence() || n[r].size() != 3) Fail(Join(key), "must be 3 rows of 3 numbers");
-      for (int c = 0; c < 3; ++c) m(r, c) = AsDouble(n[r][c], fmt::format("{}[{}][{}]", Join(key), r, c));
-    }
-    return m;
-  }
-
-  [[noreturn]] void Fail(const std::string& where, const std::string& what) const {
-    throw Error(fmt::format("{}: {}: {}", *source_, where, what));
-  }
-
-  std::string Join(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
-
- private:
-  double AsDouble(const YAML::Node& n, const std::string& where) const {
-    if (!n.IsScalar()) Fail(where, "must be a number");
-    try {
-      return n.as<double>();
-    } catch (const YAML::Exception&) {
-      Fail(where, fmt::format("'{}' is not a number", n.Scalar()));
-    }
-  }
-
-  YAML::Node node_;
-  std::string path_;
-  const std::string* source_;
-  std::set<std::string> used_;
-};
-
-CameraIntrinsics ReadIntrinsics(Reader r) {
+CameraIntrinsics ReadIntrinsics(YamlReader r) {
   CameraIntrinsics c;
   c.width = r.Int("width");
   c.height = r.Int("height");
@@ -155,14 +68,14 @@ CameraIntrinsics ReadIntrinsics(Reader r) {
   return c;
 }
 
-Rigid3 ReadPose(Reader r) {
+Rigid3 ReadPose(YamlReader r) {
   Rigid3 t = Rigid3::Identity();
   t.translation() = r.Vector<3>("position_mm");
   t.linear() = r.Matrix3("rotation");
   return t;
 }
 
-Rectangle3 ReadRectangle(Reader& r) {
+Rectangle3 ReadRectangle(YamlReader& r) {
   Rectangle3 rect;
   rect.center = r.Vector<3>("center_mm");
   rect.u_axis = r.Vector<3>("u_axis");
@@ -241,13 +154,13 @@ class Writer {
   YAML::Emitter out_;
 };
 
-ImageHalf ParseHalf(const std::string& s, const Reader& r, const std::string& key) {
+ImageHalf ParseHalf(const std::string& s, const YamlReader& r, const std::string& key) {
   if (s == "left") return ImageHalf::kLeft;
   if (s == "right") return ImageHalf::kRight;
   r.Fail(r.Join(key), fmt::format("'{}' must be left or right", s));
 }
 
-LateralFace ParseLateralFace(const std::string& s, const Reader& r) {
+LateralFace ParseLateralFace(const std::string& s, const YamlReader& r) {
   if (s == "free") return LateralFace::kFree;
   if (s == "fixed") return LateralFace::kFixed;
   r.Fail(r.Join("lateral_face"), fmt::format("'{}' must be free or fixed", s));
@@ -385,15 +298,15 @@ SensorConfig ParseSensorConfig(const std::string& yaml_text, const std::string& 
   if (!root || root.IsNull()) throw Error(fmt::format("{}: empty sensor config", source));
   SensorConfig c;
   {
-    Reader r(root, "", &source);
+    YamlReader r(root, "", &source);
     {
-      Reader cam = r.Child("camera");
+      YamlReader cam = r.Child("camera");
       c.camera.intrinsics = ReadIntrinsics(cam.Child("intrinsics"));
       c.camera.horizontal_fov_deg = cam.Double("horizontal_fov_deg");
       c.camera.sensor_from_cam = ReadPose(cam.Child("sensor_from_cam"));
     }
     {
-      Reader lp = r.Child("light_path");
+      YamlReader lp = r.Child("light_path");
       c.light_path.h_mm = lp.Double("h_mm");
       c.light_path.l_mm = lp.Double("l_mm");
       c.light_path.d_mm = lp.Double("d_mm");
@@ -402,7 +315,7 @@ SensorConfig ParseSensorConfig(const std::string& yaml_text, const std::string& 
     const YAML::Node mirrors = r.Required("mirrors");
     if (!mirrors.IsSequence()) r.Fail("mirrors", "must be a list");
     for (size_t i = 0; i < mirrors.size(); ++i) {
-      Reader m(mirrors[i], fmt::format("mirrors[{}]", i), &source);
+      YamlReader m(mirrors[i], fmt::format("mirrors[{}]", i), &source);
       MirrorConfig mirror;
       mirror.name = m.String("name");
       mirror.surface = ReadRectangle(m);
@@ -411,7 +324,7 @@ SensorConfig ParseSensorConfig(const std::string& yaml_text, const std::string& 
     const YAML::Node vcams = r.Required("virtual_cameras");
     if (!vcams.IsSequence()) r.Fail("virtual_cameras", "must be a list");
     for (size_t i = 0; i < vcams.size(); ++i) {
-      Reader v(vcams[i], fmt::format("virtual_cameras[{}]", i), &source);
+      YamlReader v(vcams[i], fmt::format("virtual_cameras[{}]", i), &source);
       VirtualCameraConfig vcam;
       vcam.name = v.String("name");
       vcam.half = ParseHalf(v.String("half"), v, "half");
@@ -422,7 +335,7 @@ SensorConfig ParseSensorConfig(const std::string& yaml_text, const std::string& 
       c.virtual_cameras.push_back(vcam);
     }
     {
-      Reader m = r.Child("markers");
+      YamlReader m = r.Child("markers");
       c.markers.rows = m.Int("rows");
       c.markers.cols = m.Int("cols");
       c.markers.pitch_mm = m.Double("pitch_mm");
@@ -430,7 +343,7 @@ SensorConfig ParseSensorConfig(const std::string& yaml_text, const std::string& 
       c.markers.depth_mm = m.Double("depth_mm");
     }
     {
-      Reader b = r.Child("elastic_body");
+      YamlReader b = r.Child("elastic_body");
       c.elastic_body.outer_radius_mm = b.Double("outer_radius_mm");
       c.elastic_body.thickness_mm = b.Double("thickness_mm");
       c.elastic_body.base_diameter_mm = b.Double("base_diameter_mm");
@@ -440,7 +353,7 @@ SensorConfig ParseSensorConfig(const std::string& yaml_text, const std::string& 
       c.elastic_body.lateral_face = ParseLateralFace(b.String("lateral_face"), b);
     }
     {
-      Reader g = r.Child("glass");
+      YamlReader g = r.Child("glass");
       c.glass.thickness_mm = g.Double("thickness_mm");
       c.glass.refractive_index = g.Double("refractive_index");
     }

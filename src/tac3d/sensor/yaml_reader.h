@@ -1,0 +1,70 @@
+#pragma once
+
+#include <set>
+#include <string>
+
+#include <Eigen/Core>
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+namespace tac3d {
+
+/// Reads one YAML mapping strictly, with the file and the key path in every error
+/// ("sensor.yaml: markers.pitch_mm: 'abc' is not a number"): a missing key, a value of the
+/// wrong type and (when the reader goes out of scope normally) a key nobody asked for
+/// ("unknown key (misspelt?)") are all errors. Used for every YAML file tac3d reads.
+class YamlReader {
+ public:
+  /// @param source the file name (or "<text>"), kept by pointer: it must outlive the reader.
+  /// @throws Error if the node is not a mapping.
+  YamlReader(YAML::Node node, std::string path, const std::string* source);
+  /// @throws Error naming the first key that was never read.
+  ~YamlReader() noexcept(false);
+
+  YAML::Node Required(const std::string& key);
+  bool Has(const std::string& key) const { return static_cast<bool>(node_[key]); }
+  YamlReader Child(const std::string& key);
+  /// A required list; each element's path is key[i].
+  YAML::Node Sequence(const std::string& key);
+
+  double Double(const std::string& key);
+  double Double(const std::string& key, double fallback) { return Has(key) ? Double(key) : fallback; }
+  int Int(const std::string& key);
+  int Int(const std::string& key, int fallback) { return Has(key) ? Int(key) : fallback; }
+  std::string String(const std::string& key);
+  std::string String(const std::string& key, const std::string& fallback) {
+    return Has(key) ? String(key) : fallback;
+  }
+
+  template <int N>
+  Eigen::Matrix<double, N, 1> Vector(const std::string& key) {
+    const YAML::Node n = Required(key);
+    if (!n.IsSequence() || n.size() != N) Fail(Join(key), fmt::format("must be a list of {} numbers", N));
+    Eigen::Matrix<double, N, 1> v;
+    for (int i = 0; i < N; ++i) v(i) = AsDouble(n[i], fmt::format("{}[{}]", Join(key), i));
+    return v;
+  }
+  template <int N>
+  Eigen::Matrix<double, N, 1> Vector(const std::string& key, const Eigen::Matrix<double, N, 1>& fallback) {
+    return Has(key) ? Vector<N>(key) : fallback;
+  }
+
+  Eigen::Matrix3d Matrix3(const std::string& key);
+
+  /// The reader of element i of a list read with Sequence(key).
+  YamlReader Element(const YAML::Node& sequence, const std::string& key, size_t i) const;
+
+  [[noreturn]] void Fail(const std::string& where, const std::string& what) const;
+  std::string Join(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
+  const std::string& source() const { return *source_; }
+
+ private:
+  double AsDouble(const YAML::Node& n, const std::string& where) const;
+
+  YAML::Node node_;
+  std::string path_;
+  const std::string* source_;
+  std::set<std::string> used_;
+};
+
+}  // namespace tac3d
