@@ -1,0 +1,189 @@
+// The experiments (paper Fig. 5, 7, 8, 9) as scenes. Distances follow the world
+// convention of Scene: the fingertip faces +z at the identity pose, objects sit above it
+// with a small clearance, and the sensor moves up into them.
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "tac3d/design/light_path_design.h"
+#include "tac3d/scene/scene.h"
+#include "tac3d/util/error.h"
+
+namespace tac3d {
+namespace {
+
+constexpr double kClearanceMm = 0.5;  // gap between the fingertip and an object at rest
+
+
+Scene Base(const std::string& name) {
+  Scene scene;
+  scene.name = name;
+  scene.sensor = DefaultSensorConfig();
+  return scene;
+}
+
+// Height of the fingertip's outer surface at (x, y) in the sensor frame.
+double SurfaceZ(const SensorConfig& sensor, double x, double y) {
+  const double r = sensor.elastic_body.outer_radius_mm;
+  return sensor.SphereCenter().z() + std::sqrt(r * r - x * x - y * y);
+}
+
+SceneObject Object(const std::string& name, SceneObject::Shape shape, const Eigen::Vector3d& position_mm,
+                   double mu) {
+  SceneObject o;
+  o.name = name;
+  o.shape = shape;
+  o.world_from_object = PoseFromRpy(position_mm, Eigen::Vector3d::Zero());
+  o.friction.default_mu = mu;
+  return o;
+}
+
+void Add(Trajectory& t, double time_s, const Eigen::Vector3d& position_mm,
+         const Eigen::Vector3d& rpy_deg = Eigen::Vector3d::Zero()) {
+  t.keyframes.push_back({time_s, PoseFromRpy(position_mm, rpy_deg)});
+}
+
+// A 10 mm sphere pressed 12 times: depths 0.3-1.2 mm, then slid 0-0.6 mm in 12 directions
+// while pressed (the normal and tangential force span of a force calibration, Fig. 5).
+Scene ForceCalibration() {
+  Scene s = Base("force_calibration");
+  const double top = s.sensor.elastic_body.thickness_mm;
+  SceneObject sphere = Object("indenter", SceneObject::Shape::kSphere, {0, 0, top + kClearanceMm + 10.0}, 0.8);
+  sphere.radius_mm = 10.0;
+  s.objects.push_back(sphere);
+  double t = 0.0;
+  Add(s.trajectory, t, {0, 0, 0});
+  for (int k = 0; k < 12; ++k) {
+    const double depth = 0.3 + 0.3 * (k % 4);
+    const double shift = 0.2 * (k % 3 + (k % 4 == 0 ? 0 : 1));
+    const double angle = 2.0 * M_PI * k / 12.0;
+    const Eigen::Vector3d pressed(0, 0, kClearanceMm + depth);
+    Add(s.trajectory, t += 1.0, pressed);
+    Add(s.trajectory, t += 1.0, pressed + Eigen::Vector3d(shift * std::cos(angle), shift * std::sin(angle), 0));
+    Add(s.trajectory, t += 1.0, {0, 0, 0});
+  }
+  s.trajectory.steps = 12 * 3 * 10 + 1;
+  return s;
+}
+
+// A 2 mm flat probe pressed 0.3 mm at five points of the fingertip (Fig. 7).
+Scene Probe() {
+  Scene s = Base("probe");
+  const double top = s.sensor.elastic_body.thickness_mm;
+  SceneObject probe = Object("probe", SceneObject::Shape::kFlatPunch, {0, 0, top + kClearanceMm}, 0.8);
+  probe.radius_mm = 1.0;
+  s.objects.push_back(probe);
+  const double p = s.sensor.markers.pitch_mm;
+  const Eigen::Vector2d points[] = {{0, 0}, {0.5 * p, 0}, {0.5 * p, 0.5 * p}, {4.5 * p, -2 * p}, {-6 * p, 5.5 * p}};
+  double t = 0.0;
+  for (const Eigen::Vector2d& q : points) {
+    // The sensor moves so the probe is over fingertip point q, then presses 0.3 mm.
+    const double lift = top - SurfaceZ(s.sensor, q.x(), q.y());
+    Add(s.trajectory, t, {-q.x(), -q.y(), -lift});
+    Add(s.trajectory, t += 1.0, {-q.x(), -q.y(), kClearanceMm - lift + 0.3});
+    Add(s.trajectory, t += 1.0, {-q.x(), -q.y(), -lift});
+    t += 0.5;
+  }
+  s.trajectory.steps = 5 * 2 * 10 + 1;
+  return s;
+}
+
+// A 3 x 3 array of 1 mm pins at 2.54 mm pitch pressed 0.3 mm at the centre (Fig. 7).
+Scene Pins() {
+  Scene s = Base("pins");
+  const double top = s.sensor.elastic_body.thickness_mm;
+  SceneObject pins = Object("pins", SceneObject::Shape::kPins, {0, 0, top + kClearanceMm}, 0.8);
+  pins.radius_mm = 0.5;
+  pins.rows = 3;
+  pins.cols = 3;
+  pins.pitch_mm = 2.54;
+  s.objects.push_back(pins);
+  Add(s.trajectory, 0.0, {0, 0, 0});
+  Add(s.trajectory, 1.0, {0, 0, kClearanceMm + 0.3});
+  Add(s.trajectory, 2.0, {0, 0, 0});
+  s.trajectory.steps = 41;
+  return s;
+}
+
+// A block whose x < 0 half has mu = 1.0 and x >= 0 half mu = 0.4: pressed 0.8 mm at x = -8,
+// slid 16 mm along +x across the boundary, lifted; 500 steps (Fig. 8).
+Scene TwoMaterialSlide() {
+  Scene s = Base("two_material_slide");
+  const double top = s.sensor.elastic_body.thickness_mm;
+  SceneObject block = Object("block", SceneObject::Shape::kBox, {0, 0, top + kClearanceMm + 5.0}, 0.4);
+  block.size_mm = {60, 40, 10};
+  FrictionRegion rough;
+  rough.kind = FrictionRegion::Kind::kBox;
+  rough.min_mm = {-31, -21, -6};
+  rough.max_mm = {0, 21, 6};
+  rough.mu = 1.0;
+  block.friction.regions.push_back(rough);
+  s.objects.push_back(block);
+  const double depth = 0.8;
+  Add(s.trajectory, 0.0, {-8, 0, 0});
+  Add(s.trajectory, 1.0, {-8, 0, kClearanceMm + depth});
+  Add(s.trajectory, 9.0, {8, 0, kClearanceMm + depth});
+  Add(s.trajectory, 10.0, {8, 0, 0});
+  s.trajectory.steps = 500;
+  return s;
+}
+
+// A bottle-like cylinder (radius 30 mm, axis along y, mu = 0.3) with an 8 mm rubber disc
+// (mu = 1.2) 20 deg round from its bottom line; the fingertip presses 0.8 mm and slides
+// round the cylinder from -30 to +50 deg, across the disc (Fig. 1, 9).
+Scene Bottle() {
+  Scene s = Base("bottle");
+  const double top = s.sensor.elastic_body.thickness_mm;
+  const double radius = 30.0;
+  const Eigen::Vector3d axis_point(0, 0, top + kClearanceMm + radius);
+  SceneObject bottle = Object("bottle", SceneObject::Shape::kCylinder, axis_point, 0.3);
+  bottle.radius_mm = radius;
+  bottle.length_mm = 120.0;
+  FrictionRegion disc;
+  disc.kind = FrictionRegion::Kind::kBall;
+  const double disc_angle = 20.0 * M_PI / 180.0;
+  disc.center_mm = {-radius * std::sin(disc_angle), 0, -radius * std::cos(disc_angle)};  // touched at phi = 20 deg
+  disc.radius_mm = 4.0;
+  disc.mu = 1.2;
+  bottle.friction.regions.push_back(disc);
+  s.objects.push_back(bottle);
+  // The sensor's z axis points at the cylinder's axis: turned by phi about y round it.
+  auto pose = [&](double phi_deg, double depth) -> std::pair<Eigen::Vector3d, Eigen::Vector3d> {
+    const double phi = phi_deg * M_PI / 180.0;
+    const double reach = radius + top - depth;  // sensor origin to axis
+    return {axis_point + Eigen::Vector3d(-reach * std::sin(phi), 0, -reach * std::cos(phi)),
+            Eigen::Vector3d(0, phi_deg, 0)};
+  };
+  const double depth = 0.8;
+  auto add = [&](double t, double phi_deg, double d) {
+    const auto [p, rpy] = pose(phi_deg, d);
+    Add(s.trajectory, t, p, rpy);
+  };
+  add(0.0, -30, -kClearanceMm);
+  // A keyframe every degree: positions are interpolated along chords, which cut 0.0014 mm
+  // into the arc between keyframes.
+  for (int phi = -30; phi <= 50; ++phi) add(1.0 + 8.0 * (phi + 30) / 80.0, phi, depth);
+  add(10.0, 50, -kClearanceMm);
+  s.trajectory.steps = 400;
+  return s;
+}
+
+}  // namespace
+
+std::vector<std::string> BuiltInSceneNames() {
+  return {"force_calibration", "probe", "pins", "two_material_slide", "bottle"};
+}
+
+Scene BuiltInScene(const std::string& name) {
+  Scene scene;
+  if (name == "force_calibration") scene = ForceCalibration();
+  else if (name == "probe") scene = Probe();
+  else if (name == "pins") scene = Pins();
+  else if (name == "two_material_slide") scene = TwoMaterialSlide();
+  else if (name == "bottle") scene = Bottle();
+  else throw Error(fmt::format("no built-in scene '{}' (there are: {})", name, fmt::join(BuiltInSceneNames(), ", ")));
+  scene.Validate();
+  return scene;
+}
+
+}  // namespace tac3d

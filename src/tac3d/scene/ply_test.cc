@@ -1,0 +1,107 @@
+#include "tac3d/scene/ply.h"
+
+#include <cstring>
+#include <fstream>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "tac3d/testing/testing.h"
+#include "tac3d/util/error.h"
+
+namespace tac3d {
+namespace {
+
+using ::testing::HasSubstr;
+
+std::string Write(const std::string& name, const std::string& bytes) {
+  const std::string path = testing::MakeTempDir("ply") + "/" + name;
+  std::ofstream(path, std::ios::binary) << bytes;
+  return path;
+}
+
+std::string ErrorOf(const std::string& path) {
+  try {
+    ReadPly(path);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(Ply, AsciiQuadWithFrictionIsFannedIntoTriangles) {
+  const std::string path = Write("quad.ply",
+                                 "ply\nformat ascii 1.0\ncomment a unit square\nelement vertex 4\n"
+                                 "property float x\nproperty float y\nproperty float z\nproperty float mu\n"
+                                 "element face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                                 "0 0 0 0.3\n1 0 0 0.3\n1 1 0 1.2\n0 1 0 1.2\n4 0 1 2 3\n");
+  const TriangleMesh mesh = ReadPly(path);
+  ASSERT_EQ(mesh.vertices.size(), 4u);
+  ASSERT_EQ(mesh.triangles.size(), 2u);
+  EXPECT_EQ(mesh.triangles[1], Eigen::Vector3i(0, 2, 3));
+  ASSERT_EQ(mesh.vertex_properties.count("mu"), 1u);
+  EXPECT_DOUBLE_EQ(mesh.vertex_properties.at("mu")[2], 1.2);
+}
+
+TEST(Ply, BinaryLittleEndianRoundTripsThroughTheReader) {
+  std::string bytes =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty double x\nproperty double y\n"
+      "property double z\nproperty uchar red\nelement face 1\nproperty list uchar uint vertex_indices\nend_header\n";
+  const double xyz[3][3] = {{0, 0, 0}, {2.5, 0, 0}, {0, -1.5, 7}};
+  for (int i = 0; i < 3; ++i) {
+    bytes.append(reinterpret_cast<const char*>(xyz[i]), sizeof(xyz[i]));
+    bytes.push_back(static_cast<char>(10 * i));
+  }
+  bytes.push_back(3);
+  const std::uint32_t indices[3] = {2, 1, 0};
+  bytes.append(reinterpret_cast<const char*>(indices), sizeof(indices));
+  const TriangleMesh mesh = ReadPly(Write("binary.ply", bytes));
+  ASSERT_EQ(mesh.vertices.size(), 3u);
+  EXPECT_EQ(mesh.vertices[2], Eigen::Vector3d(0, -1.5, 7));
+  EXPECT_EQ(mesh.triangles[0], Eigen::Vector3i(2, 1, 0));
+  EXPECT_DOUBLE_EQ(mesh.vertex_properties.at("red")[2], 20);
+  // The same mesh written as ascii and read again.
+  const std::string again = testing::MakeTempDir("ply") + "/again.ply";
+  WritePly(mesh, again);
+  const TriangleMesh reread = ReadPly(again);
+  EXPECT_EQ(reread.vertices, mesh.vertices);
+  EXPECT_EQ(reread.triangles, mesh.triangles);
+  EXPECT_EQ(reread.vertex_properties, mesh.vertex_properties);
+}
+
+TEST(Ply, BinaryBigEndianFloatsAndShortIndices) {
+  std::string bytes =
+      "ply\nformat binary_big_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 1\nproperty list uchar short vertex_indices\nend_header\n";
+  auto append_big = [&bytes](const auto value) {
+    char b[sizeof(value)];
+    std::memcpy(b, &value, sizeof(value));
+    for (int i = sizeof(value) - 1; i >= 0; --i) bytes.push_back(b[i]);
+  };
+  for (float v : {0.f, 0.f, 0.f, 1.f, 0.f, 0.f, 0.f, 1.f, -2.5f}) append_big(v);
+  bytes.push_back(3);
+  for (std::int16_t i : {0, 1, 2}) append_big(i);
+  const TriangleMesh mesh = ReadPly(Write("big.ply", bytes));
+  ASSERT_EQ(mesh.vertices.size(), 3u);
+  EXPECT_EQ(mesh.vertices[2], Eigen::Vector3d(0, 1, -2.5));
+  EXPECT_EQ(mesh.triangles[0], Eigen::Vector3i(0, 1, 2));
+}
+
+TEST(Ply, MalformedFilesAreRefusedWithTheReason) {
+  const std::string header =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+      "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  EXPECT_THAT(ErrorOf(Write("a.ply", "solid cube\n")), HasSubstr("not a PLY file"));
+  EXPECT_THAT(ErrorOf(Write("b.ply", header + "0 0 0\n1 0 0\n")), HasSubstr("truncated"));
+  EXPECT_THAT(ErrorOf(Write("c.ply", header + "0 0 0\n1 0 0\n0 1 0\n3 0 1 9\n")), HasSubstr("outside 0..2"));
+  EXPECT_THAT(ErrorOf(Write("d.ply", header + "0 0 0\n1 zero 0\n0 1 0\n3 0 1 2\n")), HasSubstr("'zero'"));
+  EXPECT_THAT(ErrorOf(Write("e.ply", "ply\nformat binary_middle_endian 1.0\nend_header\n")),
+              HasSubstr("unsupported format"));
+  EXPECT_THAT(ErrorOf(Write("f.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n0\n")),
+              HasSubstr("lacks x, y or z"));
+  EXPECT_THAT(ErrorOf(Write("g.ply", "ply\nformat ascii 1.0\nelement vertex 0\n")), HasSubstr("no end_header"));
+  EXPECT_THAT(ErrorOf("/no/such/file.ply"), HasSubstr("cannot be opened"));
+}
+
+}  // namespace
+}  // namespace tac3d

@@ -1,0 +1,397 @@
+#include "tac3d/scene/scene.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <Eigen/Geometry>
+
+#include "tac3d/design/light_path_design.h"
+#include "tac3d/sensor/yaml_reader.h"
+#include "tac3d/util/error.h"
+
+namespace tac3d {
+namespace {
+
+namespace fs = std::filesystem;
+
+void Require(bool ok, const std::string& field, const std::string& bound, double value) {
+  if (!ok || std::isnan(value)) {
+    throw Error(fmt::format("scene: {} = {} is out of range: must be {}", field, value, bound));
+  }
+}
+
+std::string Resolve(const std::string& base_dir, const std::string& path) {
+  return fs::path(path).is_absolute() || base_dir.empty() ? path : (fs::path(base_dir) / path).string();
+}
+
+Rigid3 ReadPose(YamlReader& r) {
+  return PoseFromRpy(r.Vector<3>("position_mm"), r.Vector<3>("rpy_deg", Eigen::Vector3d::Zero()));
+}
+
+FrictionMap ReadFriction(YamlReader r) {
+  FrictionMap map;
+  map.default_mu = r.Double("default");
+  map.vertex_property = r.String("vertex_property", "");
+  if (r.Has("regions")) {
+    const YAML::Node regions = r.Sequence("regions");
+    for (size_t i = 0; i < regions.size(); ++i) {
+      YamlReader e = r.Element(regions, "regions", i);
+      FrictionRegion region;
+      region.mu = e.Double("mu");
+      if (e.Has("box_min_mm") || e.Has("box_max_mm")) {
+        region.kind = FrictionRegion::Kind::kBox;
+        region.min_mm = e.Vector<3>("box_min_mm");
+        region.max_mm = e.Vector<3>("box_max_mm");
+      } else if (e.Has("ball_center_mm") || e.Has("ball_radius_mm")) {
+        region.kind = FrictionRegion::Kind::kBall;
+        region.center_mm = e.Vector<3>("ball_center_mm");
+        region.radius_mm = e.Double("ball_radius_mm");
+      } else {
+        e.Fail(e.Join("mu"), "a region needs box_min_mm/box_max_mm or ball_center_mm/ball_radius_mm");
+      }
+      map.regions.push_back(region);
+    }
+  }
+  return map;
+}
+
+SceneObject ReadObject(YamlReader r, const std::string& base_dir) {
+  SceneObject o;
+  o.name = r.String("name");
+  const std::string shape = r.String("shape");
+  if (shape == "sphere") {
+    o.shape = SceneObject::Shape::kSphere;
+    o.radius_mm = r.Double("radius_mm");
+  } else if (shape == "cylinder") {
+    o.shape = SceneObject::Shape::kCylinder;
+    o.radius_mm = r.Double("radius_mm");
+    o.length_mm = r.Double("length_mm");
+  } else if (shape == "flat_punch") {
+    o.shape = SceneObject::Shape::kFlatPunch;
+    o.radius_mm = r.Double("radius_mm");
+  } else if (shape == "pins") {
+    o.shape = SceneObject::Shape::kPins;
+    o.radius_mm = r.Double("radius_mm");
+    o.rows = r.Int("rows");
+    o.cols = r.Int("cols");
+    o.pitch_mm = r.Double("pitch_mm");
+  } else if (shape == "box") {
+    o.shape = SceneObject::Shape::kBox;
+    o.size_mm = r.Vector<3>("size_mm");
+  } else if (shape == "mesh") {
+    o.shape = SceneObject::Shape::kMesh;
+    o.ply_path = r.String("ply");
+    o.mesh = std::make_shared<const IndexedMesh>(ReadPly(Resolve(base_dir, o.ply_path)));
+  } else {
+    r.Fail(r.Join("shape"), fmt::format("'{}' is not one of sphere, cylinder, flat_punch, pins, box, mesh", shape));
+  }
+  o.world_from_object = ReadPose(r);
+  o.friction = ReadFriction(r.Child("friction"));
+  return o;
+}
+
+Trajectory ReadTrajectory(YamlReader r, const std::string& base_dir) {
+  Trajectory t;
+  t.steps = r.Int("steps");
+  if (r.Has("csv")) {
+    t.keyframes = ReadTrajectoryCsv(Resolve(base_dir, r.String("csv")));
+  } else {
+    const YAML::Node keyframes = r.Sequence("keyframes");
+    for (size_t i = 0; i < keyframes.size(); ++i) {
+      YamlReader k = r.Element(keyframes, "keyframes", i);
+      t.keyframes.push_back({k.Double("t_s"), ReadPose(k)});
+    }
+  }
+  return t;
+}
+
+}  // namespace
+
+std::string_view ToString(SceneObject::Shape shape) {
+  switch (shape) {
+    case SceneObject::Shape::kSphere: return "sphere";
+    case SceneObject::Shape::kCylinder: return "cylinder";
+    case SceneObject::Shape::kFlatPunch: return "flat_punch";
+    case SceneObject::Shape::kPins: return "pins";
+    case SceneObject::Shape::kBox: return "box";
+    case SceneObject::Shape::kMesh: return "mesh";
+  }
+  return "?";
+}
+
+// ---- IndexedMesh -------------------------------------------------------------------------
+
+IndexedMesh::IndexedMesh(TriangleMesh mesh) : mesh_(std::move(mesh)) {
+  if (mesh_.vertices.empty()) throw Error("mesh: no vertices");
+  Eigen::Vector3d lo = mesh_.vertices.front(), hi = lo;
+  for (const Eigen::Vector3d& v : mesh_.vertices) {
+    lo = lo.cwiseMin(v);
+    hi = hi.cwiseMax(v);
+  }
+  // About two vertices a cell on average for a surface mesh filling its box's faces.
+  const Eigen::Vector3d extent = (hi - lo).cwiseMax(1e-9);
+  cell_mm_ = std::max(std::sqrt(2.0 * (extent.x() * extent.y() + extent.y() * extent.z() +
+                                       extent.z() * extent.x()) / (mesh_.vertices.size() / 2.0 + 1)),
+                      1e-6);
+  origin_ = lo;
+  cells_ = ((extent / cell_mm_).array().floor().cast<int>() + 1).matrix();
+  cells_ = cells_.cwiseMin(512);
+  buckets_.resize(static_cast<size_t>(cells_.x()) * cells_.y() * cells_.z());
+  for (int i = 0; i < static_cast<int>(mesh_.vertices.size()); ++i) {
+    const Eigen::Vector3i c = CellOf(mesh_.vertices[i]);
+    buckets_[(static_cast<size_t>(c.z()) * cells_.y() + c.y()) * cells_.x() + c.x()].push_back(i);
+  }
+}
+
+Eigen::Vector3i IndexedMesh::CellOf(const Eigen::Vector3d& p) const {
+  Eigen::Vector3i c = ((p - origin_) / cell_mm_).array().floor().cast<int>();
+  return c.cwiseMax(0).cwiseMin(cells_ - Eigen::Vector3i::Ones());
+}
+
+int IndexedMesh::NearestVertex(const Eigen::Vector3d& p) const {
+  const Eigen::Vector3i center = CellOf(p);
+  int best = -1;
+  double best_d2 = std::numeric_limits<double>::infinity();
+  const int max_ring = cells_.maxCoeff();
+  for (int ring = 0; ring <= max_ring; ++ring) {
+    for (int z = center.z() - ring; z <= center.z() + ring; ++z) {
+      for (int y = center.y() - ring; y <= center.y() + ring; ++y) {
+        for (int x = center.x() - ring; x <= center.x() + ring; ++x) {
+          const bool on_shell = std::max({std::abs(x - center.x()), std::abs(y - center.y()),
+                                          std::abs(z - center.z())}) == ring;
+          if (!on_shell || x < 0 || y < 0 || z < 0 || x >= cells_.x() || y >= cells_.y() || z >= cells_.z()) {
+            continue;
+          }
+          for (int i : buckets_[(static_cast<size_t>(z) * cells_.y() + y) * cells_.x() + x]) {
+            const double d2 = (mesh_.vertices[i] - p).squaredNorm();
+            if (d2 < best_d2) {
+              best_d2 = d2;
+              best = i;
+            }
+          }
+        }
+      }
+    }
+    // Every cell beyond this ring is at least `ring` cells away from p's cell.
+    if (best >= 0 && std::sqrt(best_d2) <= ring * cell_mm_) break;
+  }
+  return best;
+}
+
+// ---- Friction ----------------------------------------------------------------------------
+
+bool FrictionRegion::Contains(const Eigen::Vector3d& p) const {
+  if (kind == Kind::kBall) return (p - center_mm).norm() <= radius_mm;
+  return (p.array() >= min_mm.array()).all() && (p.array() <= max_mm.array()).all();
+}
+
+double SceneObject::FrictionAt(const Eigen::Vector3d& p_object) const {
+  if (mesh && !friction.vertex_property.empty()) {
+    return mesh->mesh().vertex_properties.at(friction.vertex_property)[mesh->NearestVertex(p_object)];
+  }
+  for (const FrictionRegion& region : friction.regions) {
+    if (region.Contains(p_object)) return region.mu;
+  }
+  return friction.default_mu;
+}
+
+// ---- Trajectory --------------------------------------------------------------------------
+
+Rigid3 PoseFromRpy(const Eigen::Vector3d& position_mm, const Eigen::Vector3d& rpy_deg) {
+  const Eigen::Vector3d r = rpy_deg * M_PI / 180.0;
+  Rigid3 pose = Rigid3::Identity();
+  pose.linear() = (Eigen::AngleAxisd(r.z(), Eigen::Vector3d::UnitZ()) *
+                   Eigen::AngleAxisd(r.y(), Eigen::Vector3d::UnitY()) *
+                   Eigen::AngleAxisd(r.x(), Eigen::Vector3d::UnitX()))
+                      .toRotationMatrix();
+  pose.translation() = position_mm;
+  return pose;
+}
+
+Rigid3 Trajectory::PoseAt(double t_s) const {
+  TAC3D_DEMAND(!keyframes.empty());
+  if (t_s <= keyframes.front().t_s) return keyframes.front().world_from_sensor;
+  if (t_s >= keyframes.back().t_s) return keyframes.back().world_from_sensor;
+  const auto next = std::upper_bound(keyframes.begin(), keyframes.end(), t_s,
+                                     [](double t, const Keyframe& k) { return t < k.t_s; });
+  const Keyframe& b = *next;
+  const Keyframe& a = *(next - 1);
+  const double s = (t_s - a.t_s) / (b.t_s - a.t_s);
+  const Eigen::Quaterniond qa(a.world_from_sensor.linear()), qb(b.world_from_sensor.linear());
+  Rigid3 pose = Rigid3::Identity();
+  pose.linear() = qa.slerp(s, qb).toRotationMatrix();
+  pose.translation() = (1 - s) * a.world_from_sensor.translation() + s * b.world_from_sensor.translation();
+  return pose;
+}
+
+double Trajectory::StepTime(int k) const {
+  return keyframes.front().t_s + duration_s() * k / std::max(steps - 1, 1);
+}
+
+std::vector<Trajectory::Keyframe> ReadTrajectoryCsv(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw Error(fmt::format("trajectory CSV '{}' cannot be opened", path));
+  std::vector<Trajectory::Keyframe> keyframes;
+  std::string line;
+  int line_number = 0;
+  bool header = false;
+  while (std::getline(in, line)) {
+    ++line_number;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty() || line[0] == '#') continue;
+    std::string compact;
+    std::remove_copy_if(line.begin(), line.end(), std::back_inserter(compact), ::isspace);
+    if (!header) {
+      if (compact != "t_s,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg") {
+        throw Error(fmt::format("{}:{}: the header must be t_s,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg",
+                                path, line_number));
+      }
+      header = true;
+      continue;
+    }
+    std::stringstream fields(compact);
+    std::string field;
+    double v[7];
+    int n = 0;
+    while (std::getline(fields, field, ',')) {
+      char* end = nullptr;
+      const double value = std::strtod(field.c_str(), &end);
+      if (n >= 7 || field.empty() || *end != '\0' || !std::isfinite(value)) {
+        throw Error(fmt::format("{}:{}: expected 7 finite numbers", path, line_number));
+      }
+      v[n++] = value;
+    }
+    if (n != 7) throw Error(fmt::format("{}:{}: expected 7 finite numbers, got {}", path, line_number, n));
+    if (!keyframes.empty() && !(v[0] > keyframes.back().t_s)) {
+      throw Error(fmt::format("{}:{}: t_s = {} does not increase", path, line_number, v[0]));
+    }
+    keyframes.push_back({v[0], PoseFromRpy({v[1], v[2], v[3]}, {v[4], v[5], v[6]})});
+  }
+  if (!header) throw Error(fmt::format("trajectory CSV '{}' is empty", path));
+  return keyframes;
+}
+
+// ---- Scene -------------------------------------------------------------------------------
+
+void Scene::Validate() const {
+  sensor.Validate();
+  Require(deviation.mesh_refinement >= 1 && deviation.mesh_refinement <= 4, "deviation.mesh_refinement",
+          "in [1, 4]", deviation.mesh_refinement);
+  Require(deviation.youngs_modulus_factor > 0 && deviation.youngs_modulus_factor <= 2,
+          "deviation.youngs_modulus_factor", "in (0, 2]", deviation.youngs_modulus_factor);
+  const double nu = sensor.elastic_body.poisson_ratio * deviation.poisson_ratio_factor;
+  Require(deviation.poisson_ratio_factor > 0 && nu < 0.5, "deviation.poisson_ratio_factor",
+          "> 0 with the twin's nu below 0.5", deviation.poisson_ratio_factor);
+  if (objects.empty()) throw Error("scene: objects: a scene needs at least one object");
+  for (size_t i = 0; i < objects.size(); ++i) {
+    const SceneObject& o = objects[i];
+    const std::string f = fmt::format("objects[{}] ({} '{}')", i, ToString(o.shape), o.name);
+    switch (o.shape) {
+      case SceneObject::Shape::kCylinder:
+        Require(o.length_mm > 0, f + ".length_mm", "> 0", o.length_mm);
+        [[fallthrough]];
+      case SceneObject::Shape::kSphere:
+      case SceneObject::Shape::kFlatPunch:
+        Require(o.radius_mm > 0, f + ".radius_mm", "> 0", o.radius_mm);
+        break;
+      case SceneObject::Shape::kPins:
+        Require(o.radius_mm > 0, f + ".radius_mm", "> 0", o.radius_mm);
+        Require(o.rows >= 1 && o.rows <= 100, f + ".rows", "in [1, 100]", o.rows);
+        Require(o.cols >= 1 && o.cols <= 100, f + ".cols", "in [1, 100]", o.cols);
+        Require(o.pitch_mm > 2 * o.radius_mm, f + ".pitch_mm", "> 2 radius_mm (pins apart)", o.pitch_mm);
+        break;
+      case SceneObject::Shape::kBox:
+        Require(o.size_mm.minCoeff() > 0, f + ".size_mm", "> 0 on every axis", o.size_mm.minCoeff());
+        break;
+      case SceneObject::Shape::kMesh:
+        if (!o.mesh || o.mesh->mesh().triangles.empty()) {
+          throw Error(fmt::format("scene: {}: the mesh '{}' has no triangles", f, o.ply_path));
+        }
+        break;
+    }
+    Require(o.friction.default_mu >= 0 && o.friction.default_mu <= 5, f + ".friction.default", "in [0, 5]",
+            o.friction.default_mu);
+    for (size_t k = 0; k < o.friction.regions.size(); ++k) {
+      const FrictionRegion& r = o.friction.regions[k];
+      const std::string rf = fmt::format("{}.friction.regions[{}]", f, k);
+      Require(r.mu >= 0 && r.mu <= 5, rf + ".mu", "in [0, 5]", r.mu);
+      if (r.kind == FrictionRegion::Kind::kBall) {
+        Require(r.radius_mm > 0, rf + ".ball_radius_mm", "> 0", r.radius_mm);
+      } else {
+        Require((r.max_mm - r.min_mm).minCoeff() > 0, rf + ".box_max_mm", "> box_min_mm on every axis",
+                (r.max_mm - r.min_mm).minCoeff());
+      }
+    }
+    if (!o.friction.vertex_property.empty()) {
+      if (!o.mesh) throw Error(fmt::format("scene: {}.friction.vertex_property: only a mesh has vertices", f));
+      const auto& props = o.mesh->mesh().vertex_properties;
+      const auto it = props.find(o.friction.vertex_property);
+      if (it == props.end()) {
+        throw Error(fmt::format("scene: {}.friction.vertex_property: the PLY has no vertex property '{}'", f,
+                                o.friction.vertex_property));
+      }
+      for (double mu : it->second) Require(mu >= 0 && mu <= 5, f + ".friction (a vertex's mu)", "in [0, 5]", mu);
+    }
+  }
+  const Trajectory& t = trajectory;
+  Require(t.steps >= 2 && t.steps <= 1000000, "trajectory.steps", "in [2, 1000000]", t.steps);
+  Require(t.keyframes.size() >= 2, "trajectory.keyframes (count)", ">= 2", t.keyframes.size());
+  for (size_t k = 1; k < t.keyframes.size(); ++k) {
+    Require(t.keyframes[k].t_s > t.keyframes[k - 1].t_s, fmt::format("trajectory.keyframes[{}].t_s", k),
+            "greater than the previous keyframe's", t.keyframes[k].t_s);
+  }
+}
+
+Scene ParseScene(const std::string& yaml_text, const std::string& source, const std::string& base_dir) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    throw Error(fmt::format("{}: not valid YAML: {}", source, e.what()));
+  }
+  Scene scene;
+  {
+    YamlReader r(root, "", &source);
+    scene.name = r.String("name");
+    const std::string sensor = r.String("sensor", "default");
+    scene.sensor = sensor == "default" ? DefaultSensorConfig() : LoadSensorConfig(Resolve(base_dir, sensor));
+    if (r.Has("deviation")) {
+      YamlReader d = r.Child("deviation");
+      scene.deviation.mesh_refinement = d.Double("mesh_refinement", scene.deviation.mesh_refinement);
+      scene.deviation.youngs_modulus_factor = d.Double("youngs_modulus_factor", scene.deviation.youngs_modulus_factor);
+      scene.deviation.poisson_ratio_factor = d.Double("poisson_ratio_factor", scene.deviation.poisson_ratio_factor);
+    }
+    const YAML::Node objects = r.Sequence("objects");
+    for (size_t i = 0; i < objects.size(); ++i) {
+      scene.objects.push_back(ReadObject(r.Element(objects, "objects", i), base_dir));
+    }
+    scene.trajectory = ReadTrajectory(r.Child("trajectory"), base_dir);
+  }
+  scene.Validate();
+  return scene;
+}
+
+Scene LoadScene(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw Error(fmt::format("scene file '{}' cannot be opened", path));
+  std::stringstream text;
+  text << in.rdbuf();
+  return ParseScene(text.str(), path, fs::path(path).parent_path().string());
+}
+
+Scene LoadSceneOrBuiltIn(const std::string& path_or_name) {
+  const auto names = BuiltInSceneNames();
+  if (std::find(names.begin(), names.end(), path_or_name) != names.end()) return BuiltInScene(path_or_name);
+  if (!fs::exists(path_or_name)) {
+    throw Error(fmt::format("scene '{}': no such file, and not a built-in scene ({})", path_or_name,
+                            fmt::join(names, ", ")));
+  }
+  return LoadScene(path_or_name);
+}
+
+}  // namespace tac3d

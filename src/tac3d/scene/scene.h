@@ -1,0 +1,151 @@
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "tac3d/geometry/geometry.h"
+#include "tac3d/scene/ply.h"
+#include "tac3d/sensor/sensor_config.h"
+
+namespace tac3d {
+
+/// A mesh object's triangles with a uniform grid over its vertices, for the nearest vertex
+/// of a surface point (per-vertex friction) in about constant time.
+class IndexedMesh {
+ public:
+  explicit IndexedMesh(TriangleMesh mesh);
+  const TriangleMesh& mesh() const { return mesh_; }
+  /// Index of the vertex nearest to p (object frame).
+  int NearestVertex(const Eigen::Vector3d& p) const;
+
+ private:
+  Eigen::Vector3i CellOf(const Eigen::Vector3d& p) const;
+
+  TriangleMesh mesh_;
+  Eigen::Vector3d origin_;
+  double cell_mm_ = 1.0;
+  Eigen::Vector3i cells_;
+  std::vector<std::vector<int>> buckets_;
+};
+
+/// Where the friction coefficient of an object's surface differs from its default: a box or
+/// a ball in the object's frame. The first region that contains a point wins.
+struct FrictionRegion {
+  enum class Kind { kBox, kBall };
+  Kind kind = Kind::kBox;
+  Eigen::Vector3d min_mm = Eigen::Vector3d::Zero();     ///< box
+  Eigen::Vector3d max_mm = Eigen::Vector3d::Zero();     ///< box
+  Eigen::Vector3d center_mm = Eigen::Vector3d::Zero();  ///< ball
+  double radius_mm = 0.0;                               ///< ball
+  double mu = 0.5;
+
+  bool Contains(const Eigen::Vector3d& p_object) const;
+};
+
+/// The friction coefficient over an object's surface: a default, regions, or per vertex of
+/// a mesh (a PLY vertex property).
+struct FrictionMap {
+  double default_mu = 0.5;
+  std::vector<FrictionRegion> regions;
+  /// For mesh objects: the PLY vertex property that holds mu (empty: not per vertex).
+  std::string vertex_property;
+};
+
+/// A rigid object of a scene. Shapes, in the object's own frame:
+/// - sphere: centre at the origin;
+/// - cylinder: axis along y through the origin, length `length_mm` centred on it;
+/// - flat_punch: a cylinder along z, its flat end the disc of `radius_mm` at z = 0, body z > 0;
+/// - pins: flat punches of `radius_mm` on a `rows` x `cols` grid of `pitch_mm` in z = 0;
+/// - box: `size_mm` centred on the origin;
+/// - mesh: a PLY triangle mesh, in mm.
+struct SceneObject {
+  enum class Shape { kSphere, kCylinder, kFlatPunch, kPins, kBox, kMesh };
+  std::string name;
+  Shape shape = Shape::kSphere;
+  double radius_mm = 5.0;
+  double length_mm = 40.0;
+  int rows = 1;
+  int cols = 2;
+  double pitch_mm = 2.54;
+  Eigen::Vector3d size_mm = Eigen::Vector3d(40, 40, 10);
+  std::string ply_path;                 ///< mesh: as written in the scene (relative to it)
+  std::shared_ptr<const IndexedMesh> mesh;  ///< mesh: loaded with the scene
+  Rigid3 world_from_object = Rigid3::Identity();
+  FrictionMap friction;
+
+  /// mu at a point of the surface (object frame): a vertex property is read at the mesh's
+  /// nearest vertex, else the first region containing the point, else the default.
+  double FrictionAt(const Eigen::Vector3d& p_object) const;
+};
+
+std::string_view ToString(SceneObject::Shape shape);
+
+/// world_from_sensor over time: keyframes interpolated linearly in position and by slerp in
+/// rotation, sampled at `steps` equal intervals from the first keyframe's time to the last's.
+struct Trajectory {
+  struct Keyframe {
+    double t_s = 0.0;
+    Rigid3 world_from_sensor = Rigid3::Identity();
+  };
+  std::vector<Keyframe> keyframes;
+  int steps = 100;
+
+  /// The pose at time t (clamped to the keyframes' span).
+  Rigid3 PoseAt(double t_s) const;
+  /// The time of step k (0 .. steps - 1).
+  double StepTime(int k) const;
+  double duration_s() const { return keyframes.back().t_s - keyframes.front().t_s; }
+};
+
+/// How the twin's fingertip differs from the sensor the pipeline is given (DESIGN.md: a
+/// finer mesh, elastic constants off nominal), so measurements are judged against a truth
+/// the pipeline's model does not share.
+struct TwinDeviation {
+  double mesh_refinement = 2.0;
+  double youngs_modulus_factor = 1.1;
+  double poisson_ratio_factor = 0.99;
+};
+
+/// A twin experiment: the fingertip, the objects around it and the sensor's motion.
+/// World frame: at the identity pose the sensor frame is the world frame, the fingertip's
+/// outer surface faces +z with its top at z = thickness, and objects are placed above it.
+struct Scene {
+  std::string name;
+  SensorConfig sensor;
+  TwinDeviation deviation;
+  std::vector<SceneObject> objects;
+  Trajectory trajectory;
+
+  /// @throws Error naming the field and its bound.
+  void Validate() const;
+};
+
+/// Reads a scene YAML file (format: docs/scenes.md). Paths inside it (a sensor YAML, PLY
+/// meshes, a trajectory CSV) are relative to the scene file's folder.
+/// @throws Error naming the file, the key path and what is wrong.
+Scene LoadScene(const std::string& path);
+/// @param base_dir where relative paths in the text are resolved.
+Scene ParseScene(const std::string& yaml_text, const std::string& source, const std::string& base_dir);
+
+/// Poses from a CSV file: a header `t_s,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg`, then one
+/// keyframe a line (roll about x, pitch about y, yaw about z, applied in that order).
+/// @throws Error naming the file and line of anything malformed, or times not increasing.
+std::vector<Trajectory::Keyframe> ReadTrajectoryCsv(const std::string& path);
+
+/// world_from_sensor from a position and roll, pitch, yaw (deg): R = Rz(yaw) Ry(pitch) Rx(roll).
+Rigid3 PoseFromRpy(const Eigen::Vector3d& position_mm, const Eigen::Vector3d& rpy_deg);
+
+/// The built-in scenes: "force_calibration", "probe", "pins", "two_material_slide", "bottle".
+std::vector<std::string> BuiltInSceneNames();
+/// @throws Error listing the names if `name` is not one.
+Scene BuiltInScene(const std::string& name);
+
+/// A scene file or a built-in name.
+Scene LoadSceneOrBuiltIn(const std::string& path_or_name);
+
+}  // namespace tac3d

@@ -1,0 +1,171 @@
+#include "tac3d/scene/scene.h"
+
+#include <cmath>
+#include <fstream>
+#include <random>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "tac3d/testing/testing.h"
+#include "tac3d/util/error.h"
+
+namespace tac3d {
+namespace {
+
+using ::testing::HasSubstr;
+
+const char* kSlide = R"(
+name: slide
+sensor: default
+deviation: {mesh_refinement: 2.0, youngs_modulus_factor: 1.1}
+objects:
+  - name: block
+    shape: box
+    size_mm: [60, 40, 10]
+    position_mm: [0, 0, 13.5]
+    friction:
+      default: 0.4
+      regions:
+        - {box_min_mm: [-31, -21, -6], box_max_mm: [0, 21, 6], mu: 1.0}
+        - {ball_center_mm: [10, 0, -5], ball_radius_mm: 2, mu: 1.5}
+trajectory:
+  steps: 11
+  keyframes:
+    - {t_s: 0, position_mm: [-8, 0, 0]}
+    - {t_s: 1, position_mm: [-8, 0, 1.3]}
+    - {t_s: 5, position_mm: [8, 0, 1.3], rpy_deg: [0, 0, 90]}
+)";
+
+std::string ErrorOf(const std::string& yaml) {
+  try {
+    ParseScene(yaml, "test.yaml", "");
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+std::string Replace(std::string text, const std::string& from, const std::string& to) {
+  const size_t at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  return text.replace(at, from.size(), to);
+}
+
+TEST(Scene, ParsesObjectsFrictionAndTrajectory) {
+  const Scene scene = ParseScene(kSlide, "test.yaml", "");
+  EXPECT_EQ(scene.name, "slide");
+  EXPECT_DOUBLE_EQ(scene.deviation.youngs_modulus_factor, 1.1);
+  EXPECT_DOUBLE_EQ(scene.deviation.poisson_ratio_factor, TwinDeviation{}.poisson_ratio_factor);
+  ASSERT_EQ(scene.objects.size(), 1u);
+  const SceneObject& block = scene.objects[0];
+  EXPECT_EQ(block.shape, SceneObject::Shape::kBox);
+  EXPECT_DOUBLE_EQ(block.FrictionAt({-5, 0, -5}), 1.0);   // the rough half
+  EXPECT_DOUBLE_EQ(block.FrictionAt({5, 0, -5}), 0.4);    // the smooth half
+  EXPECT_DOUBLE_EQ(block.FrictionAt({10.5, 0, -5}), 1.5); // the ball region
+  EXPECT_NEAR(block.world_from_object.translation().z(), 13.5, 0);
+}
+
+TEST(Trajectory, InterpolatesPositionLinearlyAndRotationBySlerp) {
+  const Scene scene = ParseScene(kSlide, "test.yaml", "");
+  const Trajectory& t = scene.trajectory;
+  EXPECT_DOUBLE_EQ(t.StepTime(0), 0.0);
+  EXPECT_DOUBLE_EQ(t.StepTime(10), 5.0);
+  const Rigid3 mid = t.PoseAt(3.0);  // halfway between the 2nd and 3rd keyframes
+  EXPECT_THAT(mid.translation(), EigenNear(Eigen::Vector3d(0, 0, 1.3), 1e-12));
+  EXPECT_NEAR(RotationAngleDeg(mid.linear(), Eigen::Matrix3d::Identity()), 45.0, 1e-9);
+  EXPECT_THAT(t.PoseAt(-1).translation(), EigenNear(Eigen::Vector3d(-8, 0, 0), 0));
+  EXPECT_THAT(t.PoseAt(99).translation(), EigenNear(Eigen::Vector3d(8, 0, 1.3), 1e-12));
+}
+
+TEST(Scene, BadValuesNameTheFieldAndTheBound) {
+  EXPECT_THAT(ErrorOf(Replace(kSlide, "default: 0.4", "default: -0.1")), HasSubstr("friction.default"));
+  EXPECT_THAT(ErrorOf(Replace(kSlide, "shape: box", "shape: torus")), HasSubstr("'torus' is not one of"));
+  EXPECT_THAT(ErrorOf(Replace(kSlide, "t_s: 5", "t_s: 0.5")), HasSubstr("keyframes[2].t_s"));
+  EXPECT_THAT(ErrorOf(Replace(kSlide, "steps: 11", "steps: 1")), HasSubstr("trajectory.steps"));
+  EXPECT_THAT(ErrorOf(Replace(kSlide, "size_mm: [60, 40, 10]", "size_mm: [60, 0, 10]")), HasSubstr("size_mm"));
+  EXPECT_THAT(ErrorOf(Replace(kSlide, "ball_radius_mm: 2", "ball_radius_mm: 0")), HasSubstr("ball_radius_mm"));
+  EXPECT_THAT(ErrorOf(Replace(kSlide, "youngs_modulus_factor: 1.1", "poisson_ratio_factor: 1.1")),
+              HasSubstr("poisson_ratio_factor"));
+  EXPECT_THAT(ErrorOf(Replace(kSlide, "name: block", "name: block\n    colour: red")), HasSubstr("unknown key"));
+  EXPECT_THAT(ErrorOf(Replace(kSlide, "sensor: default", "sensor: nowhere.yaml")), HasSubstr("nowhere.yaml"));
+  EXPECT_THAT(ErrorOf("name: [unclosed"), HasSubstr("not valid YAML"));
+}
+
+TEST(Scene, MeshObjectWithPerVertexFrictionAndCsvTrajectory) {
+  const std::string dir = testing::MakeTempDir("scene_mesh");
+  TriangleMesh mesh;
+  mesh.vertices = {{-10, -10, 0}, {10, -10, 0}, {10, 10, 0}, {-10, 10, 0}};
+  mesh.triangles = {{0, 1, 2}, {0, 2, 3}};
+  mesh.vertex_properties["mu"] = {0.2, 0.4, 0.6, 0.8};
+  WritePly(mesh, dir + "/plate.ply");
+  std::ofstream(dir + "/poses.csv") << "# a press\nt_s, x_mm, y_mm, z_mm, roll_deg, pitch_deg, yaw_deg\n"
+                                       "0,0,0,0,0,0,0\n1,0,0,1,0,0,0\n2,0,0,0,0,0,0\n";
+  std::ofstream(dir + "/scene.yaml") << R"(
+name: plate
+objects:
+  - {name: plate, shape: mesh, ply: plate.ply, position_mm: [0, 0, 8.5],
+     friction: {default: 0.5, vertex_property: mu}}
+trajectory: {steps: 21, csv: poses.csv}
+)";
+  const Scene scene = LoadScene(dir + "/scene.yaml");
+  const SceneObject& plate = scene.objects[0];
+  EXPECT_DOUBLE_EQ(plate.FrictionAt({9, 9, 0}), 0.6);     // nearest vertex (10, 10, 0)
+  EXPECT_DOUBLE_EQ(plate.FrictionAt({-9.5, 8, 3}), 0.8);  // nearest vertex (-10, 10, 0)
+  EXPECT_EQ(scene.trajectory.keyframes.size(), 3u);
+  EXPECT_NEAR(scene.trajectory.PoseAt(0.5).translation().z(), 0.5, 1e-12);
+
+  std::ofstream(dir + "/bad.csv") << "t_s,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg\n0,0,0,0,0,0\n";
+  try {
+    ReadTrajectoryCsv(dir + "/bad.csv");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("bad.csv:2"));
+  }
+}
+
+TEST(IndexedMesh, NearestVertexAgreesWithBruteForce) {
+  TriangleMesh mesh;
+  std::mt19937 rng(testing::kRandomSeed);
+  std::uniform_real_distribution<double> u(-20, 20);
+  for (int i = 0; i < 2000; ++i) mesh.vertices.emplace_back(u(rng), u(rng), 0.1 * u(rng));
+  const IndexedMesh indexed(mesh);
+  for (int k = 0; k < 300; ++k) {
+    const Eigen::Vector3d p(1.5 * u(rng), 1.5 * u(rng), u(rng));
+    int best = 0;
+    for (int i = 1; i < 2000; ++i) {
+      if ((mesh.vertices[i] - p).squaredNorm() < (mesh.vertices[best] - p).squaredNorm()) best = i;
+    }
+    EXPECT_DOUBLE_EQ((mesh.vertices[indexed.NearestVertex(p)] - p).norm(), (mesh.vertices[best] - p).norm());
+  }
+}
+
+// Each built-in scene is valid and does what its description says.
+TEST(BuiltInScenes, AreValidAndTouchTheirObjects) {
+  for (const std::string& name : BuiltInSceneNames()) {
+    SCOPED_TRACE(name);
+    const Scene scene = BuiltInScene(name);
+    EXPECT_EQ(scene.name, name);
+    EXPECT_NO_THROW(scene.Validate());
+  }
+  EXPECT_EQ(BuiltInScene("two_material_slide").trajectory.steps, 500);
+  const Scene slide = BuiltInScene("two_material_slide");
+  EXPECT_DOUBLE_EQ(slide.objects[0].FrictionAt({-5, 0, -5}), 1.0);
+  EXPECT_DOUBLE_EQ(slide.objects[0].FrictionAt({5, 0, -5}), 0.4);
+  // The bottle: at the middle of the slide (phi = 10 deg) the fingertip's top is pressed
+  // 0.8 mm into the cylinder; the rubber disc is where the fingertip is at phi = 20 deg.
+  const Scene bottle = BuiltInScene("bottle");
+  const SceneObject& cylinder = bottle.objects[0];
+  const Rigid3 world_from_sensor = bottle.trajectory.PoseAt(5.0);
+  const Eigen::Vector3d tip_world = world_from_sensor * Eigen::Vector3d(0, 0, 8.0);
+  const Eigen::Vector3d tip_object = cylinder.world_from_object.inverse() * tip_world;
+  EXPECT_NEAR(30.0 - std::hypot(tip_object.x(), tip_object.z()), 0.8, 1e-9);
+  const double phi = 20.0 * M_PI / 180.0;
+  EXPECT_DOUBLE_EQ(cylinder.FrictionAt({-30 * std::sin(phi), 0, -30 * std::cos(phi)}), 1.2);
+  EXPECT_DOUBLE_EQ(cylinder.FrictionAt({0, 0, -30}), 0.3);
+  EXPECT_THAT(ErrorOf("name: x"), HasSubstr("objects"));
+  EXPECT_THROW(BuiltInScene("nope"), Error);
+}
+
+}  // namespace
+}  // namespace tac3d
