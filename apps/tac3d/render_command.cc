@@ -58,7 +58,7 @@ void RunMarkers(RenderArgs a) {
 
 void RunBoard(RenderArgs a) {
   a.options.noise = !a.no_noise;
-  if (a.asymmetric) a.board.layout = DotBoard::Layout::kAsymmetric;
+  if (a.asymmetric) a.board.grid.layout = CalibrationBoard::Layout::kAsymmetric;
   const SensorConfig config = LoadSensorOrDefault(a.config);
   const BoardImageRenderer renderer(config, a.options);
   const Rigid3 pose = a.board.SensorFromBoard({a.pose[0], a.pose[1], a.pose[2]},
@@ -84,10 +84,10 @@ void RegisterRender(CLI::App& app) {
   CLI::App* b = render->add_subcommand(
       "board", "A dot calibration board through the mirrors, before the elastic body is mounted");
   AddCommon(b, *board);
-  b->add_option("--rows", board->board.rows, "dot rows")->capture_default_str();
-  b->add_option("--cols", board->board.cols, "dot columns")->capture_default_str();
-  b->add_option("--spacing", board->board.spacing_mm, "dot spacing, mm")->capture_default_str();
-  b->add_option("--dot", board->board.dot_diameter_mm, "dot diameter, mm")->capture_default_str();
+  b->add_option("--rows", board->board.grid.rows, "dot rows")->capture_default_str();
+  b->add_option("--cols", board->board.grid.cols, "dot columns")->capture_default_str();
+  b->add_option("--spacing", board->board.grid.spacing_mm, "dot spacing, mm")->capture_default_str();
+  b->add_option("--dot", board->board.grid.dot_diameter_mm, "dot diameter, mm")->capture_default_str();
   b->add_flag("--asymmetric", board->asymmetric, "OpenCV's asymmetric circle grid");
   b->add_option("--pose", board->pose,
                 "board centre x,y,z (mm) and rotation vector rx,ry,rz (deg), sensor frame")

@@ -112,7 +112,7 @@ nlohmann::json EvaluateDisplacement(const DisplacementEvaluationOptions& options
   RenderOptions render;
   render.seed = options.calibration.seed + 1;  // other noise than the calibration set's
   const BoardImageRenderer renderer(twin.truth, render);
-  const DotBoard dot_board = ToDotBoard(board);
+  const DotBoard dot_board = DotBoard{board};
 
   // Paper V.A: start, then 3 mm along x, then along y, then along z.
   std::vector<Eigen::Vector3d> centres = {options.start_mm};

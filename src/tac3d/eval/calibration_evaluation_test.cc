@@ -93,7 +93,7 @@ TEST(DetectDotGrid, OrdersABoardTurnedHalfWayRoundAsTheReference) {
   CalibrationBoard board;
   board.rows = 5;
   board.cols = 6;
-  const DotBoard dot_board = ToDotBoard(board);
+  const DotBoard dot_board = DotBoard{board};
   const Rigid3 turned = dot_board.SensorFromBoard(Eigen::Vector3d::Zero(), {0, 0, 180});
   RenderOptions render;
   render.noise = false;

@@ -109,22 +109,11 @@ void CalibrationSetOptions::Validate() const {
   render.Validate();
 }
 
-DotBoard ToDotBoard(const CalibrationBoard& board) {
-  DotBoard d;
-  d.layout = board.layout == CalibrationBoard::Layout::kSymmetric ? DotBoard::Layout::kSymmetric
-                                                                  : DotBoard::Layout::kAsymmetric;
-  d.rows = board.rows;
-  d.cols = board.cols;
-  d.spacing_mm = board.spacing_mm;
-  d.dot_diameter_mm = board.dot_diameter_mm;
-  return d;
-}
-
 CalibrationSet RenderCalibrationSet(const SensorConfig& truth, const CalibrationSetOptions& options) {
   options.Validate();
   const OpticalLayout layout = truth.MakeOpticalLayout(false);
   const BoardImageRenderer renderer(truth, options.render);
-  const DotBoard dot_board = ToDotBoard(options.board);
+  const DotBoard dot_board = DotBoard{options.board};
   const std::vector<Eigen::Vector3d> dots = options.board.DotCenters();
   auto seen_whole = [&](const Rigid3& pose) {
     std::vector<Eigen::Vector3d> in_sensor;

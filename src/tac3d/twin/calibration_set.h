@@ -69,7 +69,5 @@ CalibrationSet RenderCalibrationSet(const SensorConfig& truth, const Calibration
 /// @throws Error if a file cannot be written.
 void WriteCalibrationSet(const CalibrationSet& set, const SensorConfig& truth, const std::string& dir);
 
-/// The renderer's description of a calibration board.
-DotBoard ToDotBoard(const CalibrationBoard& board);
 
 }  // namespace tac3d

@@ -179,40 +179,16 @@ void RenderOptions::Validate() const {
 }
 
 void DotBoard::Validate() const {
-  auto require = [](bool ok, const char* field, const char* bound, double value) {
-    if (!ok || std::isnan(value)) {
-      throw Error(fmt::format("dot board: {} = {} must be {}", field, value, bound));
-    }
-  };
-  require(rows >= 2, "rows", ">= 2", rows);
-  require(cols >= 2, "cols", ">= 2", cols);
-  require(spacing_mm > 0, "spacing_mm", "> 0", spacing_mm);
-  const double min_gap = layout == Layout::kSymmetric ? spacing_mm : spacing_mm * std::sqrt(2.0);
-  require(dot_diameter_mm > 0 && dot_diameter_mm < min_gap, "dot_diameter_mm",
-          "> 0 and smaller than the distance between neighbouring dots", dot_diameter_mm);
-  require(margin_mm >= 0, "margin_mm", ">= 0", margin_mm);
-}
-
-std::vector<Eigen::Vector3d> DotBoard::DotCenters() const {
-  std::vector<Eigen::Vector3d> centers;
-  for (int r = 0; r < rows; ++r) {
-    for (int c = 0; c < cols; ++c) {
-      const double x = layout == Layout::kSymmetric ? c * spacing_mm : (2 * c + r % 2) * spacing_mm;
-      centers.emplace_back(x, r * spacing_mm, 0.0);
-    }
-  }
-  return centers;
+  grid.Validate();
+  if (!(margin_mm >= 0)) throw Error(fmt::format("dot board: margin_mm = {} must be >= 0", margin_mm));
 }
 
 Eigen::Vector2d DotBoard::Min() const {
-  return Eigen::Vector2d::Constant(-margin_mm - 0.5 * dot_diameter_mm);
+  return Eigen::Vector2d::Constant(-margin_mm - 0.5 * grid.dot_diameter_mm);
 }
 
 Eigen::Vector2d DotBoard::Max() const {
-  const double width = layout == Layout::kSymmetric ? (cols - 1) * spacing_mm
-                                                    : (2 * (cols - 1) + 1) * spacing_mm;
-  return Eigen::Vector2d(width, (rows - 1) * spacing_mm) +
-         Eigen::Vector2d::Constant(margin_mm + 0.5 * dot_diameter_mm);
+  return 2 * grid.GridCenter().head<2>() + Eigen::Vector2d::Constant(margin_mm + 0.5 * grid.dot_diameter_mm);
 }
 
 Rigid3 DotBoard::SensorFromBoard(const Eigen::Vector3d& centre_in_sensor,
@@ -315,8 +291,8 @@ cv::Mat BoardImageRenderer::RenderIrradiance(const DotBoard& board,
     }
   }
   std::vector<Disk> disks;
-  for (const Eigen::Vector3d& p : board.DotCenters()) {
-    disks.push_back({sensor_from_board * p, n, 0.5 * board.dot_diameter_mm,
+  for (const Eigen::Vector3d& p : board.grid.DotCenters()) {
+    disks.push_back({sensor_from_board * p, n, 0.5 * board.grid.dot_diameter_mm,
                      options_.board_dot_reflectance});
   }
   SplatDisks(rays_, disks, image);

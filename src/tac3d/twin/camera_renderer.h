@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include "tac3d/calib/calibration_board.h"
 #include "tac3d/sensor/sensor_config.h"
 #include "tac3d/twin/ray_field.h"
 
@@ -38,17 +39,11 @@ struct RenderOptions {
 /// ((2c + r % 2) * spacing, r * spacing). The board frame has its origin at dot (0, 0),
 /// the dots in its z = 0 plane and z pointing away from the camera.
 struct DotBoard {
-  enum class Layout { kSymmetric, kAsymmetric };
-  Layout layout = Layout::kSymmetric;
-  int rows = 7;
-  int cols = 7;
-  double spacing_mm = 2.5;
-  double dot_diameter_mm = 1.2;
+  CalibrationBoard grid;   ///< the dots (calibration_board.h)
   double margin_mm = 3.0;  ///< white border around the outer dots
 
+  /// @throws Error naming the field and the bound.
   void Validate() const;
-  /// Dot centres in the board frame, row-major (OpenCV's order for findCirclesGrid).
-  std::vector<Eigen::Vector3d> DotCenters() const;
   /// The board's white area, in its frame: [min.x, max.x] x [min.y, max.y].
   Eigen::Vector2d Min() const;
   Eigen::Vector2d Max() const;

@@ -77,20 +77,20 @@ TEST(RenderOptions, AreValidated) {
 }
 
 TEST(BoardImageRenderer, OpenCvFindsTheCircleGridInBothHalves) {
-  for (const auto layout : {DotBoard::Layout::kSymmetric, DotBoard::Layout::kAsymmetric}) {
+  for (const auto layout : {CalibrationBoard::Layout::kSymmetric, CalibrationBoard::Layout::kAsymmetric}) {
     DotBoard board;
-    board.layout = layout;
-    board.rows = layout == DotBoard::Layout::kSymmetric ? 7 : 9;
-    board.cols = layout == DotBoard::Layout::kSymmetric ? 7 : 4;
+    board.grid.layout = layout;
+    board.grid.rows = layout == CalibrationBoard::Layout::kSymmetric ? 7 : 9;
+    board.grid.cols = layout == CalibrationBoard::Layout::kSymmetric ? 7 : 4;
     const BoardImageRenderer renderer(Sensor());
     const cv::Mat image = renderer.Render(board, board.SensorFromBoard(Eigen::Vector3d::Zero()));
     const int split = Sensor().virtual_cameras[1].column_begin;
     for (const cv::Rect roi : {cv::Rect(0, 0, split, 480), cv::Rect(split, 0, 640 - split, 480)}) {
       std::vector<cv::Point2f> centres;
-      const int flags = layout == DotBoard::Layout::kSymmetric ? cv::CALIB_CB_SYMMETRIC_GRID
+      const int flags = layout == CalibrationBoard::Layout::kSymmetric ? cv::CALIB_CB_SYMMETRIC_GRID
                                                                : cv::CALIB_CB_ASYMMETRIC_GRID;
-      const bool found = cv::findCirclesGrid(image(roi), cv::Size(board.cols, board.rows), centres, flags);
-      EXPECT_TRUE(found) << (layout == DotBoard::Layout::kSymmetric ? "symmetric" : "asymmetric")
+      const bool found = cv::findCirclesGrid(image(roi), cv::Size(board.grid.cols, board.grid.rows), centres, flags);
+      EXPECT_TRUE(found) << (layout == CalibrationBoard::Layout::kSymmetric ? "symmetric" : "asymmetric")
                          << " grid in the half at x = " << roi.x;
     }
   }
@@ -107,10 +107,13 @@ TEST(DotBoard, PoseTurnsAboutTheBoardCentre) {
 
 TEST(DotBoard, Validates) {
   DotBoard board;
-  board.dot_diameter_mm = board.spacing_mm;
+  board.grid.dot_diameter_mm = board.grid.spacing_mm;
   EXPECT_THROW(board.Validate(), Error);
   board = {};
-  board.rows = 1;
+  board.margin_mm = -1;
+  EXPECT_THROW(board.Validate(), Error);
+  board = {};
+  board.grid.rows = 1;
   EXPECT_THROW(board.Validate(), Error);
 }
 
