@@ -1,12 +1,14 @@
 // Marker tracking on 640x480 twin frames of the built-in sensor: full-image acquisition
-// (blob detection, grid indexing, growth) and the per-frame tracking that follows it.
-// Run: taskset -c 0 build-tracking/bin/bench_tracking --benchmark_repetitions=10
+// (blob detection, grid indexing, growth), the per-frame tracking that follows it, and the
+// whole per-frame chain up to the markers' 3D positions (tracking + triangulation).
+// Run: taskset -c 0 build/bin/bench_tracking --benchmark_repetitions=10
 //        --benchmark_report_aggregates_only=true
 #include <cmath>
 
 #include <benchmark/benchmark.h>
 
 #include "tac3d/design/light_path_design.h"
+#include "tac3d/stereo/marker_field.h"
 #include "tac3d/tracking/marker_tracker.h"
 #include "tac3d/twin/camera_renderer.h"
 
@@ -69,6 +71,27 @@ void BM_TrackFrame(benchmark::State& state) {
   state.counters["markers"] = 2.0 * observation.rows * observation.cols;
 }
 BENCHMARK(BM_TrackFrame)->Unit(benchmark::kMicrosecond);
+
+// The per-frame chain of a tracked frame: tracking in both halves, pairing by index (a
+// marker's uv is NaN unless valid in its half, so the triangulator keeps the markers valid
+// in both) and triangulation with the polynomial refraction compensation.
+void BM_TrackAndTriangulateFrame(benchmark::State& state) {
+  MarkerTracker tracker(Sensor());
+  const MarkerTriangulator triangulator(Sensor());
+  MarkerObservation observation;
+  MarkerField field;
+  tracker.Track(Frames()[0], observation);
+  size_t k = 1;
+  for (auto _ : state) {
+    tracker.Track(Frames()[k++ % Frames().size()], observation);
+    triangulator.Triangulate(observation.half(ImageHalf::kLeft).uv,
+                             observation.half(ImageHalf::kRight).uv, field);
+    if (observation.summary.acquired || field.CountValid() != 400) {
+      state.SkipWithError("markers lost");
+    }
+  }
+}
+BENCHMARK(BM_TrackAndTriangulateFrame)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 }  // namespace tac3d
