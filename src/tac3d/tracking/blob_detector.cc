@@ -5,6 +5,7 @@
 #include <bit>
 #include <cstring>
 #include <cmath>
+#include <limits>
 
 #include <opencv2/imgproc.hpp>
 
@@ -195,6 +196,8 @@ BlobStatus MeasureBlob(const cv::Mat& image,
   const int level = Round(background - options.weight_threshold * contrast);
   const double r2 = blob_radius_px * blob_radius_px;
   const int r = static_cast<int>(std::floor(blob_radius_px));
+  const int rows_per_sum = std::max(
+      1, static_cast<int>(std::numeric_limits<std::int32_t>::max() / (255.0 * std::max(1, r * r) * (2 * r + 1))));
   int cx = bx, cy = by;
   double sw = 0, sx = 0, sy = 0, sxx = 0, sxy = 0, syy = 0;
   int count = 0;
@@ -207,39 +210,52 @@ BlobStatus MeasureBlob(const cv::Mat& image,
     }
     sw = sx = sy = sxx = sxy = syy = 0;
     count = 0;
-    for (int dy = -r; dy <= r; ++dy) {
+    // Integer moments in lanes, exact: a row adds at most 255 r^2 (2r + 1) to one, so they
+    // move to the doubles before an int32 could overflow (only for radii over 32 px).
+    I32x8 lw{}, lx{}, ly{}, lxx{}, lxy{}, lyy{}, lc{};
+    auto flush = [&] {
+      sw += Sum(lw);
+      sx += Sum(lx);
+      sy += Sum(ly);
+      sxx += Sum(lxx);
+      sxy += Sum(lxy);
+      syy += Sum(lyy);
+      count += Sum(lc);
+      lw = lx = ly = lxx = lxy = lyy = lc = I32x8{};
+    };
+    for (int dy = -r, rows = 0; dy <= r; ++dy) {
       const int y = cy + dy;
       if (y < roi.y || y > roi_y1) continue;
       const std::uint8_t* row = image.ptr<std::uint8_t>(y);
       const int half_width = HalfWidth(r2, dy);
       const int x0 = cx + std::max(-half_width, roi.x - cx), x1 = cx + std::min(half_width, roi_x1 - cx);
-      // Integer sums, exact: at most 255 * r^2 * (2r + 1) in a row.
-      I32x8 rw{}, rx{}, rxx{}, rc{};
       for (int a = x0; a <= x1; a += kLanes) {
         U8x16 pixels;
-        const int first = LoadSpan(row, image.cols, a, std::min(x1, a + kLanes - 1), pixels);
-        for (int h = 0; h < 2; ++h) {  // the lanes' halves, as 32-bit integers
+        const int last = std::min(x1, a + kLanes - 1);
+        const int first = LoadSpan(row, image.cols, a, last, pixels);
+        // The lanes' halves as 32-bit integers; the upper one only if it holds pixels.
+        for (int h = 0; h < (last - first >= kLanes / 2 ? 2 : 1); ++h) {
           const U8x8 half = h == 0 ? __builtin_shufflevector(pixels, pixels, 0, 1, 2, 3, 4, 5, 6, 7)
                                    : __builtin_shufflevector(pixels, pixels, 8, 9, 10, 11, 12, 13, 14, 15);
           I32x8 w = level - __builtin_convertvector(half, I32x8);
           w = w > 0 ? w : I32x8{};  // white padding lanes weigh nothing
-          const I32x8 dx = kLane32 + (first + 8 * h - cx);
-          const I32x8 wx = w * dx;
-          rw += w;
-          rx += wx;
-          rxx += wx * dx;
-          rc -= w > 0;
+          const I32x8 dx = kLane32 + (first + kLanes / 2 * h - cx);
+          const I32x8 wx = w * dx, wy = w * dy;
+          lw += w;
+          lx += wx;
+          ly += wy;
+          lxx += wx * dx;
+          lxy += wx * dy;
+          lyy += wy * dy;
+          lc -= w > 0;
         }
       }
-      const int row_w = Sum(rw), row_x = Sum(rx);
-      sw += row_w;
-      sx += row_x;
-      sy += static_cast<double>(row_w) * dy;
-      sxx += Sum(rxx);
-      sxy += static_cast<double>(row_x) * dy;
-      syy += static_cast<double>(row_w) * dy * dy;
-      count += Sum(rc);
+      if (++rows == rows_per_sum) {
+        flush();
+        rows = 0;
+      }
     }
+    flush();
     if (sw <= 0) return BlobStatus::kNoBlob;
   }
   const double mx = sx / sw, my = sy / sw;
