@@ -157,6 +157,10 @@ class MarkerTracker {
   // deviations from their base agree; the others are to be grown again.
   void KeepLargestConsistentSeeds(Half& half) const;
   void TrackHalf(const cv::Mat& image, Half& half) const;
+  // A jump of the whole grid by about a pitch, which tracking takes for no motion with every
+  // identity one off: a side of the border ring mostly not found and dots found one pitch
+  // beyond the opposite side. Probes only when a side is mostly lost.
+  bool GridJumped(const cv::Mat& image, const Half& half) const;
   // Grows the accepted set breadth-first from the queue: see the class comment.
   void Grow(const cv::Mat& image, Half& half, int head, int tail) const;
   // Prediction of marker i: its base, moved by the mean unexpected motion (found - base)
