@@ -106,9 +106,9 @@ struct MarkerObservation {
 /// neighbour's. The grid is grown breadth-first from its outer ring (where the elastic
 /// body is thinnest and moves least), so the motion carried inward from neighbour to
 /// neighbour keeps identities through up to about one pitch of motion per frame where
-/// the motion varies smoothly across the grid. A uniform jump of the whole grid by a
-/// whole pitch in one frame cannot be told from no motion by any local method; only the
-/// grid's border reveals it.
+/// the motion varies smoothly across the grid. A uniform jump of the whole grid by about a
+/// pitch in one frame cannot be told from no motion by any local method; the grid's border
+/// reveals it (a side lost, dots beyond the opposite one), and the half is re-acquired.
 class MarkerTracker {
  public:
   /// @throws Error if the options are invalid, the config has no designed mirrors or
