@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
+#include <cstring>
 #include <cmath>
+#include <limits>
 
 #include <opencv2/imgproc.hpp>
 
@@ -11,7 +14,7 @@
 namespace tac3d {
 namespace {
 
-// Directions (cos, sin) of the background samples around a blob.
+// Directions (cos, sin) of the background samples around a blob (one vector of them).
 constexpr int kRingSamples = 16;
 const std::array<std::pair<double, double>, kRingSamples> kRingDirections = [] {
   std::array<std::pair<double, double>, kRingSamples> d;
@@ -20,6 +23,64 @@ const std::array<std::pair<double, double>, kRingSamples> kRingDirections = [] {
   }
   return d;
 }();
+
+// Rows are read 16 pixels at a time as one vector (GCC and Clang vector extensions: SSE or
+// AVX2 on x86-64, NEON on ARM), so a dot's row costs a few instructions, not a loop.
+constexpr int kLanes = 16;
+using U8x16 = std::uint8_t __attribute__((vector_size(kLanes)));
+using U8x8 = std::uint8_t __attribute__((vector_size(kLanes / 2)));
+using I32x8 = std::int32_t __attribute__((vector_size(2 * kLanes)));
+constexpr U8x16 kLane = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
+constexpr I32x8 kLane32 = {0, 1, 2, 3, 4, 5, 6, 7};
+static_assert(kRingSamples == kLanes, "the background ring is one vector");
+static_assert(std::endian::native == std::endian::little, "FirstLaneEqual reads lane 0 as the lowest byte");
+
+// Pixels [x0, x1] of a row (x1 - x0 < kLanes, inside the image) into lanes, from the returned
+// column on; the other lanes are white (255).
+int LoadSpan(const std::uint8_t* row, int cols, int x0, int x1, U8x16& pixels) {
+  const int first = std::max(0, std::min(x0, cols - kLanes));  // stays inside the row
+  if (first + kLanes <= cols) {
+    std::memcpy(&pixels, row + first, kLanes);
+  } else {  // an image narrower than a vector
+    for (int k = 0; k < kLanes; ++k) pixels[k] = first + k < cols ? row[first + k] : 255;
+  }
+  const auto lo = static_cast<std::uint8_t>(x0 - first), hi = static_cast<std::uint8_t>(x1 - first);
+  pixels |= reinterpret_cast<U8x16>(~((kLane >= lo) & (kLane <= hi)));
+  return first;
+}
+
+U8x16 Min(U8x16 a, U8x16 b) { return a < b ? a : b; }
+
+int HorizontalMin(U8x16 v) {
+  v = Min(v, __builtin_shufflevector(v, v, 8, 9, 10, 11, 12, 13, 14, 15, 0, 1, 2, 3, 4, 5, 6, 7));
+  v = Min(v, __builtin_shufflevector(v, v, 4, 5, 6, 7, 0, 1, 2, 3, 4, 5, 6, 7, 0, 1, 2, 3));
+  v = Min(v, __builtin_shufflevector(v, v, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3, 0, 1));
+  v = Min(v, __builtin_shufflevector(v, v, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0, 1, 0));
+  return v[0];
+}
+
+// The lowest lane holding `value` (at least one does).
+int FirstLaneEqual(U8x16 v, std::uint8_t value) {
+  const auto equal = v == value;
+  std::uint64_t half[2];
+  std::memcpy(half, &equal, sizeof(half));
+  return half[0] != 0 ? std::countr_zero(half[0]) / 8 : 8 + std::countr_zero(half[1]) / 8;
+}
+
+// The value at 0-based `rank` of the lanes in ascending order: the smallest value that more
+// than `rank` lanes are at or below (16 compares of all lanes, no sort).
+int ValueAtRank(U8x16 v, int rank) {
+  U8x16 at_or_below{};
+  for (int j = 0; j < kLanes; ++j) at_or_below -= reinterpret_cast<U8x16>(v[j] <= v);
+  return HorizontalMin(at_or_below > static_cast<std::uint8_t>(rank) ? v : U8x16{} + 255);
+}
+
+int Sum(I32x8 v) {
+  v += __builtin_shufflevector(v, v, 4, 5, 6, 7, 0, 1, 2, 3);
+  v += __builtin_shufflevector(v, v, 2, 3, 0, 1, 2, 3, 0, 1);
+  v += __builtin_shufflevector(v, v, 1, 0, 1, 0, 1, 0, 1, 0);
+  return v[0];
+}
 
 // A centroid this far (squared, px^2) from the disk's centre is measured again about it.
 constexpr double kRecentreDistance2 = 0.75 * 0.75;
@@ -84,8 +145,9 @@ BlobStatus MeasureBlob(const cv::Mat& image,
     return BlobStatus::kNoBlob;
   }
 
-  // The darkest pixel in the search disk seeds the blob.
-  int darkest = 256, bx = -1, by = -1;
+  // The darkest pixel in the search disk seeds the blob: the first, in row-major order,
+  // of the disk's minimum.
+  int darkest = 255, bx = -1, by = -1;
   const int y0 = std::max(roi.y, static_cast<int>(std::ceil(qy - s)));
   const int y1 = std::min(roi_y1, static_cast<int>(std::floor(qy + s)));
   for (int y = y0; y <= y1; ++y) {
@@ -94,30 +156,35 @@ BlobStatus MeasureBlob(const cv::Mat& image,
     const int x0 = std::max(roi.x, static_cast<int>(std::ceil(qx - half_width)));
     const int x1 = std::min(roi_x1, static_cast<int>(std::floor(qx + half_width)));
     const std::uint8_t* row = image.ptr<std::uint8_t>(y);
-    // The row's minimum first (vectorises), its position only when it is a new darkest.
-    int row_min = 256;
-    for (int x = x0; x <= x1; ++x) row_min = std::min<int>(row_min, row[x]);
-    if (row_min >= darkest) continue;
-    darkest = row_min;
-    bx = static_cast<int>(std::find(row + x0, row + x1 + 1, row_min) - row);
-    by = y;
+    for (int a = x0; a <= x1; a += kLanes) {
+      U8x16 pixels;
+      const int first = LoadSpan(row, image.cols, a, std::min(x1, a + kLanes - 1), pixels);
+      const int span_min = HorizontalMin(pixels);
+      if (span_min >= darkest) continue;
+      darkest = span_min;
+      bx = first + FirstLaneEqual(pixels, static_cast<std::uint8_t>(span_min));
+      by = y;
+    }
   }
+  // No pixel, or none darker than white (padding lanes are white): no contrast either.
   if (bx < 0) return BlobStatus::kNoBlob;
 
   // Local background: the median of 16 pixels on a circle just outside the blob's disk,
   // robust to a neighbouring dot covering part of it.
-  std::array<std::uint8_t, kRingSamples> ring;
+  // Samples outside the roi are white, so they sort after the others: the median of the
+  // ring_size samples in it is still the one at rank ring_size / 2.
+  U8x16 ring;
   int ring_size = 0;
   const double ring_radius = blob_radius_px + 1.25;
-  for (const auto& [cos_a, sin_a] : kRingDirections) {
-    const int x = bx + Round(ring_radius * cos_a);
-    const int y = by + Round(ring_radius * sin_a);
-    if (x < roi.x || x > roi_x1 || y < roi.y || y > roi_y1) continue;
-    ring[ring_size++] = image.ptr<std::uint8_t>(y)[x];
+  for (int k = 0; k < kRingSamples; ++k) {
+    const int x = bx + Round(ring_radius * kRingDirections[k].first);
+    const int y = by + Round(ring_radius * kRingDirections[k].second);
+    const bool inside = x >= roi.x && x <= roi_x1 && y >= roi.y && y <= roi_y1;
+    ring[k] = inside ? image.ptr<std::uint8_t>(y)[x] : 255;
+    ring_size += inside;
   }
   if (ring_size < kRingSamples / 2) return BlobStatus::kNoBlob;
-  std::nth_element(ring.begin(), ring.begin() + ring_size / 2, ring.begin() + ring_size);
-  const double background = ring[ring_size / 2];
+  const double background = ValueAtRank(ring, ring_size / 2);
   const double contrast = background - darkest;
   if (contrast < std::max(options.min_contrast_dn, options.min_relative_contrast * background)) {
     return BlobStatus::kNoBlob;
@@ -129,6 +196,8 @@ BlobStatus MeasureBlob(const cv::Mat& image,
   const int level = Round(background - options.weight_threshold * contrast);
   const double r2 = blob_radius_px * blob_radius_px;
   const int r = static_cast<int>(std::floor(blob_radius_px));
+  const int rows_per_sum = std::max(
+      1, static_cast<int>(std::numeric_limits<std::int32_t>::max() / (255.0 * std::max(1, r * r) * (2 * r + 1))));
   int cx = bx, cy = by;
   double sw = 0, sx = 0, sy = 0, sxx = 0, sxy = 0, syy = 0;
   int count = 0;
@@ -141,29 +210,52 @@ BlobStatus MeasureBlob(const cv::Mat& image,
     }
     sw = sx = sy = sxx = sxy = syy = 0;
     count = 0;
-    for (int dy = -r; dy <= r; ++dy) {
+    // Integer moments in lanes, exact: a row adds at most 255 r^2 (2r + 1) to one, so they
+    // move to the doubles before an int32 could overflow (only for radii over 32 px).
+    I32x8 lw{}, lx{}, ly{}, lxx{}, lxy{}, lyy{}, lc{};
+    auto flush = [&] {
+      sw += Sum(lw);
+      sx += Sum(lx);
+      sy += Sum(ly);
+      sxx += Sum(lxx);
+      sxy += Sum(lxy);
+      syy += Sum(lyy);
+      count += Sum(lc);
+      lw = lx = ly = lxx = lxy = lyy = lc = I32x8{};
+    };
+    for (int dy = -r, rows = 0; dy <= r; ++dy) {
       const int y = cy + dy;
       if (y < roi.y || y > roi_y1) continue;
       const std::uint8_t* row = image.ptr<std::uint8_t>(y);
       const int half_width = HalfWidth(r2, dy);
-      const int dx0 = std::max(-half_width, roi.x - cx), dx1 = std::min(half_width, roi_x1 - cx);
-      // Integer sums (exact, and they vectorise).
-      int rw = 0, rx = 0, rxx = 0, rc = 0;
-      for (int dx = dx0; dx <= dx1; ++dx) {
-        const int w = std::max(0, level - row[cx + dx]);
-        rw += w;
-        rx += w * dx;
-        rxx += w * dx * dx;
-        rc += w > 0;
+      const int x0 = cx + std::max(-half_width, roi.x - cx), x1 = cx + std::min(half_width, roi_x1 - cx);
+      for (int a = x0; a <= x1; a += kLanes) {
+        U8x16 pixels;
+        const int last = std::min(x1, a + kLanes - 1);
+        const int first = LoadSpan(row, image.cols, a, last, pixels);
+        // The lanes' halves as 32-bit integers; the upper one only if it holds pixels.
+        for (int h = 0; h < (last - first >= kLanes / 2 ? 2 : 1); ++h) {
+          const U8x8 half = h == 0 ? __builtin_shufflevector(pixels, pixels, 0, 1, 2, 3, 4, 5, 6, 7)
+                                   : __builtin_shufflevector(pixels, pixels, 8, 9, 10, 11, 12, 13, 14, 15);
+          I32x8 w = level - __builtin_convertvector(half, I32x8);
+          w = w > 0 ? w : I32x8{};  // white padding lanes weigh nothing
+          const I32x8 dx = kLane32 + (first + kLanes / 2 * h - cx);
+          const I32x8 wx = w * dx, wy = w * dy;
+          lw += w;
+          lx += wx;
+          ly += wy;
+          lxx += wx * dx;
+          lxy += wx * dy;
+          lyy += wy * dy;
+          lc -= w > 0;
+        }
       }
-      sw += rw;
-      sx += rx;
-      sy += static_cast<double>(rw) * dy;
-      sxx += rxx;
-      sxy += static_cast<double>(rx) * dy;
-      syy += static_cast<double>(rw) * dy * dy;
-      count += rc;
+      if (++rows == rows_per_sum) {
+        flush();
+        rows = 0;
+      }
     }
+    flush();
     if (sw <= 0) return BlobStatus::kNoBlob;
   }
   const double mx = sx / sw, my = sy / sw;

@@ -212,7 +212,42 @@ void MarkerTracker::TrackHalf(const cv::Mat& image, Half& half) const {
   for (int r = rows_ - 2; r >= 1 && cols_ > 1; --r) push(r * cols_);
   Grow(image, half, 0, tail);
   Commit(half);
-  half.tracking = CountValid(half) >= options_.min_valid_fraction * n;
+  half.tracking = CountValid(half) >= options_.min_valid_fraction * n && !GridJumped(image, half);
+}
+
+bool MarkerTracker::GridJumped(const cv::Mat& image, const Half& half) const {
+  if (rows_ < 2 || cols_ < 2) return false;
+  // A side of the ring: its markers from `first` on by `step`, and the step to the next ring in.
+  struct Side {
+    int first, step, count, inward;
+  };
+  const std::array<Side, 4> sides = {{{0, 1, cols_, cols_},  // top, bottom, left, right
+                                      {(rows_ - 1) * cols_, 1, cols_, -cols_},
+                                      {0, cols_, rows_, 1},
+                                      {cols_ - 1, cols_, rows_, -1}}};
+  for (int s = 0; s < 4; ++s) {
+    const Side& trailing = sides[s];
+    int valid = 0;
+    for (int k = 0; k < trailing.count; ++k) valid += half.accepted[trailing.first + k * trailing.step];
+    if (2 * valid >= trailing.count) continue;
+    // The grid moved away from this side (or it is hidden): a jump puts dots a pitch beyond
+    // the opposite side, where the film is blank.
+    const Side& leading = sides[s ^ 1];
+    int dots = 0;
+    for (int k = 0; k < leading.count; ++k) {
+      const int i = leading.first + k * leading.step, j = i + leading.inward;
+      if (!half.accepted[i] || !half.accepted[j]) continue;
+      const Eigen::Vector2d beyond = 2 * half.found[i] - half.found[j];
+      const double pitch = half.pitch[i];
+      Blob blob;
+      const double gate = options_.gate * pitch;
+      dots += MeasureBlob(image, half.roi, beyond, options_.search_radius * pitch,
+                          options_.blob_radius * pitch, options_.blob, blob) == BlobStatus::kFound &&
+              (blob.center - beyond).squaredNorm() <= gate * gate;
+    }
+    if (2 * dots > leading.count) return true;
+  }
+  return false;
 }
 
 void MarkerTracker::KeepLargestConsistentSeeds(Half& half) const {

@@ -106,9 +106,9 @@ struct MarkerObservation {
 /// neighbour's. The grid is grown breadth-first from its outer ring (where the elastic
 /// body is thinnest and moves least), so the motion carried inward from neighbour to
 /// neighbour keeps identities through up to about one pitch of motion per frame where
-/// the motion varies smoothly across the grid. A uniform jump of the whole grid by a
-/// whole pitch in one frame cannot be told from no motion by any local method; only the
-/// grid's border reveals it.
+/// the motion varies smoothly across the grid. A uniform jump of the whole grid by about a
+/// pitch in one frame cannot be told from no motion by any local method; the grid's border
+/// reveals it (a side lost, dots beyond the opposite one), and the half is re-acquired.
 class MarkerTracker {
  public:
   /// @throws Error if the options are invalid, the config has no designed mirrors or
@@ -157,6 +157,10 @@ class MarkerTracker {
   // deviations from their base agree; the others are to be grown again.
   void KeepLargestConsistentSeeds(Half& half) const;
   void TrackHalf(const cv::Mat& image, Half& half) const;
+  // A jump of the whole grid by about a pitch, which tracking takes for no motion with every
+  // identity one off: a side of the border ring mostly not found and dots found one pitch
+  // beyond the opposite side. Probes only when a side is mostly lost.
+  bool GridJumped(const cv::Mat& image, const Half& half) const;
   // Grows the accepted set breadth-first from the queue: see the class comment.
   void Grow(const cv::Mat& image, Half& half, int head, int tail) const;
   // Prediction of marker i: its base, moved by the mean unexpected motion (found - base)

@@ -172,6 +172,50 @@ TEST(MarkerTracker, SequenceMovingUpToOnePitchPerFrameKeepsIdentities) {
   }
 }
 
+// The whole grid jumps by one pitch between two frames (in x, back, in y, diagonally): inside
+// the grid that looks like no motion with every identity one off; the border tells. Every
+// marker keeps its identity (a swapped one would be a pitch, >= 9 px, off) or is flagged.
+TEST(MarkerTracker, WholeGridJumpOfOnePitchIsNotMisindexed) {
+  const double pitch = Sensor().markers.pitch_mm;
+  for (const Eigen::Vector2d& jump : {Eigen::Vector2d(pitch, 0), Eigen::Vector2d(-pitch, 0),
+                                      Eigen::Vector2d(0, pitch), Eigen::Vector2d(pitch, pitch)}) {
+    MarkerTracker tracker(Sensor());
+    tracker.Track(Renderer().Render(Sensor().MarkerPositions(), 8));
+    auto markers = Sensor().MarkerPositions();
+    for (auto& p : markers) p.head<2>() += jump;
+    const MarkerObservation observation = tracker.Track(Renderer().Render(markers, 9));
+    const Errors e = Compare(observation, TruePixels(Sensor(), markers));
+    EXPECT_LT(e.max_px, kCentroidTolerancePx) << "jump " << jump.transpose();
+    EXPECT_TRUE(observation.summary.acquired) << "jump " << jump.transpose();
+    std::printf("jump (%+.2f, %+.2f) mm: %d valid, rms %.4f px, max %.4f px\n", jump.x(), jump.y(),
+                e.valid, e.rms_px, e.max_px);
+  }
+}
+
+// A border side hidden (not a jump: nothing appears beyond the opposite side) is flagged
+// while tracking goes on, without re-acquisition.
+TEST(MarkerTracker, HiddenBorderSideIsNotTakenForAJump) {
+  const auto markers = Sensor().MarkerPositions();
+  const auto truth = TruePixels(Sensor(), markers);
+  const int cols = Sensor().markers.cols;
+  const cv::Mat film = FilmOnly();
+  cv::Mat image = Renderer().Render(markers, 10);
+  for (int h = 0; h < 2; ++h) {
+    for (int i = 0; i < static_cast<int>(markers.size()); i += cols) {
+      cv::Mat mask = cv::Mat::zeros(image.size(), CV_8UC1);
+      cv::circle(mask, cv::Point(std::lround(truth[h][i].x()), std::lround(truth[h][i].y())), 5, 255, -1);
+      film.copyTo(image, mask);
+    }
+  }
+  MarkerTracker tracker(Sensor());
+  tracker.Track(Renderer().Render(markers, 11));
+  const MarkerObservation observation = tracker.Track(image);
+  EXPECT_FALSE(observation.summary.acquired);
+  const Errors e = Compare(observation, truth);
+  EXPECT_EQ(e.valid, 800 - 2 * Sensor().markers.rows);
+  EXPECT_LT(e.max_px, kCentroidTolerancePx);
+}
+
 // Markers hidden (painted over with the film), in the first frame and while tracking.
 TEST(MarkerTracker, TenPercentOfMarkersHiddenAreFlaggedAndTheRestMeasured) {
   const auto markers = Sensor().MarkerPositions();
