@@ -1,7 +1,10 @@
 #include "tac3d/frame/tactile_frame.h"
 
+#include <Eigen/Geometry>
+
 #include <gtest/gtest.h>
 
+#include "tac3d/frame/synthetic_frame.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
 
@@ -70,6 +73,23 @@ TEST(TactileFrame, EqualityComparesEveryField) {
   b = a;
   b.contact[1] = true;
   EXPECT_NE(a, b);
+}
+
+TEST(SyntheticTactileFrame, ResultantsAreTheMarkerSumsAndTheFrameIsValid) {
+  const TactileFrame frame = MakeSyntheticTactileFrame("AD2-0001L", 17);
+  EXPECT_NO_THROW(frame.Validate());
+  Eigen::Vector3d force = Eigen::Vector3d::Zero(), moment = Eigen::Vector3d::Zero();
+  for (int i = 0; i < frame.num_markers(); ++i) {
+    force += frame.forces_n[i];
+    moment += frame.positions_mm[i].cross(frame.forces_n[i]);
+    EXPECT_NEAR(frame.normals[i].norm(), 1.0, 1e-12);
+  }
+  EXPECT_THAT(frame.resultant_force_n, EigenNear(force, 1e-12));
+  EXPECT_THAT(frame.resultant_moment_nmm, EigenNear(moment, 1e-9));
+  EXPECT_LT(frame.resultant_force_n.z(), -0.01);  // the dent presses in
+  EXPECT_FALSE(frame.valid[17]);
+  EXPECT_TRUE(frame.has(FrameFlag::kMarkersLost));
+  EXPECT_NE(frame, MakeSyntheticTactileFrame("AD2-0001L", 18));
 }
 
 }  // namespace
