@@ -1,0 +1,69 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace tac3d {
+
+/// Conditions the pipeline reports with a frame; bits of TactileFrame::flags.
+enum class FrameFlag : std::uint32_t {
+  kMarkersLost = 1u << 0,              ///< at least one marker has valid == false
+  kGridReacquired = 1u << 1,           ///< tracking lost the grid and found it again this frame
+  kDisplacementOutOfRange = 1u << 2,   ///< a displacement beyond the calibrated range
+  kForceOutOfRange = 1u << 3,          ///< a resultant beyond the sensor's rated range
+  kInitializing = 1u << 4,             ///< initialize_progress < 100: reference not yet taken
+  kZeroed = 1u << 5,                   ///< the reference was retaken (a `$C`) for this frame
+};
+
+/// Every flag, in bit order (for printing and iteration).
+inline constexpr FrameFlag kAllFrameFlags[] = {
+    FrameFlag::kMarkersLost,      FrameFlag::kGridReacquired, FrameFlag::kDisplacementOutOfRange,
+    FrameFlag::kForceOutOfRange,  FrameFlag::kInitializing,   FrameFlag::kZeroed};
+
+/// snake_case name of a flag ("markers_lost"), as the wire header's msg and logs show it.
+const char* FrameFlagName(FrameFlag flag);
+
+/// The pipeline's output for one camera frame: what the Tac3D stream, the recorder and the
+/// viewer consume. Per-marker vectors hold rows * cols entries in row-major grid order
+/// (index row * cols + col), sensor frame, millimetres and newtons.
+struct TactileFrame {
+  std::string sn;              ///< sensor serial number, e.g. "AD2-0065L"
+  std::int64_t index = 0;      ///< frame counter since the stream started
+  double timestamp_s = 0.0;    ///< seconds since the stream started
+  int rows = 20;
+  int cols = 20;
+  std::vector<Eigen::Vector3d> positions_mm;      ///< deformed marker positions
+  std::vector<Eigen::Vector3d> displacements_mm;  ///< position minus reference position
+  std::vector<Eigen::Vector3d> forces_n;          ///< force on each marker's surface patch
+  std::vector<Eigen::Vector3d> normals;           ///< outward unit surface normals
+  std::vector<bool> valid;    ///< false: the marker was not measured this frame
+  std::vector<bool> contact;  ///< true: the marker's patch is in contact
+  Eigen::Vector3d resultant_force_n = Eigen::Vector3d::Zero();  ///< sum of forces_n
+  /// Sum of p_i x f_i about the sensor origin, in N mm (p_i = positions_mm[i]).
+  Eigen::Vector3d resultant_moment_nmm = Eigen::Vector3d::Zero();
+  int initialize_progress = 100;  ///< 0..100; consumers drop frames below 100
+  std::uint32_t flags = 0;        ///< FrameFlag bits
+
+  /// A frame with every per-marker vector sized rows * cols (zero vectors, all valid, no
+  /// contact). @throws Error unless rows, cols >= 1.
+  static TactileFrame Sized(int rows, int cols);
+
+  int num_markers() const { return rows * cols; }
+  bool has(FrameFlag flag) const { return (flags & static_cast<std::uint32_t>(flag)) != 0; }
+  void set(FrameFlag flag, bool on = true);
+
+  /// @throws Error naming the field when a per-marker vector is not rows * cols long,
+  /// rows or cols < 1, initialize_progress is outside 0..100, the timestamp is not finite, or
+  /// flags holds an unknown bit.
+  void Validate() const;
+
+  bool operator==(const TactileFrame&) const = default;
+};
+
+/// Space-separated names of the flags set in `flags` ("" when none).
+std::string FrameFlagNames(std::uint32_t flags);
+
+}  // namespace tac3d

@@ -1,0 +1,53 @@
+#include "tac3d/protocol/udp_sender.h"
+
+#include <array>
+#include <random>
+
+#include <fmt/format.h>
+
+namespace tac3d {
+
+void UdpSenderOptions::Validate() const {
+  if (host.empty()) throw Error("UdpSenderOptions.host must not be empty");
+  if (port == 0) throw Error("UdpSenderOptions.port must not be 0");
+}
+
+namespace {
+
+const UdpSenderOptions& Validated(const UdpSenderOptions& options) {
+  options.Validate();
+  return options;
+}
+
+}  // namespace
+
+UdpSender::UdpSender(const UdpSenderOptions& options)
+    : socket_(Endpoint{0, Validated(options).local_port}),
+      destination_(ResolveEndpoint(options.host, options.port)),
+      // A random first id: a restarted sender on the same port must not complete the
+      // previous run's stale partial frames in the client.
+      next_frame_id_(std::random_device{}()) {}
+
+void UdpSender::Send(const TactileFrame& frame, const cv::Mat& image) {
+  EncodeFrame(frame, next_frame_id_++, image, &encoded_);
+  for (int k = 0; k <= encoded_.packet_count(); ++k) {
+    const auto prefix = encoded_.Prefix(k).Bytes();
+    socket_.SendTo(destination_,
+                   {std::string_view(reinterpret_cast<const char*>(prefix.data()), prefix.size()),
+                    encoded_.Payload(k)});
+  }
+}
+
+std::optional<SensorCommand> UdpSender::PollCommand() {
+  // Larger than any command, so a longer datagram is seen as longer, not cut to "$C".
+  std::array<std::uint8_t, 64> buffer;
+  Endpoint from;
+  while (const auto size = socket_.Receive(buffer, 0.0, &from)) {
+    const auto command = ParseCommand(std::span(buffer.data(), *size));
+    if (command && from.address == destination_.address) return command;
+    ++ignored_datagrams_;
+  }
+  return std::nullopt;
+}
+
+}  // namespace tac3d

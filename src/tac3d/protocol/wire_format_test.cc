@@ -1,0 +1,289 @@
+#include "tac3d/protocol/wire_format.h"
+
+#include <cstring>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+#include <yaml-cpp/yaml.h>
+
+#include "tac3d/frame/synthetic_frame.h"
+#include "tac3d/protocol/frame_assembler.h"
+#include "tac3d/testing/testing.h"
+
+namespace tac3d {
+namespace {
+
+using ::testing::HasSubstr;
+
+// The table of wire-protocol.md, written out independently of the encoder's constants.
+struct ExpectedItem {
+  std::string name, type;
+  int height, width;  // mat only
+  std::size_t length;
+};
+const std::vector<ExpectedItem> kTable = {
+    {"3D_Positions", "mat", 400, 3, 9600},      {"3D_Displacements", "mat", 400, 3, 9600},
+    {"3D_Forces", "mat", 400, 3, 9600},         {"3D_Normals", "mat", 400, 3, 9600},
+    {"3D_ResultantForce", "mat", 1, 3, 24},     {"3D_ResultantMoment", "mat", 1, 3, 24},
+    {"InitializeProgress", "i32", 0, 0, 4},
+};
+
+EncodedFrame Encode(const TactileFrame& frame, const cv::Mat& image = cv::Mat()) {
+  EncodedFrame encoded;
+  EncodeFrame(frame, 0xA1B2C3D4, image, &encoded);
+  return encoded;
+}
+
+std::optional<ReceivedFrame> Reassemble(const std::vector<std::string>& datagrams,
+                                        FrameAssembler* assembler) {
+  std::optional<ReceivedFrame> out;
+  for (const auto& d : datagrams) {
+    auto frame = assembler->Push({0x7f000001, 5000},
+                                 std::span(reinterpret_cast<const std::uint8_t*>(d.data()),
+                                           d.size()),
+                                 0.0);
+    if (frame) out = std::move(frame);
+  }
+  return out;
+}
+
+RowMajorMatrixXd AsMatrix(const std::vector<Eigen::Vector3d>& v) {
+  RowMajorMatrixXd m(v.size(), 3);
+  for (std::size_t i = 0; i < v.size(); ++i) m.row(i) = v[i].transpose();
+  return m;
+}
+
+TEST(WireFormat, DatagramsFollowTheProtocolByteForByte) {
+  const TactileFrame frame = MakeSyntheticTactileFrame("AD2-0065L", 42);
+  const auto datagrams = Encode(frame).Datagrams();
+  // 38400 bytes of markers + 48 of resultants + 4 of progress = 38452: 28 chunks.
+  ASSERT_EQ(datagrams.size(), 29u);
+  std::string body;
+  for (std::size_t k = 0; k < datagrams.size(); ++k) {
+    const auto* p = reinterpret_cast<const std::uint8_t*>(datagrams[k].data());
+    ASSERT_LE(datagrams[k].size(), 1400u);
+    EXPECT_EQ(p[0] | p[1] << 8 | p[2] << 16 | std::uint32_t{p[3]} << 24, 0xA1B2C3D4u);
+    EXPECT_EQ(p[4] | p[5] << 8, 28);
+    EXPECT_EQ(p[6] | p[7] << 8, static_cast<int>(k));
+    if (k >= 1 && k < 28) {
+      EXPECT_EQ(datagrams[k].size(), 1400u) << "chunk " << k;
+    }
+    if (k >= 1) body += datagrams[k].substr(8);
+  }
+  EXPECT_EQ(body.size(), 38452u);
+
+  const YAML::Node header = YAML::Load(datagrams[0].substr(8));
+  EXPECT_EQ(header["SN"].as<std::string>(), "AD2-0065L");
+  EXPECT_EQ(header["index"].as<int>(), 42);
+  EXPECT_EQ(header["timestamp"].as<double>(), frame.timestamp_s);
+  EXPECT_EQ(header["msg"].as<std::string>(), "markers_lost");
+  const YAML::Node data = header["data"];
+  ASSERT_EQ(data.size(), kTable.size());
+  for (std::size_t k = 0; k < kTable.size(); ++k) {
+    SCOPED_TRACE(kTable[k].name);
+    EXPECT_EQ(data[k]["name"].as<std::string>(), kTable[k].name);
+    EXPECT_EQ(data[k]["type"].as<std::string>(), kTable[k].type);
+    EXPECT_EQ(data[k]["length"].as<std::size_t>(), kTable[k].length);
+    if (kTable[k].type == "mat") {
+      EXPECT_EQ(data[k]["dtype"].as<std::string>(), "f64");
+      EXPECT_EQ(data[k]["height"].as<int>(), kTable[k].height);
+      EXPECT_EQ(data[k]["width"].as<int>(), kTable[k].width);
+    }
+  }
+  // Values read straight from the body at the header's offsets, as a vendor client does.
+  auto f64_at = [&](const char* name, int i) {
+    for (const auto& item : data) {
+      if (item["name"].as<std::string>() != name) continue;
+      double v;
+      std::memcpy(&v, body.data() + item["offset"].as<std::size_t>() + 8 * i, 8);
+      return v;
+    }
+    ADD_FAILURE() << name << " missing";
+    return 0.0;
+  };
+  EXPECT_EQ(f64_at("3D_Positions", 3 * 21 + 2), frame.positions_mm[21].z());
+  EXPECT_EQ(f64_at("3D_Displacements", 3 * 399), frame.displacements_mm[399].x());
+  EXPECT_EQ(f64_at("3D_Forces", 3 * 210 + 1), frame.forces_n[210].y());
+  EXPECT_EQ(f64_at("3D_Normals", 3 * 5), frame.normals[5].x());
+  EXPECT_EQ(f64_at("3D_ResultantForce", 2), frame.resultant_force_n.z());
+  EXPECT_EQ(f64_at("3D_ResultantMoment", 1), frame.resultant_moment_nmm.y());
+}
+
+TEST(WireFormat, RoundTripThroughTheClientDecoderIsExact) {
+  TactileFrame frame = MakeSyntheticTactileFrame("AD2-0065L", 7);
+  frame.initialize_progress = 63;
+  FrameAssembler assembler;
+  const auto received = Reassemble(Encode(frame).Datagrams(), &assembler);
+  ASSERT_TRUE(received) << assembler.last_error() << " " << assembler.drops().ToString();
+  const DecodedFrame& decoded = received->frame;
+  EXPECT_EQ(decoded.sn, frame.sn);
+  EXPECT_EQ(decoded.index, frame.index);
+  EXPECT_EQ(decoded.timestamp_s, frame.timestamp_s);
+  EXPECT_EQ(decoded.msg, "markers_lost");
+  ASSERT_EQ(decoded.fields.size(), kTable.size());
+  for (const auto& item : kTable) {
+    const DecodedField* field = decoded.Find(item.name);
+    ASSERT_NE(field, nullptr) << item.name;
+    if (item.type == "mat") {
+      EXPECT_EQ(field->type, FieldType::kMat);
+      EXPECT_EQ(field->matrix.rows(), item.height) << item.name;
+      EXPECT_EQ(field->matrix.cols(), item.width) << item.name;
+    }
+  }
+  EXPECT_TRUE(decoded.Find("3D_Positions")->matrix == AsMatrix(frame.positions_mm));
+  EXPECT_TRUE(decoded.Find("3D_Displacements")->matrix == AsMatrix(frame.displacements_mm));
+  EXPECT_TRUE(decoded.Find("3D_Forces")->matrix == AsMatrix(frame.forces_n));
+  EXPECT_TRUE(decoded.Find("3D_Normals")->matrix == AsMatrix(frame.normals));
+  EXPECT_TRUE(decoded.Find("3D_ResultantForce")->matrix ==
+              frame.resultant_force_n.transpose());
+  EXPECT_TRUE(decoded.Find("3D_ResultantMoment")->matrix ==
+              frame.resultant_moment_nmm.transpose());
+  const DecodedField* progress = decoded.Find("InitializeProgress");
+  EXPECT_EQ(progress->type, FieldType::kI32);
+  EXPECT_EQ(progress->matrix(0, 0), 63.0);
+  EXPECT_EQ(assembler.drops().total(), 0);
+}
+
+TEST(WireFormat, ImageTravelsAsLosslessPng) {
+  const TactileFrame frame = MakeSyntheticTactileFrame("S1", 1);
+  cv::Mat image(48, 64, CV_8UC1);
+  cv::randu(image, 0, 256);
+  const EncodedFrame encoded = Encode(frame, image);
+  EXPECT_THAT(encoded.header, HasSubstr("name: img\n    type: img"));
+  FrameAssembler assembler;
+  const auto received = Reassemble(encoded.Datagrams(), &assembler);
+  ASSERT_TRUE(received) << assembler.last_error();
+  const DecodedField* img = received->frame.Find("img");
+  ASSERT_NE(img, nullptr);
+  EXPECT_EQ(img->type, FieldType::kImg);
+  ASSERT_EQ(img->image.size(), image.size());
+  EXPECT_EQ(cv::norm(img->image, image, cv::NORM_INF), 0.0);
+}
+
+TEST(WireFormat, TimestampsAreYamlFloatsThatRoundTrip) {
+  for (const double t : {0.0, 1.0, 1e-5, 123456.789, 1.0 / 3.0}) {
+    TactileFrame frame = MakeSyntheticTactileFrame("S", 0);
+    frame.timestamp_s = t;
+    const EncodedFrame encoded = Encode(frame);
+    // A '.' in every float, so YAML 1.1 parsers (PyYAML) read a number, not a string.
+    const auto line = encoded.header.substr(encoded.header.find("timestamp: "));
+    EXPECT_NE(line.substr(0, line.find('\n')).find('.'), std::string::npos) << line;
+    EXPECT_EQ(DecodeFrame(encoded.header, encoded.body).timestamp_s, t);
+  }
+}
+
+TEST(WireFormat, EncoderRefusesWhatTheWireCannotCarry) {
+  EncodedFrame out;
+  TactileFrame frame = MakeSyntheticTactileFrame("AD2\"", 0);
+  EXPECT_THROW(EncodeFrame(frame, 0, cv::Mat(), &out), Error);
+  frame.sn = std::string(1400, 'A');
+  try {
+    EncodeFrame(frame, 0, cv::Mat(), &out);
+    ADD_FAILURE() << "a 1400-byte SN was accepted";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("must fit in one datagram"));
+  }
+  frame.sn = "S";
+  EXPECT_THROW(EncodeFrame(frame, 0, cv::Mat(4, 4, CV_16UC1, cv::Scalar(0)), &out), Error);
+  frame.normals.pop_back();
+  EXPECT_THROW(EncodeFrame(frame, 0, cv::Mat(), &out), Error);
+}
+
+// A header with one item, to exercise each refusal of the decoder.
+std::string HeaderWith(const std::string& item) {
+  return "SN: S\nindex: 1\ntimestamp: 0.5\ndata:\n" + item;
+}
+
+std::pair<DropReason, std::string> RefusalOf(const std::string& header, const std::string& body) {
+  try {
+    DecodeFrame(header, body);
+  } catch (const DecodeError& e) {
+    return {e.reason(), e.what()};
+  }
+  ADD_FAILURE() << "accepted:\n" << header;
+  return {DropReason::kEvicted, ""};
+}
+
+DropReason ReasonOf(const std::string& header, const std::string& body) {
+  return RefusalOf(header, body).first;
+}
+
+TEST(WireFormat, DecoderRefusesEachKindOfBadHeaderAndField) {
+  const std::string body(48, '\0');
+  const std::string mat = "  - {name: 3D_ResultantForce, type: mat, dtype: f64, ";
+  // Good: a header without msg (senders before 3.3.0), flow style.
+  EXPECT_NO_THROW(DecodeFrame(HeaderWith(mat + "width: 3, height: 1, offset: 0, length: 24}"),
+                              body));
+  EXPECT_EQ(ReasonOf("{[: not yaml", body), DropReason::kBadHeader);
+  EXPECT_EQ(ReasonOf("- a list", body), DropReason::kBadHeader);
+  EXPECT_EQ(ReasonOf("index: 1\ntimestamp: 0.5\ndata: []", body), DropReason::kBadHeader);
+  EXPECT_EQ(ReasonOf("SN: S\nindex: x\ntimestamp: 0.5\ndata: []", body), DropReason::kBadHeader);
+  EXPECT_EQ(ReasonOf("SN: S\nindex: 1\ntimestamp: 0.5\ndata: 3", body), DropReason::kBadHeader);
+  EXPECT_EQ(ReasonOf(HeaderWith("  - 5"), body), DropReason::kBadField);
+  EXPECT_EQ(ReasonOf(HeaderWith(mat + "width: 3, height: 1, offset: 40, length: 24}"), body),
+            DropReason::kBadField);
+  EXPECT_EQ(ReasonOf(HeaderWith(mat + "width: 3, height: 1, offset: -8, length: 24}"), body),
+            DropReason::kBadField);
+  EXPECT_EQ(ReasonOf(HeaderWith("  - {name: 3D_ResultantForce, type: mat, dtype: f32, width: 3, "
+                                "height: 1, offset: 0, length: 12}"),
+                     body),
+            DropReason::kBadField);
+  EXPECT_EQ(ReasonOf(HeaderWith(mat + "width: 3, height: 2, offset: 0, length: 24}"), body),
+            DropReason::kBadField);
+  EXPECT_EQ(ReasonOf(HeaderWith(mat + "width: 6, height: 1, offset: 0, length: 48}"), body),
+            DropReason::kBadField);  // consistent, but not the table's 1 x 3
+  EXPECT_EQ(ReasonOf(HeaderWith("  - {name: 3D_Positions, type: mat, dtype: f64, width: 2, "
+                                "height: 3, offset: 0, length: 48}"),
+                     body),
+            DropReason::kBadField);
+  EXPECT_EQ(ReasonOf(HeaderWith("  - {name: 3D_Positions, type: mat, dtype: f64, width: 3, "
+                                "height: 1, offset: 0, length: 24}\n"
+                                "  - {name: 3D_Forces, type: mat, dtype: f64, width: 3, "
+                                "height: 2, offset: 0, length: 48}"),
+                     body),
+            DropReason::kBadField);  // per-marker heights differ
+  EXPECT_EQ(ReasonOf(HeaderWith("  - {name: p, type: i32, offset: 0, length: 8}"), body),
+            DropReason::kBadField);
+  EXPECT_EQ(ReasonOf(HeaderWith("  - {name: p, type: u8, offset: 0, length: 1}"), body),
+            DropReason::kBadField);
+  EXPECT_EQ(ReasonOf(HeaderWith("  - {name: p, type: f64, offset: 0, length: 8}\n"
+                                "  - {name: p, type: f64, offset: 8, length: 8}"),
+                     body),
+            DropReason::kBadField);
+  EXPECT_EQ(ReasonOf(HeaderWith("  - {name: InitializeProgress, type: mat, dtype: f64, width: 1,"
+                                " height: 1, offset: 0, length: 8}"),
+                     body),
+            DropReason::kBadField);
+  EXPECT_EQ(ReasonOf(HeaderWith("  - {name: img, type: img, offset: 0, length: 48}"), body),
+            DropReason::kBadImage);
+}
+
+TEST(WireFormat, DecoderRefusesAnImageThatClaimsTooManyPixels) {
+  // A valid PNG signature and IHDR declaring 65535 x 65535 pixels: refused before decoding.
+  std::string png("\x89PNG\r\n\x1a\n\0\0\0\x0dIHDR\0\0\xff\xff\0\0\xff\xff\x08\0\0\0\0", 29);
+  const auto [reason, message] =
+      RefusalOf(HeaderWith("  - {name: img, type: img, offset: 0, length: 29}"), png);
+  EXPECT_EQ(reason, DropReason::kBadImage);
+  EXPECT_THAT(message, HasSubstr("pixels"));
+  // A JPEG whose SOF0 declares 65535 x 65535.
+  std::string jpeg("\xff\xd8\xff\xe0\0\x04xx\xff\xc0\0\x11\x08\xff\xff\xff\xff\x01", 20);
+  EXPECT_THAT(RefusalOf(HeaderWith("  - {name: img, type: img, offset: 0, length: 20}"), jpeg)
+                  .second,
+              HasSubstr("pixels"));
+}
+
+TEST(WireFormat, CommandsAreExactlyTwoBytes) {
+  auto parse = [](std::string_view s) {
+    return ParseCommand(std::span(reinterpret_cast<const std::uint8_t*>(s.data()), s.size()));
+  };
+  EXPECT_EQ(parse("$C"), SensorCommand::kZero);
+  EXPECT_EQ(parse("$Q"), SensorCommand::kStop);
+  EXPECT_EQ(parse("$C\n"), std::nullopt);
+  EXPECT_EQ(parse("$"), std::nullopt);
+  EXPECT_EQ(parse("$X"), std::nullopt);
+  EXPECT_EQ(CommandBytes(SensorCommand::kZero), "$C");
+  EXPECT_EQ(CommandBytes(SensorCommand::kStop), "$Q");
+}
+
+}  // namespace
+}  // namespace tac3d

@@ -1,0 +1,231 @@
+#include "tac3d/record/recording.h"
+
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "tac3d/frame/synthetic_frame.h"
+#include "tac3d/testing/testing.h"
+#include "tac3d/util/error.h"
+
+namespace tac3d {
+namespace {
+
+using ::testing::HasSubstr;
+namespace fs = std::filesystem;
+
+constexpr std::size_t kFileHeaderBytes = 12;
+
+cv::Mat TestImage(int seed, int rows = 30, int cols = 40) {
+  cv::Mat image(rows, cols, CV_8UC1);
+  cv::theRNG().state = seed;
+  cv::randu(image, 0, 256);
+  return image;
+}
+
+// Writes frames 0..n-1 (an image with every third) and returns the path.
+std::string WriteRecording(const std::string& dir, int n) {
+  const std::string path = dir + "/rec.tac3d";
+  RecordingWriter writer(path);
+  for (int i = 0; i < n; ++i) {
+    writer.Write(MakeSyntheticTactileFrame("AD2-0065L", i), i % 3 == 0 ? TestImage(i) : cv::Mat());
+  }
+  return path;
+}
+
+std::vector<RecordedFrame> ReadAll(RecordingReader* reader) {
+  std::vector<RecordedFrame> frames;
+  while (auto f = reader->Next()) frames.push_back(std::move(*f));
+  return frames;
+}
+
+std::string Bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+std::string WriteBytes(const std::string& path, const std::string& bytes) {
+  std::ofstream(path, std::ios::binary | std::ios::trunc) << bytes;
+  return path;
+}
+
+TEST(Crc32, MatchesTheStandardCheckValue) {
+  EXPECT_EQ(Crc32(0, "123456789", 9), 0xCBF43926u);
+  EXPECT_EQ(Crc32(Crc32(0, "1234", 4), "56789", 5), 0xCBF43926u);
+}
+
+TEST(Recording, RoundTripKeepsEveryFieldAndImage) {
+  const std::string path = WriteRecording(testing::MakeTempDir("rec"), 10);
+  RecordingReader reader(path);
+  const auto frames = ReadAll(&reader);
+  ASSERT_EQ(frames.size(), 10u) << reader.message();
+  EXPECT_EQ(reader.status(), RecordingStatus::kComplete);
+  EXPECT_THAT(reader.message(), HasSubstr("complete after 10 frames"));
+  EXPECT_EQ(reader.offset(), static_cast<std::int64_t>(fs::file_size(path)));
+  for (int i = 0; i < 10; ++i) {
+    EXPECT_EQ(frames[i].frame, MakeSyntheticTactileFrame("AD2-0065L", i)) << i;
+    if (i % 3 == 0) {
+      ASSERT_EQ(frames[i].image.size(), cv::Size(40, 30));
+      EXPECT_EQ(cv::norm(frames[i].image, TestImage(i), cv::NORM_INF), 0.0);
+    } else {
+      EXPECT_TRUE(frames[i].image.empty());
+    }
+  }
+  EXPECT_EQ(reader.Next(), std::nullopt);  // stays at the end
+}
+
+TEST(Recording, EveryTruncationYieldsTheCompleteRecordsBeforeIt) {
+  const std::string dir = testing::MakeTempDir("rec");
+  const std::string bytes = Bytes(WriteRecording(dir, 4));
+  // Record boundaries, from a reader of the intact file.
+  std::vector<std::size_t> ends;
+  {
+    RecordingReader reader(dir + "/rec.tac3d");
+    while (reader.Next()) ends.push_back(reader.offset());
+  }
+  ASSERT_EQ(ends.size(), 4u);
+  for (std::size_t cut = kFileHeaderBytes; cut <= bytes.size(); cut += 37) {
+    const std::string path = WriteBytes(dir + "/cut.tac3d", bytes.substr(0, cut));
+    RecordingReader reader(path);
+    const auto frames = ReadAll(&reader);
+    const auto complete = std::count_if(ends.begin(), ends.end(), [&](auto e) { return e <= cut; });
+    ASSERT_EQ(static_cast<long>(frames.size()), complete) << "cut at " << cut;
+    const bool at_boundary = cut == kFileHeaderBytes || std::count(ends.begin(), ends.end(), cut);
+    EXPECT_EQ(reader.status(),
+              at_boundary ? RecordingStatus::kComplete : RecordingStatus::kTruncated)
+        << "cut at " << cut << ": " << reader.message();
+    for (std::size_t i = 0; i < frames.size(); ++i) EXPECT_EQ(frames[i].frame.index, (int)i);
+  }
+}
+
+TEST(Recording, CorruptionStopsTheReaderAtTheDamagedRecord) {
+  const std::string dir = testing::MakeTempDir("rec");
+  const std::string bytes = Bytes(WriteRecording(dir, 5));
+  std::vector<std::size_t> ends = {kFileHeaderBytes};
+  {
+    RecordingReader reader(dir + "/rec.tac3d");
+    while (reader.Next()) ends.push_back(reader.offset());
+  }
+  std::mt19937_64 rng(testing::kRandomSeed);
+  for (int trial = 0; trial < 50; ++trial) {
+    const std::size_t record = rng() % 5;
+    // A byte of the CRC or payload (the length is covered separately below).
+    const std::size_t at = ends[record] + 4 + rng() % (ends[record + 1] - ends[record] - 4);
+    std::string damaged = bytes;
+    damaged[at] ^= static_cast<char>(1 + rng() % 255);
+    RecordingReader reader(WriteBytes(dir + "/bad.tac3d", damaged));
+    EXPECT_EQ(ReadAll(&reader).size(), record) << "byte " << at;
+    EXPECT_EQ(reader.status(), RecordingStatus::kCorrupt);
+    EXPECT_THAT(reader.message(), HasSubstr("checksum"));
+  }
+  // A length beyond the limit is corruption, not an allocation.
+  std::string damaged = bytes;
+  const std::uint32_t huge = kMaxRecordBytes + 1;
+  std::memcpy(damaged.data() + ends[2], &huge, 4);
+  RecordingReader reader(WriteBytes(dir + "/len.tac3d", damaged));
+  EXPECT_EQ(ReadAll(&reader).size(), 2u);
+  EXPECT_EQ(reader.status(), RecordingStatus::kCorrupt);
+  EXPECT_THAT(reader.message(), HasSubstr("exceeds"));
+}
+
+TEST(Recording, RefusesWhatItCannotWriteOrRead) {
+  const std::string dir = testing::MakeTempDir("rec");
+  const std::string path = WriteRecording(dir, 1);
+  try {
+    RecordingWriter again(path);
+    ADD_FAILURE() << "replaced an existing recording";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("overwrite"));
+  }
+  RecordingWriter writer(path, {.overwrite = true});
+  TactileFrame bad = MakeSyntheticTactileFrame("S", 0);
+  bad.valid.pop_back();
+  EXPECT_THROW(writer.Write(bad), Error);
+  EXPECT_THROW(writer.Write(MakeSyntheticTactileFrame("S", 0), cv::Mat(2, 2, CV_8UC3)), Error);
+  EXPECT_EQ(writer.frames_written(), 0);
+
+  EXPECT_THROW(RecordingReader(dir + "/missing"), Error);
+  EXPECT_THROW(RecordingReader(WriteBytes(dir + "/text", "hello, world")), Error);
+  std::string future = Bytes(path);
+  future[8] = 2;
+  try {
+    RecordingReader reader(WriteBytes(dir + "/v2", future));
+    ADD_FAILURE() << "read version 2";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("version 2"));
+  }
+}
+
+// A child records frames as fast as it can and is killed with SIGKILL at a random moment:
+// the file must hold frames 0..k-1 exactly, and lose at most the record in flight.
+TEST(Recording, SurvivesKillNineAtARandomMoment) {
+  const std::string dir = testing::MakeTempDir("kill");
+  std::mt19937_64 rng(testing::kRandomSeed);
+  // A full camera image makes each record's write() long, so kills land inside one too.
+  const cv::Mat image = TestImage(0, 480, 640);
+  {
+    RecordingWriter writer(dir + "/one.tac3d");
+    writer.Write(MakeSyntheticTactileFrame("KILL", 0), image);
+  }
+  // Every record has the same size (same SN, same image size).
+  const auto record_bytes = static_cast<std::int64_t>(fs::file_size(dir + "/one.tac3d")) -
+                            static_cast<std::int64_t>(kFileHeaderBytes);
+
+  for (int trial = 0; trial < 10; ++trial) {
+    const std::string path = dir + "/run.tac3d";
+    fs::remove(path);
+    const pid_t pid = fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      try {
+        RecordingWriter writer(path);
+        for (std::int64_t i = 0;; ++i) writer.Write(MakeSyntheticTactileFrame("KILL", i), image);
+      } catch (...) {
+      }
+      _exit(1);
+    }
+    // Let it write a few frames, then kill it at a random moment.
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+    std::error_code ec;
+    while (static_cast<std::int64_t>(fs::file_size(path, ec)) < 3 * record_bytes &&
+           std::chrono::steady_clock::now() < give_up) {
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+    }
+    std::this_thread::sleep_for(std::chrono::microseconds(rng() % 20000));
+    kill(pid, SIGKILL);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    ASSERT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL) << "the child exited itself";
+
+    RecordingReader reader(path);
+    std::int64_t n = 0;
+    while (auto f = reader.Next()) {
+      ASSERT_EQ(f->frame, MakeSyntheticTactileFrame("KILL", n)) << "frame " << n;
+      ASSERT_EQ(cv::norm(f->image, image, cv::NORM_INF), 0.0) << "frame " << n;
+      ++n;
+    }
+    const auto size = static_cast<std::int64_t>(fs::file_size(path));
+    EXPECT_GE(n, 3);
+    EXPECT_NE(reader.status(), RecordingStatus::kCorrupt) << reader.message();
+    // What is left after the last complete frame is a part of one record, no more.
+    EXPECT_LT(size - reader.offset(), record_bytes) << reader.message();
+    std::cout << "trial " << trial << ": " << reader.message() << "\n";
+  }
+}
+
+TEST(Replay, DelayFollowsTheRecordedClockAtTheChosenSpeed) {
+  EXPECT_DOUBLE_EQ(ReplayDelay(10.0, 11.0, 0.4, 1.0), 0.6);
+  EXPECT_DOUBLE_EQ(ReplayDelay(10.0, 11.0, 0.4, 2.0), 0.1);
+  EXPECT_DOUBLE_EQ(ReplayDelay(10.0, 11.0, 2.0, 1.0), 0.0);  // behind: no wait
+  EXPECT_DOUBLE_EQ(ReplayDelay(10.0, 11.0, 0.0, 0.0), 0.0);  // as fast as possible
+}
+
+}  // namespace
+}  // namespace tac3d
