@@ -1,0 +1,91 @@
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "tac3d/force/force_reconstructor.h"
+#include "tac3d/force/marker_surface.h"
+#include "tac3d/frame/tactile_frame.h"
+#include "tac3d/sensor/sensor_config.h"
+#include "tac3d/source/frame_source.h"
+#include "tac3d/stereo/marker_field.h"
+#include "tac3d/tracking/marker_tracker.h"
+
+namespace tac3d {
+
+struct PipelineOptions {
+  std::string sn = "TAC3D-TWIN";
+  /// Static frames averaged into the reference (the undeformed state) at start and after
+  /// a zeroing request; the displacement noise is estimated from them too.
+  int reference_frames = 20;
+  /// The inverse's weight w and gains. The default w is what the discrepancy principle chose
+  /// for 0.005 mm displacement noise on the twin (docs/force.md); a force calibration
+  /// (`tac3d calibrate-force`) gives the sensor's own.
+  ForceReconstructorOptions force = {.weight = 0.05, .gains = Eigen::Vector3d::Ones()};
+  ContactOptions contact;
+  MarkerTrackerOptions tracking;
+  MarkerTriangulatorOptions stereo;
+  /// A frame is flagged when a valid marker moved farther than this from its reference (mm),
+  /// or the resultant force exceeds this (N): beyond what the sensor was built and calibrated
+  /// for, so the numbers are not to be trusted.
+  double displacement_range_mm = 3.0;
+  double force_range_n = 30.0;
+
+  /// @throws Error naming the field and its bound.
+  void Validate() const;
+};
+
+/// The per-frame chain of the paper (section IV): tracking -> 3D markers -> displacement ->
+/// forces (F = K D) -> normals -> contact -> resultants, as one TactileFrame per image.
+/// The first `reference_frames` frames (and those after RequestZero) build the reference:
+/// their TactileFrames carry initialize_progress < 100, the kInitializing flag and zero
+/// displacements and forces. One instance per sensor stream; not thread-safe.
+class Pipeline {
+ public:
+  /// @param config the sensor (calibrated virtual cameras, markers).
+  /// @param h the compliance H (3N x 3N) of the sensor's FEM and its rest marker positions.
+  /// @throws Error if the options are invalid or the sensor, H and grid disagree.
+  Pipeline(const SensorConfig& config, const Eigen::MatrixXd& h,
+           const std::vector<Eigen::Vector3d>& fem_markers_mm, const PipelineOptions& options = {});
+  ~Pipeline();
+
+  /// Processes one camera image into `out` (its storage reused). A frame the tracker cannot
+  /// measure (no grid) still gives a TactileFrame, every marker invalid and flagged.
+  /// @throws Error if the image is empty or not the camera's size and type.
+  void Process(const Frame& frame, TactileFrame& out);
+
+  /// Takes the next reference_frames frames as the new reference (`$C`).
+  void RequestZero();
+  bool initializing() const;
+  /// The displacement noise variance (mm^2, per axis) measured on the last reference.
+  const std::optional<Eigen::Vector3d>& noise_variance() const { return noise_variance_; }
+  const PipelineOptions& options() const { return options_; }
+
+ private:
+  // A frame while the reference is being taken: markers as measured, no forces.
+  void FillInitializing(int progress, TactileFrame& out) const;
+
+  PipelineOptions options_;
+  int rows_, cols_;
+  MarkerTracker tracker_;
+  MarkerTriangulator triangulator_;
+  ForceReconstructor reconstructor_;
+  MarkerSurface surface_;
+  DisplacementReference reference_;
+  std::vector<MarkerField> reference_stack_;
+  std::optional<Eigen::Vector3d> noise_variance_;
+  bool zero_requested_ = false;
+  std::int64_t frames_ = 0;
+  // Per-frame scratch.
+  MarkerObservation observation_;
+  MarkerField field_;
+  Eigen::VectorXd d_;
+  std::vector<bool> valid_;
+  ForceFrame force_;
+};
+
+}  // namespace tac3d
