@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   tac3d::cli::RegisterCalibrate(app);
   tac3d::cli::RegisterDemo(app);
   tac3d::cli::RegisterBuildModel(app);
+  tac3d::cli::RegisterRun(app);
   tac3d::cli::RegisterEval(app);
   try {
     app.parse(argc, argv);
