@@ -1,8 +1,7 @@
 #include "tac3d/frame/synthetic_frame.h"
 
-#include <cmath>
-
 #include <Eigen/Geometry>
+#include <cmath>
 
 namespace tac3d {
 
@@ -24,12 +23,13 @@ TactileFrame MakeSyntheticTactileFrame(const std::string& sn,
       const int i = r * cols + c;
       const double x = (c - 0.5 * (cols - 1)) * kPitchMm;
       const double y = (r - 0.5 * (rows - 1)) * kPitchMm;
-      const Eigen::Vector3d rest(x, y, centre.z() + std::sqrt(kRadiusMm * kRadiusMm - x * x - y * y));
+      const double z = centre.z() + std::sqrt(kRadiusMm * kRadiusMm - x * x - y * y);
+      const Eigen::Vector3d rest(x, y, z);
       const double weight = std::exp(-(Eigen::Vector2d(x, y) - dent_mm).squaredNorm() / 8.0);
       // Distinct in every marker and frame, so a swapped or shifted value shows in a test.
       const double offset = 1e-6 * (i + 1) + 1e-9 * static_cast<double>(index % 1000);
-      frame.displacements_mm[i] = Eigen::Vector3d(0.05 * weight + offset, -0.03 * weight,
-                                                  -0.4 * weight - offset);
+      frame.displacements_mm[i] =
+          Eigen::Vector3d(0.05 * weight + offset, -0.03 * weight, -0.4 * weight - offset);
       frame.positions_mm[i] = rest + frame.displacements_mm[i];
       frame.forces_n[i] = 0.02 * frame.displacements_mm[i] / 0.4;
       frame.normals[i] = (rest - centre).normalized();

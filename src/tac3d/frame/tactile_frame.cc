@@ -1,8 +1,8 @@
 #include "tac3d/frame/tactile_frame.h"
 
-#include <cmath>
-
 #include <fmt/format.h>
+
+#include <cmath>
 
 #include "tac3d/util/error.h"
 
@@ -10,12 +10,18 @@ namespace tac3d {
 
 const char* FrameFlagName(FrameFlag flag) {
   switch (flag) {
-    case FrameFlag::kMarkersLost: return "markers_lost";
-    case FrameFlag::kGridReacquired: return "grid_reacquired";
-    case FrameFlag::kDisplacementOutOfRange: return "displacement_out_of_range";
-    case FrameFlag::kForceOutOfRange: return "force_out_of_range";
-    case FrameFlag::kInitializing: return "initializing";
-    case FrameFlag::kZeroed: return "zeroed";
+    case FrameFlag::kMarkersLost:
+      return "markers_lost";
+    case FrameFlag::kGridReacquired:
+      return "grid_reacquired";
+    case FrameFlag::kDisplacementOutOfRange:
+      return "displacement_out_of_range";
+    case FrameFlag::kForceOutOfRange:
+      return "force_out_of_range";
+    case FrameFlag::kInitializing:
+      return "initializing";
+    case FrameFlag::kZeroed:
+      return "zeroed";
   }
   TAC3D_DEMAND(false);
 }
@@ -53,14 +59,19 @@ void TactileFrame::set(FrameFlag flag, bool on) {
 
 void TactileFrame::Validate() const {
   if (rows < 1 || cols < 1) {
-    throw Error(fmt::format("TactileFrame {}: grid {} x {} must be at least 1 x 1", index, rows,
-                            cols));
+    throw Error(
+        fmt::format("TactileFrame {}: grid {} x {} must be at least 1 x 1", index, rows, cols));
   }
   const std::size_t n = static_cast<std::size_t>(rows) * cols;
   auto check = [&](const char* name, std::size_t size) {
     if (size != n) {
       throw Error(fmt::format("TactileFrame {}: {} has {} entries, the {} x {} grid needs {}",
-                              index, name, size, rows, cols, n));
+                              index,
+                              name,
+                              size,
+                              rows,
+                              cols,
+                              n));
     }
   };
   check("positions_mm", positions_mm.size());
@@ -70,8 +81,8 @@ void TactileFrame::Validate() const {
   check("valid", valid.size());
   check("contact", contact.size());
   if (initialize_progress < 0 || initialize_progress > 100) {
-    throw Error(fmt::format("TactileFrame {}: initialize_progress {} is outside 0..100", index,
-                            initialize_progress));
+    throw Error(fmt::format(
+        "TactileFrame {}: initialize_progress {} is outside 0..100", index, initialize_progress));
   }
   if (!std::isfinite(timestamp_s)) {
     throw Error(fmt::format("TactileFrame {}: timestamp_s {} is not finite", index, timestamp_s));
@@ -79,8 +90,8 @@ void TactileFrame::Validate() const {
   std::uint32_t known = 0;
   for (const FrameFlag flag : kAllFrameFlags) known |= static_cast<std::uint32_t>(flag);
   if ((flags & ~known) != 0) {
-    throw Error(fmt::format("TactileFrame {}: flags 0x{:x} has unknown bits 0x{:x}", index, flags,
-                            flags & ~known));
+    throw Error(fmt::format(
+        "TactileFrame {}: flags 0x{:x} has unknown bits 0x{:x}", index, flags, flags & ~known));
   }
 }
 

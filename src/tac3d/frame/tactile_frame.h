@@ -1,27 +1,29 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 namespace tac3d {
 
 /// Conditions the pipeline reports with a frame; bits of TactileFrame::flags.
 enum class FrameFlag : std::uint32_t {
-  kMarkersLost = 1u << 0,              ///< at least one marker has valid == false
-  kGridReacquired = 1u << 1,           ///< tracking lost the grid and found it again this frame
-  kDisplacementOutOfRange = 1u << 2,   ///< a displacement beyond the calibrated range
-  kForceOutOfRange = 1u << 3,          ///< a resultant beyond the sensor's rated range
-  kInitializing = 1u << 4,             ///< initialize_progress < 100: reference not yet taken
-  kZeroed = 1u << 5,                   ///< the reference was retaken (a `$C`) for this frame
+  kMarkersLost = 1u << 0,             ///< at least one marker has valid == false
+  kGridReacquired = 1u << 1,          ///< tracking lost the grid and found it again this frame
+  kDisplacementOutOfRange = 1u << 2,  ///< a displacement beyond the calibrated range
+  kForceOutOfRange = 1u << 3,         ///< a resultant beyond the sensor's rated range
+  kInitializing = 1u << 4,            ///< initialize_progress < 100: reference not yet taken
+  kZeroed = 1u << 5,                  ///< the reference was retaken (a `$C`) for this frame
 };
 
 /// Every flag, in bit order (for printing and iteration).
-inline constexpr FrameFlag kAllFrameFlags[] = {
-    FrameFlag::kMarkersLost,      FrameFlag::kGridReacquired, FrameFlag::kDisplacementOutOfRange,
-    FrameFlag::kForceOutOfRange,  FrameFlag::kInitializing,   FrameFlag::kZeroed};
+inline constexpr FrameFlag kAllFrameFlags[] = {FrameFlag::kMarkersLost,
+                                               FrameFlag::kGridReacquired,
+                                               FrameFlag::kDisplacementOutOfRange,
+                                               FrameFlag::kForceOutOfRange,
+                                               FrameFlag::kInitializing,
+                                               FrameFlag::kZeroed};
 
 /// snake_case name of a flag ("markers_lost"), as the wire header's msg and logs show it.
 const char* FrameFlagName(FrameFlag flag);
@@ -30,17 +32,17 @@ const char* FrameFlagName(FrameFlag flag);
 /// viewer consume. Per-marker vectors hold rows * cols entries in row-major grid order
 /// (index row * cols + col), sensor frame, millimetres and newtons.
 struct TactileFrame {
-  std::string sn;              ///< sensor serial number, e.g. "AD2-0065L"
-  std::int64_t index = 0;      ///< frame counter since the stream started
-  double timestamp_s = 0.0;    ///< seconds since the stream started
+  std::string sn;            ///< sensor serial number, e.g. "AD2-0065L"
+  std::int64_t index = 0;    ///< frame counter since the stream started
+  double timestamp_s = 0.0;  ///< seconds since the stream started
   int rows = 20;
   int cols = 20;
   std::vector<Eigen::Vector3d> positions_mm;      ///< deformed marker positions
   std::vector<Eigen::Vector3d> displacements_mm;  ///< position minus reference position
   std::vector<Eigen::Vector3d> forces_n;          ///< force on each marker's surface patch
   std::vector<Eigen::Vector3d> normals;           ///< outward unit surface normals
-  std::vector<bool> valid;    ///< false: the marker was not measured this frame
-  std::vector<bool> contact;  ///< true: the marker's patch is in contact
+  std::vector<bool> valid;                        ///< false: the marker was not measured this frame
+  std::vector<bool> contact;                      ///< true: the marker's patch is in contact
   Eigen::Vector3d resultant_force_n = Eigen::Vector3d::Zero();  ///< sum of forces_n
   /// Sum of p_i x f_i about the sensor origin, in N mm (p_i = positions_mm[i]).
   Eigen::Vector3d resultant_moment_nmm = Eigen::Vector3d::Zero();

@@ -1,8 +1,8 @@
 #include "tac3d/frame/tactile_frame.h"
 
-#include <Eigen/Geometry>
-
 #include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
 
 #include "tac3d/frame/synthetic_frame.h"
 #include "tac3d/testing/testing.h"

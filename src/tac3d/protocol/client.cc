@@ -21,8 +21,8 @@ const ClientOptions& Validated(const ClientOptions& options) {
 void ClientOptions::Validate() const {
   if (bind_address.empty()) throw Error("ClientOptions.bind_address must not be empty");
   if (receive_buffer_bytes < 0) {
-    throw Error(fmt::format("ClientOptions.receive_buffer_bytes = {} must be >= 0",
-                            receive_buffer_bytes));
+    throw Error(
+        fmt::format("ClientOptions.receive_buffer_bytes = {} must be >= 0", receive_buffer_bytes));
   }
   assembler.Validate();
 }

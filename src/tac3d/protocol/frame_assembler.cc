@@ -1,14 +1,18 @@
 #include "tac3d/protocol/frame_assembler.h"
 
-#include <algorithm>
-
 #include <fmt/format.h>
+
+#include <algorithm>
 
 namespace tac3d {
 
 std::string Endpoint::ToString() const {
-  return fmt::format("{}.{}.{}.{}:{}", address >> 24, (address >> 16) & 0xff, (address >> 8) & 0xff,
-                     address & 0xff, port);
+  return fmt::format("{}.{}.{}.{}:{}",
+                     address >> 24,
+                     (address >> 16) & 0xff,
+                     (address >> 8) & 0xff,
+                     address & 0xff,
+                     port);
 }
 
 void FrameAssemblerOptions::Validate() const {
@@ -16,12 +20,12 @@ void FrameAssemblerOptions::Validate() const {
     throw Error(fmt::format("FrameAssemblerOptions.timeout_s = {} must be > 0", timeout_s));
   }
   if (max_in_progress < 1) {
-    throw Error(fmt::format("FrameAssemblerOptions.max_in_progress = {} must be >= 1",
-                            max_in_progress));
+    throw Error(
+        fmt::format("FrameAssemblerOptions.max_in_progress = {} must be >= 1", max_in_progress));
   }
   if (max_frame_bytes < kChunkBytes) {
-    throw Error(fmt::format("FrameAssemblerOptions.max_frame_bytes = {} must be >= {}",
-                            max_frame_bytes, kChunkBytes));
+    throw Error(fmt::format(
+        "FrameAssemblerOptions.max_frame_bytes = {} must be >= {}", max_frame_bytes, kChunkBytes));
   }
 }
 
@@ -114,8 +118,8 @@ std::optional<ReceivedFrame> FrameAssembler::Complete(Partial& partial, double n
     return ReceivedFrame{DecodeFrame(partial.payloads[0], body_), partial.sender, now_s};
   } catch (const DecodeError& e) {
     Drop(e.reason());
-    last_error_ = fmt::format("frame {} from {}: {}", partial.frame_id, partial.sender.ToString(),
-                              e.what());
+    last_error_ =
+        fmt::format("frame {} from {}: {}", partial.frame_id, partial.sender.ToString(), e.what());
     return std::nullopt;
   }
 }

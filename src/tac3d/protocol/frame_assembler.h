@@ -22,8 +22,8 @@ struct Endpoint {
 };
 
 struct FrameAssemblerOptions {
-  double timeout_s = 1.0;   ///< an incomplete frame older than this is dropped
-  int max_in_progress = 30; ///< more incomplete frames than this: the oldest is dropped
+  double timeout_s = 1.0;    ///< an incomplete frame older than this is dropped
+  int max_in_progress = 30;  ///< more incomplete frames than this: the oldest is dropped
   /// Frames whose packet_count * 1392 exceeds this are refused at their first datagram, so
   /// a hostile packet_count cannot make the client buffer without bound.
   std::size_t max_frame_bytes = 16u << 20;

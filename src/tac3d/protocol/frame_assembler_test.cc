@@ -1,9 +1,9 @@
 #include "tac3d/protocol/frame_assembler.h"
 
+#include <gtest/gtest.h>
+
 #include <algorithm>
 #include <random>
-
-#include <gtest/gtest.h>
 
 #include "tac3d/frame/synthetic_frame.h"
 #include "tac3d/testing/testing.h"
@@ -20,13 +20,17 @@ std::vector<std::string> DatagramsOf(const TactileFrame& frame, std::uint32_t fr
   return encoded.Datagrams();
 }
 
-std::optional<ReceivedFrame> Push(FrameAssembler* assembler, const Endpoint& from,
-                                  const std::string& d, double now_s = 0.0) {
+std::optional<ReceivedFrame> Push(FrameAssembler* assembler,
+                                  const Endpoint& from,
+                                  const std::string& d,
+                                  double now_s = 0.0) {
   return assembler->Push(
       from, std::span(reinterpret_cast<const std::uint8_t*>(d.data()), d.size()), now_s);
 }
 
-std::string Prefixed(std::uint32_t id, std::uint16_t count, std::uint16_t index,
+std::string Prefixed(std::uint32_t id,
+                     std::uint16_t count,
+                     std::uint16_t index,
                      std::size_t payload) {
   const auto prefix = DatagramPrefix{id, count, index}.Bytes();
   return std::string(prefix.begin(), prefix.end()) + std::string(payload, 'x');

@@ -2,10 +2,10 @@
 // client's socket, and the sender's command socket. Malformed input must be counted and
 // ignored (no crash, leak or hang; run under -DTAC3D_SANITIZE=ON for the leak and memory
 // checks) and must leave each able to take good input afterwards.
+#include <gtest/gtest.h>
+
 #include <random>
 #include <thread>
-
-#include <gtest/gtest.h>
 
 #include "tac3d/frame/synthetic_frame.h"
 #include "tac3d/protocol/client.h"
@@ -98,13 +98,21 @@ class DatagramFuzzer {
   }
   std::string WrongHeader() {
     static const char* kTypes[] = {"mat", "f64", "i32", "img", "u8", "[]", "~"};
-    static const char* kNumbers[] = {"0", "1", "3", "-1", "400", "9600", "1e30", "x",
-                                     "4294967296", "9223372036854775807", "-9223372036854775808"};
+    static const char* kNumbers[] = {"0",
+                                     "1",
+                                     "3",
+                                     "-1",
+                                     "400",
+                                     "9600",
+                                     "1e30",
+                                     "x",
+                                     "4294967296",
+                                     "9223372036854775807",
+                                     "-9223372036854775808"};
     std::string header = "SN: S\nindex: " + std::string(kNumbers[Uniform(0, 10)]) +
                          "\ntimestamp: " + kNumbers[Uniform(0, 10)] + "\ndata:\n";
     for (int k = Uniform(0, 3); k > 0; --k) {
-      header += "  - {name: " +
-                std::string(Uniform(0, 1) ? "3D_Positions" : "InitializeProgress") +
+      header += "  - {name: " + std::string(Uniform(0, 1) ? "3D_Positions" : "InitializeProgress") +
                 ", type: " + kTypes[Uniform(0, 6)] + ", dtype: " + (Uniform(0, 3) ? "f64" : "f32") +
                 ", width: " + kNumbers[Uniform(0, 10)] + ", height: " + kNumbers[Uniform(0, 10)] +
                 ", offset: " + kNumbers[Uniform(0, 10)] + ", length: " + kNumbers[Uniform(0, 10)] +
@@ -118,8 +126,10 @@ class DatagramFuzzer {
   std::string genuine_header_;
 };
 
-std::optional<ReceivedFrame> PushAll(FrameAssembler* assembler, const TactileFrame& frame,
-                                     std::uint32_t id, double now_s) {
+std::optional<ReceivedFrame> PushAll(FrameAssembler* assembler,
+                                     const TactileFrame& frame,
+                                     std::uint32_t id,
+                                     double now_s) {
   EncodedFrame encoded;
   EncodeFrame(frame, id, cv::Mat(), &encoded);
   std::optional<ReceivedFrame> out;

@@ -1,9 +1,9 @@
 #include "tac3d/protocol/udp_sender.h"
 
+#include <fmt/format.h>
+
 #include <array>
 #include <random>
-
-#include <fmt/format.h>
 
 namespace tac3d {
 

@@ -1,10 +1,9 @@
 #pragma once
 
 #include <cstdint>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
-
-#include <opencv2/core.hpp>
 
 #include "tac3d/frame/tactile_frame.h"
 #include "tac3d/protocol/udp_socket.h"

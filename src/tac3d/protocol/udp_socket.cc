@@ -1,6 +1,7 @@
 #include "tac3d/protocol/udp_socket.h"
 
 #include <arpa/inet.h>
+#include <fmt/format.h>
 #include <netdb.h>
 #include <poll.h>
 #include <sys/socket.h>
@@ -11,8 +12,6 @@
 #include <cmath>
 #include <cstring>
 #include <vector>
-
-#include <fmt/format.h>
 
 #include "tac3d/util/error.h"
 
@@ -43,8 +42,8 @@ Endpoint ResolveEndpoint(const std::string& host, std::uint16_t port) {
   hints.ai_socktype = SOCK_DGRAM;
   addrinfo* result = nullptr;
   if (const int rc = getaddrinfo(host.c_str(), nullptr, &hints, &result); rc != 0) {
-    throw Error(fmt::format("cannot resolve host '{}' to an IPv4 address: {}", host,
-                            gai_strerror(rc)));
+    throw Error(
+        fmt::format("cannot resolve host '{}' to an IPv4 address: {}", host, gai_strerror(rc)));
   }
   Endpoint endpoint = FromSockaddr(*reinterpret_cast<const sockaddr_in*>(result->ai_addr));
   freeaddrinfo(result);
@@ -110,8 +109,8 @@ std::optional<std::size_t> UdpSocket::Receive(std::span<std::uint8_t> buffer,
   if (ready <= 0) return std::nullopt;
   sockaddr_in addr{};
   socklen_t size = sizeof(addr);
-  const ssize_t n = recvfrom(fd_, buffer.data(), buffer.size(), MSG_DONTWAIT,
-                             reinterpret_cast<sockaddr*>(&addr), &size);
+  const ssize_t n = recvfrom(
+      fd_, buffer.data(), buffer.size(), MSG_DONTWAIT, reinterpret_cast<sockaddr*>(&addr), &size);
   if (n < 0) {
     // An ICMP error queued by an earlier send, or a race with another reader: not fatal.
     if (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR || errno == ECONNREFUSED) {

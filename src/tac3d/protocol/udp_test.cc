@@ -1,8 +1,8 @@
 // Loopback tests of UdpSender and Client: real sockets on 127.0.0.1, ephemeral ports.
+#include <gtest/gtest.h>
+
 #include <map>
 #include <thread>
-
-#include <gtest/gtest.h>
 
 #include "tac3d/frame/synthetic_frame.h"
 #include "tac3d/protocol/client.h"
@@ -92,7 +92,7 @@ TEST(Udp, SenderIgnoresMalformedCommandsAndStrangers) {
   UdpSender sender = SenderTo(client);
   const Endpoint to = sender.local_endpoint();
   internal::UdpSocket stranger(ResolveEndpoint("127.0.0.2", 0));
-  stranger.SendTo(to, {"$C"});                              // not from the destination address
+  stranger.SendTo(to, {"$C"});  // not from the destination address
   client.SendCommand(to, SensorCommand::kZero);
   internal::UdpSocket same_host(ResolveEndpoint("127.0.0.1", 0));
   same_host.SendTo(to, {"$CC"});

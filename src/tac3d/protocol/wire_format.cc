@@ -1,12 +1,12 @@
 #include "tac3d/protocol/wire_format.h"
 
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
 #include <bit>
 #include <cstring>
 #include <iterator>
-
-#include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
-#include <yaml-cpp/yaml.h>
 
 namespace tac3d {
 namespace {
@@ -18,8 +18,8 @@ static_assert(std::endian::native == std::endian::little, "tac3d assumes a littl
 // header must not make the client allocate gigabytes.
 constexpr std::int64_t kMaxImagePixels = 4096 * 4096;
 
-constexpr const char* kPerMarkerFields[] = {kFieldPositions, kFieldDisplacements, kFieldForces,
-                                            kFieldNormals};
+constexpr const char* kPerMarkerFields[] = {
+    kFieldPositions, kFieldDisplacements, kFieldForces, kFieldNormals};
 
 // YAML floats with a '.' always, so YAML 1.1 parsers (PyYAML) also read them as numbers:
 // "1" -> "1.0", "1e-05" -> "1.0e-05". The shortest round-trip digits keep the value exact.
@@ -41,10 +41,14 @@ void CheckSn(const std::string& sn) {
 }
 
 template <typename Out>
-void AppendItem(Out out, const char* name, const char* type, std::size_t offset,
-                std::size_t length) {
-  fmt::format_to(out, "  - name: {}\n    type: {}\n    offset: {}\n    length: {}\n", name, type,
-                 offset, length);
+void AppendItem(
+    Out out, const char* name, const char* type, std::size_t offset, std::size_t length) {
+  fmt::format_to(out,
+                 "  - name: {}\n    type: {}\n    offset: {}\n    length: {}\n",
+                 name,
+                 type,
+                 offset,
+                 length);
 }
 
 template <typename Out>
@@ -52,7 +56,11 @@ void AppendMatItem(Out out, const char* name, int height, int width, std::size_t
   fmt::format_to(out,
                  "  - name: {}\n    type: mat\n    dtype: f64\n    width: {}\n    height: {}\n"
                  "    offset: {}\n    length: {}\n",
-                 name, width, height, offset, sizeof(double) * height * width);
+                 name,
+                 width,
+                 height,
+                 offset,
+                 sizeof(double) * height * width);
 }
 
 // Big-endian 16- and 32-bit reads for image headers.
@@ -96,9 +104,9 @@ cv::Mat DecodeImage(const std::string& name, std::string_view bytes) {
   const auto* p = reinterpret_cast<const std::uint8_t*>(bytes.data());
   const auto pixels = DeclaredPixels(p, bytes.size());
   if (!pixels || *pixels < 1 || *pixels > kMaxImagePixels) {
-    throw DecodeError(DropReason::kBadImage,
-                      fmt::format("item '{}': not a PNG or JPEG of 1 to {} pixels", name,
-                                  kMaxImagePixels));
+    throw DecodeError(
+        DropReason::kBadImage,
+        fmt::format("item '{}': not a PNG or JPEG of 1 to {} pixels", name, kMaxImagePixels));
   }
   cv::Mat image;
   try {
@@ -109,8 +117,8 @@ cv::Mat DecodeImage(const std::string& name, std::string_view bytes) {
                       fmt::format("item '{}': the image does not decode: {}", name, e.what()));
   }
   if (image.empty()) {
-    throw DecodeError(DropReason::kBadImage, fmt::format("item '{}': the image does not decode",
-                                                         name));
+    throw DecodeError(DropReason::kBadImage,
+                      fmt::format("item '{}': the image does not decode", name));
   }
   return image;
 }
@@ -127,8 +135,10 @@ void CheckTableShapes(const DecodedFrame& frame) {
       fail(fmt::format("item '{}' must be a mat of width 3", name));
     }
     if (markers >= 0 && field->matrix.rows() != markers) {
-      fail(fmt::format("item '{}' has height {}, other per-marker items {}", name,
-                       field->matrix.rows(), markers));
+      fail(fmt::format("item '{}' has height {}, other per-marker items {}",
+                       name,
+                       field->matrix.rows(),
+                       markers));
     }
     markers = field->matrix.rows();
   }
@@ -198,18 +208,30 @@ DecodedField DecodeItem(const YAML::Node& item, const std::string& name, std::st
 
 const char* DropReasonName(DropReason reason) {
   switch (reason) {
-    case DropReason::kShortDatagram: return "short_datagram";
-    case DropReason::kOversizedDatagram: return "oversized_datagram";
-    case DropReason::kBadPacketIndex: return "bad_packet_index";
-    case DropReason::kFrameTooLarge: return "frame_too_large";
-    case DropReason::kBadChunkSize: return "bad_chunk_size";
-    case DropReason::kInconsistentCount: return "inconsistent_count";
-    case DropReason::kDuplicate: return "duplicate";
-    case DropReason::kBadHeader: return "bad_header";
-    case DropReason::kBadField: return "bad_field";
-    case DropReason::kBadImage: return "bad_image";
-    case DropReason::kTimedOut: return "timed_out";
-    case DropReason::kEvicted: return "evicted";
+    case DropReason::kShortDatagram:
+      return "short_datagram";
+    case DropReason::kOversizedDatagram:
+      return "oversized_datagram";
+    case DropReason::kBadPacketIndex:
+      return "bad_packet_index";
+    case DropReason::kFrameTooLarge:
+      return "frame_too_large";
+    case DropReason::kBadChunkSize:
+      return "bad_chunk_size";
+    case DropReason::kInconsistentCount:
+      return "inconsistent_count";
+    case DropReason::kDuplicate:
+      return "duplicate";
+    case DropReason::kBadHeader:
+      return "bad_header";
+    case DropReason::kBadField:
+      return "bad_field";
+    case DropReason::kBadImage:
+      return "bad_image";
+    case DropReason::kTimedOut:
+      return "timed_out";
+    case DropReason::kEvicted:
+      return "evicted";
   }
   TAC3D_DEMAND(false);
 }
@@ -273,8 +295,12 @@ void EncodeFrame(const TactileFrame& frame,
   out->header.clear();
   out->body.clear();
   auto header = std::back_inserter(out->header);
-  fmt::format_to(header, "SN: \"{}\"\nindex: {}\ntimestamp: {}\nmsg: \"{}\"\ndata:\n", frame.sn,
-                 frame.index, YamlFloat(frame.timestamp_s), FrameFlagNames(frame.flags));
+  fmt::format_to(header,
+                 "SN: \"{}\"\nindex: {}\ntimestamp: {}\nmsg: \"{}\"\ndata:\n",
+                 frame.sn,
+                 frame.index,
+                 YamlFloat(frame.timestamp_s),
+                 FrameFlagNames(frame.flags));
 
   auto append_mat = [&](const char* name, const double* values, int height) {
     AppendMatItem(header, name, height, 3, out->body.size());
@@ -293,9 +319,11 @@ void EncodeFrame(const TactileFrame& frame,
 
   if (!image.empty()) {
     if (image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3)) {
-      throw Error(fmt::format("Tac3D encoder: the image must be 8-bit with 1 or 3 channels, not "
-                              "depth {} with {} channels",
-                              image.depth(), image.channels()));
+      throw Error(
+          fmt::format("Tac3D encoder: the image must be 8-bit with 1 or 3 channels, not "
+                      "depth {} with {} channels",
+                      image.depth(),
+                      image.channels()));
     }
     std::vector<std::uint8_t> png;
     cv::imencode(".png", image, png);
@@ -303,13 +331,16 @@ void EncodeFrame(const TactileFrame& frame,
     out->body.append(reinterpret_cast<const char*>(png.data()), png.size());
   }
   if (out->header.size() > kChunkBytes) {
-    throw Error(fmt::format("Tac3D encoder: the text header is {} bytes; it must fit in one "
-                            "datagram ({} bytes): shorten the SN",
-                            out->header.size(), kChunkBytes));
+    throw Error(
+        fmt::format("Tac3D encoder: the text header is {} bytes; it must fit in one "
+                    "datagram ({} bytes): shorten the SN",
+                    out->header.size(),
+                    kChunkBytes));
   }
   if (out->packet_count() > 0xffff) {
     throw Error(fmt::format("Tac3D encoder: a {}-byte body needs {} datagrams, at most 65535",
-                            out->body.size(), out->packet_count()));
+                            out->body.size(),
+                            out->packet_count()));
   }
 }
 

@@ -1,17 +1,16 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <array>
 #include <cstddef>
 #include <cstdint>
 #include <map>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <span>
 #include <string>
 #include <string_view>
 #include <vector>
-
-#include <Eigen/Core>
-#include <opencv2/core.hpp>
 
 #include "tac3d/frame/tactile_frame.h"
 #include "tac3d/util/error.h"

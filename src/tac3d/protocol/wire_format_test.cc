@@ -1,10 +1,10 @@
 #include "tac3d/protocol/wire_format.h"
 
-#include <cstring>
-
 #include <gtest/gtest.h>
-#include <opencv2/imgcodecs.hpp>
 #include <yaml-cpp/yaml.h>
+
+#include <cstring>
+#include <opencv2/imgcodecs.hpp>
 
 #include "tac3d/frame/synthetic_frame.h"
 #include "tac3d/protocol/frame_assembler.h"
@@ -22,9 +22,12 @@ struct ExpectedItem {
   std::size_t length;
 };
 const std::vector<ExpectedItem> kTable = {
-    {"3D_Positions", "mat", 400, 3, 9600},      {"3D_Displacements", "mat", 400, 3, 9600},
-    {"3D_Forces", "mat", 400, 3, 9600},         {"3D_Normals", "mat", 400, 3, 9600},
-    {"3D_ResultantForce", "mat", 1, 3, 24},     {"3D_ResultantMoment", "mat", 1, 3, 24},
+    {"3D_Positions", "mat", 400, 3, 9600},
+    {"3D_Displacements", "mat", 400, 3, 9600},
+    {"3D_Forces", "mat", 400, 3, 9600},
+    {"3D_Normals", "mat", 400, 3, 9600},
+    {"3D_ResultantForce", "mat", 1, 3, 24},
+    {"3D_ResultantMoment", "mat", 1, 3, 24},
     {"InitializeProgress", "i32", 0, 0, 4},
 };
 
@@ -38,10 +41,10 @@ std::optional<ReceivedFrame> Reassemble(const std::vector<std::string>& datagram
                                         FrameAssembler* assembler) {
   std::optional<ReceivedFrame> out;
   for (const auto& d : datagrams) {
-    auto frame = assembler->Push({0x7f000001, 5000},
-                                 std::span(reinterpret_cast<const std::uint8_t*>(d.data()),
-                                           d.size()),
-                                 0.0);
+    auto frame =
+        assembler->Push({0x7f000001, 5000},
+                        std::span(reinterpret_cast<const std::uint8_t*>(d.data()), d.size()),
+                        0.0);
     if (frame) out = std::move(frame);
   }
   return out;
@@ -134,10 +137,8 @@ TEST(WireFormat, RoundTripThroughTheClientDecoderIsExact) {
   EXPECT_TRUE(decoded.Find("3D_Displacements")->matrix == AsMatrix(frame.displacements_mm));
   EXPECT_TRUE(decoded.Find("3D_Forces")->matrix == AsMatrix(frame.forces_n));
   EXPECT_TRUE(decoded.Find("3D_Normals")->matrix == AsMatrix(frame.normals));
-  EXPECT_TRUE(decoded.Find("3D_ResultantForce")->matrix ==
-              frame.resultant_force_n.transpose());
-  EXPECT_TRUE(decoded.Find("3D_ResultantMoment")->matrix ==
-              frame.resultant_moment_nmm.transpose());
+  EXPECT_TRUE(decoded.Find("3D_ResultantForce")->matrix == frame.resultant_force_n.transpose());
+  EXPECT_TRUE(decoded.Find("3D_ResultantMoment")->matrix == frame.resultant_moment_nmm.transpose());
   const DecodedField* progress = decoded.Find("InitializeProgress");
   EXPECT_EQ(progress->type, FieldType::kI32);
   EXPECT_EQ(progress->matrix(0, 0), 63.0);
@@ -212,8 +213,8 @@ TEST(WireFormat, DecoderRefusesEachKindOfBadHeaderAndField) {
   const std::string body(48, '\0');
   const std::string mat = "  - {name: 3D_ResultantForce, type: mat, dtype: f64, ";
   // Good: a header without msg (senders before 3.3.0), flow style.
-  EXPECT_NO_THROW(DecodeFrame(HeaderWith(mat + "width: 3, height: 1, offset: 0, length: 24}"),
-                              body));
+  EXPECT_NO_THROW(
+      DecodeFrame(HeaderWith(mat + "width: 3, height: 1, offset: 0, length: 24}"), body));
   EXPECT_EQ(ReasonOf("{[: not yaml", body), DropReason::kBadHeader);
   EXPECT_EQ(ReasonOf("- a list", body), DropReason::kBadHeader);
   EXPECT_EQ(ReasonOf("index: 1\ntimestamp: 0.5\ndata: []", body), DropReason::kBadHeader);
@@ -266,10 +267,12 @@ TEST(WireFormat, DecoderRefusesAnImageThatClaimsTooManyPixels) {
   EXPECT_EQ(reason, DropReason::kBadImage);
   EXPECT_THAT(message, HasSubstr("pixels"));
   // A JPEG whose SOF0 declares 65535 x 65535.
-  std::string jpeg("\xff\xd8\xff\xe0\0\x04xx\xff\xc0\0\x11\x08\xff\xff\xff\xff\x01", 20);
-  EXPECT_THAT(RefusalOf(HeaderWith("  - {name: img, type: img, offset: 0, length: 20}"), jpeg)
-                  .second,
-              HasSubstr("pixels"));
+  static constexpr char kJpeg[] = "\xff\xd8\xff\xe0\0\x04xx\xff\xc0\0\x11\x08\xff\xff\xff\xff\x01";
+  const std::string jpeg(kJpeg, sizeof(kJpeg) - 1);
+  ASSERT_EQ(jpeg.size(), 18u);
+  EXPECT_THAT(
+      RefusalOf(HeaderWith("  - {name: img, type: img, offset: 0, length: 18}"), jpeg).second,
+      HasSubstr("pixels"));
 }
 
 TEST(WireFormat, CommandsAreExactlyTwoBytes) {

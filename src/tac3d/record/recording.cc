@@ -1,6 +1,7 @@
 #include "tac3d/record/recording.h"
 
 #include <fcntl.h>
+#include <fmt/format.h>
 #include <unistd.h>
 
 #include <array>
@@ -8,8 +9,6 @@
 #include <cerrno>
 #include <cstring>
 #include <thread>
-
-#include <fmt/format.h>
 
 #include "tac3d/util/error.h"
 
@@ -119,7 +118,9 @@ RecordingWriter::RecordingWriter(const std::string& path, const RecordingWriterO
   const int flags = O_WRONLY | O_CREAT | O_CLOEXEC | (options.overwrite ? O_TRUNC : O_EXCL);
   fd_ = ::open(path.c_str(), flags, 0644);
   if (fd_ < 0) {
-    throw Error(fmt::format("cannot create recording '{}': {}{}", path, std::strerror(errno),
+    throw Error(fmt::format("cannot create recording '{}': {}{}",
+                            path,
+                            std::strerror(errno),
                             errno == EEXIST ? " (set overwrite to replace it)" : ""));
   }
   std::vector<std::uint8_t> header;
@@ -135,12 +136,13 @@ RecordingWriter::~RecordingWriter() {
 void RecordingWriter::Write(const TactileFrame& frame, const cv::Mat& image) {
   frame.Validate();
   if (frame.sn.size() > 0xffff) {
-    throw Error(fmt::format("recording '{}': SN of {} bytes, at most 65535", path_,
-                            frame.sn.size()));
+    throw Error(
+        fmt::format("recording '{}': SN of {} bytes, at most 65535", path_, frame.sn.size()));
   }
   if (!image.empty() && image.type() != CV_8UC1) {
     throw Error(fmt::format("recording '{}': the image must be 8-bit mono (CV_8UC1), not type {}",
-                            path_, image.type()));
+                            path_,
+                            image.type()));
   }
   record_.assign(kRecordHeaderBytes, 0);  // length and CRC, filled in below
   Put(&record_, static_cast<std::uint32_t>(frame.rows));
@@ -165,8 +167,8 @@ void RecordingWriter::Write(const TactileFrame& frame, const cv::Mat& image) {
 
   const std::size_t payload_size = record_.size() - kRecordHeaderBytes;
   if (payload_size > kMaxRecordBytes) {
-    throw Error(fmt::format("recording '{}': a record of {} bytes exceeds {}", path_, payload_size,
-                            kMaxRecordBytes));
+    throw Error(fmt::format(
+        "recording '{}': a record of {} bytes exceeds {}", path_, payload_size, kMaxRecordBytes));
   }
   const auto length = static_cast<std::uint32_t>(payload_size);
   const std::uint32_t crc =
@@ -182,10 +184,14 @@ void RecordingWriter::Write(const TactileFrame& frame, const cv::Mat& image) {
 
 const char* RecordingStatusName(RecordingStatus status) {
   switch (status) {
-    case RecordingStatus::kReading: return "reading";
-    case RecordingStatus::kComplete: return "complete";
-    case RecordingStatus::kTruncated: return "truncated";
-    case RecordingStatus::kCorrupt: return "corrupt";
+    case RecordingStatus::kReading:
+      return "reading";
+    case RecordingStatus::kComplete:
+      return "complete";
+    case RecordingStatus::kTruncated:
+      return "truncated";
+    case RecordingStatus::kCorrupt:
+      return "corrupt";
   }
   TAC3D_DEMAND(false);
 }
@@ -202,16 +208,22 @@ RecordingReader::RecordingReader(const std::string& path)
   std::uint32_t version;
   std::memcpy(&version, header + sizeof(kRecordingMagic), sizeof(version));
   if (version != kRecordingVersion) {
-    throw Error(fmt::format("recording '{}' has format version {}; this reader knows {}", path,
-                            version, kRecordingVersion));
+    throw Error(fmt::format("recording '{}' has format version {}; this reader knows {}",
+                            path,
+                            version,
+                            kRecordingVersion));
   }
   offset_ = kFileHeaderBytes;
 }
 
 std::nullopt_t RecordingReader::End(RecordingStatus status, const std::string& message) {
   status_ = status;
-  message_ = fmt::format("recording '{}': {} after {} frames at byte {}: {}", path_,
-                         RecordingStatusName(status), frames_read_, offset_, message);
+  message_ = fmt::format("recording '{}': {} after {} frames at byte {}: {}",
+                         path_,
+                         RecordingStatusName(status),
+                         frames_read_,
+                         offset_,
+                         message);
   return std::nullopt;
 }
 
@@ -273,7 +285,9 @@ std::optional<RecordedFrame> RecordingReader::Next() {
     if (std::uint64_t{image_rows} * image_cols != payload.remaining() ||
         (image_rows == 0) != (image_cols == 0)) {
       throw Error(fmt::format("a {} x {} image does not match the {} bytes left in the record",
-                              image_rows, image_cols, payload.remaining()));
+                              image_rows,
+                              image_cols,
+                              payload.remaining()));
     }
     if (image_rows > 0) {
       recorded.image.create(static_cast<int>(image_rows), static_cast<int>(image_cols), CV_8UC1);

@@ -3,11 +3,10 @@
 #include <chrono>
 #include <cstdint>
 #include <fstream>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "tac3d/frame/tactile_frame.h"
 

@@ -1,5 +1,6 @@
 #include "tac3d/record/recording.h"
 
+#include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -8,8 +9,6 @@
 #include <fstream>
 #include <random>
 #include <thread>
-
-#include <gtest/gtest.h>
 
 #include "tac3d/frame/synthetic_frame.h"
 #include "tac3d/testing/testing.h"
