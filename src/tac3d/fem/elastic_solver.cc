@@ -51,13 +51,14 @@ void MultiplySymmetric(const Eigen::SparseMatrix<double>& k, const Block& x, Blo
   const int* inner = k.innerIndexPtr();
   const double* value = k.valuePtr();
   y->setZero(n, m);
+  const auto row = [m](auto& block, int i) { return block.data() + static_cast<long>(i) * m; };
   for (int j = 0; j < n; ++j) {
-    const double* xj = x.data() + static_cast<long>(j) * m;
-    double* yj = y->data() + static_cast<long>(j) * m;
+    const double* xj = row(x, j);
+    double* yj = row(*y, j);
     for (int c = 0; c < m; ++c) yj[c] += value[outer[j]] * xj[c];
     for (int p = outer[j] + 1; p < outer[j + 1]; ++p) {
-      const double* xi = x.data() + static_cast<long>(inner[p]) * m;
-      double* yi = y->data() + static_cast<long>(inner[p]) * m;
+      const double* xi = row(x, inner[p]);
+      double* yi = row(*y, inner[p]);
       for (int c = 0; c < m; ++c) {
         yj[c] += value[p] * xi[c];
         yi[c] += value[p] * xj[c];
@@ -307,6 +308,10 @@ ElasticSolver::ElasticSolver(const HexMesh& mesh,
   Impl& s = *impl_;
   s.pcg = options;
   s.stiffness_lower = s.Assemble(mesh, material, fixed, show_progress);
+  // The smoother and the product read each column's diagonal as its first entry.
+  for (int j = 0; j < s.summary.num_free_dofs; ++j) {
+    TAC3D_DEMAND(s.stiffness_lower.innerIndexPtr()[s.stiffness_lower.outerIndexPtr()[j]] == j);
+  }
   s.coarse = std::make_unique<ElasticSolver>(coarse_mesh, material, coarse_fixed, show_progress);
   const ElasticSolverSummary& coarse_summary = s.coarse->summary();
   s.prolongation = s.selection.transpose() * prolongation * s.coarse->impl_->selection;
