@@ -64,7 +64,10 @@ Eigen::SparseMatrix<double> CalcProlongation(const HexMesh& coarse, const HexMes
     const std::optional<ElementPoint> point = locator.Locate(fine.nodes[n], kProlongationTolerance);
     if (!point) {
       throw Error(fmt::format("BodyModel: fine node {} ({}, {}, {}) mm is in no coarse element",
-                              n, fine.nodes[n].x(), fine.nodes[n].y(), fine.nodes[n].z()));
+                              n,
+                              fine.nodes[n].x(),
+                              fine.nodes[n].y(),
+                              fine.nodes[n].z()));
     }
     points.push_back(*point);
   }
@@ -90,7 +93,8 @@ ElasticSolver MakeSolver(const BodyModelOptions& options,
   if (coarse_options.refinement < 0.25) {
     throw Error(fmt::format(
         "BodySolverOptions.coarsening_ratio {} gives the coarse level refinement {} < 0.25",
-        solver.coarsening_ratio, coarse_options.refinement));
+        solver.coarsening_ratio,
+        coarse_options.refinement));
   }
   const DomeMesh coarse = BuildDomeMesh(coarse_options);
   return ElasticSolver(dome.mesh,
@@ -111,8 +115,8 @@ void BodySolverOptions::Validate() const {
                             max_direct_free_dofs));
   }
   if (!(coarsening_ratio > 1.0)) {
-    throw Error(fmt::format("BodySolverOptions.coarsening_ratio must be > 1, got {}",
-                            coarsening_ratio));
+    throw Error(
+        fmt::format("BodySolverOptions.coarsening_ratio must be > 1, got {}", coarsening_ratio));
   }
   pcg.Validate();
 }

@@ -276,7 +276,10 @@ BodySolverOptions AlwaysTwoGrid() {
 // The markers' response to every patch load, and what the solve cost.
 Eigen::MatrixXd MarkerResponse(const BodyModel& model, SolveSummary* summary = nullptr) {
   return model.solver().CalcResponse(model.CalcPointInterpolation(model.marker_positions()),
-                                     model.CalcMarkerPatchLoads(), false, 100, summary);
+                                     model.CalcMarkerPatchLoads(),
+                                     false,
+                                     100,
+                                     summary);
 }
 
 TEST(TwoGridSolver, MatchesTheDirectSolution) {
@@ -316,10 +319,13 @@ TEST(TwoGridSolver, IterationsStayBoundedUnderRefinement) {
     const BodyModel model(options, false, AlwaysTwoGrid());
     SolveSummary summary;
     MarkerResponse(model, &summary);
-    max_iterations.push_back(*std::max_element(summary.iterations.begin(), summary.iterations.end()));
+    max_iterations.push_back(
+        *std::max_element(summary.iterations.begin(), summary.iterations.end()));
   }
-  EXPECT_LE(max_iterations[2], 1.25 * max_iterations[0]) << ::testing::PrintToString(max_iterations);
-  EXPECT_LE(max_iterations[1], 1.25 * max_iterations[0]) << ::testing::PrintToString(max_iterations);
+  EXPECT_LE(max_iterations[2], 1.25 * max_iterations[0])
+      << ::testing::PrintToString(max_iterations);
+  EXPECT_LE(max_iterations[1], 1.25 * max_iterations[0])
+      << ::testing::PrintToString(max_iterations);
 }
 
 TEST(TwoGridSolver, ThrowsWhenItDoesNotConverge) {

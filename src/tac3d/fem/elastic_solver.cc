@@ -29,14 +29,22 @@ std::vector<std::vector<int>> NodeNeighbours(const HexMesh& mesh) {
 
 const char* CholmodStatusText(int status) {
   switch (status) {
-    case CHOLMOD_NOT_INSTALLED: return "method not installed";
-    case CHOLMOD_OUT_OF_MEMORY: return "out of memory";
-    case CHOLMOD_TOO_LARGE: return "problem too large (an integer overflows CHOLMOD's indices)";
-    case CHOLMOD_INVALID: return "invalid input";
-    case CHOLMOD_GPU_PROBLEM: return "GPU problem";
-    case CHOLMOD_NOT_POSDEF: return "not positive definite";
-    case CHOLMOD_DSMALL: return "tiny pivot";
-    default: return "unknown status";
+    case CHOLMOD_NOT_INSTALLED:
+      return "method not installed";
+    case CHOLMOD_OUT_OF_MEMORY:
+      return "out of memory";
+    case CHOLMOD_TOO_LARGE:
+      return "problem too large (an integer overflows CHOLMOD's indices)";
+    case CHOLMOD_INVALID:
+      return "invalid input";
+    case CHOLMOD_GPU_PROBLEM:
+      return "GPU problem";
+    case CHOLMOD_NOT_POSDEF:
+      return "not positive definite";
+    case CHOLMOD_DSMALL:
+      return "tiny pivot";
+    default:
+      return "unknown status";
   }
 }
 
@@ -72,11 +80,8 @@ void MultiplySymmetric(const Eigen::SparseMatrix<double>& k, const Block& x, Blo
 // not-yet-updated unknowns from it and scatters the new one to later rows through `work`
 // (B minus the lower part times the new X); the backward sweep subtracts the lower part times
 // the old X first, then gathers the already-updated unknowns.
-void GaussSeidelSweep(const Eigen::SparseMatrix<double>& k,
-                      const Block& b,
-                      bool forward,
-                      Block* x,
-                      Block* work) {
+void GaussSeidelSweep(
+    const Eigen::SparseMatrix<double>& k, const Block& b, bool forward, Block* x, Block* work) {
   const int n = static_cast<int>(k.cols()), m = static_cast<int>(b.cols());
   const int* outer = k.outerIndexPtr();
   const int* inner = k.innerIndexPtr();
@@ -248,7 +253,11 @@ void ElasticSolver::Impl::Factor(const Eigen::SparseMatrix<double>& k, bool show
     return Error(fmt::format(
         "ElasticSolver: CHOLMOD's {} of the {} x {} free-DOF stiffness matrix ({} non-zeros in "
         "its lower triangle) failed: {}",
-        stage, k.rows(), k.cols(), k.nonZeros(), reason));
+        stage,
+        k.rows(),
+        k.cols(),
+        k.nonZeros(),
+        reason));
   };
   // Eigen does not check the analysis: a failed one leaves no factor, and factorising then
   // dereferences a null pointer (the crash at refinement 2 of the default dome).
@@ -271,8 +280,8 @@ void ElasticSolver::Impl::Factor(const Eigen::SparseMatrix<double>& k, bool show
 
 void PcgOptions::Validate() const {
   if (!(relative_tolerance > 0.0 && relative_tolerance < 1.0)) {
-    throw Error(fmt::format("PcgOptions.relative_tolerance must be in (0, 1), got {}",
-                            relative_tolerance));
+    throw Error(
+        fmt::format("PcgOptions.relative_tolerance must be in (0, 1), got {}", relative_tolerance));
   }
   for (const auto& [value, field] : {std::pair{max_iterations, "max_iterations"},
                                      std::pair{smoothing_sweeps, "smoothing_sweeps"},
@@ -303,7 +312,10 @@ ElasticSolver::ElasticSolver(const HexMesh& mesh,
     throw Error(fmt::format(
         "ElasticSolver: the prolongation is {} x {}, the meshes have {} (fine) and {} (coarse) "
         "DOFs",
-        prolongation.rows(), prolongation.cols(), mesh.num_dofs(), coarse_mesh.num_dofs()));
+        prolongation.rows(),
+        prolongation.cols(),
+        mesh.num_dofs(),
+        coarse_mesh.num_dofs()));
   }
   Impl& s = *impl_;
   s.pcg = options;
@@ -354,7 +366,13 @@ void ElasticSolver::Impl::SolvePcg(const Block& rhs, Block* x, SolveSummary* out
         "ElasticSolver: two-grid conjugate gradients did not converge for load case {} of {}: "
         "relative residual {:.3g} after {} iterations (tolerance {:.3g}, limit {}; {} free DOFs, "
         "{} coarse)",
-        c, m, residual(c), iterations(c), tolerance, pcg.max_iterations, summary.num_free_dofs,
+        c,
+        m,
+        residual(c),
+        iterations(c),
+        tolerance,
+        pcg.max_iterations,
+        summary.num_free_dofs,
         summary.coarse_free_dofs));
   };
   // Restarted from the true residual until it, not only the recurrence's, meets the tolerance.
