@@ -9,10 +9,12 @@ find_package(Threads REQUIRED)
 # SuiteSparse ships no CMake config in Debian 12.
 find_path(CHOLMOD_INCLUDE_DIR cholmod.h PATH_SUFFIXES suitesparse REQUIRED)
 find_library(CHOLMOD_LIBRARY cholmod REQUIRED)
+# SuiteSparse_config (CHOLMOD's allocator), which a test replaces to make CHOLMOD fail.
+find_library(SUITESPARSECONFIG_LIBRARY suitesparseconfig REQUIRED)
 if(NOT TARGET tac3d_cholmod)
   add_library(tac3d_cholmod INTERFACE)
   target_include_directories(tac3d_cholmod INTERFACE ${CHOLMOD_INCLUDE_DIR})
-  target_link_libraries(tac3d_cholmod INTERFACE ${CHOLMOD_LIBRARY})
+  target_link_libraries(tac3d_cholmod INTERFACE ${CHOLMOD_LIBRARY} ${SUITESPARSECONFIG_LIBRARY})
 endif()
 
 if(NOT TAC3D_FIND_FOR_CONSUMER)

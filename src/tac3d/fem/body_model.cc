@@ -50,7 +50,76 @@ double OutermostMarkerRadius(const BodyModelOptions& options) {
          std::hypot(options.marker_cols - 1.0, options.marker_rows - 1.0);
 }
 
+// A fine node may lie outside the coarse mesh by the sagitta of a coarse element's face under
+// the curved surfaces (up to ~0.1 of a thin rim element); it is then extrapolated, which a
+// preconditioner's interpolation tolerates.
+constexpr double kProlongationTolerance = 0.25;
+
+// P (fine num_dofs x coarse num_dofs): the coarse trilinear interpolation at the fine nodes.
+Eigen::SparseMatrix<double> CalcProlongation(const HexMesh& coarse, const HexMesh& fine) {
+  const PointLocator locator(coarse);
+  std::vector<ElementPoint> points;
+  points.reserve(fine.num_nodes());
+  for (int n = 0; n < fine.num_nodes(); ++n) {
+    const std::optional<ElementPoint> point = locator.Locate(fine.nodes[n], kProlongationTolerance);
+    if (!point) {
+      throw Error(fmt::format("BodyModel: fine node {} ({}, {}, {}) mm is in no coarse element",
+                              n,
+                              fine.nodes[n].x(),
+                              fine.nodes[n].y(),
+                              fine.nodes[n].z()));
+    }
+    points.push_back(*point);
+  }
+  // CalcInterpolationMatrix's rows are component-major (c P + p); DOFs are node-major.
+  Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> to_dofs(fine.num_dofs());
+  for (int n = 0; n < fine.num_nodes(); ++n) {
+    for (int c = 0; c < 3; ++c) to_dofs.indices()(c * fine.num_nodes() + n) = 3 * n + c;
+  }
+  return to_dofs * CalcInterpolationMatrix(coarse, points);
+}
+
+ElasticSolver MakeSolver(const BodyModelOptions& options,
+                         const DomeMesh& dome,
+                         const BodySolverOptions& solver,
+                         bool show_progress) {
+  solver.Validate();
+  const long num_free = std::count(dome.fixed.begin(), dome.fixed.end(), false);
+  if (num_free <= solver.max_direct_free_dofs) {
+    return ElasticSolver(dome.mesh, options.material, dome.fixed, show_progress);
+  }
+  BodyModelOptions coarse_options = options;
+  coarse_options.refinement /= solver.coarsening_ratio;
+  if (coarse_options.refinement < 0.25) {
+    throw Error(fmt::format(
+        "BodySolverOptions.coarsening_ratio {} gives the coarse level refinement {} < 0.25",
+        solver.coarsening_ratio,
+        coarse_options.refinement));
+  }
+  const DomeMesh coarse = BuildDomeMesh(coarse_options);
+  return ElasticSolver(dome.mesh,
+                       options.material,
+                       dome.fixed,
+                       coarse.mesh,
+                       coarse.fixed,
+                       CalcProlongation(coarse.mesh, dome.mesh),
+                       solver.pcg,
+                       show_progress);
+}
+
 }  // namespace
+
+void BodySolverOptions::Validate() const {
+  if (max_direct_free_dofs < 0) {
+    throw Error(fmt::format("BodySolverOptions.max_direct_free_dofs must be >= 0, got {}",
+                            max_direct_free_dofs));
+  }
+  if (!(coarsening_ratio > 1.0)) {
+    throw Error(
+        fmt::format("BodySolverOptions.coarsening_ratio must be > 1, got {}", coarsening_ratio));
+  }
+  pcg.Validate();
+}
 
 void BodyModelOptions::Validate() const {
   RequirePositive(base_diameter_mm, "base_diameter_mm");
@@ -286,10 +355,12 @@ DomeMesh BuildDomeMesh(const BodyModelOptions& options) {
   return dome;
 }
 
-BodyModel::BodyModel(const BodyModelOptions& options, bool show_progress)
+BodyModel::BodyModel(const BodyModelOptions& options,
+                     bool show_progress,
+                     const BodySolverOptions& solver)
     : options_(options),
       dome_(BuildDomeMesh(options)),
-      solver_(dome_.mesh, options.material, dome_.fixed, show_progress),
+      solver_(MakeSolver(options, dome_, solver, show_progress)),
       locator_(dome_.mesh),
       marker_positions_(CalcMarkerPositions(options)) {}
 

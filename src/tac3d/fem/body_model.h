@@ -91,13 +91,35 @@ struct DomeMesh {
 /// @post every element's Jacobian is positive (TAC3D_DEMAND).
 DomeMesh BuildDomeMesh(const BodyModelOptions& options);
 
-/// The dome meshed, assembled and factored once: displacements for any loads, at any points.
-/// The digital twin uses it for the surface compliance of a finer mesh; the compliance matrix
-/// H of the paper's eq. (1) is CalcComplianceModel (compliance.h).
+/// How a BodyModel solves: directly (ElasticSolverMethod::kDirect) up to a size, by two-grid
+/// preconditioned conjugate gradients (kTwoGridPcg) on larger meshes, whose direct factor does
+/// not fit (refinement 2 of the default dome: CHOLMOD's 32-bit indices overflow, and ~20 GB).
+struct BodySolverOptions {
+  /// kDirect up to this many free DOFs, kTwoGridPcg above it: the default dome is direct up to
+  /// refinement 1.5 (559,482 free DOFs, 6.8 GB) and iterative at 2 (1,257,174). 0 = always
+  /// iterative.
+  int max_direct_free_dofs = 600000;
+  /// The coarse level is the same dome at the refinement divided by this (2: every coarse edge
+  /// spans two fine ones; refinement 2 -> the nominal mesh).
+  double coarsening_ratio = 2.0;
+  PcgOptions pcg;
+
+  /// @throws tac3d::Error naming the field: max_direct_free_dofs >= 0, coarsening_ratio > 1,
+  ///   and the PCG options' bounds.
+  void Validate() const;
+};
+
+/// The dome meshed and assembled once (and factored, or with its coarse level factored):
+/// displacements for any loads, at any points. The digital twin uses it for the surface
+/// compliance of a finer mesh; the compliance matrix H of the paper's eq. (1) is
+/// CalcComplianceModel (compliance.h).
 class BodyModel {
  public:
-  /// @throws tac3d::Error if the options are invalid.
-  explicit BodyModel(const BodyModelOptions& options, bool show_progress = false);
+  /// @throws tac3d::Error if the options are invalid, the coarse level's refinement
+  ///   (kTwoGridPcg) is below 0.25, or the solver's construction fails (ElasticSolver).
+  explicit BodyModel(const BodyModelOptions& options,
+                     bool show_progress = false,
+                     const BodySolverOptions& solver = {});
   BodyModel(const BodyModel&) = delete;
   BodyModel& operator=(const BodyModel&) = delete;
 

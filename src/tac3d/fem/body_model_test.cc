@@ -267,5 +267,108 @@ TEST(ComplianceModel, CoarseDomeConvergesUnderRefinement) {
   EXPECT_GT(result.fine_free_dofs, 3 * result.coarse_free_dofs);
 }
 
+BodySolverOptions AlwaysTwoGrid() {
+  BodySolverOptions solver;
+  solver.max_direct_free_dofs = 0;
+  return solver;
+}
+
+// The markers' response to every patch load, and what the solve cost.
+Eigen::MatrixXd MarkerResponse(const BodyModel& model, SolveSummary* summary = nullptr) {
+  return model.solver().CalcResponse(model.CalcPointInterpolation(model.marker_positions()),
+                                     model.CalcMarkerPatchLoads(),
+                                     false,
+                                     100,
+                                     summary);
+}
+
+TEST(TwoGridSolver, MatchesTheDirectSolution) {
+  const BodyModel direct(SmallDome());
+  const BodyModel iterative(SmallDome(), false, AlwaysTwoGrid());
+  ASSERT_EQ(direct.solver().summary().method, ElasticSolverMethod::kDirect);
+  ASSERT_EQ(iterative.solver().summary().method, ElasticSolverMethod::kTwoGridPcg);
+  EXPECT_EQ(iterative.solver().summary().num_free_dofs, direct.solver().summary().num_free_dofs);
+  EXPECT_LT(iterative.solver().summary().coarse_free_dofs,
+            iterative.solver().summary().num_free_dofs / 4);
+  SolveSummary summary;
+  const Eigen::MatrixXd expected = MarkerResponse(direct);
+  const Eigen::MatrixXd actual = MarkerResponse(iterative, &summary);
+  // A relative residual of 1e-8 bounds the error by the condition number times that; in the
+  // energy norm CG does far better, 3e-10 here.
+  EXPECT_LT((actual - expected).norm() / expected.norm(), 1e-8);
+  ASSERT_EQ(summary.iterations.size(), 36);
+  for (size_t c = 0; c < summary.iterations.size(); ++c) {
+    EXPECT_LE(summary.relative_residuals[c], 1e-8) << "case " << c;
+    EXPECT_GT(summary.iterations[c], 0) << "case " << c;
+  }
+  // Prescribed displacements and a single load case go through the same iteration.
+  Eigen::VectorXd prescribed = Eigen::VectorXd::Zero(direct.mesh().num_dofs());
+  for (int n = 0; n < direct.mesh().num_nodes(); ++n) prescribed(3 * n) = 0.01;
+  const Eigen::VectorXd forces = direct.CalcMarkerPatchLoads().col(30);
+  const Eigen::VectorXd u = direct.solver().Solve(forces, prescribed);
+  EXPECT_LT((iterative.solver().Solve(forces, prescribed) - u).norm() / u.norm(), 1e-8);
+}
+
+TEST(TwoGridSolver, IterationsStayBoundedUnderRefinement) {
+  // Coarse level at half the refinement each time: a two-grid method's iteration count does
+  // not grow as the mesh is refined (smoothing alone would need ~2x the iterations per halving).
+  std::vector<int> max_iterations;
+  for (double refinement : {0.5, 1.0, 1.5}) {
+    BodyModelOptions options = SmallDome();
+    options.refinement = refinement;
+    const BodyModel model(options, false, AlwaysTwoGrid());
+    SolveSummary summary;
+    MarkerResponse(model, &summary);
+    max_iterations.push_back(
+        *std::max_element(summary.iterations.begin(), summary.iterations.end()));
+  }
+  EXPECT_LE(max_iterations[2], 1.25 * max_iterations[0])
+      << ::testing::PrintToString(max_iterations);
+  EXPECT_LE(max_iterations[1], 1.25 * max_iterations[0])
+      << ::testing::PrintToString(max_iterations);
+}
+
+TEST(TwoGridSolver, ThrowsWhenItDoesNotConverge) {
+  BodySolverOptions solver = AlwaysTwoGrid();
+  solver.pcg.max_iterations = 3;
+  const BodyModel model(SmallDome(), false, solver);
+  EXPECT_THAT([&] { MarkerResponse(model); },
+              ::testing::ThrowsMessage<Error>(::testing::HasSubstr("did not converge")));
+}
+
+TEST(BodySolverOptions, ValidateNamesTheField) {
+  const auto throws_naming = [](const BodySolverOptions& options, const std::string& field) {
+    EXPECT_THAT([&] { options.Validate(); },
+                ::testing::ThrowsMessage<Error>(::testing::HasSubstr(field)));
+  };
+  EXPECT_NO_THROW(BodySolverOptions{}.Validate());
+  BodySolverOptions options;
+  options.max_direct_free_dofs = -1;
+  throws_naming(options, "max_direct_free_dofs");
+  options = {};
+  options.coarsening_ratio = 1.0;
+  throws_naming(options, "coarsening_ratio");
+  for (double tolerance : {0.0, 1.0}) {
+    options = {};
+    options.pcg.relative_tolerance = tolerance;
+    throws_naming(options, "relative_tolerance");
+  }
+  options = {};
+  options.pcg.max_iterations = 0;
+  throws_naming(options, "max_iterations");
+  options = {};
+  options.pcg.smoothing_sweeps = 0;
+  throws_naming(options, "smoothing_sweeps");
+  options = {};
+  options.pcg.block_columns = 0;
+  throws_naming(options, "block_columns");
+  // A coarse level below the mesh's smallest refinement.
+  options = {};
+  options.max_direct_free_dofs = 0;
+  options.coarsening_ratio = 5.0;
+  EXPECT_THAT([&] { BodyModel(SmallDome(), false, options); },
+              ::testing::ThrowsMessage<Error>(::testing::HasSubstr("coarsening_ratio")));
+}
+
 }  // namespace
 }  // namespace tac3d::fem

@@ -27,6 +27,101 @@ std::vector<std::vector<int>> NodeNeighbours(const HexMesh& mesh) {
   return neighbours;
 }
 
+const char* CholmodStatusText(int status) {
+  switch (status) {
+    case CHOLMOD_NOT_INSTALLED:
+      return "method not installed";
+    case CHOLMOD_OUT_OF_MEMORY:
+      return "out of memory";
+    case CHOLMOD_TOO_LARGE:
+      return "problem too large (an integer overflows CHOLMOD's indices)";
+    case CHOLMOD_INVALID:
+      return "invalid input";
+    case CHOLMOD_GPU_PROBLEM:
+      return "GPU problem";
+    case CHOLMOD_NOT_POSDEF:
+      return "not positive definite";
+    case CHOLMOD_DSMALL:
+      return "tiny pivot";
+    default:
+      return "unknown status";
+  }
+}
+
+// Load cases as rows of a row-major block: the c-th value of every DOF is contiguous, so the
+// sparse kernels below stream K once for all cases.
+using Block = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+// Y = K X for K stored as its lower triangle (CSC, the diagonal first in each column).
+void MultiplySymmetric(const Eigen::SparseMatrix<double>& k, const Block& x, Block* y) {
+  const int n = static_cast<int>(k.cols()), m = static_cast<int>(x.cols());
+  const int* outer = k.outerIndexPtr();
+  const int* inner = k.innerIndexPtr();
+  const double* value = k.valuePtr();
+  y->setZero(n, m);
+  const auto row = [m](auto& block, int i) { return block.data() + static_cast<long>(i) * m; };
+  for (int j = 0; j < n; ++j) {
+    const double* xj = row(x, j);
+    double* yj = row(*y, j);
+    for (int c = 0; c < m; ++c) yj[c] += value[outer[j]] * xj[c];
+    for (int p = outer[j] + 1; p < outer[j + 1]; ++p) {
+      const double* xi = row(x, inner[p]);
+      double* yi = row(*y, inner[p]);
+      for (int c = 0; c < m; ++c) {
+        yj[c] += value[p] * xi[c];
+        yi[c] += value[p] * xj[c];
+      }
+    }
+  }
+}
+
+// One Gauss-Seidel sweep on K X = B in place, DOFs in increasing (forward) or decreasing order.
+// Column i of the lower triangle holds row i of the upper one, so the forward sweep gathers the
+// not-yet-updated unknowns from it and scatters the new one to later rows through `work`
+// (B minus the lower part times the new X); the backward sweep subtracts the lower part times
+// the old X first, then gathers the already-updated unknowns.
+void GaussSeidelSweep(
+    const Eigen::SparseMatrix<double>& k, const Block& b, bool forward, Block* x, Block* work) {
+  const int n = static_cast<int>(k.cols()), m = static_cast<int>(b.cols());
+  const int* outer = k.outerIndexPtr();
+  const int* inner = k.innerIndexPtr();
+  const double* value = k.valuePtr();
+  *work = b;
+  const auto row = [m](auto& block, int i) { return block.data() + static_cast<long>(i) * m; };
+  if (!forward) {
+    for (int j = 0; j < n; ++j) {
+      for (int p = outer[j] + 1; p < outer[j + 1]; ++p) {
+        double* wi = row(*work, inner[p]);
+        const double* xj = row(*x, j);
+        for (int c = 0; c < m; ++c) wi[c] -= value[p] * xj[c];
+      }
+    }
+  }
+  for (int step = 0; step < n; ++step) {
+    const int i = forward ? step : n - 1 - step;
+    double* xi = row(*x, i);
+    double* wi = row(*work, i);
+    for (int p = outer[i] + 1; p < outer[i + 1]; ++p) {
+      const double* xr = row(*x, inner[p]);
+      for (int c = 0; c < m; ++c) wi[c] -= value[p] * xr[c];
+    }
+    for (int c = 0; c < m; ++c) xi[c] = wi[c] / value[outer[i]];
+    if (forward) {
+      for (int p = outer[i] + 1; p < outer[i + 1]; ++p) {
+        double* wr = row(*work, inner[p]);
+        for (int c = 0; c < m; ++c) wr[c] -= value[p] * xi[c];
+      }
+    }
+  }
+}
+
+// Column-wise dot products of two blocks.
+Eigen::VectorXd ColumnDots(const Block& a, const Block& b) {
+  Eigen::VectorXd dots = Eigen::VectorXd::Zero(a.cols());
+  for (Eigen::Index i = 0; i < a.rows(); ++i) dots += a.row(i).cwiseProduct(b.row(i)).transpose();
+  return dots;
+}
+
 }  // namespace
 
 struct ElasticSolver::Impl {
@@ -35,37 +130,53 @@ struct ElasticSolver::Impl {
   std::vector<int> fixed_index;                      // DOF -> fixed-DOF index, or -1
   Eigen::SparseMatrix<double> selection;             // num_dofs x free: embeds free DOFs
   Eigen::SparseMatrix<double> stiffness_free_fixed;  // K_fp
-  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> llt;
+  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> llt;  // kDirect
+  // kTwoGridPcg: the lower triangle of K_ff, the coarse level, P on the free DOFs.
+  Eigen::SparseMatrix<double> stiffness_lower;
+  std::unique_ptr<ElasticSolver> coarse;
+  Eigen::SparseMatrix<double> prolongation;
+  PcgOptions pcg;
   ElasticSolverSummary summary;
+
+  // Assembles K_ff (returned, lower triangle) and K_fp, and the DOF maps.
+  Eigen::SparseMatrix<double> Assemble(const HexMesh& mesh,
+                                       const ElasticMaterial& material,
+                                       const std::vector<bool>& fixed,
+                                       bool show_progress);
+  void Factor(const Eigen::SparseMatrix<double>& k, bool show_progress);
+  // K_ff^-1 rhs for free-DOF right-hand sides (columns).
+  Eigen::MatrixXd SolveFree(const Eigen::MatrixXd& rhs, SolveSummary* summary) const;
+  // Z = B R, one two-grid cycle on each column.
+  void Precondition(const Block& r, Block* z, Block* work, Block* scratch) const;
+  // Two-grid PCG on the columns of rhs; x holds the solutions on return.
+  void SolvePcg(const Block& rhs, Block* x, SolveSummary* summary) const;
 };
 
-ElasticSolver::ElasticSolver(const HexMesh& mesh,
-                             const ElasticMaterial& material,
-                             const std::vector<bool>& fixed,
-                             bool show_progress)
-    : impl_(std::make_unique<Impl>()) {
+Eigen::SparseMatrix<double> ElasticSolver::Impl::Assemble(const HexMesh& mesh,
+                                                          const ElasticMaterial& material,
+                                                          const std::vector<bool>& fixed,
+                                                          bool show_progress) {
   material.Validate();
   if (static_cast<int>(fixed.size()) != mesh.num_dofs()) {
     throw Error(fmt::format(
         "ElasticSolver: {} fixed-DOF flags for a mesh of {} DOFs", fixed.size(), mesh.num_dofs()));
   }
   const auto assembly_start = std::chrono::steady_clock::now();
-  Impl& s = *impl_;
-  s.num_dofs = mesh.num_dofs();
-  s.free_index.assign(s.num_dofs, -1);
-  s.fixed_index.assign(s.num_dofs, -1);
+  num_dofs = mesh.num_dofs();
+  free_index.assign(num_dofs, -1);
+  fixed_index.assign(num_dofs, -1);
   int num_free = 0;
   int num_fixed = 0;
-  for (int d = 0; d < s.num_dofs; ++d) {
+  for (int d = 0; d < num_dofs; ++d) {
     if (fixed[d]) {
-      s.fixed_index[d] = num_fixed++;
+      fixed_index[d] = num_fixed++;
     } else {
-      s.free_index[d] = num_free++;
+      free_index[d] = num_free++;
     }
   }
   if (num_free == 0) throw Error("ElasticSolver: every DOF is fixed");
-  s.summary.num_free_dofs = num_free;
-  s.summary.num_fixed_dofs = num_fixed;
+  summary.num_free_dofs = num_free;
+  summary.num_fixed_dofs = num_fixed;
 
   // The pattern of the lower triangle of K_ff, column by column. Free indices grow with the
   // DOF index, so each column's rows come out sorted.
@@ -75,11 +186,11 @@ ElasticSolver::ElasticSolver(const HexMesh& mesh,
   std::vector<int> inner;
   for (int node = 0; node < mesh.num_nodes(); ++node) {
     for (int c = 0; c < 3; ++c) {
-      const int col = s.free_index[3 * node + c];
+      const int col = free_index[3 * node + c];
       if (col < 0) continue;
       for (int other : neighbours[node]) {
         for (int d = 0; d < 3; ++d) {
-          const int row = s.free_index[3 * other + d];
+          const int row = free_index[3 * other + d];
           if (row >= col) inner.push_back(row);
         }
       }
@@ -90,7 +201,7 @@ ElasticSolver::ElasticSolver(const HexMesh& mesh,
   std::copy(outer.begin(), outer.end(), k.outerIndexPtr());
   std::copy(inner.begin(), inner.end(), k.innerIndexPtr());
   std::fill_n(k.valuePtr(), inner.size(), 0.0);
-  s.summary.stiffness_nonzeros = static_cast<long>(inner.size());
+  summary.stiffness_nonzeros = static_cast<long>(inner.size());
   std::vector<int>().swap(inner);
 
   ProgressBar assembly_bar("fem: assembly", mesh.num_elements(), show_progress);
@@ -102,10 +213,10 @@ ElasticSolver::ElasticSolver(const HexMesh& mesh,
       for (int c = 0; c < 3; ++c) dofs[3 * a + c] = 3 * mesh.elements[e][a] + c;
     }
     for (int q = 0; q < 24; ++q) {
-      const int col = s.free_index[dofs[q]];
-      const int fixed_col = s.fixed_index[dofs[q]];
+      const int col = free_index[dofs[q]];
+      const int fixed_col = fixed_index[dofs[q]];
       for (int p = 0; p < 24; ++p) {
-        const int row = s.free_index[dofs[p]];
+        const int row = free_index[dofs[p]];
         if (row < 0) continue;
         if (fixed_col >= 0) {
           free_fixed.emplace_back(row, fixed_col, ke(p, q));
@@ -121,30 +232,213 @@ ElasticSolver::ElasticSolver(const HexMesh& mesh,
     if (e % 1024 == 0) assembly_bar.Update(e);
   }
   assembly_bar.Finish();
-  s.stiffness_free_fixed.resize(num_free, num_fixed);
-  s.stiffness_free_fixed.setFromTriplets(free_fixed.begin(), free_fixed.end());
+  stiffness_free_fixed.resize(num_free, num_fixed);
+  stiffness_free_fixed.setFromTriplets(free_fixed.begin(), free_fixed.end());
 
-  std::vector<Eigen::Triplet<double>> selection;
-  selection.reserve(num_free);
-  for (int d = 0; d < s.num_dofs; ++d) {
-    if (s.free_index[d] >= 0) selection.emplace_back(d, s.free_index[d], 1.0);
+  std::vector<Eigen::Triplet<double>> selection_triplets;
+  selection_triplets.reserve(num_free);
+  for (int d = 0; d < num_dofs; ++d) {
+    if (free_index[d] >= 0) selection_triplets.emplace_back(d, free_index[d], 1.0);
   }
-  s.selection.resize(s.num_dofs, num_free);
-  s.selection.setFromTriplets(selection.begin(), selection.end());
-  s.summary.assembly_s = SecondsSince(assembly_start);
+  selection.resize(num_dofs, num_free);
+  selection.setFromTriplets(selection_triplets.begin(), selection_triplets.end());
+  summary.assembly_s = SecondsSince(assembly_start);
+  return k;
+}
 
+void ElasticSolver::Impl::Factor(const Eigen::SparseMatrix<double>& k, bool show_progress) {
   const auto factor_start = std::chrono::steady_clock::now();
   ProgressBar factor_bar("fem: factorisation", 1, show_progress);
-  s.llt.compute(k);
-  factor_bar.Finish();
-  if (s.llt.info() != Eigen::Success) {
-    throw Error(
-        "ElasticSolver: the stiffness matrix is not positive definite; the fixed DOFs leave a "
-        "rigid-body motion free");
+  const auto fail = [&](const char* stage, const char* reason) {
+    return Error(fmt::format(
+        "ElasticSolver: CHOLMOD's {} of the {} x {} free-DOF stiffness matrix ({} non-zeros in "
+        "its lower triangle) failed: {}",
+        stage,
+        k.rows(),
+        k.cols(),
+        k.nonZeros(),
+        reason));
+  };
+  // Eigen does not check the analysis: a failed one leaves no factor, and factorising then
+  // dereferences a null pointer (the crash at refinement 2 of the default dome).
+  llt.analyzePattern(k);
+  if (llt.cholmod().status < CHOLMOD_OK) {
+    throw fail("analysis", CholmodStatusText(llt.cholmod().status));
   }
-  s.summary.factorization_s = SecondsSince(factor_start);
-  s.summary.factor_nonzeros = s.llt.cholmod().lnz;
-  s.summary.factor_flops = s.llt.cholmod().fl;
+  llt.factorize(k);
+  if (llt.info() != Eigen::Success || llt.cholmod().status != CHOLMOD_OK) {
+    throw fail("factorisation",
+               llt.cholmod().status == CHOLMOD_NOT_POSDEF || llt.cholmod().status == CHOLMOD_OK
+                   ? "not positive definite; the fixed DOFs leave a rigid-body motion free"
+                   : CholmodStatusText(llt.cholmod().status));
+  }
+  factor_bar.Finish();
+  summary.factorization_s = SecondsSince(factor_start);
+  summary.factor_nonzeros = llt.cholmod().lnz;
+  summary.factor_flops = llt.cholmod().fl;
+}
+
+void PcgOptions::Validate() const {
+  if (!(relative_tolerance > 0.0 && relative_tolerance < 1.0)) {
+    throw Error(
+        fmt::format("PcgOptions.relative_tolerance must be in (0, 1), got {}", relative_tolerance));
+  }
+  for (const auto& [value, field] : {std::pair{max_iterations, "max_iterations"},
+                                     std::pair{smoothing_sweeps, "smoothing_sweeps"},
+                                     std::pair{block_columns, "block_columns"}}) {
+    if (value < 1) throw Error(fmt::format("PcgOptions.{} must be >= 1, got {}", field, value));
+  }
+}
+
+ElasticSolver::ElasticSolver(const HexMesh& mesh,
+                             const ElasticMaterial& material,
+                             const std::vector<bool>& fixed,
+                             bool show_progress)
+    : impl_(std::make_unique<Impl>()) {
+  impl_->Factor(impl_->Assemble(mesh, material, fixed, show_progress), show_progress);
+}
+
+ElasticSolver::ElasticSolver(const HexMesh& mesh,
+                             const ElasticMaterial& material,
+                             const std::vector<bool>& fixed,
+                             const HexMesh& coarse_mesh,
+                             const std::vector<bool>& coarse_fixed,
+                             const Eigen::SparseMatrix<double>& prolongation,
+                             const PcgOptions& options,
+                             bool show_progress)
+    : impl_(std::make_unique<Impl>()) {
+  options.Validate();
+  if (prolongation.rows() != mesh.num_dofs() || prolongation.cols() != coarse_mesh.num_dofs()) {
+    throw Error(fmt::format(
+        "ElasticSolver: the prolongation is {} x {}, the meshes have {} (fine) and {} (coarse) "
+        "DOFs",
+        prolongation.rows(),
+        prolongation.cols(),
+        mesh.num_dofs(),
+        coarse_mesh.num_dofs()));
+  }
+  Impl& s = *impl_;
+  s.pcg = options;
+  s.stiffness_lower = s.Assemble(mesh, material, fixed, show_progress);
+  // The smoother and the product read each column's diagonal as its first entry.
+  for (int j = 0; j < s.summary.num_free_dofs; ++j) {
+    TAC3D_DEMAND(s.stiffness_lower.innerIndexPtr()[s.stiffness_lower.outerIndexPtr()[j]] == j);
+  }
+  s.coarse = std::make_unique<ElasticSolver>(coarse_mesh, material, coarse_fixed, show_progress);
+  const ElasticSolverSummary& coarse_summary = s.coarse->summary();
+  s.prolongation = s.selection.transpose() * prolongation * s.coarse->impl_->selection;
+  s.summary.method = ElasticSolverMethod::kTwoGridPcg;
+  s.summary.coarse_free_dofs = coarse_summary.num_free_dofs;
+  s.summary.assembly_s += coarse_summary.assembly_s;
+  s.summary.factorization_s = coarse_summary.factorization_s;
+  s.summary.factor_nonzeros = coarse_summary.factor_nonzeros;
+  s.summary.factor_flops = coarse_summary.factor_flops;
+}
+
+void ElasticSolver::Impl::Precondition(const Block& r,
+                                       Block* z,
+                                       Block* work,
+                                       Block* scratch) const {
+  z->setZero(r.rows(), r.cols());
+  for (int sweep = 0; sweep < pcg.smoothing_sweeps; ++sweep) {
+    GaussSeidelSweep(stiffness_lower, r, true, z, work);
+  }
+  MultiplySymmetric(stiffness_lower, *z, scratch);
+  *scratch = r - *scratch;
+  const Eigen::MatrixXd coarse_rhs = prolongation.transpose() * *scratch;
+  const Eigen::MatrixXd coarse_correction = coarse->impl_->llt.solve(coarse_rhs);
+  z->noalias() += prolongation * coarse_correction;
+  for (int sweep = 0; sweep < pcg.smoothing_sweeps; ++sweep) {
+    GaussSeidelSweep(stiffness_lower, r, false, z, work);
+  }
+}
+
+void ElasticSolver::Impl::SolvePcg(const Block& rhs, Block* x, SolveSummary* out) const {
+  const int m = static_cast<int>(rhs.cols());
+  const double tolerance = pcg.relative_tolerance;
+  const Eigen::VectorXd rhs_norm = ColumnDots(rhs, rhs).cwiseSqrt();
+  Eigen::VectorXi iterations = Eigen::VectorXi::Zero(m);
+  Eigen::VectorXd residual(m);
+  Block r, z, p, q, work;
+  x->setZero(rhs.rows(), m);
+  const auto not_converged = [&](int c) {
+    return Error(fmt::format(
+        "ElasticSolver: two-grid conjugate gradients did not converge for load case {} of {}: "
+        "relative residual {:.3g} after {} iterations (tolerance {:.3g}, limit {}; {} free DOFs, "
+        "{} coarse)",
+        c,
+        m,
+        residual(c),
+        iterations(c),
+        tolerance,
+        pcg.max_iterations,
+        summary.num_free_dofs,
+        summary.coarse_free_dofs));
+  };
+  // Restarted from the true residual until it, not only the recurrence's, meets the tolerance.
+  while (true) {
+    if (iterations.maxCoeff() == 0) {
+      r = rhs;
+    } else {
+      MultiplySymmetric(stiffness_lower, *x, &q);
+      r = rhs - q;
+    }
+    const Eigen::VectorXd r_norm = ColumnDots(r, r).cwiseSqrt();
+    Eigen::Array<bool, Eigen::Dynamic, 1> active(m);
+    for (int c = 0; c < m; ++c) {
+      residual(c) = rhs_norm(c) > 0.0 ? r_norm(c) / rhs_norm(c) : 0.0;
+      active(c) = residual(c) > tolerance;
+      if (active(c) && iterations(c) >= pcg.max_iterations) throw not_converged(c);
+    }
+    if (!active.any()) break;
+    Precondition(r, &z, &work, &q);
+    p = z;
+    Eigen::VectorXd rz = ColumnDots(r, z);
+    while (true) {
+      MultiplySymmetric(stiffness_lower, p, &q);
+      const Eigen::VectorXd pq = ColumnDots(p, q);
+      Eigen::VectorXd alpha = Eigen::VectorXd::Zero(m);
+      for (int c = 0; c < m; ++c) {
+        if (active(c)) alpha(c) = rz(c) / pq(c);
+      }
+      x->noalias() += p * alpha.asDiagonal();
+      r.noalias() -= q * alpha.asDiagonal();
+      const Eigen::VectorXd r_norm_now = ColumnDots(r, r).cwiseSqrt();
+      for (int c = 0; c < m; ++c) {
+        if (!active(c)) continue;
+        ++iterations(c);
+        residual(c) = r_norm_now(c) / rhs_norm(c);
+        if (!(residual(c) > tolerance)) {
+          active(c) = false;
+        } else if (iterations(c) >= pcg.max_iterations) {
+          throw not_converged(c);
+        }
+      }
+      if (!active.any()) break;
+      Precondition(r, &z, &work, &q);
+      const Eigen::VectorXd rz_next = ColumnDots(r, z);
+      Eigen::VectorXd beta = Eigen::VectorXd::Zero(m);
+      for (int c = 0; c < m; ++c) {
+        if (active(c)) beta(c) = rz_next(c) / rz(c);
+      }
+      p = z + p * beta.asDiagonal();
+      rz = rz_next;
+    }
+  }
+  if (out != nullptr) {
+    out->iterations.insert(out->iterations.end(), iterations.begin(), iterations.end());
+    out->relative_residuals.insert(out->relative_residuals.end(), residual.begin(), residual.end());
+  }
+}
+
+Eigen::MatrixXd ElasticSolver::Impl::SolveFree(const Eigen::MatrixXd& rhs,
+                                               SolveSummary* out) const {
+  if (summary.method == ElasticSolverMethod::kDirect) return llt.solve(rhs);
+  const auto start = std::chrono::steady_clock::now();
+  Block x;
+  SolvePcg(rhs, &x, out);
+  if (out != nullptr) out->solve_s += SecondsSince(start);
+  return x;
 }
 
 ElasticSolver::~ElasticSolver() = default;
@@ -156,7 +450,8 @@ int ElasticSolver::num_dofs() const { return impl_->num_dofs; }
 const ElasticSolverSummary& ElasticSolver::summary() const { return impl_->summary; }
 
 Eigen::VectorXd ElasticSolver::Solve(const Eigen::VectorXd& nodal_forces,
-                                     const Eigen::VectorXd& prescribed) const {
+                                     const Eigen::VectorXd& prescribed,
+                                     SolveSummary* summary) const {
   const Impl& s = *impl_;
   TAC3D_DEMAND(nodal_forces.size() == s.num_dofs);
   TAC3D_DEMAND(prescribed.size() == 0 || prescribed.size() == s.num_dofs);
@@ -168,7 +463,7 @@ Eigen::VectorXd ElasticSolver::Solve(const Eigen::VectorXd& nodal_forces,
   }
   const Eigen::VectorXd rhs =
       s.selection.transpose() * nodal_forces - s.stiffness_free_fixed * prescribed_fixed;
-  const Eigen::VectorXd free_u = s.llt.solve(rhs);
+  const Eigen::VectorXd free_u = s.SolveFree(rhs, summary);
   Eigen::VectorXd u = s.selection * free_u;
   for (int d = 0; d < s.num_dofs; ++d) {
     if (s.fixed_index[d] >= 0) u(d) = prescribed_fixed(s.fixed_index[d]);
@@ -179,19 +474,25 @@ Eigen::VectorXd ElasticSolver::Solve(const Eigen::VectorXd& nodal_forces,
 Eigen::MatrixXd ElasticSolver::CalcResponse(const Eigen::SparseMatrix<double>& readout,
                                             const Eigen::SparseMatrix<double>& nodal_forces,
                                             bool show_progress,
-                                            int chunk_columns) const {
+                                            int chunk_columns,
+                                            SolveSummary* summary) const {
   const Impl& s = *impl_;
   TAC3D_DEMAND(readout.cols() == s.num_dofs && nodal_forces.rows() == s.num_dofs);
   TAC3D_DEMAND(chunk_columns >= 1);
   const Eigen::SparseMatrix<double> readout_free = readout * s.selection;
   const Eigen::SparseMatrix<double> forces_free = s.selection.transpose() * nodal_forces;
   const int cases = static_cast<int>(nodal_forces.cols());
+  if (s.summary.method == ElasticSolverMethod::kTwoGridPcg && cases > 0) {
+    // Equal chunks: a short last block would cost a full pass over K per iteration.
+    const int chunks = (cases + s.pcg.block_columns - 1) / s.pcg.block_columns;
+    chunk_columns = std::min(chunk_columns, (cases + chunks - 1) / chunks);
+  }
   Eigen::MatrixXd response(readout.rows(), cases);
   ProgressBar bar("fem: solves", cases, show_progress);
   for (int begin = 0; begin < cases; begin += chunk_columns) {
     const int count = std::min(chunk_columns, cases - begin);
     const Eigen::MatrixXd rhs = forces_free.middleCols(begin, count);
-    const Eigen::MatrixXd u = s.llt.solve(rhs);
+    const Eigen::MatrixXd u = s.SolveFree(rhs, summary);
     response.middleCols(begin, count) = readout_free * u;
     bar.Update(begin + count);
   }

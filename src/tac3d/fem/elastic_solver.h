@@ -10,34 +10,97 @@
 
 namespace tac3d::fem {
 
+/// How an ElasticSolver solves K u = f.
+enum class ElasticSolverMethod {
+  /// CHOLMOD supernodal LL^T of K, exact to rounding; memory and time grow steeply with the
+  /// mesh (refinement 1.5 of the default dome: 559,482 DOFs, 6.8 GB).
+  kDirect,
+  /// Conjugate gradients on K, preconditioned by a two-grid cycle whose coarse level is a
+  /// coarser mesh of the same body, factored directly. K is stored once (lower triangle).
+  kTwoGridPcg,
+};
+
+/// The iteration of ElasticSolverMethod::kTwoGridPcg.
+struct PcgOptions {
+  /// Each load case stops when ||f - K u|| <= relative_tolerance ||f|| (free DOFs; the true
+  /// residual, recomputed at the end, not only the recurrence's).
+  double relative_tolerance = 1e-8;
+  /// Iterations a load case may take before the solve throws.
+  int max_iterations = 300;
+  /// Symmetric Gauss-Seidel sweeps before (forward) and after (backward) the coarse correction.
+  int smoothing_sweeps = 3;
+  /// Load cases iterated together (one sparse matrix times a block of vectors serves all of
+  /// them); each costs 8 vectors of num_free_dofs doubles.
+  int block_columns = 32;
+
+  /// @throws tac3d::Error naming the field: tolerance in (0, 1), every count >= 1.
+  void Validate() const;
+};
+
 /// What building an ElasticSolver cost.
 struct ElasticSolverSummary {
+  ElasticSolverMethod method = ElasticSolverMethod::kDirect;
   int num_free_dofs = 0;
   int num_fixed_dofs = 0;
   /// Non-zeros of the lower triangle of the free-DOF stiffness matrix.
   long stiffness_nonzeros = 0;
+  /// Free DOFs of the coarse level (kTwoGridPcg), 0 for kDirect.
+  int coarse_free_dofs = 0;
   /// Non-zeros of the Cholesky factor L and floating-point operations of the factorisation
-  /// (CHOLMOD's statistics, for the ordering it chose).
+  /// (CHOLMOD's statistics, for the ordering it chose), of the coarse level for kTwoGridPcg.
   double factor_nonzeros = 0.0;
   double factor_flops = 0.0;
+  /// Assembly of the stiffness (and, for kTwoGridPcg, of the coarse stiffness).
   double assembly_s = 0.0;
+  /// The Cholesky factorisation (of the coarse level for kTwoGridPcg).
   double factorization_s = 0.0;
 };
 
+/// What a Solve or CalcResponse cost, one entry per load case (kTwoGridPcg; empty for kDirect).
+struct SolveSummary {
+  std::vector<int> iterations;
+  /// ||f - K u|| / ||f|| on the free DOFs at the end (0 for a zero load).
+  std::vector<double> relative_residuals;
+  double solve_s = 0.0;
+};
+
 /// Linear elastic statics on a hex8 mesh (B-bar elements, CalcHex8Stiffness): assembles the
-/// stiffness of the free DOFs and factors it once (CHOLMOD supernodal LL^T), then solves any
-/// number of load cases. Displacements are mm, forces N, DOFs node-major (HexMesh).
+/// stiffness of the free DOFs once, then solves any number of load cases, either with a
+/// Cholesky factor (kDirect) or by two-grid preconditioned conjugate gradients (kTwoGridPcg).
+/// Displacements are mm, forces N, DOFs node-major (HexMesh).
 class ElasticSolver {
  public:
+  /// The direct solver: factors the stiffness once (CHOLMOD supernodal LL^T).
   /// @param fixed one flag a DOF (size mesh.num_dofs()): true where the displacement is
   ///   prescribed (zero unless Solve is given values).
   /// @param show_progress a tac3d::ProgressBar on stderr for assembly and factorisation.
-  /// @throws tac3d::Error if the material is invalid, `fixed` has the wrong size, or the
-  ///   constraints leave a rigid-body motion free (the stiffness is singular).
+  /// @throws tac3d::Error if the material is invalid, `fixed` has the wrong size, the
+  ///   constraints leave a rigid-body motion free (the stiffness is not positive definite), or
+  ///   CHOLMOD cannot factor the matrix (too large for its 32-bit indices, out of memory); the
+  ///   message gives CHOLMOD's reason and the matrix's size.
   /// @pre every element has a positive Jacobian (TAC3D_DEMAND).
   ElasticSolver(const HexMesh& mesh,
                 const ElasticMaterial& material,
                 const std::vector<bool>& fixed,
+                bool show_progress = false);
+  /// The iterative solver (kTwoGridPcg): K is kept, the coarse level's stiffness (same
+  /// material) is factored as by the direct constructor. Each preconditioner application is a
+  /// symmetric two-grid cycle, so the preconditioner is symmetric positive definite:
+  /// `smoothing_sweeps` forward Gauss-Seidel sweeps on K e = r from e = 0, the coarse
+  /// correction e += P K_c^-1 P^T (r - K e), the same number of backward sweeps (e.g. Trottenberg,
+  /// Oosterlee, Schueller, Multigrid, 2001, sections 2.4 and 7.8).
+  /// @param coarse_mesh, coarse_fixed a coarser mesh of the same body and its fixed-DOF flags.
+  /// @param prolongation P, the interpolation of coarse nodal displacements at the fine nodes:
+  ///   mesh.num_dofs() x coarse_mesh.num_dofs() (rows and columns at fixed DOFs are ignored).
+  /// @throws tac3d::Error as the direct constructor (for either level), if the options are
+  ///   invalid, or if the sizes of coarse_fixed or prolongation do not match.
+  ElasticSolver(const HexMesh& mesh,
+                const ElasticMaterial& material,
+                const std::vector<bool>& fixed,
+                const HexMesh& coarse_mesh,
+                const std::vector<bool>& coarse_fixed,
+                const Eigen::SparseMatrix<double>& prolongation,
+                const PcgOptions& options,
                 bool show_progress = false);
   ~ElasticSolver();
   ElasticSolver(ElasticSolver&&) noexcept;
@@ -46,19 +109,26 @@ class ElasticSolver {
   /// Nodal displacements (mm, size num_dofs) for nodal forces (N, size num_dofs; the entries
   /// at fixed DOFs are reactions and ignored) and, optionally, the displacements of the fixed
   /// DOFs (mm, size num_dofs, read at fixed DOFs only; empty = all zero).
+  /// @param summary if not null, the iterations and residual are appended to it (kTwoGridPcg).
+  /// @throws tac3d::Error if the iteration does not converge within max_iterations.
   Eigen::VectorXd Solve(const Eigen::VectorXd& nodal_forces,
-                        const Eigen::VectorXd& prescribed = Eigen::VectorXd()) const;
+                        const Eigen::VectorXd& prescribed = Eigen::VectorXd(),
+                        SolveSummary* summary = nullptr) const;
 
   /// readout * u(nodal_forces) for many load cases with the fixed DOFs at zero, solved
-  /// `chunk_columns` load cases at a time so the full displacement fields never coexist.
+  /// `chunk_columns` load cases at a time (kTwoGridPcg: at most PcgOptions::block_columns,
+  /// the chunks of equal size) so the full displacement fields never coexist.
   /// @param readout rows x num_dofs, e.g. a CalcInterpolationMatrix.
   /// @param nodal_forces num_dofs x cases (N).
   /// @param show_progress a tac3d::ProgressBar over the chunks.
+  /// @param summary if not null, the iterations and residuals are appended to it (kTwoGridPcg).
   /// @return rows x cases.
+  /// @throws tac3d::Error if the iteration does not converge within max_iterations.
   Eigen::MatrixXd CalcResponse(const Eigen::SparseMatrix<double>& readout,
                                const Eigen::SparseMatrix<double>& nodal_forces,
                                bool show_progress = false,
-                               int chunk_columns = 100) const;
+                               int chunk_columns = 100,
+                               SolveSummary* summary = nullptr) const;
 
   int num_dofs() const;
   const ElasticSolverSummary& summary() const;

@@ -1,5 +1,7 @@
 #include "tac3d/fem/elastic_solver.h"
 
+#include <SuiteSparse_config.h>
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "tac3d/testing/testing.h"
@@ -55,9 +57,37 @@ TEST(ElasticSolver, FixedDofsKeepTheirPrescribedValues) {
 TEST(ElasticSolver, ThrowsWhenRigidMotionIsFree) {
   const Bar bar;
   std::vector<bool> none(bar.mesh.num_dofs(), false);
-  EXPECT_THROW(ElasticSolver(bar.mesh, ElasticMaterial{}, none), Error);
+  // The singular stiffness is not positive definite: CHOLMOD's factorisation stops at a pivot.
+  EXPECT_THAT([&] { ElasticSolver(bar.mesh, ElasticMaterial{}, none); },
+              ::testing::ThrowsMessage<Error>(::testing::AllOf(
+                  ::testing::HasSubstr("factorisation of the 90 x 90 free-DOF stiffness"),
+                  ::testing::HasSubstr("not positive definite"))));
   std::vector<bool> all(bar.mesh.num_dofs(), true);
   EXPECT_THROW(ElasticSolver(bar.mesh, ElasticMaterial{}, all), Error);
+}
+
+// CHOLMOD's allocator failing: the analysis then returns no factor, as it does when the factor
+// of a 1.26 million-DOF mesh overflows its 32-bit indices ("problem too large"), which costs
+// minutes and gigabytes to reach honestly. Eigen would factorise through the null factor.
+TEST(ElasticSolver, ThrowsWhenCholmodsAnalysisFails) {
+  const Bar bar;
+  struct FailingAllocator {
+    decltype(SuiteSparse_config.malloc_func) saved = SuiteSparse_config.malloc_func;
+    FailingAllocator() {
+      SuiteSparse_config.malloc_func = [](size_t) -> void* { return nullptr; };
+    }
+    ~FailingAllocator() { SuiteSparse_config.malloc_func = saved; }
+  };
+  const auto build = [&] {
+    const FailingAllocator failing;
+    ElasticSolver(bar.mesh, ElasticMaterial{}, bar.fixed);
+  };
+  EXPECT_THAT(build,
+              ::testing::ThrowsMessage<Error>(::testing::AllOf(
+                  ::testing::HasSubstr("analysis of the 72 x 72 free-DOF stiffness matrix"),
+                  ::testing::HasSubstr("out of memory"))));
+  // The allocator restored, the same system factors.
+  EXPECT_NO_THROW(ElasticSolver(bar.mesh, ElasticMaterial{}, bar.fixed));
 }
 
 TEST(ElasticSolver, ThrowsOnBadInput) {

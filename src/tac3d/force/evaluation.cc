@@ -237,9 +237,10 @@ nlohmann::json EvaluateForce(const EvalForceOptions& options) {
   }
   Eigen::SparseMatrix<double> loads(truth.mesh().num_dofs(), static_cast<int>(cases.size()));
   loads.setFromTriplets(triplets.begin(), triplets.end());
+  fem::SolveSummary truth_solves;
   const Eigen::MatrixXd clean =
       truth.solver().CalcResponse(truth.CalcPointInterpolation(markers), loads,
-                                  options.show_progress);
+                                  options.show_progress, 100, &truth_solves);
   timing["truth_responses"] = Seconds(start);
   std::normal_distribution<double> normal(0.0, options.noise_mm);
   const auto noisy = [&](const Eigen::VectorXd& d) {
@@ -386,7 +387,11 @@ nlohmann::json EvaluateForce(const EvalForceOptions& options) {
   result["pins"] = pin_rows;
   result["truth_model"] = {{"options", fem::ToJson(truth_options)},
                            {"free_dofs", truth.solver().summary().num_free_dofs},
-                           {"factorization_s", truth.solver().summary().factorization_s}};
+                           {"coarse_free_dofs", truth.solver().summary().coarse_free_dofs},
+                           {"assembly_s", truth.solver().summary().assembly_s},
+                           {"factorization_s", truth.solver().summary().factorization_s},
+                           {"pcg_iterations", truth_solves.iterations},
+                           {"pcg_relative_residuals", truth_solves.relative_residuals}};
   result["timing_s"] = timing;
   return result;
 }
