@@ -59,7 +59,6 @@ class DenseCompliance final : public ComplianceOperator {
   Eigen::MatrixXd Apply(Components out,
                         Components in,
                         const Eigen::MatrixXd& traction) const override;
-  const Eigen::MatrixXd& matrix() const { return c_; }
 
  private:
   SurfaceGrid grid_;

@@ -1,6 +1,7 @@
 #include "tac3d/contact/contact_solver.h"
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>

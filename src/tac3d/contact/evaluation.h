@@ -28,6 +28,8 @@ struct EvalContactOptions {
   double friction_tolerance_pct = 1.0;
   /// Acceptance (%): the residual shift after a load-unload cycle vs Mindlin-Deresiewicz.
   double history_tolerance_pct = 10.0;
+  /// Limits and tolerances; the coupling is set by each case (Hertz and the sliding case
+  /// kFull, Mindlin and the history kNeglect, the assumption of their analytic solutions).
   ContactSolverOptions solver;
 
   /// @throws tac3d::Error naming the field: radius, force, mu's > 0, cells_per_radius in
