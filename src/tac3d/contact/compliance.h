@@ -68,8 +68,8 @@ class DenseCompliance final : public ComplianceOperator {
 /// Displacement (mm) of an elastic half-space's surface point at offset (x, y) (mm, field minus
 /// cell centre) from the centre of a dx x dy cell under a unit (1 MPa) uniform traction in
 /// component `in`, component `out` of it. The closed-form integrals over the rectangle of the
-/// Boussinesq and Cerruti point-load solutions (Johnson, Contact Mechanics, 1985, eqs. 3.19,
-/// 3.86; Love 1929 for the normal-normal term, Johnson eq. 3.25). With
+/// Boussinesq and Cerruti point-load solutions (Johnson, Contact Mechanics, 1985, ch. 3; Love
+/// 1929 for the normal-normal term). With
 /// rho = sqrt(x^2 + y^2), E' = pi E / (1 + nu), the kernels integrated are
 ///   zz: (1 - nu) / (E' rho)                xx: [(1 - nu) / rho + nu x^2 / rho^3] / E'
 ///   xy: nu x y / (E' rho^3)               xz (u_x from pressure): -(1 - 2 nu) x / (2 E' rho^2)

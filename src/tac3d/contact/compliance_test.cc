@@ -37,7 +37,7 @@ TEST(SurfaceGrid, IsCentredAndRejectsTooSmallGrids) {
 }
 
 // The displacement at the centre of a uniformly loaded square of side s:
-// (1 - nu^2) / (pi E) 4 s ln(1 + sqrt 2) (Love 1929; Johnson, Contact Mechanics, 3.7).
+// (1 - nu^2) / (pi E) 4 s ln(1 + sqrt 2) (Love 1929; Johnson, Contact Mechanics, ch. 3).
 TEST(HalfSpaceInfluence, CentreOfASquareIsLovesValue) {
   const fem::ElasticMaterial m = Silicone();
   const double s = 0.3;

@@ -151,7 +151,7 @@ TEST(ContactSolver, DenseAndFftHalfSpacesGiveTheSameSolution) {
               EigenNear(Eigen::MatrixXd(fft.state.traction_mpa), 1e-6));
 }
 
-// A rigid flat punch of radius a: P = 2 a E* delta (Boussinesq; Johnson eq. 3.38).
+// A rigid flat punch of radius a: P = 2 a E* delta (Boussinesq; Johnson, Contact Mechanics, ch. 3).
 TEST(ContactSolver, FlatPunchStiffnessIsBoussinesqs) {
   const fem::ElasticMaterial material{1.0, 0.48};
   const double a = 1.0;

@@ -11,8 +11,8 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 
-// Hertz, rigid sphere on a half-space (Johnson, Contact Mechanics, eqs. 4.22-4.24 with one
-// body rigid): a = (3 P R / (4 E*))^(1/3), p0 = 3 P / (2 pi a^2), delta = a^2 / R.
+// Hertz, rigid sphere on a half-space (Johnson, Contact Mechanics, ch. 4, with one body
+// rigid): a = (3 P R / (4 E*))^(1/3), p0 = 3 P / (2 pi a^2), delta = a^2 / R.
 struct Hertz {
   double radius_mm, peak_mpa, approach_mm;
 };
@@ -23,8 +23,8 @@ Hertz CalcHertz(const EvalContactOptions& o) {
   return {a, 3.0 * o.normal_force_n / (2.0 * kPi * a * a), a * a / o.sphere_radius_mm};
 }
 
-// Cattaneo-Mindlin (Johnson eqs. 7.36-7.42, one body rigid): the shift at which the whole
-// contact slides, 3 mu P (2 - nu) / (16 G a), and the shift under Q < mu P.
+// Cattaneo-Mindlin (Johnson ch. 7, one body rigid, Goodman's approximation): the shift at which the
+// whole contact slides, 3 mu P (2 - nu) / (16 G a), and the shift under Q < mu P.
 double FullSlideShift(const EvalContactOptions& o, double mu, double a) {
   return 3.0 * mu * o.normal_force_n * (2.0 - o.material.poisson_ratio) /
          (16.0 * o.material.shear_modulus() * a);
@@ -200,7 +200,8 @@ nlohmann::json EvaluateContact(const EvalContactOptions& o) {
              "%");
 
   // Mindlin-Deresiewicz: Q up to 0.6 mu P and back to 0 in steps, each from the last state.
-  // Unloading from Q* the shift is delta(Q*) - 2 delta((Q* - Q) / 2) (Johnson eq. 7.49).
+  // Unloading from Q* the shift is delta(Q*) - 2 delta((Q* - Q) / 2) (Mindlin & Deresiewicz 1953;
+  // Johnson ch. 7).
   const double q_max = 0.6;
   const int steps = 4;
   ContactState state = pressed_mu.state;
