@@ -56,10 +56,7 @@ class NormalProblem {
       result.converged = true;
       return result;
     }
-    if (force_control_ && p.sum() <= 0.0) {
-      for (int i = 0; i < n; ++i) p[i] = candidate_[i] ? 1.0 : 0.0;
-      p *= target_ / p.sum();
-    }
+    if (force_control_ && p.sum() <= 0.0) SeedUniform(p);
     Eigen::VectorXd t = Eigen::VectorXd::Zero(n), g(n), p_old;
     double g_norm_old = 1.0;
     bool conjugate = false;
@@ -118,7 +115,15 @@ class NormalProblem {
         }
       }
       conjugate = !overlap;
-      if (force_control_) p *= target_ / p.sum();
+      if (force_control_) {
+        const double sum = p.sum();
+        if (sum > 0.0) {
+          p *= target_ / sum;
+        } else {  // every node left the contact set: start again
+          SeedUniform(p);
+          conjugate = false;
+        }
+      }
       result.residual = RelativeL1Change(p, p_old);
       if (result.residual < options_.normal_tolerance) {
         result.converged = true;
@@ -135,6 +140,12 @@ class NormalProblem {
     g += h_;
     g.array() -= approach_;
     return g;
+  }
+
+  // Force control: P spread evenly over the nodes that can touch (Polonsky & Keer's start).
+  void SeedUniform(Eigen::VectorXd& p) const {
+    for (int i = 0; i < p.size(); ++i) p[i] = candidate_[i] ? 1.0 : 0.0;
+    p *= target_ / p.sum();
   }
 
   // p proportional to the penetration, scaled to fit C p = penetration in the least-squares
