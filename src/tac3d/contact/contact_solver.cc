@@ -214,11 +214,13 @@ class TangentialProblem {
     return true;
   }
 
-  SubSolve Solve(Eigen::MatrixX2d& q) {
+  // `lipschitz`: the step bound L; estimated if <= 0, and returned (as backtracking left it)
+  // for the next coupling pass, whose operator is the same on a similar contact set.
+  SubSolve Solve(Eigen::MatrixX2d& q, double& lipschitz) {
     SubSolve result;
     Eigen::MatrixX2d x = Project(q);
     Eigen::MatrixX2d cx = Apply(x), y = x, cy = cx, x_new, cx_new;
-    double lipschitz = EstimateLipschitz();
+    if (lipschitz <= 0.0) lipschitz = EstimateLipschitz();
     double theta = 1.0;
     for (result.iterations = 1; result.iterations <= options_.max_tangential_iterations;
          ++result.iterations) {
@@ -512,6 +514,7 @@ ContactResult ContactSolver::Solve(const ContactStep& step, const ContactState& 
   ContactSummary& summary = result.summary;
   bool gross_sliding = false, converged = false;
   Eigen::MatrixX2d b(n, 2);
+  double lipschitz = 0.0;
   for (summary.coupling_iterations = 1;
        summary.coupling_iterations <= options_.max_coupling_iterations;
        ++summary.coupling_iterations) {
@@ -532,7 +535,7 @@ ContactResult ContactSolver::Solve(const ContactStep& step, const ContactState& 
     TangentialProblem tangential(c, bound, b, step, options_);
     SubSolve ts;
     gross_sliding = tangential.GrossSliding(q);
-    if (!gross_sliding) ts = tangential.Solve(q);
+    if (!gross_sliding) ts = tangential.Solve(q, lipschitz);
     summary.tangential_iterations += ts.iterations;
     summary.tangential_residual = ts.residual;
 
