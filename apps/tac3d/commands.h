@@ -23,6 +23,7 @@ void RegisterEval(CLI::App& app);
 void RegisterEvalRender(CLI::App& eval);
 void RegisterEvalCalibration(CLI::App& eval);
 void RegisterEvalFem(CLI::App& eval);
+void RegisterEvalContact(CLI::App& eval);
 
 /// The sensor a command works on: the YAML file if one is given, else the built-in
 /// prototype with its designed mirrors.

@@ -9,6 +9,7 @@ void RegisterEval(CLI::App& app) {
   RegisterEvalRender(*eval);
   RegisterEvalCalibration(*eval);
   RegisterEvalFem(*eval);
+  RegisterEvalContact(*eval);
 }
 
 }  // namespace tac3d::cli

@@ -1,0 +1,40 @@
+#include <cstdio>
+#include <memory>
+
+#include <nlohmann/json.hpp>
+
+#include "commands.h"
+#include "tac3d/contact/evaluation.h"
+
+namespace tac3d::cli {
+
+void RegisterEvalContact(CLI::App& eval) {
+  struct Args {
+    contact::EvalContactOptions options;
+    bool json = false;
+  };
+  auto args = std::make_shared<Args>();
+  CLI::App* cmd = eval.add_subcommand(
+      "contact", "The contact solver against Hertz, Cattaneo-Mindlin, Mindlin-Deresiewicz and a two-material slide");
+  cmd->add_option("--cells-per-radius", args->options.cells_per_radius,
+                  "grid cells per Hertz contact radius (finer: slower, closer)")
+      ->capture_default_str();
+  cmd->add_flag("--json", args->json, "print JSON");
+  cmd->callback([args] {
+    nlohmann::json j = contact::EvaluateContact(args->options);
+    // Each check's figure also at the top level, under its name, for scripts.
+    for (const nlohmann::json& check : j.at("checks")) j[check.at("name").get<std::string>()] = check.at("value");
+    if (args->json) {
+      std::printf("%s\n", j.dump(2).c_str());
+      return;
+    }
+    for (const nlohmann::json& check : j.at("checks")) {
+      std::printf("%-4s %-36s %s (tolerance %s)\n", check.at("pass").get<bool>() ? "ok" : "FAIL",
+                  check.at("name").get<std::string>().c_str(), check.at("value").dump().c_str(),
+                  check.at("tolerance").dump().c_str());
+    }
+    std::printf("all pass: %s\n", j.at("all_pass").get<bool>() ? "yes" : "no");
+  });
+}
+
+}  // namespace tac3d::cli
