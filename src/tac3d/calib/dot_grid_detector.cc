@@ -141,19 +141,25 @@ DotGridDetection DetectDotGrid(const cv::Mat& gray, const cv::Rect& roi,
   params.maxArea = 0.05f * roi.area();
   params.minDistBetweenBlobs = 3;
   params.minConvexity = 0.8f;
-  const auto blobs = cv::SimpleBlobDetector::create(params);
+  std::vector<cv::KeyPoint> keypoints;
+  cv::SimpleBlobDetector::create(params)->detect(gray(roi), keypoints);
+  const int n = board.rows * board.cols;
+  out.blobs = static_cast<int>(keypoints.size());
+  if (out.blobs < n || out.blobs > kMaxDotGridBlobsPerDot * n) return out;
+  std::vector<cv::Point2f> candidates;
+  candidates.reserve(keypoints.size());
+  for (const cv::KeyPoint& k : keypoints) candidates.push_back(k.pt);
   std::vector<cv::Point2f> found;
   const int flags = board.layout == CalibrationBoard::Layout::kSymmetric
                         ? cv::CALIB_CB_SYMMETRIC_GRID
                         : cv::CALIB_CB_ASYMMETRIC_GRID;
   // The default grid finder gives up on strongly foreshortened views that the clustering
-  // one orders correctly.
+  // one orders correctly. Both take the candidates detected once above (no detector).
   const cv::Size pattern(board.cols, board.rows);
-  if (!cv::findCirclesGrid(gray(roi), pattern, found, flags, blobs) &&
-      !cv::findCirclesGrid(gray(roi), pattern, found, flags | cv::CALIB_CB_CLUSTERING, blobs)) {
+  if (!cv::findCirclesGrid(candidates, pattern, found, flags, nullptr) &&
+      !cv::findCirclesGrid(candidates, pattern, found, flags | cv::CALIB_CB_CLUSTERING, nullptr)) {
     return out;
   }
-  const int n = board.rows * board.cols;
   TAC3D_DEMAND(static_cast<int>(found.size()) == n);
   std::vector<Eigen::Vector2d> detected(n);
   for (int i = 0; i < n; ++i) detected[i] = {found[i].x + roi.x, found[i].y + roi.y};

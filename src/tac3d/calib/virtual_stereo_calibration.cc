@@ -77,20 +77,25 @@ std::string CheckImage(const CalibrationImage& input, const CalibrationBoard& bo
     return "not an 8-bit grey or colour image";
   }
   std::vector<std::string> missing;
+  std::string clutter;  // why the grid was not looked for, if it was not
   for (const VirtualCameraConfig& vcam : nominal.virtual_cameras) {
     const int h = static_cast<int>(vcam.half);
     const cv::Rect roi(vcam.column_begin, 0, vcam.column_end - vcam.column_begin, gray.rows);
     const DotGridDetection d = DetectDotGrid(gray, roi, board);
     if (!d.found) {
       missing.emplace_back(ToString(vcam.half));
+      if (d.blobs > kMaxDotGridBlobsPerDot * board.rows * board.cols) {
+        clutter = fmt::format(" ({} blobs in the {} half, more than {} per board dot: noise or clutter)",
+                              d.blobs, ToString(vcam.half), kMaxDotGridBlobsPerDot);
+      }
       continue;
     }
     view.centroids[h] = d.centers;
     view.bias[h].assign(d.centers.size(), Eigen::Vector2d::Zero());
     report.edge_width_px[h] = d.edge_width_px;
   }
-  if (missing.size() == 2) return "grid not found in the left and right halves";
-  if (missing.size() == 1) return fmt::format("grid not found in the {} half", missing[0]);
+  if (missing.size() == 2) return "grid not found in the left and right halves" + clutter;
+  if (missing.size() == 1) return fmt::format("grid not found in the {} half{}", missing[0], clutter);
   const double blur = std::max(report.edge_width_px[0], report.edge_width_px[1]);
   if (!(blur <= options.max_edge_width_px)) {
     return fmt::format("blurred: dot edge width {:.2f} px > {:.2f} px", blur,

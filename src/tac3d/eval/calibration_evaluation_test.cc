@@ -120,6 +120,19 @@ TEST(DetectDotGrid, FindsNothingInAnEmptyImage) {
   EXPECT_TRUE(d.centers.empty());
 }
 
+// A frame of pure noise gives thousands of candidate blobs; the grid finder would take
+// minutes on them (tac3d calibrate stalled on such a file), so it is not run.
+TEST(DetectDotGrid, PureNoiseIsNotSearched) {
+  cv::Mat noise(480, 640, CV_8UC1);
+  cv::RNG rng(testing::kRandomSeed);
+  rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
+  const CalibrationBoard board;
+  const DotGridDetection d = DetectDotGrid(noise, {0, 0, 320, 480}, board);
+  EXPECT_FALSE(d.found);
+  EXPECT_TRUE(d.centers.empty());
+  EXPECT_GT(d.blobs, kMaxDotGridBlobsPerDot * board.rows * board.cols);
+}
+
 TEST(DotCentroidBias, VanishesForADotSeenHeadOnAtTheCentre) {
   CameraIntrinsics camera = CameraIntrinsics::FromFieldOfView(640, 480, 48);
   Rigid3 cam_from_board = Rigid3::Identity();
@@ -189,9 +202,17 @@ TEST(CalibrateVirtualStereo, RefusesBadImagesWithTheReasonAndCalibratesWithTheRe
   set.images.push_back({"no_grid_right.png", right_half_black});
   set.images.push_back({"small.png", small});
   set.images.push_back({"corrupt.png", cv::Mat()});
+  cv::Mat noise(480, 640, CV_8UC1);
+  cv::RNG rng(testing::kRandomSeed);
+  rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
+  set.images.push_back({"noise.png", noise});
+  set.images.push_back({"black.png", cv::Mat::zeros(480, 640, CV_8UC1)});
+  cv::Mat colour;
+  cv::cvtColor(good, colour, cv::COLOR_GRAY2BGR);
+  set.images.push_back({"colour.png", colour});  // usable: converted to grey
   const VirtualStereoCalibration c = CalibrateVirtualStereo(set.images, set.board_file, Nominal());
-  EXPECT_EQ(c.summary.views_used, 9);
-  EXPECT_EQ(c.summary.views_refused, 4);
+  EXPECT_EQ(c.summary.views_used, 10);
+  EXPECT_EQ(c.summary.views_refused, 6);
   auto refusal = [&](const std::string& name) {
     for (const CalibrationViewReport& v : c.views) {
       if (v.name == name) return v.refusal;
@@ -202,6 +223,11 @@ TEST(CalibrateVirtualStereo, RefusesBadImagesWithTheReasonAndCalibratesWithTheRe
   EXPECT_EQ(refusal("no_grid_right.png"), "grid not found in the right half");
   EXPECT_EQ(refusal("small.png"), "image is 320x240, the camera's is 640x480");
   EXPECT_EQ(refusal("corrupt.png"), "unreadable or corrupt file");
+  EXPECT_EQ(refusal("noise.png").rfind("grid not found in the left and right halves (", 0), 0u)
+      << refusal("noise.png");
+  EXPECT_NE(refusal("noise.png").find("noise or clutter"), std::string::npos) << refusal("noise.png");
+  EXPECT_EQ(refusal("black.png"), "grid not found in the left and right halves");
+  EXPECT_EQ(refusal("colour.png"), "");
   for (const CalibrationViewReport& v : c.views) {
     if (!v.used) std::printf("%s refused: %s\n", v.name.c_str(), v.refusal.c_str());
   }

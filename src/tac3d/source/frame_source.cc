@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 
 #include <fmt/format.h>
 #include <opencv2/imgcodecs.hpp>
@@ -23,6 +25,22 @@ constexpr double kCameraTimeoutS = 2.0;
 std::string Lower(std::string s) {
   std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
   return s;
+}
+
+// A JPEG cut short still decodes (libjpeg warns and fills the missing rows with grey), so
+// the file itself is checked: the main image's data begins at the last start-of-scan
+// marker (FF DA; a thumbnail's and a progressive file's earlier scans come before it, and
+// FF never starts a marker inside entropy-coded data) and must be followed by an
+// end-of-image marker (FF D9).
+bool IsTruncatedJpeg(const std::vector<std::uint8_t>& bytes) {
+  if (bytes.size() < 4 || bytes[0] != 0xFF || bytes[1] != 0xD8) return false;  // not a JPEG
+  std::size_t last_sos = 0, last_eoi = 0;
+  for (std::size_t i = 2; i + 1 < bytes.size(); ++i) {
+    if (bytes[i] != 0xFF) continue;
+    if (bytes[i + 1] == 0xDA) last_sos = i;
+    if (bytes[i + 1] == 0xD9) last_eoi = i;
+  }
+  return last_sos == 0 || last_eoi < last_sos;
 }
 
 bool IsImageFile(const fs::path& path) {
@@ -86,7 +104,17 @@ class ImageFolderSource : public FrameSource {
     frame.index = static_cast<std::int64_t>(next_);
     frame.timestamp_s = static_cast<double>(next_) / fps_;
     ++next_;
-    frame.image = cv::imread(file, cv::IMREAD_GRAYSCALE);
+    std::ifstream in(file, std::ios::binary);
+    bytes_.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    if (!in.good() && !in.eof()) {
+      last_error_ = fmt::format("'{}' cannot be read", file);
+      return ReadStatus::kBadFrame;
+    }
+    if (IsTruncatedJpeg(bytes_)) {
+      last_error_ = fmt::format("'{}' is a truncated JPEG (no end of image after its last scan)", file);
+      return ReadStatus::kBadFrame;
+    }
+    frame.image = bytes_.empty() ? cv::Mat() : cv::imdecode(bytes_, cv::IMREAD_GRAYSCALE);
     if (frame.image.empty()) {
       last_error_ = fmt::format("'{}' is not a readable image (corrupt or truncated)", file);
       return ReadStatus::kBadFrame;
@@ -103,6 +131,7 @@ class ImageFolderSource : public FrameSource {
   std::vector<std::string> files_;
   double fps_;
   size_t next_ = 0;
+  std::vector<std::uint8_t> bytes_;  // the file being decoded (reused)
 };
 
 }  // namespace

@@ -64,8 +64,9 @@ std::unique_ptr<FrameSource> OpenCamera(const CameraSourceOptions& options);
 std::unique_ptr<FrameSource> OpenVideoFile(const std::string& path);
 
 /// The PNG, JPEG, BMP or TIFF images of a folder, in lexicographic order of their names.
-/// Timestamps are index / fps. A file that does not decode is a kBadFrame (named in
-/// last_error) and reading continues with the next.
+/// Timestamps are index / fps. A file that does not decode, or a JPEG cut short (which
+/// would decode with grey rows), is a kBadFrame (named in last_error) and reading continues
+/// with the next.
 /// @throws Error if the folder is missing or holds no image file.
 std::unique_ptr<FrameSource> OpenImageFolder(const std::string& path, double fps = 30.0);
 
