@@ -263,13 +263,18 @@ TwinBodyModel CalcTwinBodyModel(const fem::BodyModelOptions& body,
       CellAverage(1, options.quadrature_points_per_side) *
       fem_model.CalcPointInterpolation(SubPoints(body, options, grid, {centre}));
   const double radius_limit = options.kernel_radius_fraction * body.base_radius_mm();
+  // Near the rim the mesh's faceted surface may dip below surface_depth_mm: points the mesh
+  // does not hold are left out (zero kernel), like those beyond the radius.
+  const fem::PointLocator locator(fem_model.mesh());
   std::vector<Eigen::Vector3d> lattice;
   std::vector<Eigen::Vector2i> offsets;
   for (int dj = -(grid.ny - 1); dj < grid.ny; ++dj) {
     for (int di = -(grid.nx - 1); di < grid.nx; ++di) {
       const Eigen::Vector2d xy = centre + Eigen::Vector2d(di * grid.dx_mm, dj * grid.dy_mm);
       if (xy.norm() > radius_limit) continue;
-      lattice.push_back(SurfacePoint(body, xy.x(), xy.y(), options.surface_depth_mm));
+      const Eigen::Vector3d point = SurfacePoint(body, xy.x(), xy.y(), options.surface_depth_mm);
+      if (!locator.Locate(point)) continue;
+      lattice.push_back(point);
       offsets.emplace_back(di, dj);
     }
   }

@@ -22,7 +22,7 @@ struct TwinBodyOptions {
   /// The grid covers the marker square plus at least this much on each side (mm), rounded up
   /// to whole cells. Nodes outside `active_radius_fraction` of the base radius never touch.
   double margin_mm = 2.0;
-  double active_radius_fraction = 0.95;
+  double active_radius_fraction = 0.9;
   /// A cell's uniform traction is applied (and its displacement read) as the mean of q x q
   /// point forces at the centres of its q x q sub-cells.
   int quadrature_points_per_side = 3;
@@ -30,7 +30,8 @@ struct TwinBodyOptions {
   /// surface (a face's sagitta is < 0.01 mm here).
   double surface_depth_mm = 0.01;
   /// The kernel is sampled where the offset point lies within this fraction of the base
-  /// radius, and is zero beyond (it has decayed there: see symbol / docs/simulation.md).
+  /// radius (and inside the mesh), and is zero beyond (it has decayed there: the provenance's
+  /// kernel_truncation_ratio, docs/simulation.md).
   double kernel_radius_fraction = 0.9;
   /// Symbol eigenvalues below this fraction of the largest are raised to it
   /// (ConvolutionCompliance's clamp_floor).
