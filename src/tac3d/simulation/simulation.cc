@@ -95,7 +95,6 @@ TwinSimulation::TwinSimulation(const Scene& scene,
                                         model_->CalcActiveNodes());
   if (options_.render_images) renderer_ = std::make_unique<MarkerImageRenderer>(scene_.sensor);
   state_ = contact::ContactState::Unloaded(model_->grid.num_nodes());
-  previous_centroid_ = Eigen::Vector3d(0.0, 0.0, model_->body.thickness_mm);
 }
 
 TwinSimulation::~TwinSimulation() = default;
@@ -124,9 +123,13 @@ TwinStep TwinSimulation::Step() {
   const GapField gaps = caster_->Cast(out.world_from_sensor);
   timings.gap_s += Seconds(start);
 
-  // The object's rigid tangential motion relative to the sensor since the previous step.
-  const Rigid3 motion = out.world_from_sensor.inverse() * previous_pose_;
-  const Eigen::Vector2d increment = ((motion * previous_centroid_) - previous_centroid_).head<2>();
+  // The object's rigid tangential motion relative to the sensor since the previous step; none
+  // when the previous step touched nothing (a new contact starts from an undragged surface).
+  Eigen::Vector2d increment = Eigen::Vector2d::Zero();
+  if (previous_contact_) {
+    const Rigid3 motion = out.world_from_sensor.inverse() * previous_pose_;
+    increment = ((motion * previous_centroid_) - previous_centroid_).head<2>();
+  }
   previous_pose_ = out.world_from_sensor;
 
   start = Clock::now();
@@ -199,8 +202,8 @@ TwinStep TwinSimulation::Step() {
       out.surface.states[i] = ToDatasetState(node_state[i]);
     }
   }
-  previous_centroid_ = weight > 0.0 ? Eigen::Vector3d(centroid / weight)
-                                    : Eigen::Vector3d(0.0, 0.0, model.body.thickness_mm);
+  previous_contact_ = weight > 0.0;
+  if (previous_contact_) previous_centroid_ = centroid / weight;
   out.marker_positions_mm.resize(num_markers);
   for (int m = 0; m < num_markers; ++m) {
     out.marker_positions_mm[m] =

@@ -70,8 +70,8 @@ nlohmann::json ToJson(const SimulationSummary& summary);
 /// Step k: the pose world_from_sensor_k; the gap and mu of every contact node by GapCaster;
 /// one ContactSolver step (normal: kApproach with delta = 0, the gap holds the penetration;
 /// tangential: kShift, the shift accumulating the object's rigid motion relative to the sensor,
-/// the increment being the (x, y) motion of the previous step's contact centroid (the grid
-/// centre if none) under sensor_from_world_k * world_from_sensor_{k-1}); the state of step
+/// the increment being the (x, y) motion of the previous step's pressure centroid under
+/// sensor_from_world_k * world_from_sensor_{k-1}, zero after a step without contact); the state of step
 /// k - 1 is the history of step k, reset to Unloaded when nothing touches. Then the truth: node
 /// tractions in the sensor frame (the object's push on the fingertip: (q_x, q_y, -p)), nodal
 /// forces = traction x cell area, marker forces (the sum over a marker's patch), the total
@@ -117,6 +117,7 @@ class TwinSimulation {
   contact::ContactState state_;
   Rigid3 previous_pose_ = Rigid3::Identity();
   Eigen::Vector3d previous_centroid_ = Eigen::Vector3d::Zero();
+  bool previous_contact_ = false;
   int next_step_ = 0;
   SimulationSummary summary_;
 };
