@@ -51,7 +51,9 @@ Interval FlatPunch(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double r)
   return i;
 }
 
-Interval AnalyticInterval(const SceneObject& s, const Eigen::Vector3d& o, const Eigen::Vector3d& d) {
+Interval AnalyticInterval(const SceneObject& s,
+                          const Eigen::Vector3d& o,
+                          const Eigen::Vector3d& d) {
   switch (s.shape) {
     case SceneObject::Shape::kSphere: {
       const double b = o.dot(d), c = o.squaredNorm() - s.radius_mm * s.radius_mm;
@@ -65,13 +67,14 @@ Interval AnalyticInterval(const SceneObject& s, const Eigen::Vector3d& o, const 
       i.Intersect(Slab(o, d, 1, -0.5 * s.length_mm, 0.5 * s.length_mm));
       return i;
     }
-    case SceneObject::Shape::kFlatPunch: return FlatPunch(o, d, s.radius_mm);
+    case SceneObject::Shape::kFlatPunch:
+      return FlatPunch(o, d, s.radius_mm);
     case SceneObject::Shape::kPins: {
       Interval best = kEmpty;
       for (int r = 0; r < s.rows; ++r) {
         for (int c = 0; c < s.cols; ++c) {
-          const Eigen::Vector3d centre((c - 0.5 * (s.cols - 1)) * s.pitch_mm,
-                                       (r - 0.5 * (s.rows - 1)) * s.pitch_mm, 0.0);
+          const Eigen::Vector3d centre(
+              (c - 0.5 * (s.cols - 1)) * s.pitch_mm, (r - 0.5 * (s.rows - 1)) * s.pitch_mm, 0.0);
           const Interval i = FlatPunch(o - centre, d, s.radius_mm);
           if (!i.empty() && i.hi > 0.0 && (best.empty() || i.lo < best.lo)) best = i;
         }
@@ -80,10 +83,12 @@ Interval AnalyticInterval(const SceneObject& s, const Eigen::Vector3d& o, const 
     }
     case SceneObject::Shape::kBox: {
       Interval i;
-      for (int k = 0; k < 3; ++k) i.Intersect(Slab(o, d, k, -0.5 * s.size_mm[k], 0.5 * s.size_mm[k]));
+      for (int k = 0; k < 3; ++k)
+        i.Intersect(Slab(o, d, k, -0.5 * s.size_mm[k], 0.5 * s.size_mm[k]));
       return i;
     }
-    case SceneObject::Shape::kMesh: break;
+    case SceneObject::Shape::kMesh:
+      break;
   }
   TAC3D_DEMAND(false);
   return kEmpty;
@@ -124,10 +129,16 @@ void GapCaster::CastMesh(const SceneObject& object, const Rigid3& sensor_from_ob
     const Eigen::Vector3d &a = v[tri[0]], &b = v[tri[1]], &c = v[tri[2]];
     const double area2 = (b.x() - a.x()) * (c.y() - a.y()) - (b.y() - a.y()) * (c.x() - a.x());
     if (std::abs(area2) < 1e-14) continue;  // edge-on to the lines
-    const int i_lo = std::max(0, static_cast<int>(std::ceil((std::min({a.x(), b.x(), c.x()}) - x0) / grid_.dx_mm)));
-    const int i_hi = std::min(grid_.nx - 1, static_cast<int>(std::floor((std::max({a.x(), b.x(), c.x()}) - x0) / grid_.dx_mm)));
-    const int j_lo = std::max(0, static_cast<int>(std::ceil((std::min({a.y(), b.y(), c.y()}) - y0) / grid_.dy_mm)));
-    const int j_hi = std::min(grid_.ny - 1, static_cast<int>(std::floor((std::max({a.y(), b.y(), c.y()}) - y0) / grid_.dy_mm)));
+    const int i_lo = std::max(
+        0, static_cast<int>(std::ceil((std::min({a.x(), b.x(), c.x()}) - x0) / grid_.dx_mm)));
+    const int i_hi = std::min(
+        grid_.nx - 1,
+        static_cast<int>(std::floor((std::max({a.x(), b.x(), c.x()}) - x0) / grid_.dx_mm)));
+    const int j_lo = std::max(
+        0, static_cast<int>(std::ceil((std::min({a.y(), b.y(), c.y()}) - y0) / grid_.dy_mm)));
+    const int j_hi = std::min(
+        grid_.ny - 1,
+        static_cast<int>(std::floor((std::max({a.y(), b.y(), c.y()}) - y0) / grid_.dy_mm)));
     // A counter-clockwise triangle seen from +z has its outward normal along +z: an exit.
     const bool entering = area2 < 0.0;
     for (int j = j_lo; j <= j_hi; ++j) {
@@ -137,8 +148,10 @@ void GapCaster::CastMesh(const SceneObject& object, const Rigid3& sensor_from_ob
         const Eigen::Vector3d& p = points_[node];
         // Barycentric coordinates of p's (x, y) (half-open edges would be exact; a line
         // through a shared edge may count twice, which the interval walk tolerates).
-        const double w1 = ((c.x() - b.x()) * (p.y() - b.y()) - (c.y() - b.y()) * (p.x() - b.x())) / area2;
-        const double w2 = ((a.x() - c.x()) * (p.y() - c.y()) - (a.y() - c.y()) * (p.x() - c.x())) / area2;
+        const double w1 =
+            ((c.x() - b.x()) * (p.y() - b.y()) - (c.y() - b.y()) * (p.x() - b.x())) / area2;
+        const double w2 =
+            ((a.x() - c.x()) * (p.y() - c.y()) - (a.y() - c.y()) * (p.x() - c.x())) / area2;
         const double w3 = 1.0 - w1 - w2;
         if (w1 < 0.0 || w2 < 0.0 || w3 < 0.0) continue;
         const double z = w1 * a.z() + w2 * b.z() + w3 * c.z();
@@ -179,8 +192,8 @@ GapField GapCaster::Cast(const Rigid3& world_from_sensor) const {
         if (entry < field.gap_mm[i]) {
           field.gap_mm[i] = entry;
           field.object[i] = o;
-          field.friction_coefficient[i] =
-              object.FrictionAt(object_from_sensor * (points_[i] + entry * Eigen::Vector3d::UnitZ()));
+          field.friction_coefficient[i] = object.FrictionAt(
+              object_from_sensor * (points_[i] + entry * Eigen::Vector3d::UnitZ()));
         }
       }
       continue;

@@ -72,8 +72,8 @@ TEST(GapCaster, MeshZBufferMatchesTheSolid) {
   TriangleMesh octahedron;
   octahedron.vertices = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
   // Counter-clockwise seen from outside.
-  octahedron.triangles = {{0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4},
-                          {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
+  octahedron.triangles = {
+      {0, 2, 4}, {2, 1, 4}, {1, 3, 4}, {3, 0, 4}, {2, 0, 5}, {1, 2, 5}, {3, 1, 5}, {0, 3, 5}};
   SceneObject mesh = Shape(SceneObject::Shape::kMesh);
   mesh.mesh = std::make_shared<IndexedMesh>(octahedron);
   mesh.world_from_object = Rigid3(Eigen::Translation3d(0, 0, 3));

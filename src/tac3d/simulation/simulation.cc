@@ -17,9 +17,12 @@ double Seconds(Clock::time_point since) {
 
 tac3d::ContactState ToDatasetState(contact::NodeState state) {
   switch (state) {
-    case contact::NodeState::kSeparated: return tac3d::ContactState::kSeparated;
-    case contact::NodeState::kStick: return tac3d::ContactState::kStick;
-    case contact::NodeState::kSlip: return tac3d::ContactState::kSlip;
+    case contact::NodeState::kSeparated:
+      return tac3d::ContactState::kSeparated;
+    case contact::NodeState::kStick:
+      return tac3d::ContactState::kStick;
+    case contact::NodeState::kSlip:
+      return tac3d::ContactState::kSlip;
   }
   return tac3d::ContactState::kSeparated;
 }
@@ -84,15 +87,17 @@ TwinSimulation::TwinSimulation(const Scene& scene,
   TAC3D_DEMAND(model_ != nullptr);
   if (model_->body.marker_rows != scene_.sensor.markers.rows ||
       model_->body.marker_cols != scene_.sensor.markers.cols) {
-    throw Error(fmt::format(
-        "TwinSimulation: the twin body has {} x {} markers, the scene's sensor {} x {}",
-        model_->body.marker_rows, model_->body.marker_cols, scene_.sensor.markers.rows,
-        scene_.sensor.markers.cols));
+    throw Error(
+        fmt::format("TwinSimulation: the twin body has {} x {} markers, the scene's sensor {} x {}",
+                    model_->body.marker_rows,
+                    model_->body.marker_cols,
+                    scene_.sensor.markers.rows,
+                    scene_.sensor.markers.cols));
   }
   surface_points_ = model_->CalcNodeSurfacePoints();
   node_markers_ = model_->CalcNodeMarkers();
-  caster_ = std::make_unique<GapCaster>(scene_.objects, model_->grid, surface_points_,
-                                        model_->CalcActiveNodes());
+  caster_ = std::make_unique<GapCaster>(
+      scene_.objects, model_->grid, surface_points_, model_->CalcActiveNodes());
   if (options_.render_images) renderer_ = std::make_unique<MarkerImageRenderer>(scene_.sensor);
   state_ = contact::ContactState::Unloaded(model_->grid.num_nodes());
 }
@@ -207,9 +212,9 @@ TwinStep TwinSimulation::Step() {
   out.marker_positions_mm.resize(num_markers);
   for (int m = 0; m < num_markers; ++m) {
     out.marker_positions_mm[m] =
-        model.marker_positions[m] +
-        Eigen::Vector3d(displacement[m], displacement[num_markers + m],
-                        displacement[2 * num_markers + m]);
+        model.marker_positions[m] + Eigen::Vector3d(displacement[m],
+                                                    displacement[num_markers + m],
+                                                    displacement[2 * num_markers + m]);
   }
   timings.response_s += Seconds(start);
 

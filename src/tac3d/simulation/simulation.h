@@ -71,9 +71,9 @@ nlohmann::json ToJson(const SimulationSummary& summary);
 /// one ContactSolver step (normal: kApproach with delta = 0, the gap holds the penetration;
 /// tangential: kShift, the shift accumulating the object's rigid motion relative to the sensor,
 /// the increment being the (x, y) motion of the previous step's pressure centroid under
-/// sensor_from_world_k * world_from_sensor_{k-1}, zero after a step without contact); the state of step
-/// k - 1 is the history of step k, reset to Unloaded when nothing touches. Then the truth: node
-/// tractions in the sensor frame (the object's push on the fingertip: (q_x, q_y, -p)), nodal
+/// sensor_from_world_k * world_from_sensor_{k-1}, zero after a step without contact); the state of
+/// step k - 1 is the history of step k, reset to Unloaded when nothing touches. Then the truth:
+/// node tractions in the sensor frame (the object's push on the fingertip: (q_x, q_y, -p)), nodal
 /// forces = traction x cell area, marker forces (the sum over a marker's patch), the total
 /// force and its moment about the sensor origin (arms = node surface points), marker
 /// positions = rest + M f, marker contact and slip flags, and the rendered image.

@@ -72,8 +72,8 @@ Eigen::Vector3d SumOfSurfaceForces(const TwinStep& step, double area) {
 
 TEST(TwinSimulation, PressThenSlideObeysContactAndFriction) {
   // Steps at t = 0, 0.2, ..., 2: separated, pressed 0.1 mm at t = 1, slid 0.5 mm by t = 2.
-  const Scene scene = SphereScene(
-      {{0.0, {0, 0, -0.05}}, {1.0, {0, 0, 0.1}}, {2.0, {0.5, 0, 0.1}}}, 11);
+  const Scene scene =
+      SphereScene({{0.0, {0, 0, -0.05}}, {1.0, {0, 0, 0.1}}, {2.0, {0.5, 0, 0.1}}}, 11);
   TwinSimulation sim(scene, SmallModel(), NoImages());
   std::vector<TwinStep> steps;
   const SimulationSummary summary = sim.Run([&](const TwinStep& s) { steps.push_back(s); });

@@ -121,16 +121,26 @@ TwinBodyProvenance ProvenanceFromJson(const nlohmann::json& j) {
 }  // namespace
 
 void TwinBodyOptions::Validate() const {
-  Require(cells_per_pitch >= 1 && cells_per_pitch <= 10, "cells_per_pitch", "in [1, 10]",
+  Require(cells_per_pitch >= 1 && cells_per_pitch <= 10,
+          "cells_per_pitch",
+          "in [1, 10]",
           cells_per_pitch);
   Require(margin_mm >= 0.0 && std::isfinite(margin_mm), "margin_mm", ">= 0", margin_mm);
-  Require(active_radius_fraction > 0.0 && active_radius_fraction <= 1.0, "active_radius_fraction",
-          "in (0, 1]", active_radius_fraction);
-  Require(kernel_radius_fraction > 0.0 && kernel_radius_fraction <= 1.0, "kernel_radius_fraction",
-          "in (0, 1]", kernel_radius_fraction);
+  Require(active_radius_fraction > 0.0 && active_radius_fraction <= 1.0,
+          "active_radius_fraction",
+          "in (0, 1]",
+          active_radius_fraction);
+  Require(kernel_radius_fraction > 0.0 && kernel_radius_fraction <= 1.0,
+          "kernel_radius_fraction",
+          "in (0, 1]",
+          kernel_radius_fraction);
   Require(quadrature_points_per_side >= 1 && quadrature_points_per_side <= 8,
-          "quadrature_points_per_side", "in [1, 8]", quadrature_points_per_side);
-  Require(surface_depth_mm >= 0.0 && surface_depth_mm <= 0.1, "surface_depth_mm", "in [0, 0.1]",
+          "quadrature_points_per_side",
+          "in [1, 8]",
+          quadrature_points_per_side);
+  Require(surface_depth_mm >= 0.0 && surface_depth_mm <= 0.1,
+          "surface_depth_mm",
+          "in [0, 0.1]",
           surface_depth_mm);
   Require(clamp_floor >= 0.0 && clamp_floor <= 1e-3, "clamp_floor", "in [0, 1e-3]", clamp_floor);
   Require(max_direct_free_dofs >= 1, "max_direct_free_dofs", ">= 1", max_direct_free_dofs);
@@ -164,7 +174,7 @@ nlohmann::json ToJson(const TwinBodyProvenance& p) {
 }
 
 fem::BodyModelOptions TwinBodyModelOptions(const SensorConfig& sensor,
-                                          const TwinDeviation& deviation) {
+                                           const TwinDeviation& deviation) {
   fem::BodyModelOptions body = fem::BodyModelOptionsFromSensor(sensor);
   body.refinement *= deviation.mesh_refinement;
   body.material.youngs_modulus_mpa *= deviation.youngs_modulus_factor;
@@ -192,8 +202,8 @@ std::vector<Eigen::Vector3d> TwinBodyModel::CalcNodeSurfacePoints() const {
   for (int i = 0; i < grid.num_nodes(); ++i) {
     const Eigen::Vector2d xy = grid.node_position_mm(i);
     // Inactive nodes may lie beyond the sphere's rim; they keep z = 0 and never touch.
-    points[i] = active[i] ? SurfacePoint(body, xy.x(), xy.y(), 0.0)
-                          : Eigen::Vector3d(xy.x(), xy.y(), 0.0);
+    points[i] =
+        active[i] ? SurfacePoint(body, xy.x(), xy.y(), 0.0) : Eigen::Vector3d(xy.x(), xy.y(), 0.0);
   }
   return points;
 }
@@ -238,7 +248,10 @@ TwinBodyModel CalcTwinBodyModel(const fem::BodyModelOptions& body,
           "the twin body at refinement {} has {} free DOFs, more than the {} a direct "
           "factorisation handles (TwinBodyOptions.max_direct_free_dofs); the iterative solver "
           "would take hours for the simulation's {} solves: use deviation.mesh_refinement <= 1.5",
-          body.refinement, free, options.max_direct_free_dofs, 3 * body.num_markers() + 3));
+          body.refinement,
+          free,
+          options.max_direct_free_dofs,
+          3 * body.num_markers() + 3));
     }
   }
   fem::BodySolverOptions solver_options;
@@ -310,12 +323,13 @@ TwinBodyModel CalcTwinBodyModel(const fem::BodyModelOptions& body,
   // Decay: the largest entry at the outermost sampled ring (within one cell of the limit).
   double boundary = 0.0;
   for (int k = 0; k < num_points; ++k) {
-    const Eigen::Vector2d xy = centre + Eigen::Vector2d(offsets[k].x() * grid.dx_mm,
-                                                        offsets[k].y() * grid.dy_mm);
+    const Eigen::Vector2d xy =
+        centre + Eigen::Vector2d(offsets[k].x() * grid.dx_mm, offsets[k].y() * grid.dy_mm);
     if (xy.norm() < radius_limit - grid.dx_mm) continue;
     for (int out = 0; out < 3; ++out) {
       for (int in = 0; in < 3; ++in) {
-        boundary = std::max(boundary, std::abs(model.kernel.at(out, in, offsets[k].x(), offsets[k].y())));
+        boundary =
+            std::max(boundary, std::abs(model.kernel.at(out, in, offsets[k].x(), offsets[k].y())));
       }
     }
   }
@@ -423,8 +437,10 @@ CachedModel ReadTwinBodyFile(const std::string& path) {
 TwinBodyModel LoadTwinBodyModel(const std::string& path) {
   CachedModel cached = ReadTwinBodyFile(path);
   if (cached.key != CalcTwinBodyCacheKey(cached.model.body, cached.model.options)) {
-    throw Error(fmt::format("{}: key {:016x} does not match its inputs and this code ({})", path,
-                            cached.key, TwinCodeVersion()));
+    throw Error(fmt::format("{}: key {:016x} does not match its inputs and this code ({})",
+                            path,
+                            cached.key,
+                            TwinCodeVersion()));
   }
   return std::move(cached.model);
 }

@@ -52,7 +52,7 @@ nlohmann::json ToJson(const TwinBodyOptions& options);
 /// deviation applied (refinement x mesh_refinement, E x youngs_modulus_factor, nu x
 /// poisson_ratio_factor).
 fem::BodyModelOptions TwinBodyModelOptions(const SensorConfig& sensor,
-                                          const TwinDeviation& deviation);
+                                           const TwinDeviation& deviation);
 
 /// The contact grid in the sensor's (x, y) plane: cells of pitch / cells_per_pitch, centred on
 /// the axis, covering the marker square plus the margin (whole cells), so the marker patches'
@@ -65,11 +65,11 @@ struct TwinBodyProvenance {
   int num_free_dofs = 0;
   int num_nodes = 0;
   int num_elements = 0;
-  double mesh_s = 0.0;            ///< meshing, point location setup
-  double factorization_s = 0.0;   ///< assembly and the Cholesky factor
-  double kernel_s = 0.0;          ///< the 3 kernel solves and the lattice readout
-  double response_s = 0.0;        ///< the 3N marker solves
-  double build_s = 0.0;           ///< wall time of the whole build
+  double mesh_s = 0.0;           ///< meshing, point location setup
+  double factorization_s = 0.0;  ///< assembly and the Cholesky factor
+  double kernel_s = 0.0;         ///< the 3 kernel solves and the lattice readout
+  double response_s = 0.0;       ///< the 3N marker solves
+  double build_s = 0.0;          ///< wall time of the whole build
   /// Kernel points sampled (offset points inside kernel_radius_fraction of the base).
   int kernel_points = 0;
   /// Largest |kernel| on the truncation boundary relative to the largest (decay check).

@@ -1,9 +1,9 @@
 #include "tac3d/simulation/twin_body.h"
 
-#include <Eigen/Eigenvalues>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -85,7 +85,9 @@ TEST(TwinBody, KernelIsReciprocalAndPositiveDefinite) {
   EXPECT_GT(symbol.max_eigenvalue, 0.0);
   EXPECT_GT(symbol.min_eigenvalue, -0.01 * symbol.max_eigenvalue);
   std::printf("symbol eigenvalues [%.3g, %.3g] mm/MPa, truncation ratio %.3g\n",
-              symbol.min_eigenvalue, symbol.max_eigenvalue, model.provenance.kernel_truncation_ratio);
+              symbol.min_eigenvalue,
+              symbol.max_eigenvalue,
+              model.provenance.kernel_truncation_ratio);
   // Clamped as the simulation uses it: symmetric positive definite, and close to the raw one.
   const contact::ConvolutionCompliance clamped(model.grid, model.kernel, model.options.clamp_floor);
   EXPECT_GT(clamped.symbol_report().num_clamped, 0);
@@ -121,7 +123,8 @@ TEST(TwinBody, KernelAgreesWithDirectFemColumns) {
       for (const double fx : {-0.25, 0.25}) {
         const double x = c.x() + fx * grid.dx_mm, y = c.y() + fy * grid.dy_mm;
         const double r = model.body.sphere_radius_mm;
-        sub.emplace_back(x, y, model.body.sphere_center_z_mm() + std::sqrt(r * r - x * x - y * y) - 0.01);
+        sub.emplace_back(
+            x, y, model.body.sphere_center_z_mm() + std::sqrt(r * r - x * x - y * y) - 0.01);
       }
     }
     const Eigen::SparseMatrix<double> p = fem_model.CalcPointInterpolation(sub);
@@ -147,7 +150,8 @@ TEST(TwinBody, KernelAgreesWithDirectFemColumns) {
   const double centre_error = column_error(centre);
   const double corner_error = column_error(2 * grid.nx + 2);
   std::printf("kernel vs FEM: centre column %.2e, off-centre column %.2e (relative max)\n",
-              centre_error, corner_error);
+              centre_error,
+              corner_error);
   EXPECT_LT(centre_error, 0.05);  // the symmetrisation's change only
   EXPECT_LT(corner_error, 0.5);   // a 3 mm dome seen from 2 mm off-centre: approximate
   EXPECT_GT(corner_error, centre_error);
@@ -156,7 +160,8 @@ TEST(TwinBody, KernelAgreesWithDirectFemColumns) {
 TEST(TwinBody, MarkerResponseMatchesForwardSolves) {
   const TwinBodyModel& model = SmallModel();
   const fem::BodyModel fem_model(model.body);
-  const Eigen::SparseMatrix<double> markers = fem_model.CalcPointInterpolation(model.marker_positions);
+  const Eigen::SparseMatrix<double> markers =
+      fem_model.CalcPointInterpolation(model.marker_positions);
   const contact::SurfaceGrid& grid = model.grid;
   const int n = grid.num_nodes();
   for (const int node : {(grid.ny / 2) * grid.nx + grid.nx / 2, 3 * grid.nx + 5}) {
@@ -166,7 +171,8 @@ TEST(TwinBody, MarkerResponseMatchesForwardSolves) {
       for (const double fx : {-0.25, 0.25}) {
         const double x = c.x() + fx * grid.dx_mm, y = c.y() + fy * grid.dy_mm;
         const double r = model.body.sphere_radius_mm;
-        sub.emplace_back(x, y, model.body.sphere_center_z_mm() + std::sqrt(r * r - x * x - y * y) - 0.01);
+        sub.emplace_back(
+            x, y, model.body.sphere_center_z_mm() + std::sqrt(r * r - x * x - y * y) - 0.01);
       }
     }
     const Eigen::SparseMatrix<double> p = fem_model.CalcPointInterpolation(sub);
@@ -192,9 +198,11 @@ void ExpectSameModel(const TwinBodyModel& a, const TwinBodyModel& b) {
 
 TEST(TwinBodyCache, HitStaleAndCorruptFiles) {
   const std::string dir = testing::MakeTempDir("twin_body_cache");
-  const TwinBodyCacheResult built = LoadOrBuildTwinBodyModel(SmallBody(), SmallOptions(), dir, false);
+  const TwinBodyCacheResult built =
+      LoadOrBuildTwinBodyModel(SmallBody(), SmallOptions(), dir, false);
   EXPECT_EQ(built.status, fem::ComplianceCacheStatus::kBuiltMissing);
-  const TwinBodyCacheResult loaded = LoadOrBuildTwinBodyModel(SmallBody(), SmallOptions(), dir, false);
+  const TwinBodyCacheResult loaded =
+      LoadOrBuildTwinBodyModel(SmallBody(), SmallOptions(), dir, false);
   EXPECT_EQ(loaded.status, fem::ComplianceCacheStatus::kLoaded) << loaded.reason;
   ExpectSameModel(built.model, loaded.model);
   ExpectSameModel(LoadTwinBodyModel(built.path), built.model);
@@ -203,7 +211,8 @@ TEST(TwinBodyCache, HitStaleAndCorruptFiles) {
   TwinBodyOptions other = SmallOptions();
   other.quadrature_points_per_side = 1;
   SaveTwinBodyModel(CalcTwinBodyModel(SmallBody(), other), built.path);
-  const TwinBodyCacheResult stale = LoadOrBuildTwinBodyModel(SmallBody(), SmallOptions(), dir, false);
+  const TwinBodyCacheResult stale =
+      LoadOrBuildTwinBodyModel(SmallBody(), SmallOptions(), dir, false);
   EXPECT_EQ(stale.status, fem::ComplianceCacheStatus::kRebuiltStale) << stale.reason;
   EXPECT_THAT(stale.reason, HasSubstr("other inputs or code"));
 
@@ -213,11 +222,13 @@ TEST(TwinBodyCache, HitStaleAndCorruptFiles) {
     f.seekp(static_cast<std::streamoff>(std::filesystem::file_size(built.path) / 2));
     f.put('\x5a');
   }
-  const TwinBodyCacheResult corrupt = LoadOrBuildTwinBodyModel(SmallBody(), SmallOptions(), dir, false);
+  const TwinBodyCacheResult corrupt =
+      LoadOrBuildTwinBodyModel(SmallBody(), SmallOptions(), dir, false);
   EXPECT_EQ(corrupt.status, fem::ComplianceCacheStatus::kRebuiltCorrupt);
   EXPECT_THAT(corrupt.reason, HasSubstr("checksum"));
   std::filesystem::resize_file(built.path, 100);
-  const TwinBodyCacheResult truncated = LoadOrBuildTwinBodyModel(SmallBody(), SmallOptions(), dir, false);
+  const TwinBodyCacheResult truncated =
+      LoadOrBuildTwinBodyModel(SmallBody(), SmallOptions(), dir, false);
   EXPECT_EQ(truncated.status, fem::ComplianceCacheStatus::kRebuiltCorrupt);
   EXPECT_THAT(truncated.reason, HasSubstr("truncated"));
   ExpectSameModel(LoadTwinBodyModel(built.path), truncated.model);
@@ -248,12 +259,15 @@ TEST(TwinBodyOptions, ValidateNamesTheField) {
   };
   EXPECT_THAT(error([](auto& o) { o.cells_per_pitch = 0; }), HasSubstr("cells_per_pitch"));
   EXPECT_THAT(error([](auto& o) { o.margin_mm = -1; }), HasSubstr("margin_mm"));
-  EXPECT_THAT(error([](auto& o) { o.active_radius_fraction = 1.5; }), HasSubstr("active_radius_fraction"));
-  EXPECT_THAT(error([](auto& o) { o.kernel_radius_fraction = 0; }), HasSubstr("kernel_radius_fraction"));
+  EXPECT_THAT(error([](auto& o) { o.active_radius_fraction = 1.5; }),
+              HasSubstr("active_radius_fraction"));
+  EXPECT_THAT(error([](auto& o) { o.kernel_radius_fraction = 0; }),
+              HasSubstr("kernel_radius_fraction"));
   EXPECT_THAT(error([](auto& o) { o.quadrature_points_per_side = 9; }), HasSubstr("quadrature"));
   EXPECT_THAT(error([](auto& o) { o.surface_depth_mm = 0.2; }), HasSubstr("surface_depth_mm"));
   EXPECT_THAT(error([](auto& o) { o.clamp_floor = 0.1; }), HasSubstr("clamp_floor"));
-  EXPECT_THAT(error([](auto& o) { o.max_direct_free_dofs = 0; }), HasSubstr("max_direct_free_dofs"));
+  EXPECT_THAT(error([](auto& o) { o.max_direct_free_dofs = 0; }),
+              HasSubstr("max_direct_free_dofs"));
   EXPECT_EQ(error([](auto&) {}), "");
 }
 
