@@ -59,6 +59,10 @@ void RegisterSimulate(CLI::App& app) {
     const Scene scene = LoadSceneOrBuiltIn(args->scene);
     const fem::BodyModelOptions body =
         simulation::TwinBodyModelOptions(scene.sensor, scene.deviation);
+    // The output folder first, so a bad --out fails before a long model build.
+    TwinDatasetWriter writer(
+        args->out,
+        {{"name", scene.name}, {"scene", args->scene}, {"deviation", ToJson(scene.deviation)}});
     MakeDirectory(args->cache_dir);
     simulation::TwinBodyCacheResult cached = simulation::LoadOrBuildTwinBodyModel(
         body, simulation::TwinBodyOptions{}, args->cache_dir, /*show_progress=*/true);
@@ -93,12 +97,7 @@ void RegisterSimulate(CLI::App& app) {
                                          {"num_clamped", symbol.num_clamped},
                                          {"num_frequencies", symbol.num_frequencies}}},
                                        {"provenance", simulation::ToJson(model->provenance)}};
-    TwinDatasetWriter writer(args->out,
-                             {{"name", scene.name},
-                              {"scene", args->scene},
-                              {"deviation", ToJson(scene.deviation)},
-                              {"steps", sim.num_steps()},
-                              {"twin_body", model_json}});
+    writer.UpdateHeader({{"steps", sim.num_steps()}, {"twin_body", model_json}});
     const simulation::SimulationSummary summary =
         sim.Run([&writer](const TwinStep& step) { writer.Write(step); });
     const nlohmann::json summary_json = simulation::ToJson(summary);
