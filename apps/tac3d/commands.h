@@ -16,6 +16,7 @@ void RegisterCalibrate(CLI::App& app);
 void RegisterDemo(CLI::App& app);
 void RegisterBuildModel(CLI::App& app);
 void RegisterRun(CLI::App& app);
+void RegisterSimulate(CLI::App& app);
 
 /// `tac3d eval <what>`: accuracy evaluations against the twin's truth or analytic oracles,
 /// each printing its figures (JSON with --json). Each adds itself to the `eval` group.

@@ -1,6 +1,8 @@
 #include "tac3d/contact/compliance.h"
 
+#include <Eigen/Eigenvalues>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <opencv2/core.hpp>
 
@@ -125,42 +127,168 @@ double CalcHalfSpaceInfluence(int out,
   return sign * 0.5 * (1.0 - 2.0 * nu) * a * integral;
 }
 
+SampledKernel SampledKernel::Zero(const SurfaceGrid& grid) {
+  SampledKernel kernel;
+  for (auto& row : kernel.k) {
+    for (Eigen::MatrixXd& k : row) k = Eigen::MatrixXd::Zero(2 * grid.ny - 1, 2 * grid.nx - 1);
+  }
+  return kernel;
+}
+
+double& SampledKernel::at(int out, int in, int di, int dj) {
+  Eigen::MatrixXd& m = k[out][in];
+  return m(dj + (m.rows() - 1) / 2, di + (m.cols() - 1) / 2);
+}
+
+double SampledKernel::at(int out, int in, int di, int dj) const {
+  const Eigen::MatrixXd& m = k[out][in];
+  return m(dj + (m.rows() - 1) / 2, di + (m.cols() - 1) / 2);
+}
+
 // Kernel spectra for the circular convolution on the zero-padded grid, one per (out, in) pair,
 // in OpenCV's packed (CCS) real-DFT format.
-struct HalfSpaceCompliance::Spectra {
+struct ConvolutionCompliance::Spectra {
   int rows = 0, cols = 0;
   cv::Mat kernel[3][3];
 };
 
-HalfSpaceCompliance::HalfSpaceCompliance(const SurfaceGrid& grid,
-                                         const fem::ElasticMaterial& material)
-    : grid_(grid), material_(material), spectra_(std::make_unique<Spectra>()) {
+namespace {
+
+// The kernel wrapped onto the padded rows x cols torus (offset d at index d mod size).
+cv::Mat WrapKernel(const Eigen::MatrixXd& k, int rows, int cols) {
+  cv::Mat wrapped = cv::Mat::zeros(rows, cols, CV_64F);
+  const int hy = (k.rows() - 1) / 2, hx = (k.cols() - 1) / 2;
+  for (int dj = -hy; dj <= hy; ++dj) {
+    for (int di = -hx; di <= hx; ++di) {
+      wrapped.at<double>((dj + rows) % rows, (di + cols) % cols) = k(dj + hy, di + hx);
+    }
+  }
+  return wrapped;
+}
+
+}  // namespace
+
+ConvolutionCompliance::ConvolutionCompliance(const SurfaceGrid& grid,
+                                             const SampledKernel& kernel,
+                                             double clamp_floor)
+    : grid_(grid), kernel_(kernel), spectra_(std::make_unique<Spectra>()) {
   grid_.Validate();
-  material_.Validate();
-  // Offsets span -(n - 1)..(n - 1): padding to >= 2n - 1 makes the circular convolution linear.
-  spectra_->rows = cv::getOptimalDFTSize(2 * grid_.ny - 1);
-  spectra_->cols = cv::getOptimalDFTSize(2 * grid_.nx - 1);
+  if (!(clamp_floor >= 0.0 && clamp_floor < 1.0)) {
+    throw Error(fmt::format("ConvolutionCompliance: clamp_floor must be in [0, 1), got {}",
+                            clamp_floor));
+  }
+  const int hx = grid_.nx - 1, hy = grid_.ny - 1;
+  double largest = 0.0;
   for (int out = 0; out < 3; ++out) {
     for (int in = 0; in < 3; ++in) {
-      cv::Mat k = cv::Mat::zeros(spectra_->rows, spectra_->cols, CV_64F);
-      for (int dj = -(grid_.ny - 1); dj < grid_.ny; ++dj) {
-        for (int di = -(grid_.nx - 1); di < grid_.nx; ++di) {
-          const int r = (dj + spectra_->rows) % spectra_->rows;
-          const int c = (di + spectra_->cols) % spectra_->cols;
-          k.at<double>(r, c) = CalcHalfSpaceInfluence(
-              out, in, di * grid_.dx_mm, dj * grid_.dy_mm, grid_.dx_mm, grid_.dy_mm, material_);
+      const Eigen::MatrixXd& k = kernel_.k[out][in];
+      if (k.rows() != 2 * hy + 1 || k.cols() != 2 * hx + 1) {
+        throw Error(fmt::format("ConvolutionCompliance: kernel ({}, {}) is {} x {}, expected {} x {}",
+                                out, in, k.rows(), k.cols(), 2 * hy + 1, 2 * hx + 1));
+      }
+      if (!k.allFinite()) {
+        throw Error(fmt::format("ConvolutionCompliance: kernel ({}, {}) has non-finite entries",
+                                out, in));
+      }
+      largest = std::max(largest, k.cwiseAbs().maxCoeff());
+    }
+  }
+  double asymmetry = 0.0;
+  for (int out = 0; out < 3; ++out) {
+    for (int in = 0; in < 3; ++in) {
+      // K_ab(d) = K_ba(-d): the reversed kernel.
+      asymmetry = std::max(
+          asymmetry,
+          (kernel_.k[out][in] - kernel_.k[in][out].reverse()).cwiseAbs().maxCoeff());
+    }
+  }
+  if (asymmetry > 1e-9 * largest) {
+    throw Error(fmt::format(
+        "ConvolutionCompliance: the kernel is not reciprocal (max |K_ab(d) - K_ba(-d)| = {} mm/MPa)",
+        asymmetry));
+  }
+
+  // Offsets span -(n - 1)..(n - 1): padding to >= 2n - 1 makes the circular convolution linear.
+  const int rows = cv::getOptimalDFTSize(2 * grid_.ny - 1);
+  const int cols = cv::getOptimalDFTSize(2 * grid_.nx - 1);
+  spectra_->rows = rows;
+  spectra_->cols = cols;
+
+  // The symbol at every frequency (full complex spectra).
+  cv::Mat full[3][3];
+  for (int out = 0; out < 3; ++out) {
+    for (int in = 0; in < 3; ++in) {
+      cv::dft(WrapKernel(kernel_.k[out][in], rows, cols), full[out][in], cv::DFT_COMPLEX_OUTPUT);
+    }
+  }
+  std::vector<Eigen::Vector3d> eigenvalues(static_cast<size_t>(rows) * cols);
+  std::vector<Eigen::Matrix3cd> eigenvectors(eigenvalues.size());
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3cd> solver;
+  symbol_report_.num_frequencies = rows * cols;
+  symbol_report_.min_eigenvalue = std::numeric_limits<double>::infinity();
+  symbol_report_.max_eigenvalue = -std::numeric_limits<double>::infinity();
+  for (int r = 0; r < rows; ++r) {
+    for (int c = 0; c < cols; ++c) {
+      Eigen::Matrix3cd s;
+      for (int out = 0; out < 3; ++out) {
+        for (int in = 0; in < 3; ++in) {
+          const cv::Vec2d v = full[out][in].at<cv::Vec2d>(r, c);
+          s(out, in) = {v[0], v[1]};
         }
       }
-      cv::dft(k, spectra_->kernel[out][in]);
+      solver.compute(0.5 * (s + s.adjoint()));
+      const size_t f = static_cast<size_t>(r) * cols + c;
+      eigenvalues[f] = solver.eigenvalues();
+      eigenvectors[f] = solver.eigenvectors();
+      symbol_report_.min_eigenvalue = std::min(symbol_report_.min_eigenvalue, eigenvalues[f](0));
+      symbol_report_.max_eigenvalue = std::max(symbol_report_.max_eigenvalue, eigenvalues[f](2));
+    }
+  }
+  if (clamp_floor > 0.0) {
+    const double floor = clamp_floor * symbol_report_.max_eigenvalue;
+    for (size_t f = 0; f < eigenvalues.size(); ++f) {
+      symbol_report_.num_clamped += (eigenvalues[f].array() < floor).count();
+    }
+    if (symbol_report_.num_clamped > 0) {
+      for (int r = 0; r < rows; ++r) {
+        for (int c = 0; c < cols; ++c) {
+          const size_t f = static_cast<size_t>(r) * cols + c;
+          const Eigen::Vector3d clamped = eigenvalues[f].cwiseMax(floor);
+          const Eigen::Matrix3cd s =
+              eigenvectors[f] * clamped.asDiagonal() * eigenvectors[f].adjoint();
+          for (int out = 0; out < 3; ++out) {
+            for (int in = 0; in < 3; ++in) {
+              full[out][in].at<cv::Vec2d>(r, c) = {s(out, in).real(), s(out, in).imag()};
+            }
+          }
+        }
+      }
+      // Back to the kernel on the grid's offsets (the clamped circulant's, restricted).
+      for (int out = 0; out < 3; ++out) {
+        for (int in = 0; in < 3; ++in) {
+          cv::Mat wrapped;
+          cv::dft(full[out][in], wrapped, cv::DFT_INVERSE | cv::DFT_SCALE | cv::DFT_REAL_OUTPUT);
+          for (int dj = -hy; dj <= hy; ++dj) {
+            for (int di = -hx; di <= hx; ++di) {
+              kernel_.at(out, in, di, dj) = wrapped.at<double>((dj + rows) % rows, (di + cols) % cols);
+            }
+          }
+        }
+      }
+    }
+  }
+  for (int out = 0; out < 3; ++out) {
+    for (int in = 0; in < 3; ++in) {
+      cv::dft(WrapKernel(kernel_.k[out][in], rows, cols), spectra_->kernel[out][in]);
     }
   }
 }
 
-HalfSpaceCompliance::~HalfSpaceCompliance() = default;
+ConvolutionCompliance::~ConvolutionCompliance() = default;
 
-Eigen::MatrixXd HalfSpaceCompliance::Apply(Components out,
-                                           Components in,
-                                           const Eigen::MatrixXd& traction) const {
+Eigen::MatrixXd ConvolutionCompliance::Apply(Components out,
+                                             Components in,
+                                             const Eigen::MatrixXd& traction) const {
   const int n = grid_.num_nodes();
   TAC3D_DEMAND(traction.rows() == n && traction.cols() == Count(in));
   // Per-thread buffers: solvers call this thousands of times, and freeing and reallocating
@@ -172,7 +300,7 @@ Eigen::MatrixXd HalfSpaceCompliance::Apply(Components out,
     // Node j * nx + i is row j, column i of a row-major ny x nx image.
     cv::Mat(grid_.ny, grid_.nx, CV_64F, const_cast<double*>(traction.col(c).data()))
         .copyTo(work.padded(cv::Rect(0, 0, grid_.nx, grid_.ny)));
-    cv::dft(work.padded, work.traction_spectra[c]);
+    cv::dft(work.padded, work.traction_spectra[c], 0, grid_.ny);
   }
   Eigen::MatrixXd u(n, Count(out));
   for (int o = 0; o < Count(out); ++o) {
@@ -188,21 +316,45 @@ Eigen::MatrixXd HalfSpaceCompliance::Apply(Components out,
   return u;
 }
 
-Eigen::MatrixXd HalfSpaceCompliance::CalcDenseMatrix() const {
+Eigen::MatrixXd ConvolutionCompliance::CalcDenseMatrix() const {
   const int n = grid_.num_nodes();
   Eigen::MatrixXd c(3 * n, 3 * n);
   for (int out = 0; out < 3; ++out) {
     for (int in = 0; in < 3; ++in) {
       for (int s = 0; s < n; ++s) {
         for (int f = 0; f < n; ++f) {
-          const Eigen::Vector2d d = grid_.node_position_mm(f) - grid_.node_position_mm(s);
-          c(out * n + f, in * n + s) =
-              CalcHalfSpaceInfluence(out, in, d.x(), d.y(), grid_.dx_mm, grid_.dy_mm, material_);
+          const int di = f % grid_.nx - s % grid_.nx, dj = f / grid_.nx - s / grid_.nx;
+          c(out * n + f, in * n + s) = kernel_.at(out, in, di, dj);
         }
       }
     }
   }
   return c;
 }
+
+namespace {
+
+SampledKernel HalfSpaceKernel(const SurfaceGrid& grid, const fem::ElasticMaterial& material) {
+  grid.Validate();
+  material.Validate();
+  SampledKernel kernel = SampledKernel::Zero(grid);
+  for (int out = 0; out < 3; ++out) {
+    for (int in = 0; in < 3; ++in) {
+      for (int dj = -(grid.ny - 1); dj < grid.ny; ++dj) {
+        for (int di = -(grid.nx - 1); di < grid.nx; ++di) {
+          kernel.at(out, in, di, dj) = CalcHalfSpaceInfluence(
+              out, in, di * grid.dx_mm, dj * grid.dy_mm, grid.dx_mm, grid.dy_mm, material);
+        }
+      }
+    }
+  }
+  return kernel;
+}
+
+}  // namespace
+
+HalfSpaceCompliance::HalfSpaceCompliance(const SurfaceGrid& grid,
+                                         const fem::ElasticMaterial& material)
+    : convolution_(grid, HalfSpaceKernel(grid, material)) {}
 
 }  // namespace tac3d::contact

@@ -83,26 +83,83 @@ double CalcHalfSpaceInfluence(int out,
                               double dy_mm,
                               const fem::ElasticMaterial& material);
 
-/// The compliance of a homogeneous elastic half-space (the thick-block limit) on a grid, as a
-/// discrete convolution with the influence coefficients of CalcHalfSpaceInfluence, evaluated
-/// with zero-padded FFTs (OpenCV's cv::dft) in O(n log n).
-class HalfSpaceCompliance final : public ComplianceOperator {
+/// A translation-invariant kernel sampled at every offset between two nodes of a grid:
+/// k[out][in] is (2 ny - 1) x (2 nx - 1), entry (dj + ny - 1, di + nx - 1) the displacement
+/// component `out` (mm) at the node offset by (di dx, dj dy) from a cell loaded by 1 MPa in
+/// component `in` (ComplianceOperator's components and signs).
+struct SampledKernel {
+  Eigen::MatrixXd k[3][3];
+
+  /// Zero kernels of the right size for the grid.
+  static SampledKernel Zero(const SurfaceGrid& grid);
+  double& at(int out, int in, int di, int dj);
+  double at(int out, int in, int di, int dj) const;
+};
+
+/// How positive the Fourier symbol of a convolution compliance is: at every frequency of the
+/// zero-padded FFT the 3 x 3 Hermitian matrix S(w) = sum_d K(d) exp(-i w.d) (Hermitian because
+/// K_ab(d) = K_ba(-d)); the circulant operator is positive definite iff every S(w) is, and the
+/// grid's operator is a principal block of it.
+struct KernelSymbolReport {
+  int num_frequencies = 0;
+  double min_eigenvalue = 0.0;  ///< mm/MPa
+  double max_eigenvalue = 0.0;
+  /// Eigenvalues raised to the floor (ConvolutionCompliance's clamp_floor), 0 if not clamped.
+  int num_clamped = 0;
+};
+
+/// A compliance that is a discrete convolution with a sampled kernel on a grid, evaluated with
+/// zero-padded FFTs (OpenCV's cv::dft) in O(n log n): the half-space's, or the twin's kernel
+/// sampled from its FEM body.
+class ConvolutionCompliance final : public ComplianceOperator {
  public:
-  /// @throws tac3d::Error if the grid or the material is invalid.
-  HalfSpaceCompliance(const SurfaceGrid& grid, const fem::ElasticMaterial& material);
-  ~HalfSpaceCompliance() override;
+  /// @param clamp_floor if > 0, symbol eigenvalues below clamp_floor times the largest are
+  ///   raised to it (S := V max(L, floor) V^H), making the operator positive definite; a
+  ///   sampled kernel's tiny negative eigenvalues (rounding, truncation) are removed that way.
+  /// @throws tac3d::Error if the grid is invalid, a kernel has the wrong size or non-finite
+  ///   entries, it is not reciprocal (K_ab(d) = K_ba(-d) to 1e-9 of its largest entry), or
+  ///   clamp_floor is not in [0, 1).
+  ConvolutionCompliance(const SurfaceGrid& grid,
+                        const SampledKernel& kernel,
+                        double clamp_floor = 0.0);
+  ~ConvolutionCompliance() override;
   const SurfaceGrid& grid() const override { return grid_; }
   Eigen::MatrixXd Apply(Components out,
                         Components in,
                         const Eigen::MatrixXd& traction) const override;
-  /// The same operator as a 3n x 3n matrix (DenseCompliance's order), by direct summation.
+  /// The operator as a 3n x 3n matrix (DenseCompliance's order), from the kernel as clamped.
   Eigen::MatrixXd CalcDenseMatrix() const;
+  /// The kernel as used (after clamping).
+  const SampledKernel& kernel() const { return kernel_; }
+  /// The symbol's eigenvalues before clamping.
+  const KernelSymbolReport& symbol_report() const { return symbol_report_; }
 
  private:
   struct Spectra;
   SurfaceGrid grid_;
-  fem::ElasticMaterial material_;
+  SampledKernel kernel_;
+  KernelSymbolReport symbol_report_;
   std::unique_ptr<Spectra> spectra_;
+};
+
+/// The compliance of a homogeneous elastic half-space (the thick-block limit) on a grid: the
+/// convolution (ConvolutionCompliance) with the influence coefficients of
+/// CalcHalfSpaceInfluence.
+class HalfSpaceCompliance final : public ComplianceOperator {
+ public:
+  /// @throws tac3d::Error if the grid or the material is invalid.
+  HalfSpaceCompliance(const SurfaceGrid& grid, const fem::ElasticMaterial& material);
+  const SurfaceGrid& grid() const override { return convolution_.grid(); }
+  Eigen::MatrixXd Apply(Components out,
+                        Components in,
+                        const Eigen::MatrixXd& traction) const override {
+    return convolution_.Apply(out, in, traction);
+  }
+  /// The same operator as a 3n x 3n matrix (DenseCompliance's order), by direct summation.
+  Eigen::MatrixXd CalcDenseMatrix() const { return convolution_.CalcDenseMatrix(); }
+
+ private:
+  ConvolutionCompliance convolution_;
 };
 
 }  // namespace tac3d::contact

@@ -126,10 +126,15 @@ TwinDatasetWriter::TwinDatasetWriter(const std::string& folder, const nlohmann::
     fs::create_directories(folder + sub, ec);
     if (ec) throw Error(fmt::format("cannot create '{}{}': {}", folder, sub, ec.message()));
   }
-  nlohmann::json h = header;
-  h["format"] = kFormat;
-  h["version"] = kVersion;
-  WriteText(folder + "/dataset.json", h.dump(2) + "\n");
+  header_ = header;
+  header_["format"] = kFormat;
+  header_["version"] = kVersion;
+  WriteText(folder + "/dataset.json", header_.dump(2) + "\n");
+}
+
+void TwinDatasetWriter::UpdateHeader(const nlohmann::json& keys) {
+  for (const auto& [key, value] : keys.items()) header_[key] = value;
+  WriteText(folder_ + "/dataset.json", header_.dump(2) + "\n");
 }
 
 void TwinDatasetWriter::Write(const TwinStep& step) {

@@ -59,10 +59,15 @@ class TwinDatasetWriter {
   /// @throws Error if a file cannot be written or the step's arrays disagree in length.
   void Write(const TwinStep& step);
 
+  /// Adds (or replaces) top-level keys of `dataset.json`, rewritten atomically, e.g. the
+  /// run's timings once it is over. @throws Error if it cannot be written.
+  void UpdateHeader(const nlohmann::json& keys);
+
   const std::string& folder() const { return folder_; }
 
  private:
   std::string folder_;
+  nlohmann::json header_;
   int markers_ = -1;
 };
 

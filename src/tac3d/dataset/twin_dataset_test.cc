@@ -64,6 +64,18 @@ TEST(TwinDataset, StepsRoundTripExactly) {
   EXPECT_TRUE(reader.Read(1).surface.positions_mm.empty());  // not asked for
 }
 
+TEST(TwinDataset, UpdateHeaderAddsKeysAndKeepsTheRest) {
+  const std::string dir = testing::MakeTempDir("dataset_header") + "/run";
+  TwinDatasetWriter writer(dir, {{"name", "unit"}, {"steps", 3}});
+  writer.Write(MakeStep(0));
+  writer.UpdateHeader({{"steps", 1}, {"timings", {{"total_s", 0.5}}}});
+  const TwinDatasetReader reader(dir);
+  EXPECT_EQ(reader.header().at("name"), "unit");
+  EXPECT_EQ(reader.header().at("steps"), 1);
+  EXPECT_EQ(reader.header().at("timings").at("total_s"), 0.5);
+  EXPECT_EQ(reader.steps(), (std::vector<int>{0}));
+}
+
 TEST(TwinDataset, AStepCutShortIsNotListedAndDamageIsNamed) {
   const std::string dir = testing::MakeTempDir("dataset") + "/cut";
   {

@@ -1,83 +1,19 @@
 #include "tac3d/fem/compliance.h"
 
-#include <unistd.h>
-
-#include <bit>
 #include <chrono>
-#include <cstring>
-#include <ctime>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 
+#include "tac3d/util/cache_file.h"
 #include "tac3d/util/error.h"
 
 namespace tac3d::fem {
 namespace {
 
-static_assert(std::endian::native == std::endian::little, "the cache format is little-endian");
-
 // Bump whenever a change to the mesh, the element or the loads changes H: it is part of the
 // cache key, so models cached by older code are rebuilt.
 constexpr int kFemModelRevision = 1;
-constexpr char kMagic[8] = {'T', 'A', 'C', '3', 'D', 'F', 'E', 'M'};
+constexpr char kMagic[] = "TAC3DFEM";
 constexpr std::uint32_t kFormatVersion = 1;
-
-std::uint64_t Fnv1a(const void* data, size_t size, std::uint64_t hash = 14695981039346656037ULL) {
-  const auto* bytes = static_cast<const unsigned char*>(data);
-  for (size_t i = 0; i < size; ++i) {
-    hash ^= bytes[i];
-    hash *= 1099511628211ULL;
-  }
-  return hash;
-}
-
-std::string UtcNow() {
-  const std::time_t now = std::time(nullptr);
-  std::tm utc{};
-  gmtime_r(&now, &utc);
-  char text[32];
-  std::strftime(text, sizeof(text), "%Y-%m-%dT%H:%M:%SZ", &utc);
-  return text;
-}
-
-// Appends a trivially copyable value's bytes.
-template <typename T>
-void Put(std::string* out, const T& value) {
-  out->append(reinterpret_cast<const char*>(&value), sizeof(T));
-}
-
-// Reads sequentially from a byte buffer, throwing on truncation.
-class Reader {
- public:
-  Reader(const std::string& bytes, const std::string& path) : bytes_(bytes), path_(path) {}
-
-  template <typename T>
-  T Get(const char* what) {
-    T value;
-    std::memcpy(&value, Take(sizeof(T), what), sizeof(T));
-    return value;
-  }
-  const char* Take(size_t size, const char* what) {
-    if (size > bytes_.size() - offset_) {
-      throw Error(fmt::format("{}: truncated while reading {} ({} bytes at offset {}, file has {})",
-                              path_,
-                              what,
-                              size,
-                              offset_,
-                              bytes_.size()));
-    }
-    const char* p = bytes_.data() + offset_;
-    offset_ += size;
-    return p;
-  }
-  size_t offset() const { return offset_; }
-
- private:
-  const std::string& bytes_;
-  const std::string& path_;
-  size_t offset_ = 0;
-};
 
 ComplianceProvenance ProvenanceFromJson(const nlohmann::json& json) {
   ComplianceProvenance p;
@@ -151,33 +87,11 @@ std::uint64_t CalcComplianceCacheKey(const BodyModelOptions& options) {
 }
 
 void SaveComplianceModel(const ComplianceModel& model, const std::string& path) {
-  const std::string json =
-      nlohmann::json{{"options", ToJson(model.options)}, {"provenance", ToJson(model.provenance)}}
-          .dump();
-  std::string body;  // everything after the magic, which the checksum covers
-  Put(&body, kFormatVersion);
-  Put(&body, CalcComplianceCacheKey(model.options));
-  Put(&body, static_cast<std::uint64_t>(json.size()));
-  body += json;
-  Put(&body, static_cast<std::uint64_t>(model.h.rows()));
-  Put(&body, static_cast<std::uint64_t>(model.h.cols()));
-  body.append(reinterpret_cast<const char*>(model.h.data()), model.h.size() * sizeof(double));
-  const std::uint64_t checksum = Fnv1a(body.data(), body.size());
-
-  const std::string temporary = fmt::format("{}.tmp{}", path, getpid());
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    out.write(kMagic, sizeof(kMagic));
-    out.write(body.data(), static_cast<std::streamsize>(body.size()));
-    out.write(reinterpret_cast<const char*>(&checksum), sizeof(checksum));
-    if (!out) throw Error(fmt::format("cannot write the compliance model to {}", temporary));
-  }
-  std::error_code error;
-  std::filesystem::rename(temporary, path, error);
-  if (error) {
-    std::filesystem::remove(temporary, error);
-    throw Error(fmt::format("cannot rename {} to {}", temporary, path));
-  }
+  CacheRecord record;
+  record.key = CalcComplianceCacheKey(model.options);
+  record.header = {{"options", ToJson(model.options)}, {"provenance", ToJson(model.provenance)}};
+  record.matrices.push_back(model.h);
+  WriteCacheRecord(path, kMagic, kFormatVersion, record);
 }
 
 namespace {
@@ -189,53 +103,22 @@ struct CacheFile {
 
 // Reads and checks a file's structure and checksum; the key is returned, not judged.
 CacheFile ReadCacheFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(fmt::format("{}: cannot open", path));
-  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  Reader reader(bytes, path);
-  if (std::memcmp(reader.Take(sizeof(kMagic), "the magic"), kMagic, sizeof(kMagic)) != 0) {
-    throw Error(fmt::format("{}: not a tac3d compliance model (wrong magic)", path));
-  }
-  const size_t body_begin = reader.offset();
-  const auto version = reader.Get<std::uint32_t>("the format version");
-  if (version != kFormatVersion) {
-    throw Error(fmt::format("{}: format version {}, expected {}", path, version, kFormatVersion));
-  }
-  const auto key = reader.Get<std::uint64_t>("the key");
-  const auto json_size = reader.Get<std::uint64_t>("the JSON length");
-  const char* json_text = reader.Take(json_size, "the JSON header");
-  const auto rows = reader.Get<std::uint64_t>("the row count");
-  const auto cols = reader.Get<std::uint64_t>("the column count");
-  if (rows > (1u << 20) || cols > (1u << 20)) {
-    throw Error(fmt::format("{}: implausible matrix size {} x {}", path, rows, cols));
-  }
-  const char* data = reader.Take(rows * cols * sizeof(double), "the matrix");
-  const size_t body_end = reader.offset();
-  const auto checksum = reader.Get<std::uint64_t>("the checksum");
-  if (reader.offset() != bytes.size()) {
-    throw Error(
-        fmt::format("{}: {} bytes after the checksum", path, bytes.size() - reader.offset()));
-  }
-  if (Fnv1a(bytes.data() + body_begin, body_end - body_begin) != checksum) {
-    throw Error(fmt::format("{}: checksum mismatch (the file is corrupt)", path));
-  }
-
+  CacheRecord record = ReadCacheRecord(path, kMagic, kFormatVersion);
   CacheFile file;
-  file.key = key;
+  file.key = record.key;
   ComplianceModel& model = file.model;
   try {
-    const nlohmann::json header = nlohmann::json::parse(json_text, json_text + json_size);
-    model.options = BodyModelOptionsFromJson(header.at("options"));
-    model.provenance = ProvenanceFromJson(header.at("provenance"));
+    model.options = BodyModelOptionsFromJson(record.header.at("options"));
+    model.provenance = ProvenanceFromJson(record.header.at("provenance"));
   } catch (const nlohmann::json::exception& e) {
     throw Error(fmt::format("{}: invalid JSON header: {}", path, e.what()));
   }
   const auto n = static_cast<Eigen::Index>(3 * model.options.num_markers());
-  if (static_cast<Eigen::Index>(rows) != n || static_cast<Eigen::Index>(cols) != n) {
-    throw Error(fmt::format("{}: H is {} x {}, expected {} x {}", path, rows, cols, n, n));
+  if (record.matrices.size() != 1 || record.matrices[0].rows() != n ||
+      record.matrices[0].cols() != n) {
+    throw Error(fmt::format("{}: expected one {} x {} matrix H", path, n, n));
   }
-  model.h.resize(n, n);
-  std::memcpy(model.h.data(), data, rows * cols * sizeof(double));
+  model.h = std::move(record.matrices[0]);
   model.marker_positions = CalcMarkerPositions(model.options);
   return file;
 }

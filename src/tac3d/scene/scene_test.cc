@@ -18,7 +18,7 @@ using ::testing::HasSubstr;
 const char* kSlide = R"(
 name: slide
 sensor: default
-deviation: {mesh_refinement: 2.0, youngs_modulus_factor: 1.1}
+deviation: {mesh_refinement: 1.25, youngs_modulus_factor: 1.1}
 objects:
   - name: block
     shape: box
@@ -55,6 +55,7 @@ std::string Replace(std::string text, const std::string& from, const std::string
 TEST(Scene, ParsesObjectsFrictionAndTrajectory) {
   const Scene scene = ParseScene(kSlide, "test.yaml", "");
   EXPECT_EQ(scene.name, "slide");
+  EXPECT_DOUBLE_EQ(scene.deviation.mesh_refinement, 1.25);
   EXPECT_DOUBLE_EQ(scene.deviation.youngs_modulus_factor, 1.1);
   EXPECT_DOUBLE_EQ(scene.deviation.poisson_ratio_factor, TwinDeviation{}.poisson_ratio_factor);
   ASSERT_EQ(scene.objects.size(), 1u);
@@ -64,6 +65,15 @@ TEST(Scene, ParsesObjectsFrictionAndTrajectory) {
   EXPECT_DOUBLE_EQ(block.FrictionAt({5, 0, -5}), 0.4);    // the smooth half
   EXPECT_DOUBLE_EQ(block.FrictionAt({10.5, 0, -5}), 1.5); // the ball region
   EXPECT_NEAR(block.world_from_object.translation().z(), 13.5, 0);
+}
+
+TEST(Scene, DefaultDeviationRefinesTheMeshOneAndAHalfTimes) {
+  // 1.5 is the finest refinement of the default dome that the simulation solves directly.
+  const Scene scene =
+      ParseScene(Replace(kSlide, "deviation: {mesh_refinement: 1.25, youngs_modulus_factor: 1.1}\n", ""),
+                 "test.yaml", "");
+  EXPECT_DOUBLE_EQ(scene.deviation.mesh_refinement, 1.5);
+  EXPECT_DOUBLE_EQ(scene.deviation.youngs_modulus_factor, TwinDeviation{}.youngs_modulus_factor);
 }
 
 TEST(Trajectory, InterpolatesPositionLinearlyAndRotationBySlerp) {

@@ -1,0 +1,144 @@
+#include <cstdio>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "commands.h"
+#include "tac3d/dataset/twin_dataset.h"
+#include "tac3d/simulation/simulation.h"
+#include "tac3d/util/error.h"
+
+namespace tac3d::cli {
+namespace {
+
+const char* Describe(fem::ComplianceCacheStatus status) {
+  switch (status) {
+    case fem::ComplianceCacheStatus::kLoaded:
+      return "loaded from the cache";
+    case fem::ComplianceCacheStatus::kBuiltMissing:
+      return "built (not cached yet)";
+    case fem::ComplianceCacheStatus::kRebuiltStale:
+      return "rebuilt (the cached file was stale)";
+    case fem::ComplianceCacheStatus::kRebuiltCorrupt:
+      return "rebuilt (the cached file was corrupt)";
+  }
+  return "?";
+}
+
+nlohmann::json ToJson(const TwinDeviation& d) {
+  return {{"mesh_refinement", d.mesh_refinement},
+          {"youngs_modulus_factor", d.youngs_modulus_factor},
+          {"poisson_ratio_factor", d.poisson_ratio_factor}};
+}
+
+struct SimulateArgs {
+  std::string scene;
+  std::string out;
+  std::string cache_dir = DefaultCacheDir();
+  bool no_images = false;
+  int steps = 0;
+  bool json = false;
+};
+
+}  // namespace
+
+void RegisterSimulate(CLI::App& app) {
+  auto args = std::make_shared<SimulateArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "simulate", "Run the digital twin's frictional contact along a scene; write a dataset");
+  cmd->add_option("--scene", args->scene, "scene YAML file or built-in name")->required();
+  cmd->add_option("--out", args->out, "dataset folder to create (must be new or empty)")
+      ->required();
+  cmd->add_option("--cache", args->cache_dir, "directory of cached twin body models")
+      ->capture_default_str();
+  cmd->add_flag("--no-images", args->no_images, "do not render camera images");
+  cmd->add_option("--steps", args->steps, "simulate only the first N steps (0: all)")
+      ->capture_default_str();
+  cmd->add_flag("--json", args->json, "print the summary as JSON");
+  cmd->callback([args] {
+    if (args->steps < 0) throw Error(fmt::format("--steps must be >= 0, got {}", args->steps));
+    const Scene scene = LoadSceneOrBuiltIn(args->scene);
+    const fem::BodyModelOptions body =
+        simulation::TwinBodyModelOptions(scene.sensor, scene.deviation);
+    // The output folder first, so a bad --out fails before a long model build.
+    TwinDatasetWriter writer(
+        args->out,
+        {{"name", scene.name}, {"scene", args->scene}, {"deviation", ToJson(scene.deviation)}});
+    MakeDirectory(args->cache_dir);
+    simulation::TwinBodyCacheResult cached = simulation::LoadOrBuildTwinBodyModel(
+        body, simulation::TwinBodyOptions{}, args->cache_dir, /*show_progress=*/true);
+    std::fprintf(stderr,
+                 "twin body %s in %.1f s: %s\n",
+                 Describe(cached.status),
+                 cached.elapsed_s,
+                 cached.path.c_str());
+    if (!cached.reason.empty())
+      std::fprintf(stderr, "why not the cached file: %s\n", cached.reason.c_str());
+    const auto model = std::make_shared<const simulation::TwinBodyModel>(std::move(cached.model));
+
+    simulation::SimulationOptions options;
+    options.render_images = !args->no_images;
+    options.max_steps = args->steps;
+    options.show_progress = true;
+    simulation::TwinSimulation sim(scene, model, options);
+    const contact::KernelSymbolReport& symbol = sim.compliance().symbol_report();
+    const nlohmann::json model_json = {{"cache_file", cached.path},
+                                       {"cache_status", Describe(cached.status)},
+                                       {"load_or_build_s", cached.elapsed_s},
+                                       {"body", fem::ToJson(model->body)},
+                                       {"options", simulation::ToJson(model->options)},
+                                       {"grid",
+                                        {{"nx", model->grid.nx},
+                                         {"ny", model->grid.ny},
+                                         {"dx_mm", model->grid.dx_mm},
+                                         {"dy_mm", model->grid.dy_mm}}},
+                                       {"symbol",
+                                        {{"min_eigenvalue", symbol.min_eigenvalue},
+                                         {"max_eigenvalue", symbol.max_eigenvalue},
+                                         {"num_clamped", symbol.num_clamped},
+                                         {"num_frequencies", symbol.num_frequencies}}},
+                                       {"provenance", simulation::ToJson(model->provenance)}};
+    writer.UpdateHeader({{"steps", sim.num_steps()}, {"twin_body", model_json}});
+    const simulation::SimulationSummary summary =
+        sim.Run([&writer](const TwinStep& step) { writer.Write(step); });
+    const nlohmann::json summary_json = simulation::ToJson(summary);
+    writer.UpdateHeader({{"summary", summary_json}});
+    if (args->json) {
+      std::printf("%s\n",
+                  nlohmann::json{
+                      {"dataset", args->out}, {"twin_body", model_json}, {"summary", summary_json}}
+                      .dump(2)
+                      .c_str());
+      return;
+    }
+    const nlohmann::json& ms = summary_json.at("per_step_ms");
+    std::printf("%d steps (%d in contact) -> %s\n",
+                summary.steps,
+                summary.contact_steps,
+                args->out.c_str());
+    std::printf(
+        "contact solver: %d not converged; max iterations normal %d, tangential %d, "
+        "coupling %d; max penetration %.3g mm, max cone violation %.3g MPa\n",
+        summary.non_converged_steps,
+        summary.max_normal_iterations,
+        summary.max_tangential_iterations,
+        summary.max_coupling_iterations,
+        summary.max_penetration_mm,
+        summary.max_cone_violation_mpa);
+    if (summary.contact_at_grid_edge_steps > 0) {
+      std::printf("warning: %d steps touch the contact grid's edge\n",
+                  summary.contact_at_grid_edge_steps);
+    }
+    std::printf(
+        "time %.1f s: per step %.1f ms (gap %.1f, contact %.1f, response %.1f, render "
+        "%.1f, write %.1f)\n",
+        summary.timings.total_s,
+        ms.at("total").get<double>(),
+        ms.at("gap").get<double>(),
+        ms.at("contact").get<double>(),
+        ms.at("response").get<double>(),
+        ms.at("render").get<double>(),
+        ms.at("write").get<double>());
+  });
+}
+
+}  // namespace tac3d::cli

@@ -1,0 +1,248 @@
+#include "tac3d/simulation/simulation.h"
+
+#include <chrono>
+#include <cmath>
+
+#include "tac3d/twin/camera_renderer.h"
+#include "tac3d/util/error.h"
+#include "tac3d/util/progress.h"
+
+namespace tac3d::simulation {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double Seconds(Clock::time_point since) {
+  return std::chrono::duration<double>(Clock::now() - since).count();
+}
+
+tac3d::ContactState ToDatasetState(contact::NodeState state) {
+  switch (state) {
+    case contact::NodeState::kSeparated:
+      return tac3d::ContactState::kSeparated;
+    case contact::NodeState::kStick:
+      return tac3d::ContactState::kStick;
+    case contact::NodeState::kSlip:
+      return tac3d::ContactState::kSlip;
+  }
+  return tac3d::ContactState::kSeparated;
+}
+
+}  // namespace
+
+contact::ContactSolverOptions DefaultSimulationContactOptions() {
+  contact::ContactSolverOptions o;
+  o.normal_tolerance = 1e-6;
+  o.tangential_tolerance = 1e-6;
+  o.coupling_tolerance = 1e-6;
+  return o;
+}
+
+void SimulationOptions::Validate() const {
+  if (max_steps < 0) {
+    throw Error(fmt::format("SimulationOptions.max_steps must be >= 0, got {}", max_steps));
+  }
+  contact.Validate();
+}
+
+nlohmann::json ToJson(const SimulationSummary& s) {
+  const SimulationTimings& t = s.timings;
+  const double per_step = s.steps > 0 ? 1.0 / s.steps : 0.0;
+  return {{"steps", s.steps},
+          {"contact_steps", s.contact_steps},
+          {"non_converged_steps", s.non_converged_steps},
+          {"max_normal_iterations", s.max_normal_iterations},
+          {"max_tangential_iterations", s.max_tangential_iterations},
+          {"max_coupling_iterations", s.max_coupling_iterations},
+          {"contact_at_grid_edge_steps", s.contact_at_grid_edge_steps},
+          {"max_cone_violation_mpa", s.max_cone_violation_mpa},
+          {"max_penetration_mm", s.max_penetration_mm},
+          {"timings_s",
+           {{"gap", t.gap_s},
+            {"contact", t.contact_s},
+            {"response", t.response_s},
+            {"render", t.render_s},
+            {"write", t.write_s},
+            {"total", t.total_s}}},
+          {"per_step_ms",
+           {{"gap", 1e3 * t.gap_s * per_step},
+            {"contact", 1e3 * t.contact_s * per_step},
+            {"response", 1e3 * t.response_s * per_step},
+            {"render", 1e3 * t.render_s * per_step},
+            {"write", 1e3 * t.write_s * per_step},
+            {"total", 1e3 * t.total_s * per_step}}}};
+}
+
+TwinSimulation::TwinSimulation(const Scene& scene,
+                               std::shared_ptr<const TwinBodyModel> model,
+                               const SimulationOptions& options)
+    : scene_(scene),
+      model_(std::move(model)),
+      options_(options),
+      compliance_(model_ ? std::make_shared<contact::ConvolutionCompliance>(
+                               model_->grid, model_->kernel, model_->options.clamp_floor)
+                         : nullptr),
+      solver_(compliance_, options.contact) {
+  scene_.Validate();
+  options_.Validate();
+  TAC3D_DEMAND(model_ != nullptr);
+  if (model_->body.marker_rows != scene_.sensor.markers.rows ||
+      model_->body.marker_cols != scene_.sensor.markers.cols) {
+    throw Error(
+        fmt::format("TwinSimulation: the twin body has {} x {} markers, the scene's sensor {} x {}",
+                    model_->body.marker_rows,
+                    model_->body.marker_cols,
+                    scene_.sensor.markers.rows,
+                    scene_.sensor.markers.cols));
+  }
+  surface_points_ = model_->CalcNodeSurfacePoints();
+  node_markers_ = model_->CalcNodeMarkers();
+  caster_ = std::make_unique<GapCaster>(
+      scene_.objects, model_->grid, surface_points_, model_->CalcActiveNodes());
+  if (options_.render_images) renderer_ = std::make_unique<MarkerImageRenderer>(scene_.sensor);
+  state_ = contact::ContactState::Unloaded(model_->grid.num_nodes());
+}
+
+TwinSimulation::~TwinSimulation() = default;
+
+int TwinSimulation::num_steps() const {
+  const int all = scene_.trajectory.steps;
+  return options_.max_steps > 0 ? std::min(all, options_.max_steps) : all;
+}
+
+TwinStep TwinSimulation::Step() {
+  TAC3D_DEMAND(next_step_ < num_steps());
+  const auto step_start = Clock::now();
+  const int k = next_step_++;
+  const TwinBodyModel& model = *model_;
+  const contact::SurfaceGrid& grid = model.grid;
+  const int n = grid.num_nodes();
+  const int num_markers = static_cast<int>(model.marker_positions.size());
+  SimulationTimings& timings = summary_.timings;
+
+  TwinStep out;
+  out.index = k;
+  out.t_s = scene_.trajectory.StepTime(k);
+  out.world_from_sensor = scene_.trajectory.PoseAt(out.t_s);
+
+  auto start = Clock::now();
+  const GapField gaps = caster_->Cast(out.world_from_sensor);
+  timings.gap_s += Seconds(start);
+
+  // The object's rigid tangential motion relative to the sensor since the previous step; none
+  // when the previous step touched nothing (a new contact starts from an undragged surface).
+  Eigen::Vector2d increment = Eigen::Vector2d::Zero();
+  if (previous_contact_) {
+    const Rigid3 motion = out.world_from_sensor.inverse() * previous_pose_;
+    increment = ((motion * previous_centroid_) - previous_centroid_).head<2>();
+  }
+  previous_pose_ = out.world_from_sensor;
+
+  start = Clock::now();
+  std::vector<contact::NodeState> node_state(n, contact::NodeState::kSeparated);
+  const bool touching = (gaps.gap_mm.array() <= 0.0).any();
+  if (touching) {
+    contact::ContactStep step;
+    step.gap_mm = gaps.gap_mm;
+    step.friction_coefficient = gaps.friction_coefficient;
+    step.normal_control = contact::NormalControl::kApproach;
+    step.approach_mm = 0.0;
+    step.tangential_control = contact::TangentialControl::kShift;
+    step.shift_mm = state_.shift_mm + increment;
+    contact::ContactResult result = solver_.Solve(step, state_);
+    const contact::ContactSummary& s = result.summary;
+    out.solver = contact::ToJson(s);
+    summary_.max_normal_iterations = std::max(summary_.max_normal_iterations, s.normal_iterations);
+    summary_.max_tangential_iterations =
+        std::max(summary_.max_tangential_iterations, s.tangential_iterations);
+    summary_.max_coupling_iterations =
+        std::max(summary_.max_coupling_iterations, s.coupling_iterations);
+    summary_.max_cone_violation_mpa =
+        std::max(summary_.max_cone_violation_mpa, s.max_cone_violation_mpa);
+    summary_.max_penetration_mm = std::max(summary_.max_penetration_mm, s.max_penetration_mm);
+    if (s.status != contact::ContactStatus::kConverged) ++summary_.non_converged_steps;
+    if (s.num_contact > 0) {
+      ++summary_.contact_steps;
+      if (s.contact_at_grid_edge) ++summary_.contact_at_grid_edge_steps;
+      node_state = std::move(result.node_state);
+      state_ = std::move(result.state);
+    } else {
+      state_ = contact::ContactState::Unloaded(n);
+    }
+  } else {
+    out.solver = {{"status", "separated"}, {"num_contact", 0}};
+    state_ = contact::ContactState::Unloaded(n);
+  }
+  timings.contact_s += Seconds(start);
+
+  start = Clock::now();
+  const double area = grid.cell_area_mm2();
+  Eigen::VectorXd displacement = Eigen::VectorXd::Zero(3 * num_markers);
+  out.marker_forces_n.assign(num_markers, Eigen::Vector3d::Zero());
+  out.marker_contact.assign(num_markers, 0);
+  out.marker_slip.assign(num_markers, 0);
+  if (options_.keep_surface) {
+    out.surface.positions_mm = surface_points_;
+    out.surface.tractions_mpa.assign(n, Eigen::Vector3d::Zero());
+    out.surface.states.assign(n, tac3d::ContactState::kSeparated);
+  }
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  double weight = 0.0;
+  for (int i = 0; i < n; ++i) {
+    if (node_state[i] == contact::NodeState::kSeparated) continue;
+    const double p = state_.pressure_mpa[i];
+    const Eigen::Vector3d traction(state_.traction_mpa(i, 0), state_.traction_mpa(i, 1), -p);
+    const Eigen::Vector3d force = area * traction;
+    for (int c = 0; c < 3; ++c) displacement += model.marker_response.col(c * n + i) * force[c];
+    out.total_force_n += force;
+    out.total_moment_nmm += surface_points_[i].cross(force);
+    centroid += p * surface_points_[i];
+    weight += p;
+    if (const int m = node_markers_[i]; m >= 0) {
+      out.marker_forces_n[m] += force;
+      out.marker_contact[m] = 1;
+      if (node_state[i] == contact::NodeState::kSlip) out.marker_slip[m] = 1;
+    }
+    if (options_.keep_surface) {
+      out.surface.tractions_mpa[i] = traction;
+      out.surface.states[i] = ToDatasetState(node_state[i]);
+    }
+  }
+  previous_contact_ = weight > 0.0;
+  if (previous_contact_) previous_centroid_ = centroid / weight;
+  out.marker_positions_mm.resize(num_markers);
+  for (int m = 0; m < num_markers; ++m) {
+    out.marker_positions_mm[m] =
+        model.marker_positions[m] + Eigen::Vector3d(displacement[m],
+                                                    displacement[num_markers + m],
+                                                    displacement[2 * num_markers + m]);
+  }
+  timings.response_s += Seconds(start);
+
+  if (renderer_) {
+    start = Clock::now();
+    out.image = renderer_->Render(out.marker_positions_mm, static_cast<std::uint64_t>(k));
+    timings.render_s += Seconds(start);
+  }
+  ++summary_.steps;
+  timings.total_s += Seconds(step_start);
+  return out;
+}
+
+SimulationSummary TwinSimulation::Run(const std::function<void(const TwinStep&)>& sink) {
+  ProgressBar progress("simulate", num_steps(), options_.show_progress);
+  while (next_step_ < num_steps()) {
+    const TwinStep step = Step();
+    if (sink) {
+      const auto start = Clock::now();
+      sink(step);
+      const double write_s = Seconds(start);
+      summary_.timings.write_s += write_s;
+      summary_.timings.total_s += write_s;
+    }
+    progress.Update(next_step_);
+  }
+  progress.Finish();
+  return summary_;
+}
+
+}  // namespace tac3d::simulation

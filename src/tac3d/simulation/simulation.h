@@ -1,0 +1,125 @@
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <vector>
+
+#include "tac3d/contact/contact_solver.h"
+#include "tac3d/dataset/twin_dataset.h"
+#include "tac3d/scene/scene.h"
+#include "tac3d/simulation/gap.h"
+#include "tac3d/simulation/twin_body.h"
+
+namespace tac3d {
+class MarkerImageRenderer;
+}
+
+namespace tac3d::simulation {
+
+/// The contact solver's options for the simulation: tolerances the twin's truth needs (1e-6,
+/// relative), not an oracle's (contact's defaults, 1e-8 to 1e-10); measured in
+/// docs/simulation.md.
+contact::ContactSolverOptions DefaultSimulationContactOptions();
+
+struct SimulationOptions {
+  contact::ContactSolverOptions contact = DefaultSimulationContactOptions();
+  /// Render each step's camera image (MarkerImageRenderer with the scene's sensor, frame
+  /// index = step, so the noise differs per frame).
+  bool render_images = true;
+  /// Keep the surface tractions in each TwinStep (TwinStep::surface).
+  bool keep_surface = true;
+  /// Simulate only the first this many steps (0: all of the trajectory's).
+  int max_steps = 0;
+  /// A tac3d::ProgressBar on stderr over the steps.
+  bool show_progress = false;
+
+  /// @throws tac3d::Error naming the field: max_steps >= 0, the contact options' bounds.
+  void Validate() const;
+};
+
+/// Wall time of a run's phases (s), summed over the steps.
+struct SimulationTimings {
+  double gap_s = 0.0;       ///< ray casting the gaps and friction
+  double contact_s = 0.0;   ///< the contact solves
+  double response_s = 0.0;  ///< marker positions, forces, moments
+  double render_s = 0.0;    ///< camera images
+  double write_s = 0.0;     ///< the dataset writer (or the step callback)
+  double total_s = 0.0;
+};
+
+struct SimulationSummary {
+  int steps = 0;
+  /// Steps with at least one node in contact.
+  int contact_steps = 0;
+  /// Steps whose contact solve did not converge (ContactStatus other than kConverged).
+  int non_converged_steps = 0;
+  int max_normal_iterations = 0;
+  int max_tangential_iterations = 0;
+  int max_coupling_iterations = 0;
+  /// Steps with contact on the grid's outer row or column (the grid is too small).
+  int contact_at_grid_edge_steps = 0;
+  double max_cone_violation_mpa = 0.0;
+  double max_penetration_mm = 0.0;
+  SimulationTimings timings;
+};
+
+nlohmann::json ToJson(const SimulationSummary& summary);
+
+/// The twin's quasi-static frictional contact along a scene's trajectory (docs/simulation.md).
+/// Step k: the pose world_from_sensor_k; the gap and mu of every contact node by GapCaster;
+/// one ContactSolver step (normal: kApproach with delta = 0, the gap holds the penetration;
+/// tangential: kShift, the shift accumulating the object's rigid motion relative to the sensor,
+/// the increment being the (x, y) motion of the previous step's pressure centroid under
+/// sensor_from_world_k * world_from_sensor_{k-1}, zero after a step without contact); the state of
+/// step k - 1 is the history of step k, reset to Unloaded when nothing touches. Then the truth:
+/// node tractions in the sensor frame (the object's push on the fingertip: (q_x, q_y, -p)), nodal
+/// forces = traction x cell area, marker forces (the sum over a marker's patch), the total
+/// force and its moment about the sensor origin (arms = node surface points), marker
+/// positions = rest + M f, marker contact and slip flags, and the rendered image.
+class TwinSimulation {
+ public:
+  /// @throws tac3d::Error if the scene or the options are invalid, or the model's body is not
+  ///   the scene's marker grid.
+  TwinSimulation(const Scene& scene,
+                 std::shared_ptr<const TwinBodyModel> model,
+                 const SimulationOptions& options = {});
+  ~TwinSimulation();
+
+  /// The number of steps Run simulates.
+  int num_steps() const;
+
+  /// Simulates the next step (0, 1, ...) and returns its truth; timings accumulate.
+  /// @pre the trajectory has steps left (TAC3D_DEMAND).
+  TwinStep Step();
+
+  /// Simulates every remaining step, handing each to `sink` (e.g. TwinDatasetWriter::Write;
+  /// its time is the write time).
+  SimulationSummary Run(const std::function<void(const TwinStep&)>& sink);
+
+  /// The contact state the next step starts from.
+  const contact::ContactState& state() const { return state_; }
+  const SimulationSummary& summary() const { return summary_; }
+  const TwinBodyModel& model() const { return *model_; }
+  /// The surface compliance the contact solver uses (its symbol's eigenvalue report).
+  const contact::ConvolutionCompliance& compliance() const { return *compliance_; }
+
+ private:
+  Scene scene_;
+  std::shared_ptr<const TwinBodyModel> model_;
+  SimulationOptions options_;
+  std::shared_ptr<const contact::ConvolutionCompliance> compliance_;
+  contact::ContactSolver solver_;
+  std::unique_ptr<GapCaster> caster_;
+  std::unique_ptr<MarkerImageRenderer> renderer_;
+  std::vector<Eigen::Vector3d> surface_points_;
+  std::vector<int> node_markers_;
+  contact::ContactState state_;
+  Rigid3 previous_pose_ = Rigid3::Identity();
+  Eigen::Vector3d previous_centroid_ = Eigen::Vector3d::Zero();
+  bool previous_contact_ = false;
+  int next_step_ = 0;
+  SimulationSummary summary_;
+};
+
+}  // namespace tac3d::simulation

@@ -1,0 +1,217 @@
+#include "tac3d/simulation/simulation.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+
+#include "tac3d/design/light_path_design.h"
+#include "tac3d/testing/testing.h"
+#include "tac3d/util/error.h"
+
+namespace tac3d::simulation {
+namespace {
+
+using ::testing::HasSubstr;
+
+// A small fingertip (3 x 3 markers on a 12 mm dome, 3 mm thick) so the model builds in about
+// a second; the scene's sensor has the same body.
+SensorConfig SmallSensor() {
+  SensorConfig sensor = DefaultSensorConfig();
+  sensor.markers.rows = sensor.markers.cols = 3;
+  sensor.elastic_body.base_diameter_mm = 12.0;
+  sensor.elastic_body.thickness_mm = 3.0;
+  sensor.elastic_body.outer_radius_mm = 20.0;
+  return sensor;
+}
+
+std::shared_ptr<const TwinBodyModel> SmallModel() {
+  static const auto model = [] {
+    TwinBodyOptions options;
+    options.margin_mm = 0.8;
+    options.quadrature_points_per_side = 2;
+    TwinDeviation nominal{1.0, 1.0, 1.0};
+    return std::make_shared<const TwinBodyModel>(
+        CalcTwinBodyModel(TwinBodyModelOptions(SmallSensor(), nominal), options));
+  }();
+  return model;
+}
+
+// A sphere of radius 5 mm (mu 0.3) just touching the fingertip's top at the identity pose.
+Scene SphereScene(const std::vector<std::pair<double, Eigen::Vector3d>>& keyframes, int steps) {
+  Scene scene;
+  scene.name = "sphere";
+  scene.sensor = SmallSensor();
+  scene.deviation = {1.0, 1.0, 1.0};
+  SceneObject sphere;
+  sphere.name = "ball";
+  sphere.shape = SceneObject::Shape::kSphere;
+  sphere.radius_mm = 5.0;
+  sphere.world_from_object = Rigid3(Eigen::Translation3d(0, 0, 3.0 + 5.0));
+  sphere.friction.default_mu = 0.3;
+  scene.objects.push_back(sphere);
+  for (const auto& [t, p] : keyframes) {
+    scene.trajectory.keyframes.push_back({t, Rigid3(Eigen::Translation3d(p))});
+  }
+  scene.trajectory.steps = steps;
+  return scene;
+}
+
+SimulationOptions NoImages() {
+  SimulationOptions options;
+  options.render_images = false;
+  return options;
+}
+
+Eigen::Vector3d SumOfSurfaceForces(const TwinStep& step, double area) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& t : step.surface.tractions_mpa) sum += area * t;
+  return sum;
+}
+
+TEST(TwinSimulation, PressThenSlideObeysContactAndFriction) {
+  // Steps at t = 0, 0.2, ..., 2: separated, pressed 0.1 mm at t = 1, slid 0.5 mm by t = 2.
+  const Scene scene =
+      SphereScene({{0.0, {0, 0, -0.05}}, {1.0, {0, 0, 0.1}}, {2.0, {0.5, 0, 0.1}}}, 11);
+  TwinSimulation sim(scene, SmallModel(), NoImages());
+  std::vector<TwinStep> steps;
+  const SimulationSummary summary = sim.Run([&](const TwinStep& s) { steps.push_back(s); });
+  ASSERT_EQ(steps.size(), 11u);
+  EXPECT_EQ(summary.non_converged_steps, 0);
+  EXPECT_EQ(summary.contact_at_grid_edge_steps, 0);
+  const double area = SmallModel()->grid.cell_area_mm2();
+
+  // Separated: nothing.
+  EXPECT_EQ(steps[0].solver.at("status"), "separated");
+  EXPECT_EQ(steps[0].total_force_n, Eigen::Vector3d::Zero());
+
+  const TwinStep& pressed = steps[5];
+  EXPECT_LT(pressed.total_force_n.z(), -0.01);
+  // Centred: no tangential force or moment beyond the coupling's rounding.
+  EXPECT_LT(pressed.total_force_n.head<2>().norm(), 1e-3 * -pressed.total_force_n.z());
+  for (const TwinStep* s : {&steps[5], &steps[10]}) {
+    EXPECT_LT((SumOfSurfaceForces(*s, area) - s->total_force_n).norm(), 1e-12);
+    Eigen::Vector3d moment = Eigen::Vector3d::Zero(), markers = Eigen::Vector3d::Zero();
+    for (size_t i = 0; i < s->surface.positions_mm.size(); ++i) {
+      moment += s->surface.positions_mm[i].cross(area * s->surface.tractions_mpa[i]);
+      EXPECT_LE(s->surface.tractions_mpa[i].z(), 0.0) << "a tensile pressure at node " << i;
+    }
+    for (const Eigen::Vector3d& f : s->marker_forces_n) markers += f;
+    EXPECT_LT((moment - s->total_moment_nmm).norm(), 1e-9);
+    // The contact (radius ~0.7 mm) lies inside the marker patches.
+    EXPECT_LT((markers - s->total_force_n).norm(), 1e-12);
+    EXPECT_LT(s->solver.at("max_penetration_mm").get<double>(), 1e-5);
+  }
+  // The centre marker moves in (down) under the press; its neighbours less.
+  const std::vector<Eigen::Vector3d>& rest = SmallModel()->marker_positions;
+  const double centre_dz = pressed.marker_positions_mm[4].z() - rest[4].z();
+  EXPECT_LT(centre_dz, -0.01);
+  EXPECT_GT(pressed.marker_positions_mm[1].z() - rest[1].z(), centre_dz);
+
+  // Slid 0.5 mm: gross sliding, the object drags the surface along -x (its motion relative to
+  // the sensor) with |Q| = mu P, and every slipping node has |q| = mu p.
+  const TwinStep& slid = steps[10];
+  EXPECT_NEAR(slid.total_force_n.x() / slid.total_force_n.z(), 0.3, 0.3 * 0.02);
+  EXPECT_LT(slid.total_force_n.x(), 0.0);
+  int slipping = 0;
+  for (size_t i = 0; i < slid.surface.states.size(); ++i) {
+    if (slid.surface.states[i] != tac3d::ContactState::kSlip) continue;
+    ++slipping;
+    const Eigen::Vector3d& t = slid.surface.tractions_mpa[i];
+    EXPECT_NEAR(t.head<2>().norm(), 0.3 * -t.z(), 1e-4 * -t.z() + 1e-9) << i;
+  }
+  EXPECT_GT(slipping, 0);
+  EXPECT_EQ(slid.marker_slip[4], 1);
+}
+
+TEST(TwinSimulation, HistoryCarriesTheShiftFromStepToStep) {
+  // Pressed, then shifted 0.02 mm (partial slip): the tangential force comes from the history.
+  const Scene moved = SphereScene({{0.0, {0, 0, 0.1}}, {1.0, {0.02, 0, 0.1}}}, 5);
+  TwinSimulation with_history(moved, SmallModel(), NoImages());
+  TwinStep last;
+  with_history.Run([&](const TwinStep& s) { last = s; });
+  // The object moved -0.02 mm in the sensor frame, accumulated over 4 increments.
+  EXPECT_NEAR(with_history.state().shift_mm.x(), -0.02, 1e-12);
+  EXPECT_NEAR(with_history.state().shift_mm.y(), 0.0, 1e-12);
+  // The same final pose pressed from unloaded has (almost) no tangential force.
+  const Scene fresh = SphereScene({{0.0, {0.02, 0, 0.1}}, {1.0, {0.02, 0, 0.1}}}, 2);
+  TwinSimulation without(fresh, SmallModel(), NoImages());
+  const TwinStep only = without.Step();
+  EXPECT_LT(last.total_force_n.x(), 0.0);
+  EXPECT_GT(std::abs(last.total_force_n.x()), 20.0 * std::abs(only.total_force_n.x()));
+  // Partial slip: below the friction limit.
+  EXPECT_LT(std::abs(last.total_force_n.x()), 0.3 * -last.total_force_n.z());
+  // Lifting off resets the state.
+  const Scene lift = SphereScene({{0.0, {0, 0, 0.1}}, {1.0, {0, 0, -0.2}}}, 2);
+  TwinSimulation lifted(lift, SmallModel(), NoImages());
+  lifted.Step();
+  EXPECT_GT(lifted.state().pressure_mpa.maxCoeff(), 0.0);
+  lifted.Step();
+  EXPECT_EQ(lifted.state().pressure_mpa.maxCoeff(), 0.0);
+}
+
+TEST(TwinSimulation, WritesADatasetTheReaderReadsBack) {
+  const Scene scene = SphereScene({{0.0, {0, 0, -0.05}}, {1.0, {0.1, 0, 0.1}}}, 4);
+  SimulationOptions options;  // with images
+  TwinSimulation sim(scene, SmallModel(), options);
+  const std::string dir = testing::MakeTempDir("simulation") + "/run";
+  std::vector<TwinStep> steps;
+  {
+    TwinDatasetWriter writer(dir, {{"name", scene.name}});
+    const SimulationSummary summary = sim.Run([&](const TwinStep& s) {
+      writer.Write(s);
+      steps.push_back(s);
+    });
+    writer.UpdateHeader({{"summary", ToJson(summary)}});
+    EXPECT_GT(summary.timings.render_s, 0.0);
+    EXPECT_GT(summary.timings.write_s, 0.0);
+  }
+  const TwinDatasetReader reader(dir);
+  ASSERT_EQ(reader.steps(), (std::vector<int>{0, 1, 2, 3}));
+  EXPECT_EQ(reader.header().at("summary").at("steps"), 4);
+  const TwinStep got = reader.Read(3, /*with_surface=*/true);
+  EXPECT_EQ(got.marker_positions_mm, steps[3].marker_positions_mm);
+  EXPECT_EQ(got.total_force_n, steps[3].total_force_n);
+  EXPECT_EQ(got.surface.tractions_mpa, steps[3].surface.tractions_mpa);
+  EXPECT_EQ(got.solver, steps[3].solver);
+  EXPECT_EQ(got.image.size(), cv::Size(640, 480));
+  EXPECT_LT(got.total_force_n.z(), 0.0);
+}
+
+TEST(TwinSimulation, BadInputsThrowWithClearMessages) {
+  const Scene scene = SphereScene({{0.0, {0, 0, 0}}, {1.0, {0, 0, 0.1}}}, 2);
+  SimulationOptions bad = NoImages();
+  bad.max_steps = -1;
+  EXPECT_THROW(
+      {
+        try {
+          TwinSimulation(scene, SmallModel(), bad);
+        } catch (const Error& e) {
+          EXPECT_THAT(e.what(), HasSubstr("max_steps"));
+          throw;
+        }
+      },
+      Error);
+  Scene other = scene;
+  other.sensor = DefaultSensorConfig();  // 20 x 20 markers
+  EXPECT_THROW(
+      {
+        try {
+          TwinSimulation(other, SmallModel(), NoImages());
+        } catch (const Error& e) {
+          EXPECT_THAT(e.what(), HasSubstr("3 x 3 markers, the scene's sensor 20 x 20"));
+          throw;
+        }
+      },
+      Error);
+  Scene empty = scene;
+  empty.objects.clear();
+  EXPECT_THROW(TwinSimulation(empty, SmallModel(), NoImages()), Error);
+  SimulationOptions limited = NoImages();
+  limited.max_steps = 1;
+  EXPECT_EQ(TwinSimulation(scene, SmallModel(), limited).num_steps(), 1);
+}
+
+}  // namespace
+}  // namespace tac3d::simulation

@@ -1,0 +1,161 @@
+#include "tac3d/util/cache_file.h"
+
+#include <unistd.h>
+
+#include <bit>
+#include <cstring>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+
+#include "tac3d/util/error.h"
+
+namespace tac3d {
+namespace {
+
+static_assert(std::endian::native == std::endian::little, "cache files are little-endian");
+
+// Appends a trivially copyable value's bytes.
+template <typename T>
+void Put(std::string* out, const T& value) {
+  out->append(reinterpret_cast<const char*>(&value), sizeof(T));
+}
+
+// Reads sequentially from a byte buffer, throwing on truncation.
+class Reader {
+ public:
+  Reader(const std::string& bytes, const std::string& path) : bytes_(bytes), path_(path) {}
+
+  template <typename T>
+  T Get(const char* what) {
+    T value;
+    std::memcpy(&value, Take(sizeof(T), what), sizeof(T));
+    return value;
+  }
+  const char* Take(size_t size, const char* what) {
+    if (size > bytes_.size() - offset_) {
+      throw Error(fmt::format("{}: truncated while reading {} ({} bytes at offset {}, file has {})",
+                              path_,
+                              what,
+                              size,
+                              offset_,
+                              bytes_.size()));
+    }
+    const char* p = bytes_.data() + offset_;
+    offset_ += size;
+    return p;
+  }
+  size_t offset() const { return offset_; }
+  size_t remaining() const { return bytes_.size() - offset_; }
+
+ private:
+  const std::string& bytes_;
+  const std::string& path_;
+  size_t offset_ = 0;
+};
+
+}  // namespace
+
+std::uint64_t Fnv1a(const void* data, size_t size, std::uint64_t hash) {
+  const auto* bytes = static_cast<const unsigned char*>(data);
+  for (size_t i = 0; i < size; ++i) {
+    hash ^= bytes[i];
+    hash *= 1099511628211ULL;
+  }
+  return hash;
+}
+
+std::string UtcNow() {
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char text[32];
+  std::strftime(text, sizeof(text), "%Y-%m-%dT%H:%M:%SZ", &utc);
+  return text;
+}
+
+void WriteCacheRecord(const std::string& path,
+                      const std::string& magic,
+                      std::uint32_t format_version,
+                      const CacheRecord& record) {
+  TAC3D_DEMAND(magic.size() == 8);
+  const std::string json = record.header.dump();
+  std::string body;  // everything after the magic, which the checksum covers
+  Put(&body, format_version);
+  Put(&body, record.key);
+  Put(&body, static_cast<std::uint64_t>(json.size()));
+  body += json;
+  for (const Eigen::MatrixXd& m : record.matrices) {
+    Put(&body, static_cast<std::uint64_t>(m.rows()));
+    Put(&body, static_cast<std::uint64_t>(m.cols()));
+    body.append(reinterpret_cast<const char*>(m.data()), m.size() * sizeof(double));
+  }
+  const std::uint64_t checksum = Fnv1a(body.data(), body.size());
+
+  const std::string temporary = fmt::format("{}.tmp{}", path, getpid());
+  {
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    out.write(magic.data(), 8);
+    out.write(body.data(), static_cast<std::streamsize>(body.size()));
+    out.write(reinterpret_cast<const char*>(&checksum), sizeof(checksum));
+    if (!out) throw Error(fmt::format("cannot write the cache file {}", temporary));
+  }
+  std::error_code error;
+  std::filesystem::rename(temporary, path, error);
+  if (error) {
+    std::filesystem::remove(temporary, error);
+    throw Error(fmt::format("cannot rename {} to {}", temporary, path));
+  }
+}
+
+CacheRecord ReadCacheRecord(const std::string& path,
+                            const std::string& magic,
+                            std::uint32_t format_version) {
+  TAC3D_DEMAND(magic.size() == 8);
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(fmt::format("{}: cannot open", path));
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  Reader reader(bytes, path);
+  if (std::memcmp(reader.Take(8, "the magic"), magic.data(), 8) != 0) {
+    throw Error(fmt::format("{}: not a {} file (wrong magic)", path, magic));
+  }
+  const size_t body_begin = reader.offset();
+  const auto version = reader.Get<std::uint32_t>("the format version");
+  if (version != format_version) {
+    throw Error(fmt::format("{}: format version {}, expected {}", path, version, format_version));
+  }
+  CacheRecord record;
+  record.key = reader.Get<std::uint64_t>("the key");
+  const auto json_size = reader.Get<std::uint64_t>("the JSON length");
+  const char* json_text = reader.Take(json_size, "the JSON header");
+  // Matrices until only the checksum is left.
+  while (reader.remaining() > sizeof(std::uint64_t)) {
+    const auto rows = reader.Get<std::uint64_t>("a row count");
+    const auto cols = reader.Get<std::uint64_t>("a column count");
+    if (rows > (1u << 24) || cols > (1u << 24) ||
+        rows * cols > reader.remaining() / sizeof(double)) {
+      throw Error(fmt::format("{}: implausible matrix size {} x {}", path, rows, cols));
+    }
+    const char* data = reader.Take(rows * cols * sizeof(double), "a matrix");
+    Eigen::MatrixXd& m = record.matrices.emplace_back(rows, cols);
+    std::memcpy(m.data(), data, rows * cols * sizeof(double));
+  }
+  const size_t body_end = reader.offset();
+  const auto checksum = reader.Get<std::uint64_t>("the checksum");
+  if (reader.offset() != bytes.size()) {
+    throw Error(
+        fmt::format("{}: {} bytes after the checksum", path, bytes.size() - reader.offset()));
+  }
+  if (Fnv1a(bytes.data() + body_begin, body_end - body_begin) != checksum) {
+    throw Error(fmt::format("{}: checksum mismatch (the file is corrupt)", path));
+  }
+  try {
+    record.header = nlohmann::json::parse(json_text, json_text + json_size);
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(fmt::format("{}: invalid JSON header: {}", path, e.what()));
+  }
+  return record;
+}
+
+}  // namespace tac3d
