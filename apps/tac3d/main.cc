@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
   tac3d::cli::RegisterDemo(app);
   tac3d::cli::RegisterBuildModel(app);
   tac3d::cli::RegisterRun(app);
+  tac3d::cli::RegisterCalibrateForce(app);
   tac3d::cli::RegisterEval(app);
   try {
     app.parse(argc, argv);
