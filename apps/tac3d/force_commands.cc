@@ -28,9 +28,11 @@ void RegisterEvalForce(CLI::App& eval) {
   cmd->add_option("--truth-refinement", o.truth_refinement,
                   "the true sensor's mesh refinement relative to the nominal one")
       ->capture_default_str();
-  cmd->add_option("--truth-modulus-factor", o.truth_modulus_factor, "the true E / the nominal E")
+  cmd->add_option("--truth-shear-factor", o.truth_shear_modulus_factor,
+                  "the true shear modulus G / the nominal one")
       ->capture_default_str();
-  cmd->add_option("--truth-poisson-factor", o.truth_poisson_factor, "the true nu / the nominal nu")
+  cmd->add_option("--truth-bulk-factor", o.truth_bulk_modulus_factor,
+                  "the true bulk modulus K / the nominal one")
       ->capture_default_str();
   cmd->add_option("--noise-mm", o.noise_mm, "displacement noise, 1 sigma (mm)")->capture_default_str();
   cmd->add_option("--calibration-presses", o.calibration_presses, "presses for w and the gains")
