@@ -1,8 +1,10 @@
 // Per-frame cost of the force inverse F = K D (paper eq. 4) over grid sizes, against the bare
-// double- and single-precision GEMV it is built on, with and without invalid markers.
+// double- and single-precision GEMV it is built on, with and without invalid markers; and of
+// F = K D followed by the contact-support re-solve, over the size of the press.
 // Run on one core: taskset -c 0 build/bin/bench_force --benchmark_repetitions=20
 //   --benchmark_report_aggregates_only=true
 
+#include <cmath>
 #include <memory>
 #include <random>
 
@@ -20,8 +22,10 @@ struct Fixture {
   explicit Fixture(int side) {
     const SyntheticCompliance model = CalcSyntheticCompliance({.rows = side, .cols = side});
     h = model.h;
-    reconstructor = std::make_unique<ForceReconstructor>(model.h, model.marker_positions,
-                                                         ForceReconstructorOptions{.weight = 1e-3});
+    reconstructor = std::make_unique<ForceReconstructor>(
+        model.h, model.marker_positions,
+        ForceReconstructorOptions{.weight = 1e-3, .support_refinement = false});
+    markers = model.marker_positions;
     std::mt19937_64 rng(1);
     std::normal_distribution<double> normal(0.0, 0.01);
     d.resize(h.rows());
@@ -41,6 +45,7 @@ struct Fixture {
   }
 
   Eigen::MatrixXd h;
+  std::vector<Eigen::Vector3d> markers;
   std::unique_ptr<ForceReconstructor> reconstructor;
   Eigen::VectorXd d;
 };
@@ -61,6 +66,35 @@ void BM_Reconstruct(benchmark::State& state) {
   SetCounters(state, side);
 }
 BENCHMARK(BM_Reconstruct)->Arg(10)->Arg(20)->Arg(30)->Unit(benchmark::kMicrosecond);
+
+// F = K D, then the re-solve on the contact support of a press of radius range(0) / 10 mm
+// (1.27 mm pitch, 400 markers) with 0.005 mm noise; the support's size is a counter.
+void BM_ReconstructWithSupport(benchmark::State& state) {
+  Fixture fixture(20);
+  const double radius_mm = state.range(0) / 10.0;
+  ForceReconstructor reconstructor(fixture.h, fixture.markers,
+                                   ForceReconstructorOptions{.weight = 1e-3});
+  Eigen::VectorXd press = Eigen::VectorXd::Zero(fixture.h.rows());
+  const int n = static_cast<int>(fixture.markers.size());
+  double total = 0.0;
+  for (int i = 0; i < n; ++i) {
+    const double r2 = fixture.markers[i].head<2>().squaredNorm() / (radius_mm * radius_mm);
+    if (r2 < 1.0) press(2 * n + i) = -std::sqrt(1.0 - r2), total += std::sqrt(1.0 - r2);
+  }
+  press *= 5.0 / total;  // 5 N
+  Eigen::VectorXd d = fixture.h * press;
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> normal(0.0, 0.005);
+  for (Eigen::Index j = 0; j < d.size(); ++j) d(j) += normal(rng);
+  ForceFrame frame;
+  for (auto _ : state) {
+    reconstructor.Reconstruct(d, {}, &frame);
+    benchmark::DoNotOptimize(frame.forces_n.data());
+  }
+  SetCounters(state, 20);
+  state.counters["support_markers"] = frame.num_support_markers;
+}
+BENCHMARK(BM_ReconstructWithSupport)->Arg(15)->Arg(30)->Arg(45)->Unit(benchmark::kMicrosecond);
 
 // The same mask every frame: the cached restricted factor is reused.
 void BM_ReconstructTenPercentInvalid(benchmark::State& state) {

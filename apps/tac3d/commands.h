@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "tac3d/fem/body_model.h"
 #include "tac3d/sensor/sensor_config.h"
 
 namespace tac3d::cli {
@@ -17,6 +18,7 @@ void RegisterDemo(CLI::App& app);
 void RegisterBuildModel(CLI::App& app);
 void RegisterRun(CLI::App& app);
 void RegisterSimulate(CLI::App& app);
+void RegisterCalibrateForce(CLI::App& app);
 
 /// `tac3d eval <what>`: accuracy evaluations against the twin's truth or analytic oracles,
 /// each printing its figures (JSON with --json). Each adds itself to the `eval` group.
@@ -25,6 +27,7 @@ void RegisterEvalRender(CLI::App& eval);
 void RegisterEvalCalibration(CLI::App& eval);
 void RegisterEvalFem(CLI::App& eval);
 void RegisterEvalContact(CLI::App& eval);
+void RegisterEvalForce(CLI::App& eval);
 
 /// The sensor a command works on: the YAML file if one is given, else the built-in
 /// prototype with its designed mirrors.
@@ -36,5 +39,27 @@ std::string DefaultCacheDir();
 
 /// Creates a directory (and its parents). @throws Error if it cannot.
 void MakeDirectory(const std::string& path);
+
+/// The options of every command that works on the sensor's FEM model: the sensor, the model
+/// cache, the mesh refinement, JSON output.
+struct ModelArgs {
+  std::string config;
+  std::string cache_dir = DefaultCacheDir();
+  double refinement = 1.0;
+  bool json = false;
+
+  void Add(CLI::App* cmd) {
+    cmd->add_option("--config", config, "sensor YAML (default: the built-in prototype)");
+    cmd->add_option("--cache", cache_dir, "directory of cached compliance models")->capture_default_str();
+    cmd->add_option("--refinement", refinement, "mesh refinement (1 = the paper's mesh)")
+        ->capture_default_str();
+    cmd->add_flag("--json", json, "print JSON");
+  }
+  fem::BodyModelOptions Body() const {
+    fem::BodyModelOptions body = fem::BodyModelOptionsFromSensor(LoadSensorOrDefault(config));
+    body.refinement = refinement;
+    return body;
+  }
+};
 
 }  // namespace tac3d::cli

@@ -10,6 +10,7 @@ void RegisterEval(CLI::App& app) {
   RegisterEvalCalibration(*eval);
   RegisterEvalFem(*eval);
   RegisterEvalContact(*eval);
+  RegisterEvalForce(*eval);
 }
 
 }  // namespace tac3d::cli

@@ -20,26 +20,6 @@ const char* Describe(fem::ComplianceCacheStatus status) {
   return "?";
 }
 
-struct ModelArgs {
-  std::string config;
-  std::string cache_dir = DefaultCacheDir();
-  double refinement = 1.0;
-  bool json = false;
-
-  void Add(CLI::App* cmd) {
-    cmd->add_option("--config", config, "sensor YAML (default: the built-in prototype)");
-    cmd->add_option("--cache", cache_dir, "directory of cached compliance models")->capture_default_str();
-    cmd->add_option("--refinement", refinement, "mesh refinement (1 = the paper's mesh)")
-        ->capture_default_str();
-    cmd->add_flag("--json", json, "print JSON");
-  }
-  fem::BodyModelOptions Body() const {
-    fem::BodyModelOptions body = fem::BodyModelOptionsFromSensor(LoadSensorOrDefault(config));
-    body.refinement = refinement;
-    return body;
-  }
-};
-
 }  // namespace
 
 void RegisterBuildModel(CLI::App& app) {

@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
   tac3d::cli::RegisterBuildModel(app);
   tac3d::cli::RegisterRun(app);
   tac3d::cli::RegisterSimulate(app);
+  tac3d::cli::RegisterCalibrateForce(app);
   tac3d::cli::RegisterEval(app);
   try {
     app.parse(argc, argv);

@@ -134,20 +134,18 @@ void EvalForceOptions::Validate() const {
     throw Error(fmt::format("EvalForceOptions.truth_refinement must be in [1, 4], got {}",
                             truth_refinement));
   }
-  for (const auto& [value, field] : {std::pair{truth_modulus_factor, "truth_modulus_factor"},
-                                     std::pair{truth_poisson_factor, "truth_poisson_factor"}}) {
+  for (const auto& [value, field] :
+       {std::pair{truth_shear_modulus_factor, "truth_shear_modulus_factor"},
+        std::pair{truth_bulk_modulus_factor, "truth_bulk_modulus_factor"}}) {
     if (!(value > 0.0 && value <= 2.0)) {
       throw Error(fmt::format("EvalForceOptions.{} must be in (0, 2], got {}", field, value));
     }
   }
-  fem::ElasticMaterial truth = body.material;
-  truth.youngs_modulus_mpa *= truth_modulus_factor;
-  truth.poisson_ratio *= truth_poisson_factor;
   try {
-    truth.Validate();
+    TrueMaterial().Validate();
   } catch (const Error& e) {
-    throw Error(fmt::format("EvalForceOptions.truth_poisson_factor / truth_modulus_factor give an "
-                            "invalid true material: {}",
+    throw Error(fmt::format("EvalForceOptions.truth_shear_modulus_factor / truth_bulk_modulus_factor "
+                            "give an invalid true material: {}",
                             e.what()));
   }
   if (!(noise_mm >= 0.0 && std::isfinite(noise_mm))) {
@@ -164,6 +162,16 @@ void EvalForceOptions::Validate() const {
                                      std::pair{full_scale_tangential_n, "full_scale_tangential_n"}}) {
     if (!(value > 0.0)) throw Error(fmt::format("EvalForceOptions.{} must be > 0, got {}", field, value));
   }
+}
+
+fem::ElasticMaterial EvalForceOptions::TrueMaterial() const {
+  const double e = body.material.youngs_modulus_mpa, nu = body.material.poisson_ratio;
+  const double shear = truth_shear_modulus_factor * e / (2.0 * (1.0 + nu));
+  const double bulk = truth_bulk_modulus_factor * e / (3.0 * (1.0 - 2.0 * nu));
+  fem::ElasticMaterial truth = body.material;
+  truth.youngs_modulus_mpa = 9.0 * bulk * shear / (3.0 * bulk + shear);
+  truth.poisson_ratio = (3.0 * bulk - 2.0 * shear) / (2.0 * (3.0 * bulk + shear));
+  return truth;
 }
 
 nlohmann::json EvaluateForce(const EvalForceOptions& options) {
@@ -183,8 +191,7 @@ nlohmann::json EvaluateForce(const EvalForceOptions& options) {
   start = std::chrono::steady_clock::now();
   fem::BodyModelOptions truth_options = options.body;
   truth_options.refinement *= options.truth_refinement;
-  truth_options.material.youngs_modulus_mpa *= options.truth_modulus_factor;
-  truth_options.material.poisson_ratio *= options.truth_poisson_factor;
+  truth_options.material = options.TrueMaterial();
   const fem::BodyModel truth(truth_options, options.show_progress);
   timing["truth_model"] = Seconds(start);
 

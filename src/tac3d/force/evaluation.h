@@ -24,9 +24,13 @@ struct EvalForceOptions {
   /// (the default dome at 2: 1,257,174) the fem module solves it by two-grid conjugate
   /// gradients instead of a Cholesky factor (fem::BodySolverOptions, docs/fem.md).
   double truth_refinement = 2.0;
-  /// The true sensor's E and nu, as multiples of the nominal ones.
-  double truth_modulus_factor = 1.1;
-  double truth_poisson_factor = 0.9;
+  /// The true sensor's shear modulus G and bulk modulus K, as multiples of the nominal ones:
+  /// by default both 10% off, the one stiffer and the other softer, so no single gain can
+  /// absorb the difference. (G and K are the elastic constants that govern a nearly
+  /// incompressible solid; "nu x 0.9" would take the nominal 0.48 to 0.432 and K to 0.32x:
+  /// docs/force.md reports that case too, as G x 1.137, K x 0.324.)
+  double truth_shear_modulus_factor = 1.1;
+  double truth_bulk_modulus_factor = 0.9;
   /// 1-sigma Gaussian noise added to every displacement component (mm).
   double noise_mm = 0.005;
   /// Unloaded noisy frames the noise variance is estimated from.
@@ -47,6 +51,8 @@ struct EvalForceOptions {
   ///   factors in (0, 2] with the true nu valid; noise_mm >= 0; static_frames >= 2;
   ///   presses >= 3 each; full scales > 0; and the body, weight and contact options.
   void Validate() const;
+  /// The true sensor's material: the nominal one with G and K scaled.
+  fem::ElasticMaterial TrueMaterial() const;
 };
 
 /// Runs the evaluation and returns every figure with its tolerance:

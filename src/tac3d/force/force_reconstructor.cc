@@ -1,6 +1,8 @@
 #include "tac3d/force/force_reconstructor.h"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <Eigen/Geometry>
 
@@ -26,6 +28,16 @@ void ForceReconstructorOptions::Validate() const {
         fmt::format("ForceReconstructorOptions.weight must be > 0 and finite, got {}", weight));
   }
   ValidateGains(gains, "ForceReconstructorOptions");
+  const auto require = [](bool ok, const char* field, const char* bound, double value) {
+    if (!ok) throw Error(fmt::format("ForceReconstructorOptions.{} must be {}, got {}", field, bound, value));
+  };
+  require(support_threshold_n >= 0.0 && std::isfinite(support_threshold_n), "support_threshold_n",
+          ">= 0 and finite", support_threshold_n);
+  require(support_margin_pitches >= 0.0 && std::isfinite(support_margin_pitches),
+          "support_margin_pitches", ">= 0 and finite", support_margin_pitches);
+  require(support_weight > 0.0 && std::isfinite(support_weight), "support_weight", "> 0 and finite",
+          support_weight);
+  require(max_support_markers >= 1, "max_support_markers", ">= 1", max_support_markers);
 }
 
 Eigen::Vector3d ForceFrame::MarkerForce(int i) const {
@@ -63,6 +75,34 @@ ForceReconstructor::ForceReconstructor(const Eigen::MatrixXd& h,
   f_work_.resize(n);
   invalid_.reserve(num_markers_);
   cached_invalid_.reserve(num_markers_);
+
+  // The support's neighbourhoods, in marker pitches: the pitch is the smallest distance between
+  // two markers in the sensor's (x, y).
+  hth_ = h.transpose() * h;
+  ht_ = h.transpose();
+  double pitch = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < num_markers_; ++i) {
+    for (int j = i + 1; j < num_markers_; ++j) {
+      const double distance = (marker_positions_[i] - marker_positions_[j]).head<2>().norm();
+      if (distance > 0.0) pitch = std::min(pitch, distance);
+    }
+  }
+  const double margin = std::isfinite(pitch) ? options_.support_margin_pitches * pitch * 1.001 : 0.0;
+  support_neighbours_.resize(num_markers_);
+  for (int i = 0; i < num_markers_; ++i) {
+    for (int j = 0; j < num_markers_; ++j) {
+      if ((marker_positions_[i] - marker_positions_[j]).head<2>().norm() <= margin || i == j) {
+        support_neighbours_[i].push_back(j);
+      }
+    }
+  }
+  const int max_support = std::min(options_.max_support_markers, num_markers_);
+  in_support_.resize(num_markers_);
+  support_.reserve(num_markers_);
+  support_rows_.reserve(3 * num_markers_);
+  support_matrix_.resize(3 * max_support, 3 * max_support);
+  support_rhs_.resize(3 * max_support);
+  d_valid_.resize(n);
 }
 
 void ForceReconstructor::set_gains(const Eigen::Vector3d& gains) {
@@ -90,6 +130,49 @@ void ForceReconstructor::UpdateInvalidSet() {
   cached_invalid_ = invalid_;
 }
 
+bool ForceReconstructor::RefineOnSupport(ForceFrame* frame) {
+  const int m = num_markers_;
+  std::fill(in_support_.begin(), in_support_.end(), 0);
+  for (int i = 0; i < m; ++i) {
+    if (-frame->forces_n(2 * m + i) <= options_.support_threshold_n) continue;
+    for (int j : support_neighbours_[i]) in_support_[j] = 1;
+  }
+  support_.clear();
+  for (int i = 0; i < m; ++i) {
+    if (in_support_[i]) support_.push_back(i);
+  }
+  const int s = static_cast<int>(support_.size());
+  if (s == 0 || s > options_.max_support_markers) return false;
+  support_rows_.clear();
+  for (int axis = 0; axis < 3; ++axis) {
+    for (int i : support_) support_rows_.push_back(axis * m + i);
+  }
+  const int n = 3 * s;
+  // (H_v^T H_v)_SS + w_s I, lower triangle: H^T H less the invalid rows' share.
+  Eigen::Ref<Eigen::MatrixXd> a = support_matrix_.topLeftCorner(n, n);
+  for (int c = 0; c < n; ++c) {
+    for (int r = c; r < n; ++r) a(r, c) = hth_(support_rows_[r], support_rows_[c]);
+  }
+  if (!invalid_.empty()) {
+    for (Eigen::Index q = 0; q < h_invalid_.rows(); ++q) {
+      for (int c = 0; c < n; ++c) {
+        const double hc = h_invalid_(q, support_rows_[c]);
+        for (int r = c; r < n; ++r) a(r, c) -= h_invalid_(q, support_rows_[r]) * hc;
+      }
+    }
+  }
+  a.diagonal().array() += options_.support_weight;
+  Eigen::Ref<Eigen::VectorXd> x = support_rhs_.head(n);
+  for (int k = 0; k < n; ++k) x(k) = ht_.row(support_rows_[k]).dot(d_valid_);
+  Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>, Eigen::Lower> factor(a);
+  if (factor.info() != Eigen::Success) return false;
+  factor.solveInPlace(x);
+  frame->forces_n.setZero();
+  for (int k = 0; k < n; ++k) frame->forces_n(support_rows_[k]) = x(k);
+  frame->num_support_markers = s;
+  return true;
+}
+
 void ForceReconstructor::Reconstruct(const Eigen::VectorXd& d_mm,
                                      const std::vector<bool>& valid,
                                      ForceFrame* frame) {
@@ -109,11 +192,14 @@ void ForceReconstructor::Reconstruct(const Eigen::VectorXd& d_mm,
                     std::isfinite(d_mm(m + i)) && std::isfinite(d_mm(2 * m + i));
     if (!ok) invalid_.push_back(i);
     for (int axis = 0; axis < 3; ++axis) {
-      d_work_(axis * m + i) = ok ? static_cast<float>(d_mm(axis * m + i)) : 0.0f;
+      d_valid_(axis * m + i) = ok ? d_mm(axis * m + i) : 0.0;
+      d_work_(axis * m + i) = static_cast<float>(d_valid_(axis * m + i));
     }
   }
   frame->num_invalid_markers = static_cast<int>(invalid_.size());
   frame->status = ForceStatus::kOk;
+  frame->num_support_markers = 0;
+  frame->support_refined = false;
   frame->resultant_force_n.setZero();
   frame->resultant_moment_nmm.setZero();
   if (frame->num_invalid_markers == m) {
@@ -133,6 +219,9 @@ void ForceReconstructor::Reconstruct(const Eigen::VectorXd& d_mm,
     } else {
       frame->status = ForceStatus::kRestrictedProblemIllConditioned;
     }
+  }
+  if (options_.support_refinement && frame->status == ForceStatus::kOk) {
+    frame->support_refined = RefineOnSupport(frame);
   }
 
   for (int axis = 0; axis < 3; ++axis) frame->forces_n.segment(axis * m, m) *= options_.gains(axis);

@@ -13,8 +13,25 @@ struct ForceReconstructorOptions {
   /// Per-axis gains (Cx, Cy, Cz) multiplying the force components (paper section V.A), e.g.
   /// from FitForceGains; dimensionless.
   Eigen::Vector3d gains = Eigen::Vector3d::Ones();
+  /// Contact-support refinement (docs/force.md): after F = K D, the markers whose normal force
+  /// -f_z exceeds `support_threshold_n`, with every marker within `support_margin_pitches`
+  /// marker pitches of one, are the support S; the forces are re-solved on S alone,
+  /// min ||H_S F_S - D||^2 + support_weight ||F_S||^2, and are zero outside it. Knowing where
+  /// the load can be removes the null space of the whole-field problem (a nearly
+  /// incompressible layer's uniform press hardly changes its volume), so the resultant keeps
+  /// its scale and loses most of its noise. Off: the paper's F = K D alone.
+  bool support_refinement = true;
+  double support_threshold_n = 0.02;
+  double support_margin_pitches = 1.0;
+  /// w of the support problem ((mm/N)^2): it only guards against a nearly singular H_S.
+  double support_weight = 1e-3;
+  /// A support of more markers than this (a load over most of the sensor) keeps F = K D: the
+  /// re-solve costs (3 |S|)^3 / 3 flops.
+  int max_support_markers = 120;
 
-  /// @throws tac3d::Error naming the field: weight > 0 and finite; every gain > 0 and finite.
+  /// @throws tac3d::Error naming the field: weight > 0 and finite; every gain > 0 and finite;
+  ///   support_threshold_n >= 0, support_margin_pitches >= 0, support_weight > 0,
+  ///   max_support_markers >= 1.
   void Validate() const;
 };
 
@@ -40,6 +57,11 @@ struct ForceFrame {
   /// Markers flagged invalid or with a non-finite displacement component.
   int num_invalid_markers = 0;
   ForceStatus status = ForceStatus::kOk;
+  /// Markers of the contact support the forces were re-solved on (0: no load found, or the
+  /// refinement is off or was skipped).
+  int num_support_markers = 0;
+  /// True if the forces are the support problem's solution, false if they are F = K D.
+  bool support_refined = false;
 
   int num_markers() const { return static_cast<int>(forces_n.size() / 3); }
   /// (fx, fy, fz) of marker i (N).
@@ -111,6 +133,9 @@ class ForceReconstructor {
  private:
   // Rebuilds the restricted-problem factor when the set of invalid markers changes.
   void UpdateInvalidSet();
+  // Re-solves frame->forces_n (no gains yet) on the contact support; returns false (forces
+  // untouched) if the support is empty, too large, or its problem cannot be factored.
+  bool RefineOnSupport(ForceFrame* frame);
 
   int num_markers_;
   std::vector<Eigen::Vector3d> marker_positions_;
@@ -128,6 +153,18 @@ class ForceReconstructor {
   Eigen::MatrixXd k_invalid_;        // K_R (3N x 3r)
   Eigen::LLT<Eigen::MatrixXd> restricted_factor_;  // of I - H_R K_R
   Eigen::VectorXd z_work_;
+
+  // Contact-support refinement: H^T H, H^T (row j = column j of H), each marker's neighbours
+  // within the support margin, and the workspace of the support problem.
+  Eigen::MatrixXd hth_;
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> ht_;
+  std::vector<std::vector<int>> support_neighbours_;
+  std::vector<char> in_support_;
+  std::vector<int> support_;       // marker indices, increasing
+  std::vector<int> support_rows_;  // F indices of the support, 3 |S|
+  Eigen::MatrixXd support_matrix_;
+  Eigen::VectorXd support_rhs_;
+  Eigen::VectorXd d_valid_;
 };
 
 }  // namespace tac3d

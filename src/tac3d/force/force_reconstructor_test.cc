@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numeric>
 #include <random>
 
@@ -29,9 +30,11 @@ class ForceReconstructorTest : public ::testing::Test {
     d_ = model_.h * load_;
   }
 
+  // The paper's F = K D alone (the contact-support re-solve off).
   ForceReconstructor Make(double relative_weight, const Eigen::Vector3d& gains = {1, 1, 1}) const {
-    return ForceReconstructor(model_.h, model_.marker_positions,
-                              {.weight = relative_weight * s_max2_, .gains = gains});
+    return ForceReconstructor(
+        model_.h, model_.marker_positions,
+        {.weight = relative_weight * s_max2_, .gains = gains, .support_refinement = false});
   }
 
   // (H_v^T H_v + w I)^-1 H_v^T D_v in double precision, straight from its definition.
@@ -142,7 +145,8 @@ TEST_F(ForceReconstructorTest, TenPercentInvalidStaysCloseOnASmoothLoad) {
   const WeightSelection selection = SelectRegularizationWeight(
       ComplianceSpectrum(model_.h), {d}, noise, WeightSelectionOptions{});
   ASSERT_TRUE(selection.summary.converged);
-  ForceReconstructor reconstructor(model_.h, model_.marker_positions, {.weight = selection.weight});
+  ForceReconstructor reconstructor(model_.h, model_.marker_positions,
+                                   {.weight = selection.weight, .support_refinement = false});
   const ForceFrame full = reconstructor.Reconstruct(d);
   for (std::uint64_t seed : {1, 2, 3}) {
     const ForceFrame partial = reconstructor.Reconstruct(d, RandomMask(0.1, seed));
@@ -196,8 +200,100 @@ TEST_F(ForceReconstructorTest, UncertaintyMatchesMonteCarlo) {
   }
 }
 
+// A compact press: the re-solve on the contact support keeps the resultant's scale and cuts its
+// noise, where F = K D shrinks it (Tikhonov) and spreads noise over every marker.
+TEST_F(ForceReconstructorTest, SupportRefinementRecoversACompactPress) {
+  const Eigen::VectorXd press = testing::MakeBumpLoad(
+      model_.marker_positions, Eigen::Vector2d(0.4, -0.3), 1.2, Eigen::Vector3d(0.6, -0.4, -3.0));
+  const Eigen::Vector3d truth(0.6, -0.4, -3.0);
+  const double weight = 1e-4 * s_max2_;
+  ForceReconstructor refined(model_.h, model_.marker_positions, {.weight = weight});
+  // Exact data: the true support lies inside S, so the re-solve recovers the load.
+  const Eigen::VectorXd d = model_.h * press;
+  const ForceFrame exact = refined.Reconstruct(d);
+  ASSERT_TRUE(exact.support_refined);
+  EXPECT_GT(exact.num_support_markers, 0);
+  EXPECT_LT(exact.num_support_markers, n_ / 2);
+  EXPECT_LT((exact.resultant_force_n - truth).norm(), 1e-3 * truth.norm());
+  EXPECT_LT((exact.forces_n - press).norm(), 0.02 * press.norm());
+  // Outside the support the forces are zero.
+  int zero_markers = 0;
+  for (int i = 0; i < n_; ++i) zero_markers += exact.MarkerForce(i).isZero(0.0);
+  EXPECT_EQ(zero_markers, n_ - exact.num_support_markers);
+  // Noisy data, w as large as the discrepancy principle takes it for this noise: F = K D shrinks
+  // the resultant, the refined one keeps it (RMS error well under the paper's).
+  ForceReconstructor paper_smooth(model_.h, model_.marker_positions,
+                                  {.weight = 1e-2 * s_max2_, .support_refinement = false});
+  ForceReconstructor refined_smooth(model_.h, model_.marker_positions, {.weight = 1e-2 * s_max2_});
+  std::mt19937_64 rng(testing::kRandomSeed);
+  std::normal_distribution<double> normal(0.0, 0.005);
+  double paper_sq = 0.0, refined_sq = 0.0;
+  constexpr int kFrames = 100;
+  for (int k = 0; k < kFrames; ++k) {
+    Eigen::VectorXd noisy = d;
+    for (Eigen::Index j = 0; j < noisy.size(); ++j) noisy(j) += normal(rng);
+    paper_sq += (paper_smooth.Reconstruct(noisy).resultant_force_n - truth).squaredNorm();
+    refined_sq += (refined_smooth.Reconstruct(noisy).resultant_force_n - truth).squaredNorm();
+  }
+  std::printf("resultant RMS error over %d noisy frames: F = K D %.4f N, refined %.4f N\n", kFrames,
+              std::sqrt(paper_sq / kFrames), std::sqrt(refined_sq / kFrames));
+  EXPECT_LT(std::sqrt(refined_sq / kFrames), 0.5 * std::sqrt(paper_sq / kFrames));
+}
+
+TEST_F(ForceReconstructorTest, SupportRefinementWithLostMarkersSolvesTheValidRows) {
+  const Eigen::VectorXd press = testing::MakeBumpLoad(
+      model_.marker_positions, Eigen::Vector2d(0.4, -0.3), 1.2, Eigen::Vector3d(0.6, -0.4, -3.0));
+  const Eigen::VectorXd d = model_.h * press;
+  const double weight = 1e-4 * s_max2_;
+  ForceReconstructor refined(model_.h, model_.marker_positions, {.weight = weight});
+  const std::vector<bool> valid = RandomMask(0.1, 7);
+  const ForceFrame frame = refined.Reconstruct(d, valid);
+  ASSERT_TRUE(frame.support_refined);
+  // The same problem straight from its definition: valid rows, the frame's support columns.
+  std::vector<int> rows, columns;
+  for (int axis = 0; axis < 3; ++axis) {
+    for (int i = 0; i < n_; ++i) {
+      if (valid[i]) rows.push_back(axis * n_ + i);
+      if (!frame.MarkerForce(i).isZero(0.0)) columns.push_back(axis * n_ + i);
+    }
+  }
+  ASSERT_EQ(static_cast<int>(columns.size()), 3 * frame.num_support_markers);
+  const Eigen::MatrixXd h_vs = model_.h(rows, columns);
+  const Eigen::MatrixXd normal =
+      h_vs.transpose() * h_vs +
+      ForceReconstructorOptions{}.support_weight * Eigen::MatrixXd::Identity(columns.size(), columns.size());
+  const Eigen::VectorXd expected = normal.llt().solve(h_vs.transpose() * d(rows));
+  EXPECT_LT((frame.forces_n(columns) - expected).norm(), 1e-9 * expected.norm());
+  EXPECT_TRUE(frame.forces_n.allFinite());
+}
+
+TEST_F(ForceReconstructorTest, ASupportOverTheLimitKeepsTheTikhonovForces) {
+  const double weight = 1e-4 * s_max2_;
+  ForceReconstructor paper(model_.h, model_.marker_positions,
+                           {.weight = weight, .support_refinement = false});
+  ForceReconstructor capped(model_.h, model_.marker_positions,
+                            {.weight = weight, .max_support_markers = 4});
+  // load_ is a broad bump: its support has far more than 4 markers.
+  const ForceFrame frame = capped.Reconstruct(d_);
+  EXPECT_FALSE(frame.support_refined);
+  EXPECT_EQ(frame.num_support_markers, 0);
+  EXPECT_EQ(frame.forces_n, paper.Reconstruct(d_).forces_n);
+  // No load: nothing to refine, forces are K D.
+  const ForceFrame rest = capped.Reconstruct(Eigen::VectorXd::Zero(3 * n_));
+  EXPECT_FALSE(rest.support_refined);
+  EXPECT_TRUE(rest.forces_n.isZero(0.0));
+}
+
 TEST_F(ForceReconstructorTest, BadInputThrows) {
   EXPECT_THROW(Make(0.0), Error);
+  const auto make = [&](ForceReconstructorOptions options) {
+    options.weight = 1.0;
+    return ForceReconstructor(model_.h, model_.marker_positions, options);
+  };
+  EXPECT_THROW(make({.support_threshold_n = -0.1}), Error);
+  EXPECT_THROW(make({.support_margin_pitches = -1.0}), Error);
+  EXPECT_THROW(make({.support_weight = 0.0}), Error);
+  EXPECT_THROW(make({.max_support_markers = 0}), Error);
   EXPECT_THROW(Make(1e-4, Eigen::Vector3d(1, 0, 1)), Error);
   EXPECT_THROW(Make(1e-4, Eigen::Vector3d(1, 1, NAN)), Error);
   EXPECT_THROW(ForceReconstructor(model_.h.topRows(6), model_.marker_positions, {.weight = 1.0}),

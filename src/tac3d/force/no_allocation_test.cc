@@ -31,7 +31,10 @@ TEST(ForceReconstructor, PerFrameReconstructAllocatesNothing) {
 #if TAC3D_COUNT_MALLOC
   const SyntheticCompliance model = CalcSyntheticCompliance({.rows = 6, .cols = 6});
   ForceReconstructor reconstructor(model.h, model.marker_positions, {.weight = 1e-3});
-  const Eigen::VectorXd d = Eigen::VectorXd::Constant(model.h.rows(), -0.01);
+  // A press of 0.5 N into the body on four markers.
+  Eigen::VectorXd press = Eigen::VectorXd::Zero(model.h.rows());
+  for (int i : {14, 15, 20, 21}) press(2 * 36 + i) = -0.5;
+  const Eigen::VectorXd d = model.h * press;
   std::vector<bool> valid(36, true);
   valid[7] = valid[20] = false;
   ForceFrame frame;
@@ -47,6 +50,9 @@ TEST(ForceReconstructor, PerFrameReconstructAllocatesNothing) {
     reconstructor.Reconstruct(d, valid, &frame);
   }
   EXPECT_EQ(g_malloc_calls.load(), before);
+  // The press covers the grid: the contact-support re-solve ran too.
+  EXPECT_TRUE(frame.support_refined);
+  EXPECT_GT(frame.num_support_markers, 0);
   // Without invalid markers, too (the cache stays).
   reconstructor.Reconstruct(d, {}, &frame);
   EXPECT_EQ(g_malloc_calls.load(), before);
