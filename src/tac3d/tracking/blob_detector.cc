@@ -35,10 +35,13 @@ constexpr I32x8 kLane32 = {0, 1, 2, 3, 4, 5, 6, 7};
 static_assert(kRingSamples == kLanes, "the background ring is one vector");
 static_assert(std::endian::native == std::endian::little, "FirstLaneEqual reads lane 0 as the lowest byte");
 
-// Pixels [x0, x1] of a row (x1 - x0 < kLanes, inside the image) into lanes, from the returned
-// column on; the other lanes are white (255).
-int LoadSpan(const std::uint8_t* row, int cols, int x0, int x1, U8x16& pixels) {
-  const int first = std::max(0, std::min(x0, cols - kLanes));  // stays inside the row
+// The column a vector covering pixels from x0 on starts at: x0, or less so that it stays
+// inside the row.
+int VectorStart(int cols, int x0) { return std::max(0, std::min(x0, cols - kLanes)); }
+
+// Pixels [x0, x1] of a row into lanes from column `first` on (first <= x0, x1 < first +
+// kLanes, inside the image); the other lanes are white (255).
+void LoadSpan(const std::uint8_t* row, int cols, int first, int x0, int x1, U8x16& pixels) {
   if (first + kLanes <= cols) {
     std::memcpy(&pixels, row + first, kLanes);
   } else {  // an image narrower than a vector
@@ -46,7 +49,6 @@ int LoadSpan(const std::uint8_t* row, int cols, int x0, int x1, U8x16& pixels) {
   }
   const auto lo = static_cast<std::uint8_t>(x0 - first), hi = static_cast<std::uint8_t>(x1 - first);
   pixels |= reinterpret_cast<U8x16>(~((kLane >= lo) & (kLane <= hi)));
-  return first;
 }
 
 U8x16 Min(U8x16 a, U8x16 b) { return a < b ? a : b; }
@@ -158,7 +160,8 @@ BlobStatus MeasureBlob(const cv::Mat& image,
     const std::uint8_t* row = image.ptr<std::uint8_t>(y);
     for (int a = x0; a <= x1; a += kLanes) {
       U8x16 pixels;
-      const int first = LoadSpan(row, image.cols, a, std::min(x1, a + kLanes - 1), pixels);
+      const int first = VectorStart(image.cols, a);
+      LoadSpan(row, image.cols, first, a, std::min(x1, a + kLanes - 1), pixels);
       const int span_min = HorizontalMin(pixels);
       if (span_min >= darkest) continue;
       darkest = span_min;
@@ -223,36 +226,43 @@ BlobStatus MeasureBlob(const cv::Mat& image,
       count += Sum(lc);
       lw = lx = ly = lxx = lxy = lyy = lc = I32x8{};
     };
-    for (int dy = -r, rows = 0; dy <= r; ++dy) {
-      const int y = cy + dy;
-      if (y < roi.y || y > roi_y1) continue;
-      const std::uint8_t* row = image.ptr<std::uint8_t>(y);
-      const int half_width = HalfWidth(r2, dy);
-      const int x0 = cx + std::max(-half_width, roi.x - cx), x1 = cx + std::min(half_width, roi_x1 - cx);
-      for (int a = x0; a <= x1; a += kLanes) {
+    // The disk's vectors start at the same columns in every row, so a lane's dx and dx^2 are
+    // constants of its vector, and dy multiplies a row's sums once, not each pixel's.
+    const int x_begin = std::max(cx - r, roi.x), x_end = std::min(cx + r, roi_x1);
+    int rows = 0;
+    for (int a = x_begin; a <= x_end; a += kLanes) {
+      const int first = VectorStart(image.cols, a), last = std::min(x_end, a + kLanes - 1);
+      const int halves = last - first >= kLanes / 2 ? 2 : 1;  // the upper half only if it holds pixels
+      const I32x8 dx[2] = {kLane32 + (first - cx), kLane32 + (first + kLanes / 2 - cx)};
+      const I32x8 dxx[2] = {dx[0] * dx[0], dx[1] * dx[1]};
+      for (int dy = -r; dy <= r; ++dy) {
+        const int y = cy + dy;
+        if (y < roi.y || y > roi_y1) continue;
+        const int half_width = HalfWidth(r2, dy);
+        const int x0 = std::max(a, cx - half_width), x1 = std::min(last, cx + half_width);
+        if (x0 > x1) continue;
         U8x16 pixels;
-        const int last = std::min(x1, a + kLanes - 1);
-        const int first = LoadSpan(row, image.cols, a, last, pixels);
-        // The lanes' halves as 32-bit integers; the upper one only if it holds pixels.
-        for (int h = 0; h < (last - first >= kLanes / 2 ? 2 : 1); ++h) {
+        LoadSpan(image.ptr<std::uint8_t>(y), image.cols, first, x0, x1, pixels);
+        I32x8 row_w{}, row_wx{};
+        for (int h = 0; h < halves; ++h) {
           const U8x8 half = h == 0 ? __builtin_shufflevector(pixels, pixels, 0, 1, 2, 3, 4, 5, 6, 7)
                                    : __builtin_shufflevector(pixels, pixels, 8, 9, 10, 11, 12, 13, 14, 15);
           I32x8 w = level - __builtin_convertvector(half, I32x8);
           w = w > 0 ? w : I32x8{};  // white padding lanes weigh nothing
-          const I32x8 dx = kLane32 + (first + kLanes / 2 * h - cx);
-          const I32x8 wx = w * dx, wy = w * dy;
-          lw += w;
-          lx += wx;
-          ly += wy;
-          lxx += wx * dx;
-          lxy += wx * dy;
-          lyy += wy * dy;
+          row_w += w;
+          row_wx += w * dx[h];
+          lxx += w * dxx[h];
           lc -= w > 0;
         }
-      }
-      if (++rows == rows_per_sum) {
-        flush();
-        rows = 0;
+        lw += row_w;
+        lx += row_wx;
+        ly += row_w * dy;
+        lxy += row_wx * dy;
+        lyy += row_w * (dy * dy);
+        if (++rows == rows_per_sum) {
+          flush();
+          rows = 0;
+        }
       }
     }
     flush();
