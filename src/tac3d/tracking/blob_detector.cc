@@ -28,10 +28,10 @@ const std::array<std::pair<double, double>, kRingSamples> kRingDirections = [] {
 // AVX2 on x86-64, NEON on ARM), so a dot's row costs a few instructions, not a loop.
 constexpr int kLanes = 16;
 using U8x16 = std::uint8_t __attribute__((vector_size(kLanes)));
-using U8x8 = std::uint8_t __attribute__((vector_size(kLanes / 2)));
+using U16x16 = std::uint16_t __attribute__((vector_size(2 * kLanes)));
 using I32x8 = std::int32_t __attribute__((vector_size(2 * kLanes)));
 constexpr U8x16 kLane = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
-constexpr I32x8 kLane32 = {0, 1, 2, 3, 4, 5, 6, 7};
+constexpr U16x16 kLane16 = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
 static_assert(kRingSamples == kLanes, "the background ring is one vector");
 static_assert(std::endian::native == std::endian::little, "FirstLaneEqual reads lane 0 as the lowest byte");
 
@@ -77,12 +77,33 @@ int ValueAtRank(U8x16 v, int rank) {
   return HorizontalMin(at_or_below > static_cast<std::uint8_t>(rank) ? v : U8x16{} + 255);
 }
 
-int Sum(I32x8 v) {
+std::int64_t Sum(I32x8 v) {
   v += __builtin_shufflevector(v, v, 4, 5, 6, 7, 0, 1, 2, 3);
   v += __builtin_shufflevector(v, v, 2, 3, 0, 1, 2, 3, 0, 1);
   v += __builtin_shufflevector(v, v, 1, 0, 1, 0, 1, 0, 1, 0);
   return v[0];
 }
+
+// The lanes' sums of `a` and of `b` together (each must fit 16 bits).
+std::pair<int, int> Sums(U16x16 a, U16x16 b) {
+  U16x16 v = __builtin_shufflevector(a, b, 0, 1, 2, 3, 4, 5, 6, 7, 16, 17, 18, 19, 20, 21, 22, 23) +
+             __builtin_shufflevector(a, b, 8, 9, 10, 11, 12, 13, 14, 15, 24, 25, 26, 27, 28, 29, 30, 31);
+  v += __builtin_shufflevector(v, v, 4, 5, 6, 7, 0, 1, 2, 3, 12, 13, 14, 15, 8, 9, 10, 11);
+  v += __builtin_shufflevector(v, v, 2, 3, 0, 1, 2, 3, 0, 1, 10, 11, 8, 9, 10, 11, 8, 9);
+  v += __builtin_shufflevector(v, v, 1, 0, 1, 0, 1, 0, 1, 0, 9, 8, 9, 8, 9, 8, 9, 8);
+  return {v[0], v[8]};
+}
+
+// How many lanes are not zero.
+int CountNonZero(U8x16 v) {
+  const auto nonzero = v != 0;
+  std::uint64_t half[2];
+  std::memcpy(half, &nonzero, sizeof(half));
+  return (std::popcount(half[0]) + std::popcount(half[1])) / 8;
+}
+
+// Rows of 2 * 255 * 15^2 each fit an int32 lane.
+constexpr int kRowsPerSum = std::numeric_limits<std::int32_t>::max() / (2 * 255 * 15 * 15);
 
 // A centroid this far (squared, px^2) from the disk's centre is measured again about it.
 constexpr double kRecentreDistance2 = 0.75 * 0.75;
@@ -196,14 +217,13 @@ BlobStatus MeasureBlob(const cv::Mat& image,
   // Darkness-weighted moments over the blob's disk about the darkest pixel; again about
   // the pixel nearest the centroid if that is far off, so that a darkest pixel at the rim
   // of a flat dark core does not cut the disk off-centre. Branch-free inner loop.
-  const int level = Round(background - options.weight_threshold * contrast);
+  // level <= background <= 255 and level >= darkest >= 0 (weight_threshold < 1): a byte.
+  const auto level = static_cast<std::uint8_t>(Round(background - options.weight_threshold * contrast));
   const double r2 = blob_radius_px * blob_radius_px;
   const int r = static_cast<int>(std::floor(blob_radius_px));
-  const int rows_per_sum = std::max(
-      1, static_cast<int>(std::numeric_limits<std::int32_t>::max() / (255.0 * std::max(1, r * r) * (2 * r + 1))));
   int cx = bx, cy = by;
   double sw = 0, sx = 0, sy = 0, sxx = 0, sxy = 0, syy = 0;
-  int count = 0;
+  std::int64_t count = 0;
   for (int pass = 0; pass < 2; ++pass) {
     if (pass == 1) {
       const double ox = sx / sw, oy = sy / sw;
@@ -211,31 +231,20 @@ BlobStatus MeasureBlob(const cv::Mat& image,
       cx += Round(ox);
       cy += Round(oy);
     }
-    sw = sx = sy = sxx = sxy = syy = 0;
+    // Exact integer moments about (cx, cy). The disk's vectors start at the same columns in
+    // every row, so a pixel's dx is its lane plus the vector's offset: lanes accumulate the
+    // 16-bit products w * lane and w * lane^2 (always exact), the offset enters once per
+    // vector and dy once per row. The same integers as summing w * dx * dy pixel by pixel.
+    std::int64_t mw = 0, mwx = 0, mwy = 0, mwxx = 0, mwxy = 0, mwyy = 0;
     count = 0;
-    // Integer moments in lanes, exact: a row adds at most 255 r^2 (2r + 1) to one, so they
-    // move to the doubles before an int32 could overflow (only for radii over 32 px).
-    I32x8 lw{}, lx{}, ly{}, lxx{}, lxy{}, lyy{}, lc{};
-    auto flush = [&] {
-      sw += Sum(lw);
-      sx += Sum(lx);
-      sy += Sum(ly);
-      sxx += Sum(lxx);
-      sxy += Sum(lxy);
-      syy += Sum(lyy);
-      count += Sum(lc);
-      lw = lx = ly = lxx = lxy = lyy = lc = I32x8{};
-    };
-    // The disk's vectors start at the same columns in every row, so a lane's dx and dx^2 are
-    // constants of its vector, and dy multiplies a row's sums once, not each pixel's.
     const int x_begin = std::max(cx - r, roi.x), x_end = std::min(cx + r, roi_x1);
-    int rows = 0;
     for (int a = x_begin; a <= x_end; a += kLanes) {
       const int first = VectorStart(image.cols, a), last = std::min(x_end, a + kLanes - 1);
-      const int halves = last - first >= kLanes / 2 ? 2 : 1;  // the upper half only if it holds pixels
-      const I32x8 dx[2] = {kLane32 + (first - cx), kLane32 + (first + kLanes / 2 - cx)};
-      const I32x8 dxx[2] = {dx[0] * dx[0], dx[1] * dx[1]};
-      for (int dy = -r; dy <= r; ++dy) {
+      const std::int64_t offset = first - cx;
+      // Sums over the vector's rows: of w, w * lane, w * lane^2, and of those times dy.
+      std::int64_t w = 0, wl = 0, wll = 0, wy = 0, wly = 0, wyy = 0;
+      I32x8 lanes_wll{};
+      for (int dy = -r, rows = 0; dy <= r; ++dy) {
         const int y = cy + dy;
         if (y < roi.y || y > roi_y1) continue;
         const int half_width = HalfWidth(r2, dy);
@@ -243,29 +252,39 @@ BlobStatus MeasureBlob(const cv::Mat& image,
         if (x0 > x1) continue;
         U8x16 pixels;
         LoadSpan(image.ptr<std::uint8_t>(y), image.cols, first, x0, x1, pixels);
-        I32x8 row_w{}, row_wx{};
-        for (int h = 0; h < halves; ++h) {
-          const U8x8 half = h == 0 ? __builtin_shufflevector(pixels, pixels, 0, 1, 2, 3, 4, 5, 6, 7)
-                                   : __builtin_shufflevector(pixels, pixels, 8, 9, 10, 11, 12, 13, 14, 15);
-          I32x8 w = level - __builtin_convertvector(half, I32x8);
-          w = w > 0 ? w : I32x8{};  // white padding lanes weigh nothing
-          row_w += w;
-          row_wx += w * dx[h];
-          lxx += w * dxx[h];
-          lc -= w > 0;
-        }
-        lw += row_w;
-        lx += row_wx;
-        ly += row_w * dy;
-        lxy += row_wx * dy;
-        lyy += row_w * (dy * dy);
-        if (++rows == rows_per_sum) {
-          flush();
+        const U8x16 weight = pixels < level ? level - pixels : U8x16{};  // white padding: 0
+        count += CountNonZero(weight);
+        const U16x16 w16 = __builtin_convertvector(weight, U16x16);
+        const U16x16 wl16 = w16 * kLane16, wll16 = wl16 * kLane16;  // <= 255 * 15^2 < 2^16
+        const auto [row_w, row_wl] = Sums(w16, wl16);                 // <= 16 * 255 * 15 < 2^16
+        w += row_w;
+        wl += row_wl;
+        wy += std::int64_t{row_w} * dy;
+        wly += std::int64_t{row_wl} * dy;
+        wyy += std::int64_t{row_w} * dy * dy;
+        lanes_wll += __builtin_convertvector(__builtin_shufflevector(wll16, wll16, 0, 1, 2, 3, 4, 5, 6, 7), I32x8) +
+                     __builtin_convertvector(__builtin_shufflevector(wll16, wll16, 8, 9, 10, 11, 12, 13, 14, 15), I32x8);
+        if (++rows == kRowsPerSum) {  // before a lane of int32 could overflow
+          wll += Sum(lanes_wll);
+          lanes_wll = I32x8{};
           rows = 0;
         }
       }
+      wll += Sum(lanes_wll);
+      // dx = lane + offset.
+      mw += w;
+      mwx += wl + offset * w;
+      mwxx += wll + 2 * offset * wl + offset * offset * w;
+      mwy += wy;
+      mwxy += wly + offset * wy;
+      mwyy += wyy;
     }
-    flush();
+    sw = static_cast<double>(mw);
+    sx = static_cast<double>(mwx);
+    sy = static_cast<double>(mwy);
+    sxx = static_cast<double>(mwxx);
+    sxy = static_cast<double>(mwxy);
+    syy = static_cast<double>(mwyy);
     if (sw <= 0) return BlobStatus::kNoBlob;
   }
   const double mx = sx / sw, my = sy / sw;
