@@ -221,6 +221,15 @@ BlobStatus MeasureBlob(const cv::Mat& image,
   const auto level = static_cast<std::uint8_t>(Round(background - options.weight_threshold * contrast));
   const double r2 = blob_radius_px * blob_radius_px;
   const int r = static_cast<int>(std::floor(blob_radius_px));
+  // The disk's half widths, once for both passes (a square root in each row's loop cost
+  // as much as the rest of it); only radii past the table, from full-image detection of a
+  // large component, take theirs row by row.
+  constexpr int kTabulatedRows = 64;
+  std::array<int, kTabulatedRows> half_widths;
+  for (int dy = 0; dy <= std::min(r, kTabulatedRows - 1); ++dy) half_widths[dy] = HalfWidth(r2, dy);
+  const auto half_width_at = [&](int dy) {
+    return std::abs(dy) < kTabulatedRows ? half_widths[std::abs(dy)] : HalfWidth(r2, dy);
+  };
   int cx = bx, cy = by;
   double sw = 0, sx = 0, sy = 0, sxx = 0, sxy = 0, syy = 0;
   std::int64_t count = 0;
@@ -247,7 +256,7 @@ BlobStatus MeasureBlob(const cv::Mat& image,
       for (int dy = -r, rows = 0; dy <= r; ++dy) {
         const int y = cy + dy;
         if (y < roi.y || y > roi_y1) continue;
-        const int half_width = HalfWidth(r2, dy);
+        const int half_width = half_width_at(dy);
         const int x0 = std::max(a, cx - half_width), x1 = std::min(last, cx + half_width);
         if (x0 > x1) continue;
         U8x16 pixels;
