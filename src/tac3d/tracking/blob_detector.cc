@@ -173,21 +173,31 @@ BlobStatus MeasureBlob(const cv::Mat& image,
   int darkest = 255, bx = -1, by = -1;
   const int y0 = std::max(roi.y, static_cast<int>(std::ceil(qy - s)));
   const int y1 = std::min(roi_y1, static_cast<int>(std::floor(qy + s)));
-  for (int y = y0; y <= y1; ++y) {
-    const double dy = y - qy;
-    const double half_width = std::sqrt(std::max(0.0, s * s - dy * dy));
-    const int x0 = std::max(roi.x, static_cast<int>(std::ceil(qx - half_width)));
-    const int x1 = std::min(roi_x1, static_cast<int>(std::floor(qx + half_width)));
-    const std::uint8_t* row = image.ptr<std::uint8_t>(y);
-    for (int a = x0; a <= x1; a += kLanes) {
-      U8x16 pixels;
-      const int first = VectorStart(image.cols, a);
-      LoadSpan(row, image.cols, first, a, std::min(x1, a + kLanes - 1), pixels);
-      const int span_min = HorizontalMin(pixels);
-      if (span_min >= darkest) continue;
-      darkest = span_min;
-      bx = first + FirstLaneEqual(pixels, static_cast<std::uint8_t>(span_min));
-      by = y;
+  // The rows' spans come first, a block at a time, so their square roots do not sit in the
+  // scanning loop (a separate loop also vectorises).
+  constexpr int kBlockRows = 16;
+  std::array<int, kBlockRows> span_x0, span_x1;
+  for (int block = y0; block <= y1; block += kBlockRows) {
+    const int rows = std::min(kBlockRows, y1 - block + 1);
+    for (int k = 0; k < rows; ++k) {
+      const double dy = block + k - qy;
+      const double half_width = std::sqrt(std::max(0.0, s * s - dy * dy));
+      span_x0[k] = std::max(roi.x, static_cast<int>(std::ceil(qx - half_width)));
+      span_x1[k] = std::min(roi_x1, static_cast<int>(std::floor(qx + half_width)));
+    }
+    for (int k = 0; k < rows; ++k) {
+      const int y = block + k, x0 = span_x0[k], x1 = span_x1[k];
+      const std::uint8_t* row = image.ptr<std::uint8_t>(y);
+      for (int a = x0; a <= x1; a += kLanes) {
+        U8x16 pixels;
+        const int first = VectorStart(image.cols, a);
+        LoadSpan(row, image.cols, first, a, std::min(x1, a + kLanes - 1), pixels);
+        const int span_min = HorizontalMin(pixels);
+        if (span_min >= darkest) continue;
+        darkest = span_min;
+        bx = first + FirstLaneEqual(pixels, static_cast<std::uint8_t>(span_min));
+        by = y;
+      }
     }
   }
   // No pixel, or none darker than white (padding lanes are white): no contrast either.
