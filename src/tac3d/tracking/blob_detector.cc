@@ -16,10 +16,14 @@ namespace {
 
 // Directions (cos, sin) of the background samples around a blob (one vector of them).
 constexpr int kRingSamples = 16;
-const std::array<std::pair<double, double>, kRingSamples> kRingDirections = [] {
-  std::array<std::pair<double, double>, kRingSamples> d;
+struct RingDirections {
+  std::array<double, kRingSamples> cos, sin;  // two arrays, so scaling them vectorises
+};
+const RingDirections kRingDirections = [] {
+  RingDirections d;
   for (int k = 0; k < kRingSamples; ++k) {
-    d[k] = {std::cos(2 * M_PI * k / kRingSamples), std::sin(2 * M_PI * k / kRingSamples)};
+    d.cos[k] = std::cos(2 * M_PI * k / kRingSamples);
+    d.sin[k] = std::sin(2 * M_PI * k / kRingSamples);
   }
   return d;
 }();
@@ -207,12 +211,16 @@ BlobStatus MeasureBlob(const cv::Mat& image,
   // robust to a neighbouring dot covering part of it.
   // Samples outside the roi are white, so they sort after the others: the median of the
   // ring_size samples in it is still the one at rank ring_size / 2.
+  const double ring_radius = blob_radius_px + 1.25;
+  std::array<int, kRingSamples> ring_x, ring_y;  // first, apart from the reads: vectorised
+  for (int k = 0; k < kRingSamples; ++k) {
+    ring_x[k] = bx + Round(ring_radius * kRingDirections.cos[k]);
+    ring_y[k] = by + Round(ring_radius * kRingDirections.sin[k]);
+  }
   U8x16 ring;
   int ring_size = 0;
-  const double ring_radius = blob_radius_px + 1.25;
   for (int k = 0; k < kRingSamples; ++k) {
-    const int x = bx + Round(ring_radius * kRingDirections[k].first);
-    const int y = by + Round(ring_radius * kRingDirections[k].second);
+    const int x = ring_x[k], y = ring_y[k];
     const bool inside = x >= roi.x && x <= roi_x1 && y >= roi.y && y <= roi_y1;
     ring[k] = inside ? image.ptr<std::uint8_t>(y)[x] : 255;
     ring_size += inside;
