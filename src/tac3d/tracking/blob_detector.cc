@@ -326,14 +326,14 @@ BlobStatus MeasureBlob(const cv::Mat& image,
   const Eigen::Vector2d center(cx + mx, cy + my);
   // Mean darkness of the 3 x 3 core at the centroid.
   const int ux = Round(center.x()), uy = Round(center.y());
-  double core = 0;
-  int core_count = 0;
+  int core_sum = 0, core_count = 0;  // integers: the same sum as in doubles, without its chain
   for (int y = std::max(roi.y, uy - 1); y <= std::min(roi_y1, uy + 1); ++y) {
     for (int x = std::max(roi.x, ux - 1); x <= std::min(roi_x1, ux + 1); ++x) {
-      core += background - image.at<std::uint8_t>(y, x);
+      core_sum += image.at<std::uint8_t>(y, x);
       ++core_count;
     }
   }
+  const double core = core_count * background - core_sum;
   if (spread < options.min_spread_px || spread > options.max_spread_px ||
       elongation > options.max_elongation || fill < options.min_fill ||
       core < options.min_core_darkness * contrast * core_count) {
