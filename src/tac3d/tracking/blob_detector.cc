@@ -234,7 +234,7 @@ BlobStatus MeasureBlob(const cv::Mat& image,
 
   // Darkness-weighted moments over the blob's disk about the darkest pixel; again about
   // the pixel nearest the centroid if that is far off, so that a darkest pixel at the rim
-  // of a flat dark core does not cut the disk off-centre. Branch-free inner loop.
+  // of a flat dark core does not cut the disk off-centre.
   // level <= background <= 255 and level >= darkest >= 0 (weight_threshold < 1): a byte.
   const auto level = static_cast<std::uint8_t>(Round(background - options.weight_threshold * contrast));
   const double r2 = blob_radius_px * blob_radius_px;
