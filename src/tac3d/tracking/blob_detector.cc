@@ -16,10 +16,14 @@ namespace {
 
 // Directions (cos, sin) of the background samples around a blob (one vector of them).
 constexpr int kRingSamples = 16;
-const std::array<std::pair<double, double>, kRingSamples> kRingDirections = [] {
-  std::array<std::pair<double, double>, kRingSamples> d;
+struct RingDirections {
+  std::array<double, kRingSamples> cos, sin;  // two arrays, so scaling them vectorises
+};
+const RingDirections kRingDirections = [] {
+  RingDirections d;
   for (int k = 0; k < kRingSamples; ++k) {
-    d[k] = {std::cos(2 * M_PI * k / kRingSamples), std::sin(2 * M_PI * k / kRingSamples)};
+    d.cos[k] = std::cos(2 * M_PI * k / kRingSamples);
+    d.sin[k] = std::sin(2 * M_PI * k / kRingSamples);
   }
   return d;
 }();
@@ -28,17 +32,20 @@ const std::array<std::pair<double, double>, kRingSamples> kRingDirections = [] {
 // AVX2 on x86-64, NEON on ARM), so a dot's row costs a few instructions, not a loop.
 constexpr int kLanes = 16;
 using U8x16 = std::uint8_t __attribute__((vector_size(kLanes)));
-using U8x8 = std::uint8_t __attribute__((vector_size(kLanes / 2)));
+using U16x16 = std::uint16_t __attribute__((vector_size(2 * kLanes)));
 using I32x8 = std::int32_t __attribute__((vector_size(2 * kLanes)));
 constexpr U8x16 kLane = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
-constexpr I32x8 kLane32 = {0, 1, 2, 3, 4, 5, 6, 7};
+constexpr U16x16 kLane16 = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
 static_assert(kRingSamples == kLanes, "the background ring is one vector");
 static_assert(std::endian::native == std::endian::little, "FirstLaneEqual reads lane 0 as the lowest byte");
 
-// Pixels [x0, x1] of a row (x1 - x0 < kLanes, inside the image) into lanes, from the returned
-// column on; the other lanes are white (255).
-int LoadSpan(const std::uint8_t* row, int cols, int x0, int x1, U8x16& pixels) {
-  const int first = std::max(0, std::min(x0, cols - kLanes));  // stays inside the row
+// The column a vector covering pixels from x0 on starts at: x0, or less so that it stays
+// inside the row.
+int VectorStart(int cols, int x0) { return std::max(0, std::min(x0, cols - kLanes)); }
+
+// Pixels [x0, x1] of a row into lanes from column `first` on (first <= x0, x1 < first +
+// kLanes, inside the image); the other lanes are white (255).
+void LoadSpan(const std::uint8_t* row, int cols, int first, int x0, int x1, U8x16& pixels) {
   if (first + kLanes <= cols) {
     std::memcpy(&pixels, row + first, kLanes);
   } else {  // an image narrower than a vector
@@ -46,7 +53,6 @@ int LoadSpan(const std::uint8_t* row, int cols, int x0, int x1, U8x16& pixels) {
   }
   const auto lo = static_cast<std::uint8_t>(x0 - first), hi = static_cast<std::uint8_t>(x1 - first);
   pixels |= reinterpret_cast<U8x16>(~((kLane >= lo) & (kLane <= hi)));
-  return first;
 }
 
 U8x16 Min(U8x16 a, U8x16 b) { return a < b ? a : b; }
@@ -75,12 +81,33 @@ int ValueAtRank(U8x16 v, int rank) {
   return HorizontalMin(at_or_below > static_cast<std::uint8_t>(rank) ? v : U8x16{} + 255);
 }
 
-int Sum(I32x8 v) {
+std::int64_t Sum(I32x8 v) {
   v += __builtin_shufflevector(v, v, 4, 5, 6, 7, 0, 1, 2, 3);
   v += __builtin_shufflevector(v, v, 2, 3, 0, 1, 2, 3, 0, 1);
   v += __builtin_shufflevector(v, v, 1, 0, 1, 0, 1, 0, 1, 0);
   return v[0];
 }
+
+// The lanes' sums of `a` and of `b` together (each must fit 16 bits).
+std::pair<int, int> Sums(U16x16 a, U16x16 b) {
+  U16x16 v = __builtin_shufflevector(a, b, 0, 1, 2, 3, 4, 5, 6, 7, 16, 17, 18, 19, 20, 21, 22, 23) +
+             __builtin_shufflevector(a, b, 8, 9, 10, 11, 12, 13, 14, 15, 24, 25, 26, 27, 28, 29, 30, 31);
+  v += __builtin_shufflevector(v, v, 4, 5, 6, 7, 0, 1, 2, 3, 12, 13, 14, 15, 8, 9, 10, 11);
+  v += __builtin_shufflevector(v, v, 2, 3, 0, 1, 2, 3, 0, 1, 10, 11, 8, 9, 10, 11, 8, 9);
+  v += __builtin_shufflevector(v, v, 1, 0, 1, 0, 1, 0, 1, 0, 9, 8, 9, 8, 9, 8, 9, 8);
+  return {v[0], v[8]};
+}
+
+// How many lanes are not zero.
+int CountNonZero(U8x16 v) {
+  const auto nonzero = v != 0;
+  std::uint64_t half[2];
+  std::memcpy(half, &nonzero, sizeof(half));
+  return (std::popcount(half[0]) + std::popcount(half[1])) / 8;
+}
+
+// Rows of 2 * 255 * 15^2 each fit an int32 lane.
+constexpr int kRowsPerSum = std::numeric_limits<std::int32_t>::max() / (2 * 255 * 15 * 15);
 
 // A centroid this far (squared, px^2) from the disk's centre is measured again about it.
 constexpr double kRecentreDistance2 = 0.75 * 0.75;
@@ -150,20 +177,31 @@ BlobStatus MeasureBlob(const cv::Mat& image,
   int darkest = 255, bx = -1, by = -1;
   const int y0 = std::max(roi.y, static_cast<int>(std::ceil(qy - s)));
   const int y1 = std::min(roi_y1, static_cast<int>(std::floor(qy + s)));
-  for (int y = y0; y <= y1; ++y) {
-    const double dy = y - qy;
-    const double half_width = std::sqrt(std::max(0.0, s * s - dy * dy));
-    const int x0 = std::max(roi.x, static_cast<int>(std::ceil(qx - half_width)));
-    const int x1 = std::min(roi_x1, static_cast<int>(std::floor(qx + half_width)));
-    const std::uint8_t* row = image.ptr<std::uint8_t>(y);
-    for (int a = x0; a <= x1; a += kLanes) {
-      U8x16 pixels;
-      const int first = LoadSpan(row, image.cols, a, std::min(x1, a + kLanes - 1), pixels);
-      const int span_min = HorizontalMin(pixels);
-      if (span_min >= darkest) continue;
-      darkest = span_min;
-      bx = first + FirstLaneEqual(pixels, static_cast<std::uint8_t>(span_min));
-      by = y;
+  // The rows' spans come first, a block at a time, so their square roots do not sit in the
+  // scanning loop (a separate loop also vectorises).
+  constexpr int kBlockRows = 16;
+  std::array<int, kBlockRows> span_x0, span_x1;
+  for (int block = y0; block <= y1; block += kBlockRows) {
+    const int rows = std::min(kBlockRows, y1 - block + 1);
+    for (int k = 0; k < rows; ++k) {
+      const double dy = block + k - qy;
+      const double half_width = std::sqrt(std::max(0.0, s * s - dy * dy));
+      span_x0[k] = std::max(roi.x, static_cast<int>(std::ceil(qx - half_width)));
+      span_x1[k] = std::min(roi_x1, static_cast<int>(std::floor(qx + half_width)));
+    }
+    for (int k = 0; k < rows; ++k) {
+      const int y = block + k, x0 = span_x0[k], x1 = span_x1[k];
+      const std::uint8_t* row = image.ptr<std::uint8_t>(y);
+      for (int a = x0; a <= x1; a += kLanes) {
+        U8x16 pixels;
+        const int first = VectorStart(image.cols, a);
+        LoadSpan(row, image.cols, first, a, std::min(x1, a + kLanes - 1), pixels);
+        const int span_min = HorizontalMin(pixels);
+        if (span_min >= darkest) continue;
+        darkest = span_min;
+        bx = first + FirstLaneEqual(pixels, static_cast<std::uint8_t>(span_min));
+        by = y;
+      }
     }
   }
   // No pixel, or none darker than white (padding lanes are white): no contrast either.
@@ -173,12 +211,16 @@ BlobStatus MeasureBlob(const cv::Mat& image,
   // robust to a neighbouring dot covering part of it.
   // Samples outside the roi are white, so they sort after the others: the median of the
   // ring_size samples in it is still the one at rank ring_size / 2.
+  const double ring_radius = blob_radius_px + 1.25;
+  std::array<int, kRingSamples> ring_x, ring_y;  // first, apart from the reads: vectorised
+  for (int k = 0; k < kRingSamples; ++k) {
+    ring_x[k] = bx + Round(ring_radius * kRingDirections.cos[k]);
+    ring_y[k] = by + Round(ring_radius * kRingDirections.sin[k]);
+  }
   U8x16 ring;
   int ring_size = 0;
-  const double ring_radius = blob_radius_px + 1.25;
   for (int k = 0; k < kRingSamples; ++k) {
-    const int x = bx + Round(ring_radius * kRingDirections[k].first);
-    const int y = by + Round(ring_radius * kRingDirections[k].second);
+    const int x = ring_x[k], y = ring_y[k];
     const bool inside = x >= roi.x && x <= roi_x1 && y >= roi.y && y <= roi_y1;
     ring[k] = inside ? image.ptr<std::uint8_t>(y)[x] : 255;
     ring_size += inside;
@@ -192,15 +234,23 @@ BlobStatus MeasureBlob(const cv::Mat& image,
 
   // Darkness-weighted moments over the blob's disk about the darkest pixel; again about
   // the pixel nearest the centroid if that is far off, so that a darkest pixel at the rim
-  // of a flat dark core does not cut the disk off-centre. Branch-free inner loop.
-  const int level = Round(background - options.weight_threshold * contrast);
+  // of a flat dark core does not cut the disk off-centre.
+  // level <= background <= 255 and level >= darkest >= 0 (weight_threshold < 1): a byte.
+  const auto level = static_cast<std::uint8_t>(Round(background - options.weight_threshold * contrast));
   const double r2 = blob_radius_px * blob_radius_px;
   const int r = static_cast<int>(std::floor(blob_radius_px));
-  const int rows_per_sum = std::max(
-      1, static_cast<int>(std::numeric_limits<std::int32_t>::max() / (255.0 * std::max(1, r * r) * (2 * r + 1))));
+  // The disk's half widths, once for both passes (a square root in each row's loop cost
+  // as much as the rest of it); only radii past the table, from full-image detection of a
+  // large component, take theirs row by row.
+  constexpr int kTabulatedRows = 64;
+  std::array<int, kTabulatedRows> half_widths;
+  for (int dy = 0; dy <= std::min(r, kTabulatedRows - 1); ++dy) half_widths[dy] = HalfWidth(r2, dy);
+  const auto half_width_at = [&](int dy) {
+    return std::abs(dy) < kTabulatedRows ? half_widths[std::abs(dy)] : HalfWidth(r2, dy);
+  };
   int cx = bx, cy = by;
   double sw = 0, sx = 0, sy = 0, sxx = 0, sxy = 0, syy = 0;
-  int count = 0;
+  std::int64_t count = 0;
   for (int pass = 0; pass < 2; ++pass) {
     if (pass == 1) {
       const double ox = sx / sw, oy = sy / sw;
@@ -208,54 +258,60 @@ BlobStatus MeasureBlob(const cv::Mat& image,
       cx += Round(ox);
       cy += Round(oy);
     }
-    sw = sx = sy = sxx = sxy = syy = 0;
+    // Exact integer moments about (cx, cy). The disk's vectors start at the same columns in
+    // every row, so a pixel's dx is its lane plus the vector's offset: lanes accumulate the
+    // 16-bit products w * lane and w * lane^2 (always exact), the offset enters once per
+    // vector and dy once per row. The same integers as summing w * dx * dy pixel by pixel.
+    std::int64_t mw = 0, mwx = 0, mwy = 0, mwxx = 0, mwxy = 0, mwyy = 0;
     count = 0;
-    // Integer moments in lanes, exact: a row adds at most 255 r^2 (2r + 1) to one, so they
-    // move to the doubles before an int32 could overflow (only for radii over 32 px).
-    I32x8 lw{}, lx{}, ly{}, lxx{}, lxy{}, lyy{}, lc{};
-    auto flush = [&] {
-      sw += Sum(lw);
-      sx += Sum(lx);
-      sy += Sum(ly);
-      sxx += Sum(lxx);
-      sxy += Sum(lxy);
-      syy += Sum(lyy);
-      count += Sum(lc);
-      lw = lx = ly = lxx = lxy = lyy = lc = I32x8{};
-    };
-    for (int dy = -r, rows = 0; dy <= r; ++dy) {
-      const int y = cy + dy;
-      if (y < roi.y || y > roi_y1) continue;
-      const std::uint8_t* row = image.ptr<std::uint8_t>(y);
-      const int half_width = HalfWidth(r2, dy);
-      const int x0 = cx + std::max(-half_width, roi.x - cx), x1 = cx + std::min(half_width, roi_x1 - cx);
-      for (int a = x0; a <= x1; a += kLanes) {
+    const int x_begin = std::max(cx - r, roi.x), x_end = std::min(cx + r, roi_x1);
+    for (int a = x_begin; a <= x_end; a += kLanes) {
+      const int first = VectorStart(image.cols, a), last = std::min(x_end, a + kLanes - 1);
+      const std::int64_t offset = first - cx;
+      // Sums over the vector's rows: of w, w * lane, w * lane^2, and of those times dy.
+      std::int64_t w = 0, wl = 0, wll = 0, wy = 0, wly = 0, wyy = 0;
+      I32x8 lanes_wll{};
+      for (int dy = -r, rows = 0; dy <= r; ++dy) {
+        const int y = cy + dy;
+        if (y < roi.y || y > roi_y1) continue;
+        const int half_width = half_width_at(dy);
+        const int x0 = std::max(a, cx - half_width), x1 = std::min(last, cx + half_width);
+        if (x0 > x1) continue;
         U8x16 pixels;
-        const int last = std::min(x1, a + kLanes - 1);
-        const int first = LoadSpan(row, image.cols, a, last, pixels);
-        // The lanes' halves as 32-bit integers; the upper one only if it holds pixels.
-        for (int h = 0; h < (last - first >= kLanes / 2 ? 2 : 1); ++h) {
-          const U8x8 half = h == 0 ? __builtin_shufflevector(pixels, pixels, 0, 1, 2, 3, 4, 5, 6, 7)
-                                   : __builtin_shufflevector(pixels, pixels, 8, 9, 10, 11, 12, 13, 14, 15);
-          I32x8 w = level - __builtin_convertvector(half, I32x8);
-          w = w > 0 ? w : I32x8{};  // white padding lanes weigh nothing
-          const I32x8 dx = kLane32 + (first + kLanes / 2 * h - cx);
-          const I32x8 wx = w * dx, wy = w * dy;
-          lw += w;
-          lx += wx;
-          ly += wy;
-          lxx += wx * dx;
-          lxy += wx * dy;
-          lyy += wy * dy;
-          lc -= w > 0;
+        LoadSpan(image.ptr<std::uint8_t>(y), image.cols, first, x0, x1, pixels);
+        const U8x16 weight = pixels < level ? level - pixels : U8x16{};  // white padding: 0
+        count += CountNonZero(weight);
+        const U16x16 w16 = __builtin_convertvector(weight, U16x16);
+        const U16x16 wl16 = w16 * kLane16, wll16 = wl16 * kLane16;  // <= 255 * 15^2 < 2^16
+        const auto [row_w, row_wl] = Sums(w16, wl16);                 // <= 16 * 255 * 15 < 2^16
+        w += row_w;
+        wl += row_wl;
+        wy += std::int64_t{row_w} * dy;
+        wly += std::int64_t{row_wl} * dy;
+        wyy += std::int64_t{row_w} * dy * dy;
+        lanes_wll += __builtin_convertvector(__builtin_shufflevector(wll16, wll16, 0, 1, 2, 3, 4, 5, 6, 7), I32x8) +
+                     __builtin_convertvector(__builtin_shufflevector(wll16, wll16, 8, 9, 10, 11, 12, 13, 14, 15), I32x8);
+        if (++rows == kRowsPerSum) {  // before a lane of int32 could overflow
+          wll += Sum(lanes_wll);
+          lanes_wll = I32x8{};
+          rows = 0;
         }
       }
-      if (++rows == rows_per_sum) {
-        flush();
-        rows = 0;
-      }
+      wll += Sum(lanes_wll);
+      // dx = lane + offset.
+      mw += w;
+      mwx += wl + offset * w;
+      mwxx += wll + 2 * offset * wl + offset * offset * w;
+      mwy += wy;
+      mwxy += wly + offset * wy;
+      mwyy += wyy;
     }
-    flush();
+    sw = static_cast<double>(mw);
+    sx = static_cast<double>(mwx);
+    sy = static_cast<double>(mwy);
+    sxx = static_cast<double>(mwxx);
+    sxy = static_cast<double>(mwxy);
+    syy = static_cast<double>(mwyy);
     if (sw <= 0) return BlobStatus::kNoBlob;
   }
   const double mx = sx / sw, my = sy / sw;
@@ -270,14 +326,14 @@ BlobStatus MeasureBlob(const cv::Mat& image,
   const Eigen::Vector2d center(cx + mx, cy + my);
   // Mean darkness of the 3 x 3 core at the centroid.
   const int ux = Round(center.x()), uy = Round(center.y());
-  double core = 0;
-  int core_count = 0;
+  int core_sum = 0, core_count = 0;  // integers: the same sum as in doubles, without its chain
   for (int y = std::max(roi.y, uy - 1); y <= std::min(roi_y1, uy + 1); ++y) {
     for (int x = std::max(roi.x, ux - 1); x <= std::min(roi_x1, ux + 1); ++x) {
-      core += background - image.at<std::uint8_t>(y, x);
+      core_sum += image.at<std::uint8_t>(y, x);
       ++core_count;
     }
   }
+  const double core = core_count * background - core_sum;
   if (spread < options.min_spread_px || spread > options.max_spread_px ||
       elongation > options.max_elongation || fill < options.min_fill ||
       core < options.min_core_darkness * contrast * core_count) {

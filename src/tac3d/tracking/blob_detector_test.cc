@@ -13,8 +13,8 @@ namespace {
 
 // A dark Gaussian dot (sigma 1.2 px, 150 DN deep) on a film that brightens linearly across
 // the image (uneven light), exactly sampled at pixel centres, no noise.
-cv::Mat Dot(const Eigen::Vector2d& center, double film_slope_dn_per_px = 0.0) {
-  cv::Mat image(40, 40, CV_8UC1);
+cv::Mat Dot(const Eigen::Vector2d& center, double film_slope_dn_per_px = 0.0, int size = 40) {
+  cv::Mat image(size, size, CV_8UC1);
   for (int y = 0; y < image.rows; ++y) {
     for (int x = 0; x < image.cols; ++x) {
       const double r2 = (Eigen::Vector2d(x, y) - center).squaredNorm();
@@ -62,6 +62,20 @@ TEST(MeasureBlob, UnevenLightBarelyMovesTheCentroid) {
   Blob dimmed;
   ASSERT_EQ(MeasureBlob(dim, kWhole, Eigen::Vector2d(20, 20), 3.0, 4.5, {}, dimmed), BlobStatus::kFound);
   EXPECT_LT((dimmed.center - flat.center).norm(), 0.03);
+}
+
+TEST(MeasureBlob, AWideDiskMeasuresTheSameDot) {
+  // On a flat film only the dot's pixels weigh, so a disk of 70 px (rows of several vectors,
+  // and rows past the 64 whose half widths are tabulated) must give exactly what one of
+  // 4.5 px gives.
+  const cv::Mat image = Dot({80.3, 79.6}, 0.0, 160);
+  const cv::Rect whole(0, 0, 160, 160);
+  Blob small, wide;
+  ASSERT_EQ(MeasureBlob(image, whole, {80, 80}, 3.0, 4.5, {}, small), BlobStatus::kFound);
+  ASSERT_EQ(MeasureBlob(image, whole, {80, 80}, 3.0, 70.0, {}, wide), BlobStatus::kFound);
+  EXPECT_EQ(wide.center, small.center);
+  EXPECT_EQ(wide.spread_px, small.spread_px);
+  EXPECT_LT((wide.center - Eigen::Vector2d(80.3, 79.6)).norm(), 0.03);
 }
 
 TEST(MeasureBlob, FlatDarkOrOutOfViewImagesHaveNoBlob) {

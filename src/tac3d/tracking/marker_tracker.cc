@@ -14,17 +14,6 @@ namespace {
 // grid neighbour is accepted (its prediction gets better), up to this bound.
 constexpr int kMaxTries = 3;
 
-template <typename F>
-void ForNeighbours(int i, int rows, int cols, F&& f) {
-  const int r = i / cols, c = i % cols;
-  for (int dr = -1; dr <= 1; ++dr) {
-    for (int dc = -1; dc <= 1; ++dc) {
-      const int rr = r + dr, cc = c + dc;
-      if ((dr != 0 || dc != 0) && rr >= 0 && rr < rows && cc >= 0 && cc < cols) f(rr * cols + cc);
-    }
-  }
-}
-
 }  // namespace
 
 void MarkerTrackerOptions::Validate() const {
@@ -64,6 +53,20 @@ MarkerTracker::MarkerTracker(const SensorConfig& config, const MarkerTrackerOpti
   const std::vector<Eigen::Vector3d> markers = config.MarkerPositions();
   const int n = rows_ * cols_;
   const int width = config.camera.intrinsics.width, height = config.camera.intrinsics.height;
+  neighbour_begin_.reserve(n + 1);
+  for (int i = 0; i < n; ++i) {
+    neighbour_begin_.push_back(static_cast<int>(neighbours_.size()));
+    const int r = i / cols_, c = i % cols_;
+    for (int dr = -1; dr <= 1; ++dr) {
+      for (int dc = -1; dc <= 1; ++dc) {
+        const int rr = r + dr, cc = c + dc;
+        if ((dr != 0 || dc != 0) && rr >= 0 && rr < rows_ && cc >= 0 && cc < cols_) {
+          neighbours_.push_back(rr * cols_ + cc);
+        }
+      }
+    }
+  }
+  neighbour_begin_.push_back(static_cast<int>(neighbours_.size()));
   for (ImageHalf which : kImageHalves) {
     Half& half = halves_[static_cast<int>(which)];
     const auto camera = std::find_if(config.virtual_cameras.begin(), config.virtual_cameras.end(),
@@ -112,6 +115,11 @@ MarkerTracker::MarkerTracker(const SensorConfig& config, const MarkerTrackerOpti
   }
 }
 
+template <typename F>
+void MarkerTracker::ForNeighbours(int i, F&& f) const {
+  for (int k = neighbour_begin_[i]; k < neighbour_begin_[i + 1]; ++k) f(neighbours_[k]);
+}
+
 void MarkerTracker::Reset() {
   for (Half& half : halves_) half.tracking = false;
 }
@@ -119,7 +127,7 @@ void MarkerTracker::Reset() {
 Eigen::Vector2d MarkerTracker::Predict(const Half& half, int i) const {
   Eigen::Vector2d surprise = Eigen::Vector2d::Zero();
   int support = 0;
-  ForNeighbours(i, rows_, cols_, [&](int j) {
+  ForNeighbours(i, [&](int j) {
     if (!half.accepted[j]) return;
     surprise += half.found[j] - half.base[j];
     ++support;
@@ -157,7 +165,7 @@ void MarkerTracker::Grow(const cv::Mat& image, Half& half, int head, int tail) c
       }
       const double separation2 = std::pow(options_.min_separation * pitch, 2);
       bool conflict = false;
-      ForNeighbours(i, rows_, cols_, [&](int j) {
+      ForNeighbours(i, [&](int j) {
         conflict |= half.accepted[j] && (blob.center - half.found[j]).squaredNorm() < separation2;
       });
       if (conflict) {
@@ -167,7 +175,7 @@ void MarkerTracker::Grow(const cv::Mat& image, Half& half, int head, int tail) c
       half.state[i] = MarkerState::kValid;
       half.accepted[i] = 1;
       half.found[i] = blob.center;
-      ForNeighbours(i, rows_, cols_, [&](int j) {
+      ForNeighbours(i, [&](int j) {
         if (!half.accepted[j] && !half.queued[j] && half.tries[j] < kMaxTries) push(j);
       });
     }
@@ -266,7 +274,7 @@ void MarkerTracker::KeepLargestConsistentSeeds(Half& half) const {
       ++size;
       const Eigen::Vector2d deviation = half.found[i] - half.base[i];
       const double limit = options_.gate * half.pitch[i];
-      ForNeighbours(i, rows_, cols_, [&](int j) {
+      ForNeighbours(i, [&](int j) {
         if (!half.accepted[j] || label[j] >= 0) return;
         if ((half.found[j] - half.base[j] - deviation).squaredNorm() > limit * limit) return;
         label[j] = next_label;
@@ -320,7 +328,7 @@ void MarkerTracker::AcquireHalf(const cv::Mat& image, Half& half) const {
     int tail = 0;
     for (int i = 0; i < n; ++i) {
       if (!half.accepted[i]) continue;
-      ForNeighbours(i, rows_, cols_, [&](int j) {
+      ForNeighbours(i, [&](int j) {
         if (half.accepted[j] || half.queued[j]) return;
         half.queue[tail++] = j;
         half.queued[j] = 1;

@@ -169,11 +169,17 @@ class MarkerTracker {
   int CountValid(const Half& half) const;
   // Ends a frame of a half: every marker's estimate for the next one.
   void Commit(Half& half) const;
+  // Calls f(j) for each of marker i's (up to 8) grid neighbours j.
+  template <typename F>
+  void ForNeighbours(int i, F&& f) const;
 
   SensorConfig config_;
   MarkerTrackerOptions options_;
   int rows_ = 0;
   int cols_ = 0;
+  // Marker i's grid neighbours: neighbours_[neighbour_begin_[i] .. neighbour_begin_[i + 1]),
+  // a table rather than a division per visit (three visits a marker a frame).
+  std::vector<int> neighbour_begin_, neighbours_;
   std::array<Half, 2> halves_;
   std::int64_t frame_index_ = 0;
 };
