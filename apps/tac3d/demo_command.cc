@@ -88,7 +88,7 @@ cv::Mat ForceFieldFigure(const std::vector<cv::Mat>& panels, double max_normal_n
   row.copyTo(figure(cv::Rect(0, 40, row.cols, row.rows)));
   cv::putText(figure,
               fmt::format("two_material_slide: marker normal force -fz (colour, 0 to {:.3f} N), tangential force "
-                          "(white arrows, 1 pitch = {:.3f} N)",
+                          "(white arrows, 1 pitch = {:.3f} N); sensor frame, x right, y up",
                           max_normal_n, pitch_mm / arrow_mm_per_n),
               cv::Point(8, 26), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
   return figure;
@@ -252,7 +252,7 @@ void RegisterDemo(CLI::App& app) {
   auto out = std::make_shared<std::string>("out/demo");
   auto steps = std::make_shared<int>(0);
   CLI::App* cmd = app.add_subcommand("demo", "Run the pipeline on the built-in digital twin");
-  cmd->add_option("--out", *out, "output directory (its scene datasets must not exist yet)")
+  cmd->add_option("--out", *out, "output directory")
       ->capture_default_str();
   cmd->add_option("--steps", *steps, "simulate only the first N steps of each scene (0: all)")
       ->capture_default_str();

@@ -120,7 +120,7 @@ TEST(ReplayEvaluation, RecoversTheTruthOfASyntheticDatasetAndItsGains) {
   ASSERT_EQ(pairs.size(), 3u);
   EXPECT_EQ(pairs[1].reference_n, r.frames[1].true_force_n);
   const ForceGainFit fit = FitForceGains(ParseForcePairs(ForcePairsToCsv(pairs)));
-  EXPECT_THAT(fit.gains, testing::EigenNear(Eigen::Vector3d::Ones(), 0.05));
+  EXPECT_THAT(fit.gains, EigenNear(Eigen::Vector3d::Ones(), 0.05));
 
   ReplayOptions doubled = FiveReferenceFrames();
   doubled.pipeline.force.gains = {1, 1, 2};
@@ -132,7 +132,7 @@ TEST(ReplayEvaluation, RecoversTheTruthOfASyntheticDatasetAndItsGains) {
   EXPECT_FALSE(j.at("all_pass").get<bool>());
   EXPECT_FALSE(j.at("checks")[2].at("pass").get<bool>());
   EXPECT_THAT(ReplayForcePairs(off, doubled.pipeline.force.gains)[2].measured_n,
-              testing::EigenNear(pairs[2].measured_n, 1e-9));
+              EigenNear(pairs[2].measured_n, 1e-9));
   const std::string csv = ReplayFramesToCsv(r.frames);
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 5);
 }
