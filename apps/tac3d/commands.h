@@ -99,6 +99,7 @@ struct ReplayArgs {
   std::string config;          ///< sensor YAML, or "" for the dataset's scene's sensor
   std::string cache_dir = DefaultCacheDir();
   int max_steps = 0;
+  int max_support_markers = 0;  ///< ForceReconstructorOptions::max_support_markers; 0: default
   bool show_progress = true;
 };
 

@@ -39,6 +39,7 @@ ReplayRun RunReplay(const ReplayArgs& a, const std::function<void(const TwinStep
       fem::BodyModelOptionsFromSensor(config), a.cache_dir, a.show_progress);
   ReplayRun run;
   run.options.max_steps = a.max_steps;
+  if (a.max_support_markers != 0) run.options.pipeline.force.max_support_markers = a.max_support_markers;
   if (!a.gains.empty()) run.options.pipeline.force.gains = {a.gains[0], a.gains[1], a.gains[2]};
   if (!a.calibration.empty()) {
     std::unique_ptr<ProgressBar> bar;
@@ -53,9 +54,11 @@ ReplayRun RunReplay(const ReplayArgs& a, const std::function<void(const TwinStep
   run.report = ToJson(run.replay.summary, run.options);
   run.report["dataset"] = a.dataset;
   if (run.calibration) {
+    ReplayOptions unit_gains = run.options;
+    unit_gains.pipeline.force.gains = Eigen::Vector3d::Ones();
     run.report["calibration"] = {{"dataset", a.calibration},
                                  {"fit", ToJson(run.calibration->fit)},
-                                 {"replay", ToJson(run.calibration->replay.summary, run.options)}};
+                                 {"replay_with_unit_gains", ToJson(run.calibration->replay.summary, unit_gains)}};
   }
   return run;
 }
@@ -88,6 +91,9 @@ void RegisterEvalReplay(CLI::App& eval) {
   cmd->add_option("--config", r.config, "sensor YAML (default: the dataset's scene's sensor)");
   cmd->add_option("--cache", r.cache_dir, "directory of cached compliance models")->capture_default_str();
   cmd->add_option("--steps", r.max_steps, "replay only the first N steps (0: all)")->capture_default_str();
+  cmd->add_option("--max-support-markers", r.max_support_markers,
+                  "the force re-solve's largest contact support, markers (0: the default, 120)")
+      ->capture_default_str();
   cmd->add_option("--out", args->out, "write report.json, frames.csv and force_pairs.csv here");
   cmd->add_flag("--json", args->json, "print JSON");
   cmd->callback([args] {
