@@ -66,13 +66,14 @@ void BM_ImageToUdpStream(benchmark::State& state) {
   options.port = client.local_endpoint().port;
   UdpSender sender(options);
   std::array<std::uint8_t, 65536> buffer;
+  Endpoint from;
   TactileFrame out;
   size_t k = 0;
   std::int64_t bytes = 0, datagrams = 0;
   for (auto _ : state) {
     stream.pipeline.Process(stream.frames[k++ % stream.frames.size()], out);
     sender.Send(out);
-    while (const std::optional<std::size_t> n = client.Receive(buffer, 0.0, nullptr)) {
+    while (const std::optional<std::size_t> n = client.Receive(buffer, 0.0, &from)) {
       bytes += static_cast<std::int64_t>(*n);
       ++datagrams;
     }
