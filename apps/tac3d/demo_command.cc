@@ -206,7 +206,7 @@ void Run(const std::string& out, int steps) {
   });
   WriteReplayFiles(run, out + "/replay");
   report["replay"] = run.report;
-  report["replay"]["seconds"] = Milliseconds(t) / 1000.0;
+  report["replay_seconds"] = Milliseconds(t) / 1000.0;  // both replays and the model load
   const ForceGainFit& fit = run.calibration->fit;
   const ReplaySummary& s = run.replay.summary;
   std::printf("      gains %.4f %.4f %.4f (R^2 %.4f %.4f %.4f over %d loaded calibration frames)\n", fit.gains.x(),
