@@ -1,7 +1,10 @@
 // Image to TactileFrame per frame (issue: median <= 1 ms on one core): tracking, stereo,
-// displacement, F = K D, normals, contact, resultants, on twin frames of a moving press.
+// displacement, F = K D, normals, contact, resultants, on twin frames of a moving press; and
+// the throughput with the Tac3D UDP sender on, streaming every frame to a loopback client
+// socket that drains what arrives (issue 6).
 // Run: taskset -c 0 build/bin/bench_pipeline --benchmark_repetitions=10
 //        --benchmark_report_aggregates_only=true
+#include <array>
 #include <cmath>
 
 #include <benchmark/benchmark.h>
@@ -9,36 +12,79 @@
 #include "tac3d/design/light_path_design.h"
 #include "tac3d/force/synthetic_compliance.h"
 #include "tac3d/pipeline/pipeline.h"
+#include "tac3d/protocol/udp_sender.h"
+#include "tac3d/protocol/udp_socket.h"
 #include "tac3d/twin/camera_renderer.h"
 
 namespace tac3d {
 namespace {
 
-void BM_ImageToTactileFrame(benchmark::State& state) {
-  const SensorConfig config = DefaultSensorConfig();
-  const std::vector<Eigen::Vector3d> rest = config.MarkerPositions();
-  // H's values do not change the cost; the synthetic one saves building the FEM here.
-  PipelineOptions options;
-  options.reference_frames = 2;
-  Pipeline pipeline(config, CalcSyntheticCompliance({}).h, rest, options);
-  const MarkerImageRenderer renderer(config);
+// A pipeline past its reference and 16 frames of a press coming and going.
+struct PressStream {
+  SensorConfig config = DefaultSensorConfig();
+  Pipeline pipeline;
   std::vector<Frame> frames;
-  for (int k = 0; k < 16; ++k) {
-    std::vector<Eigen::Vector3d> markers = rest;
-    const double depth_mm = 0.6 * (0.5 - 0.5 * std::cos(2 * M_PI * k / 16.0));
-    for (auto& p : markers) p.z() -= depth_mm * std::exp(-p.head<2>().squaredNorm() / 18.0);
-    frames.push_back({renderer.Render(markers, k), 0.0, k});
+
+  PressStream() : pipeline(config, CalcSyntheticCompliance({}).h, config.MarkerPositions(), Options()) {
+    // H's values do not change the cost; the synthetic one saves building the FEM here.
+    const std::vector<Eigen::Vector3d> rest = config.MarkerPositions();
+    const MarkerImageRenderer renderer(config);
+    for (int k = 0; k < 16; ++k) {
+      std::vector<Eigen::Vector3d> markers = rest;
+      const double depth_mm = 0.6 * (0.5 - 0.5 * std::cos(2 * M_PI * k / 16.0));
+      for (auto& p : markers) p.z() -= depth_mm * std::exp(-p.head<2>().squaredNorm() / 18.0);
+      frames.push_back({renderer.Render(markers, k), 0.0, k});
+    }
+    TactileFrame out;
+    for (int k = 0; k < 2; ++k) pipeline.Process({renderer.Render(rest, 100 + k), 0.0, k}, out);
   }
+  static PipelineOptions Options() {
+    PipelineOptions options;
+    options.reference_frames = 2;
+    return options;
+  }
+};
+
+void BM_ImageToTactileFrame(benchmark::State& state) {
+  PressStream stream;
   TactileFrame out;
-  for (int k = 0; k < 2; ++k) pipeline.Process({renderer.Render(rest, 100 + k), 0.0, k}, out);
   size_t k = 0;
   for (auto _ : state) {
-    pipeline.Process(frames[k++ % frames.size()], out);
+    stream.pipeline.Process(stream.frames[k++ % stream.frames.size()], out);
     benchmark::DoNotOptimize(out.resultant_force_n);
   }
   if (out.has(FrameFlag::kInitializing) || out.has(FrameFlag::kMarkersLost)) state.SkipWithError("bad frame");
 }
 BENCHMARK(BM_ImageToTactileFrame)->Unit(benchmark::kMicrosecond);
+
+// Image -> TactileFrame -> Tac3D datagrams to 127.0.0.1, a client socket on the same machine
+// taking them off its queue: frames/s end to end on loopback (no images in the stream).
+void BM_ImageToUdpStream(benchmark::State& state) {
+  PressStream stream;
+  internal::UdpSocket client(ResolveEndpoint("127.0.0.1", 0), 1 << 22);
+  UdpSenderOptions options;
+  options.port = client.local_endpoint().port;
+  UdpSender sender(options);
+  std::array<std::uint8_t, 65536> buffer;
+  Endpoint from;
+  TactileFrame out;
+  size_t k = 0;
+  std::int64_t bytes = 0, datagrams = 0;
+  for (auto _ : state) {
+    stream.pipeline.Process(stream.frames[k++ % stream.frames.size()], out);
+    sender.Send(out);
+    while (const std::optional<std::size_t> n = client.Receive(buffer, 0.0, &from)) {
+      bytes += static_cast<std::int64_t>(*n);
+      ++datagrams;
+    }
+  }
+  state.counters["frames_per_s"] = benchmark::Counter(static_cast<double>(state.iterations()),
+                                                      benchmark::Counter::kIsRate);
+  state.counters["bytes_per_frame"] = static_cast<double>(bytes) / std::max<std::int64_t>(state.iterations(), 1);
+  state.counters["datagrams_per_frame"] =
+      static_cast<double>(datagrams) / std::max<std::int64_t>(state.iterations(), 1);
+}
+BENCHMARK(BM_ImageToUdpStream)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 }  // namespace tac3d

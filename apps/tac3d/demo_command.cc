@@ -1,11 +1,14 @@
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <memory>
 
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "commands.h"
 #include "tac3d/design/light_path_design.h"
@@ -37,12 +40,66 @@ std::vector<Eigen::Vector3d> Dent(std::vector<Eigen::Vector3d> markers, double d
   return markers;
 }
 
-void Run(const std::string& out) {
+// One panel of the force field: the normal force -f_z as a colour map on the marker grid
+// (scaled to max_normal_n), the tangential force (f_x, f_y) as arrows (arrow_mm_per_n), the
+// true and measured resultants underneath.
+cv::Mat ForcePanel(const TactileFrame& frame, const TwinStep& truth, const std::vector<Eigen::Vector3d>& rest_mm,
+                   double pitch_mm, double max_normal_n, double arrow_mm_per_n) {
+  constexpr int kCell = 24, kPanel = 20 * kCell + 40, kCaption = 64;
+  cv::Mat panel(kPanel + kCaption, kPanel, CV_8UC3, cv::Scalar(255, 255, 255));
+  const double px_per_mm = kCell / pitch_mm;
+  const auto pixel = [&](const Eigen::Vector2d& p_mm) {
+    return cv::Point(static_cast<int>(std::lround(kPanel / 2 + p_mm.x() * px_per_mm)),
+                     static_cast<int>(std::lround(kPanel / 2 - p_mm.y() * px_per_mm)));
+  };
+  cv::Mat level(1, 1, CV_8U), colour;
+  for (int i = 0; i < frame.num_markers(); ++i) {
+    level.at<std::uint8_t>(0) = cv::saturate_cast<std::uint8_t>(255.0 * -frame.forces_n[i].z() / max_normal_n);
+    cv::applyColorMap(level, colour, cv::COLORMAP_VIRIDIS);
+    const cv::Point c = pixel(rest_mm[i].head<2>());
+    cv::rectangle(panel, c - cv::Point(kCell / 2, kCell / 2), c + cv::Point(kCell / 2 - 1, kCell / 2 - 1),
+                  cv::Scalar(colour.at<cv::Vec3b>(0)), cv::FILLED);
+    if (!frame.valid[i]) cv::drawMarker(panel, c, cv::Scalar(0, 0, 255), cv::MARKER_TILTED_CROSS, 10);
+  }
+  for (int i = 0; i < frame.num_markers(); ++i) {
+    const Eigen::Vector2d t = frame.forces_n[i].head<2>() * arrow_mm_per_n;
+    if (t.norm() * px_per_mm < 1.5) continue;
+    cv::arrowedLine(panel, pixel(rest_mm[i].head<2>()), pixel(rest_mm[i].head<2>() + t),
+                    cv::Scalar(255, 255, 255), 1, cv::LINE_AA, 0, 0.3);
+  }
+  const auto text = [&](const std::string& s, int y) {
+    cv::putText(panel, s, cv::Point(8, kPanel + y), cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 0), 1,
+                cv::LINE_AA);
+  };
+  const Eigen::Vector3d& f = frame.resultant_force_n;
+  const Eigen::Vector3d& g = truth.total_force_n;
+  text(fmt::format("step {}  t = {:.2f} s", truth.index, truth.t_s), 0);
+  text(fmt::format("true     F = ({:+.3f}, {:+.3f}, {:+.3f}) N", g.x(), g.y(), g.z()), 20);
+  text(fmt::format("measured F = ({:+.3f}, {:+.3f}, {:+.3f}) N", f.x(), f.y(), f.z()), 40);
+  return panel;
+}
+
+// The panels side by side over a title line with the colour scale.
+cv::Mat ForceFieldFigure(const std::vector<cv::Mat>& panels, double max_normal_n, double arrow_mm_per_n,
+                         double pitch_mm) {
+  cv::Mat row;
+  cv::hconcat(panels, row);
+  cv::Mat figure(row.rows + 40, row.cols, CV_8UC3, cv::Scalar(255, 255, 255));
+  row.copyTo(figure(cv::Rect(0, 40, row.cols, row.rows)));
+  cv::putText(figure,
+              fmt::format("two_material_slide: marker normal force -fz (colour, 0 to {:.3f} N), tangential force "
+                          "(white arrows, 1 pitch = {:.3f} N); sensor frame, x right, y up",
+                          max_normal_n, pitch_mm / arrow_mm_per_n),
+              cv::Point(8, 26), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  return figure;
+}
+
+void Run(const std::string& out, int steps) {
   MakeDirectory(out);
   nlohmann::json report;
   const auto t0 = std::chrono::steady_clock::now();
 
-  std::printf("[1/4] designing the light path of the built-in sensor (paper Fig. 4)\n");
+  std::printf("[1/8] designing the light path of the built-in sensor (paper Fig. 4)\n");
   const SensorConfig prototype;
   LightPathDesignOptions options;
   options.h_mm = prototype.light_path.h_mm;
@@ -69,7 +126,7 @@ void Run(const std::string& out) {
               design.summary.distinct_roots, design.summary.valid_roots, root.parallax_deg,
               out.c_str());
 
-  std::printf("[2/4] rendering the marker layer through mirrors, glass and silicone\n");
+  std::printf("[2/8] rendering the marker layer through mirrors, glass and silicone\n");
   auto t = std::chrono::steady_clock::now();
   const MarkerImageRenderer renderer(config);
   const double setup_ms = Milliseconds(t);
@@ -84,14 +141,14 @@ void Run(const std::string& out) {
   std::printf("      markers_undeformed.png, markers_dent.png (%.0f ms set-up, %.1f ms a frame)\n",
               setup_ms, frame_ms);
 
-  std::printf("[3/4] rendering a dot calibration board before the elastic body is mounted\n");
+  std::printf("[3/8] rendering a dot calibration board before the elastic body is mounted\n");
   const BoardImageRenderer board_renderer(config);
   DotBoard board;
   WritePng(board_renderer.Render(board, board.SensorFromBoard({0, 0, 0}, {8, -5, 0})),
            out + "/calibration_board.png");
   std::printf("      calibration_board.png\n");
 
-  std::printf("[4/4] measuring the markers: the twin's perturbed sensor calibrated from 21 rendered\n"
+  std::printf("[4/8] measuring the markers: the twin's perturbed sensor calibrated from 21 rendered\n"
               "      board views, then its marker layer under shear, dent and twist tracked,\n"
               "      triangulated and corrected for refraction\n");
   const nlohmann::json markers = EvaluateMarkers({});
@@ -100,6 +157,88 @@ void Run(const std::string& out) {
     const nlohmann::json& m = markers.at("by_model").at(model);
     std::printf("      refraction %-10s position RMSE %.4f mm, displacement RMSE %.4f mm\n", model,
                 m.at("position_rmse_mm").get<double>(), m.at("displacement_rmse_mm").get<double>());
+  }
+
+  std::printf("[5/8] simulating the built-in scene force_calibration (a sphere pressed and slid, Fig. 5)\n");
+  // A previous demo's datasets are replaced (the simulation writes only into a new folder).
+  for (const char* name : {"force_calibration", "two_material_slide"}) {
+    if (std::filesystem::exists(out + "/" + name + "/dataset.json")) std::filesystem::remove_all(out + "/" + name);
+  }
+  SimulateArgs sim;
+  sim.steps = steps;
+  sim.scene = "force_calibration";
+  sim.out = out + "/force_calibration";
+  t = std::chrono::steady_clock::now();
+  const SimulateRun calibration_sim = SimulateToDataset(sim);
+  report["simulate"]["force_calibration"] = {{"summary", simulation::ToJson(calibration_sim.summary)},
+                                             {"seconds", Milliseconds(t) / 1000.0}};
+  std::printf("      %d steps (%d in contact) -> %s\n", calibration_sim.summary.steps,
+              calibration_sim.summary.contact_steps, sim.out.c_str());
+  std::printf("[6/8] simulating two_material_slide (a block, mu 1.0 then 0.4, slid 16 mm, Fig. 8)\n");
+  sim.scene = "two_material_slide";
+  sim.out = out + "/two_material_slide";
+  t = std::chrono::steady_clock::now();
+  const SimulateRun slide_sim = SimulateToDataset(sim);
+  report["simulate"]["two_material_slide"] = {{"summary", simulation::ToJson(slide_sim.summary)},
+                                              {"seconds", Milliseconds(t) / 1000.0}};
+  std::printf("      %d steps (%d in contact) -> %s\n", slide_sim.summary.steps, slide_sim.summary.contact_steps,
+              sim.out.c_str());
+
+  std::printf("[7/8] replaying both through the pipeline: gains fitted on force_calibration, the slide\n"
+              "      judged frame by frame against the twin's truth\n");
+  ReplayArgs replay;
+  replay.dataset = out + "/two_material_slide";
+  replay.calibration = out + "/force_calibration";
+  std::vector<std::pair<TwinStep, TactileFrame>> kept;
+  std::vector<int> picks;
+  {
+    const TwinDatasetReader slide(replay.dataset);
+    // Four frames spread over the slide's loaded part (steps where the truth carries force).
+    std::vector<int> loaded;
+    for (int step : slide.steps()) {
+      if (slide.Read(step).total_force_n.norm() > ReplayOptions{}.loaded_force_n) loaded.push_back(step);
+    }
+    for (int k = 1; k <= 4 && !loaded.empty(); ++k) picks.push_back(loaded[(loaded.size() - 1) * k / 5]);
+  }
+  t = std::chrono::steady_clock::now();
+  const ReplayRun run = RunReplay(replay, [&](const TwinStep& truth, const TactileFrame& frame) {
+    if (std::find(picks.begin(), picks.end(), truth.index) != picks.end()) kept.emplace_back(truth, frame);
+  });
+  WriteReplayFiles(run, out + "/replay");
+  report["replay"] = run.report;
+  report["replay_seconds"] = Milliseconds(t) / 1000.0;  // both replays and the model load
+  const ForceGainFit& fit = run.calibration->fit;
+  const ReplaySummary& s = run.replay.summary;
+  std::printf("      gains %.4f %.4f %.4f (R^2 %.4f %.4f %.4f over %d loaded calibration frames)\n", fit.gains.x(),
+              fit.gains.y(), fit.gains.z(), fit.r_squared.x(), fit.r_squared.y(), fit.r_squared.z(), fit.num_pairs);
+  std::printf("      slide: %d loaded frames; resultant error %% of full scale (Fx, Fy 5 N; Fz 10 N)\n"
+              "      max %.2f %.2f %.2f, RMS %.2f %.2f %.2f (worst step %d); %d frames flagged\n",
+              s.loaded_frames, s.force_error_max_pct_fs.x(), s.force_error_max_pct_fs.y(),
+              s.force_error_max_pct_fs.z(), s.force_error_rms_pct_fs.x(), s.force_error_rms_pct_fs.y(),
+              s.force_error_rms_pct_fs.z(), s.worst_force_step, s.flagged_frames);
+  std::printf("      markers: position RMSE %.4f mm, displacement RMSE %.4f mm; contact IoU %.3f\n",
+              s.position_rmse_mm, s.displacement_rmse_mm, s.contact_iou);
+  std::printf("      %s/replay/{frames.csv, force_pairs.csv, report.json}\n", out.c_str());
+
+  std::printf("[8/8] drawing the force field of %zu slide frames\n", kept.size());
+  if (!kept.empty()) {
+    const SensorConfig sensor = DatasetSensor(TwinDatasetReader(replay.dataset));
+    const std::vector<Eigen::Vector3d> rest = sensor.MarkerPositions();
+    double max_normal = 1e-9, max_tangential = 1e-9;
+    for (const auto& [truth, frame] : kept) {
+      for (const Eigen::Vector3d& f : frame.forces_n) {
+        max_normal = std::max(max_normal, -f.z());
+        max_tangential = std::max(max_tangential, f.head<2>().norm());
+      }
+    }
+    const double pitch = sensor.markers.pitch_mm;
+    const double arrow_mm_per_n = 1.5 * pitch / max_tangential;  // the largest arrow 1.5 pitches
+    std::vector<cv::Mat> panels;
+    for (const auto& [truth, frame] : kept) {
+      panels.push_back(ForcePanel(frame, truth, rest, pitch, max_normal, arrow_mm_per_n));
+    }
+    WritePng(ForceFieldFigure(panels, max_normal, arrow_mm_per_n, pitch), out + "/force_field.png");
+    std::printf("      %s/force_field.png\n", out.c_str());
   }
 
   report["total_seconds"] = Milliseconds(t0) / 1000.0;
@@ -111,9 +250,13 @@ void Run(const std::string& out) {
 
 void RegisterDemo(CLI::App& app) {
   auto out = std::make_shared<std::string>("out/demo");
+  auto steps = std::make_shared<int>(0);
   CLI::App* cmd = app.add_subcommand("demo", "Run the pipeline on the built-in digital twin");
-  cmd->add_option("--out", *out, "output directory")->capture_default_str();
-  cmd->callback([out] { Run(*out); });
+  cmd->add_option("--out", *out, "output directory")
+      ->capture_default_str();
+  cmd->add_option("--steps", *steps, "simulate only the first N steps of each scene (0: all)")
+      ->capture_default_str();
+  cmd->callback([out, steps] { Run(*out, *steps); });
 }
 
 }  // namespace tac3d::cli

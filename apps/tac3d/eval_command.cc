@@ -11,6 +11,7 @@ void RegisterEval(CLI::App& app) {
   RegisterEvalFem(*eval);
   RegisterEvalContact(*eval);
   RegisterEvalForce(*eval);
+  RegisterEvalReplay(*eval);
 }
 
 }  // namespace tac3d::cli

@@ -30,16 +30,51 @@ nlohmann::json ToJson(const TwinDeviation& d) {
           {"poisson_ratio_factor", d.poisson_ratio_factor}};
 }
 
-struct SimulateArgs {
-  std::string scene;
-  std::string out;
-  std::string cache_dir = DefaultCacheDir();
-  bool no_images = false;
-  int steps = 0;
-  bool json = false;
-};
-
 }  // namespace
+
+SimulateRun SimulateToDataset(const SimulateArgs& args) {
+  if (args.steps < 0) throw Error(fmt::format("--steps must be >= 0, got {}", args.steps));
+  const Scene scene = LoadSceneOrBuiltIn(args.scene);
+  const fem::BodyModelOptions body = simulation::TwinBodyModelOptions(scene.sensor, scene.deviation);
+  // The output folder first, so a bad --out fails before a long model build.
+  TwinDatasetWriter writer(
+      args.out, {{"name", scene.name}, {"scene", args.scene}, {"deviation", ToJson(scene.deviation)}});
+  MakeDirectory(args.cache_dir);
+  simulation::TwinBodyCacheResult cached = simulation::LoadOrBuildTwinBodyModel(
+      body, simulation::TwinBodyOptions{}, args.cache_dir, /*show_progress=*/true);
+  std::fprintf(stderr, "twin body %s in %.1f s: %s\n", Describe(cached.status), cached.elapsed_s,
+               cached.path.c_str());
+  if (!cached.reason.empty()) std::fprintf(stderr, "why not the cached file: %s\n", cached.reason.c_str());
+  const auto model = std::make_shared<const simulation::TwinBodyModel>(std::move(cached.model));
+
+  simulation::SimulationOptions options;
+  options.render_images = !args.no_images;
+  options.max_steps = args.steps;
+  options.show_progress = true;
+  simulation::TwinSimulation sim(scene, model, options);
+  const contact::KernelSymbolReport& symbol = sim.compliance().symbol_report();
+  SimulateRun run;
+  run.model = {{"cache_file", cached.path},
+               {"cache_status", Describe(cached.status)},
+               {"load_or_build_s", cached.elapsed_s},
+               {"body", fem::ToJson(model->body)},
+               {"options", simulation::ToJson(model->options)},
+               {"grid",
+                {{"nx", model->grid.nx},
+                 {"ny", model->grid.ny},
+                 {"dx_mm", model->grid.dx_mm},
+                 {"dy_mm", model->grid.dy_mm}}},
+               {"symbol",
+                {{"min_eigenvalue", symbol.min_eigenvalue},
+                 {"max_eigenvalue", symbol.max_eigenvalue},
+                 {"num_clamped", symbol.num_clamped},
+                 {"num_frequencies", symbol.num_frequencies}}},
+               {"provenance", simulation::ToJson(model->provenance)}};
+  writer.UpdateHeader({{"steps", sim.num_steps()}, {"twin_body", run.model}});
+  run.summary = sim.Run([&writer](const TwinStep& step) { writer.Write(step); });
+  writer.UpdateHeader({{"summary", simulation::ToJson(run.summary)}});
+  return run;
+}
 
 void RegisterSimulate(CLI::App& app) {
   auto args = std::make_shared<SimulateArgs>();
@@ -55,53 +90,10 @@ void RegisterSimulate(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--json", args->json, "print the summary as JSON");
   cmd->callback([args] {
-    if (args->steps < 0) throw Error(fmt::format("--steps must be >= 0, got {}", args->steps));
-    const Scene scene = LoadSceneOrBuiltIn(args->scene);
-    const fem::BodyModelOptions body =
-        simulation::TwinBodyModelOptions(scene.sensor, scene.deviation);
-    // The output folder first, so a bad --out fails before a long model build.
-    TwinDatasetWriter writer(
-        args->out,
-        {{"name", scene.name}, {"scene", args->scene}, {"deviation", ToJson(scene.deviation)}});
-    MakeDirectory(args->cache_dir);
-    simulation::TwinBodyCacheResult cached = simulation::LoadOrBuildTwinBodyModel(
-        body, simulation::TwinBodyOptions{}, args->cache_dir, /*show_progress=*/true);
-    std::fprintf(stderr,
-                 "twin body %s in %.1f s: %s\n",
-                 Describe(cached.status),
-                 cached.elapsed_s,
-                 cached.path.c_str());
-    if (!cached.reason.empty())
-      std::fprintf(stderr, "why not the cached file: %s\n", cached.reason.c_str());
-    const auto model = std::make_shared<const simulation::TwinBodyModel>(std::move(cached.model));
-
-    simulation::SimulationOptions options;
-    options.render_images = !args->no_images;
-    options.max_steps = args->steps;
-    options.show_progress = true;
-    simulation::TwinSimulation sim(scene, model, options);
-    const contact::KernelSymbolReport& symbol = sim.compliance().symbol_report();
-    const nlohmann::json model_json = {{"cache_file", cached.path},
-                                       {"cache_status", Describe(cached.status)},
-                                       {"load_or_build_s", cached.elapsed_s},
-                                       {"body", fem::ToJson(model->body)},
-                                       {"options", simulation::ToJson(model->options)},
-                                       {"grid",
-                                        {{"nx", model->grid.nx},
-                                         {"ny", model->grid.ny},
-                                         {"dx_mm", model->grid.dx_mm},
-                                         {"dy_mm", model->grid.dy_mm}}},
-                                       {"symbol",
-                                        {{"min_eigenvalue", symbol.min_eigenvalue},
-                                         {"max_eigenvalue", symbol.max_eigenvalue},
-                                         {"num_clamped", symbol.num_clamped},
-                                         {"num_frequencies", symbol.num_frequencies}}},
-                                       {"provenance", simulation::ToJson(model->provenance)}};
-    writer.UpdateHeader({{"steps", sim.num_steps()}, {"twin_body", model_json}});
-    const simulation::SimulationSummary summary =
-        sim.Run([&writer](const TwinStep& step) { writer.Write(step); });
+    const SimulateRun run = SimulateToDataset(*args);
+    const simulation::SimulationSummary& summary = run.summary;
+    const nlohmann::json& model_json = run.model;
     const nlohmann::json summary_json = simulation::ToJson(summary);
-    writer.UpdateHeader({{"summary", summary_json}});
     if (args->json) {
       std::printf("%s\n",
                   nlohmann::json{

@@ -13,7 +13,9 @@ namespace tac3d {
 namespace {
 
 constexpr double kClearanceMm = 0.5;  // gap between the fingertip and an object at rest
-
+// Steps every built-in scene holds its first pose (clear of the objects) before it moves, so
+// the pipeline's reference (PipelineOptions::reference_frames, 20) sees an unloaded sensor.
+constexpr int kLeadInSteps = 25;
 
 Scene Base(const std::string& name) {
   Scene scene;
@@ -168,6 +170,16 @@ Scene Bottle() {
   return s;
 }
 
+// Holds the first pose for kLeadInSteps more steps at the trajectory's step spacing: the
+// keyframes move later by that time and the step count grows by kLeadInSteps.
+void AddLeadIn(Trajectory& t) {
+  const double dt = t.duration_s() / (t.steps - 1);
+  for (Trajectory::Keyframe& k : t.keyframes) k.t_s += kLeadInSteps * dt;
+  t.keyframes.insert(t.keyframes.begin(), {t.keyframes.front().t_s - kLeadInSteps * dt,
+                                           t.keyframes.front().world_from_sensor});
+  t.steps += kLeadInSteps;
+}
+
 }  // namespace
 
 std::vector<std::string> BuiltInSceneNames() {
@@ -182,6 +194,7 @@ Scene BuiltInScene(const std::string& name) {
   else if (name == "two_material_slide") scene = TwoMaterialSlide();
   else if (name == "bottle") scene = Bottle();
   else throw Error(fmt::format("no built-in scene '{}' (there are: {})", name, fmt::join(BuiltInSceneNames(), ", ")));
+  AddLeadIn(scene.trajectory);
   scene.Validate();
   return scene;
 }

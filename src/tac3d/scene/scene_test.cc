@@ -157,8 +157,15 @@ TEST(BuiltInScenes, AreValidAndTouchTheirObjects) {
     const Scene scene = BuiltInScene(name);
     EXPECT_EQ(scene.name, name);
     EXPECT_NO_THROW(scene.Validate());
+    // The lead-in: the first 25 steps hold the first pose, so the pipeline's 20 reference
+    // frames see the sensor at rest; the 26th has started to move.
+    const Trajectory& t = scene.trajectory;
+    for (int k = 1; k < 25; ++k) {
+      EXPECT_TRUE(t.PoseAt(t.StepTime(k)).isApprox(t.PoseAt(0.0), 1e-12)) << k;
+    }
+    EXPECT_FALSE(t.PoseAt(t.StepTime(26)).isApprox(t.PoseAt(0.0), 1e-9));
   }
-  EXPECT_EQ(BuiltInScene("two_material_slide").trajectory.steps, 500);
+  EXPECT_EQ(BuiltInScene("two_material_slide").trajectory.steps, 525);
   const Scene slide = BuiltInScene("two_material_slide");
   EXPECT_DOUBLE_EQ(slide.objects[0].FrictionAt({-5, 0, -5}), 1.0);
   EXPECT_DOUBLE_EQ(slide.objects[0].FrictionAt({5, 0, -5}), 0.4);
@@ -166,7 +173,8 @@ TEST(BuiltInScenes, AreValidAndTouchTheirObjects) {
   // 0.8 mm into the cylinder; the rubber disc is where the fingertip is at phi = 20 deg.
   const Scene bottle = BuiltInScene("bottle");
   const SceneObject& cylinder = bottle.objects[0];
-  const Rigid3 world_from_sensor = bottle.trajectory.PoseAt(5.0);
+  const double lead_in_s = bottle.trajectory.keyframes[1].t_s;
+  const Rigid3 world_from_sensor = bottle.trajectory.PoseAt(lead_in_s + 5.0);
   const Eigen::Vector3d tip_world = world_from_sensor * Eigen::Vector3d(0, 0, 8.0);
   const Eigen::Vector3d tip_object = cylinder.world_from_object.inverse() * tip_world;
   EXPECT_NEAR(30.0 - std::hypot(tip_object.x(), tip_object.z()), 0.8, 1e-9);

@@ -1,0 +1,137 @@
+#include <cstdio>
+#include <fstream>
+#include <memory>
+
+#include <fmt/format.h>
+
+#include "commands.h"
+#include "tac3d/fem/compliance.h"
+#include "tac3d/util/error.h"
+#include "tac3d/util/progress.h"
+
+namespace tac3d::cli {
+namespace {
+
+std::function<void(int, int)> Progress(std::unique_ptr<ProgressBar>& bar, const std::string& label,
+                                       bool enabled) {
+  return [&bar, label, enabled](int done, int all) {
+    if (!bar) bar = std::make_unique<ProgressBar>(label, all, enabled);
+    bar->Update(done);
+    if (done == all) bar->Finish();
+  };
+}
+
+}  // namespace
+
+void WriteTextFile(const std::string& path, const std::string& text) {
+  std::ofstream file(path);
+  file << text;
+  if (!file) throw Error(fmt::format("cannot write '{}'", path));
+}
+
+ReplayRun RunReplay(const ReplayArgs& a, const std::function<void(const TwinStep&, const TactileFrame&)>& on_frame) {
+  if (!a.gains.empty() && !a.calibration.empty()) throw Error("give --gains or --calibration, not both");
+  if (!a.gains.empty() && a.gains.size() != 3) throw Error("--gains takes three numbers: Cx Cy Cz");
+  const TwinDatasetReader dataset(a.dataset);
+  const SensorConfig config = a.config.empty() ? DatasetSensor(dataset) : LoadSensorConfig(a.config);
+  MakeDirectory(a.cache_dir);
+  const fem::ComplianceCacheResult model = fem::LoadOrBuildComplianceModel(
+      fem::BodyModelOptionsFromSensor(config), a.cache_dir, a.show_progress);
+  ReplayRun run;
+  run.options.max_steps = a.max_steps;
+  if (a.max_support_markers != 0) run.options.pipeline.force.max_support_markers = a.max_support_markers;
+  if (!a.gains.empty()) run.options.pipeline.force.gains = {a.gains[0], a.gains[1], a.gains[2]};
+  if (!a.calibration.empty()) {
+    std::unique_ptr<ProgressBar> bar;
+    run.calibration = CalibrateGainsByReplay(TwinDatasetReader(a.calibration), config, model.model.h,
+                                             model.model.marker_positions, run.options,
+                                             Progress(bar, "replay calibration", a.show_progress));
+    run.options.pipeline.force.gains = run.calibration->fit.gains;
+  }
+  std::unique_ptr<ProgressBar> bar;
+  run.replay = ReplayTwinDataset(dataset, config, model.model.h, model.model.marker_positions, run.options,
+                                 Progress(bar, "replay", a.show_progress), on_frame);
+  run.report = ToJson(run.replay.summary, run.options);
+  run.report["dataset"] = a.dataset;
+  if (run.calibration) {
+    ReplayOptions unit_gains = run.options;
+    unit_gains.pipeline.force.gains = Eigen::Vector3d::Ones();
+    run.report["calibration"] = {{"dataset", a.calibration},
+                                 {"fit", ToJson(run.calibration->fit)},
+                                 {"replay_with_unit_gains", ToJson(run.calibration->replay.summary, unit_gains)}};
+  }
+  return run;
+}
+
+void WriteReplayFiles(const ReplayRun& run, const std::string& folder) {
+  MakeDirectory(folder);
+  WriteTextFile(folder + "/report.json", run.report.dump(2) + "\n");
+  WriteTextFile(folder + "/frames.csv", ReplayFramesToCsv(run.replay.frames));
+  WriteTextFile(folder + "/force_pairs.csv",
+                ForcePairsToCsv(run.calibration ? run.calibration->pairs
+                                                : ReplayForcePairs(run.replay, run.options.pipeline.force.gains)));
+}
+
+void RegisterEvalReplay(CLI::App& eval) {
+  struct Args {
+    ReplayArgs replay;
+    std::string out;
+    bool json = false;
+  };
+  auto args = std::make_shared<Args>();
+  CLI::App* cmd = eval.add_subcommand(
+      "replay",
+      "Replay a twin dataset's images through the pipeline and compare every frame with the "
+      "truth: resultant force and moment, markers, contact, flags");
+  ReplayArgs& r = args->replay;
+  cmd->add_option("--dataset", r.dataset, "twin dataset folder (tac3d simulate)")->required();
+  cmd->add_option("--gains", r.gains, "force gains Cx Cy Cz (default 1 1 1)")->expected(3);
+  cmd->add_option("--calibration", r.calibration,
+                  "fit the gains on this twin dataset replayed with unit gains");
+  cmd->add_option("--config", r.config, "sensor YAML (default: the dataset's scene's sensor)");
+  cmd->add_option("--cache", r.cache_dir, "directory of cached compliance models")->capture_default_str();
+  cmd->add_option("--steps", r.max_steps, "replay only the first N steps (0: all)")->capture_default_str();
+  cmd->add_option("--max-support-markers", r.max_support_markers,
+                  "the force re-solve's largest contact support, markers (0: the default, 120)")
+      ->capture_default_str();
+  cmd->add_option("--out", args->out, "write report.json, frames.csv and force_pairs.csv here");
+  cmd->add_flag("--json", args->json, "print JSON");
+  cmd->callback([args] {
+    ReplayArgs a = args->replay;
+    a.show_progress = !args->json;
+    const ReplayRun run = RunReplay(a);
+    if (!args->out.empty()) WriteReplayFiles(run, args->out);
+    const nlohmann::json& j = run.report;
+    if (args->json) {
+      std::printf("%s\n", j.dump(2).c_str());
+      return;
+    }
+    if (run.calibration) {
+      const ForceGainFit& fit = run.calibration->fit;
+      std::printf("gains fitted on %s (%d loaded frames): %.5f %.5f %.5f, R^2 %.5f %.5f %.5f\n",
+                  a.calibration.c_str(), fit.num_pairs, fit.gains.x(), fit.gains.y(), fit.gains.z(),
+                  fit.r_squared.x(), fit.r_squared.y(), fit.r_squared.z());
+    }
+    const ReplaySummary& s = run.replay.summary;
+    std::printf("%d steps, %d frames after the reference, %d loaded, %d flagged, %ld lost marker-frames\n",
+                s.steps, s.frames, s.loaded_frames, s.flagged_frames, s.lost_marker_frames);
+    std::printf("resultant error, %% of full scale, max x y z: %.3f %.3f %.3f, rms: %.3f %.3f %.3f (worst step %d)\n",
+                s.force_error_max_pct_fs.x(), s.force_error_max_pct_fs.y(), s.force_error_max_pct_fs.z(),
+                s.force_error_rms_pct_fs.x(), s.force_error_rms_pct_fs.y(), s.force_error_rms_pct_fs.z(),
+                s.worst_force_step);
+    std::printf("moment error, N mm, max x y z: %.3f %.3f %.3f, rms: %.3f %.3f %.3f\n",
+                s.moment_error_max_nmm.x(), s.moment_error_max_nmm.y(), s.moment_error_max_nmm.z(),
+                s.moment_error_rms_nmm.x(), s.moment_error_rms_nmm.y(), s.moment_error_rms_nmm.z());
+    std::printf("markers: position RMSE %.4f mm, displacement RMSE %.4f mm; contact agreement %.3f, IoU %.3f\n",
+                s.position_rmse_mm, s.displacement_rmse_mm, s.contact_agreement, s.contact_iou);
+    std::printf("frames by flag: %s\n", j.at("frames_by_flag").dump().c_str());
+    for (const nlohmann::json& check : j.at("checks")) {
+      std::printf("%-4s %-26s %.4g %s (tolerance %.4g)\n", check.at("pass").get<bool>() ? "ok" : "FAIL",
+                  check.at("name").get<std::string>().c_str(), check.at("value").get<double>(),
+                  check.at("unit").get<std::string>().c_str(), check.at("tolerance").get<double>());
+    }
+    if (!args->out.empty()) std::printf("wrote %s/{report.json,frames.csv,force_pairs.csv}\n", args->out.c_str());
+  });
+}
+
+}  // namespace tac3d::cli
