@@ -170,14 +170,14 @@ TEST(BuiltInScenes, AreValidAndTouchTheirObjects) {
   EXPECT_DOUBLE_EQ(slide.objects[0].FrictionAt({-5, 0, -5}), 1.0);
   EXPECT_DOUBLE_EQ(slide.objects[0].FrictionAt({5, 0, -5}), 0.4);
   // The bottle: at the middle of the slide (phi = 10 deg) the fingertip's top is pressed
-  // 0.8 mm into the cylinder; the rubber disc is where the fingertip is at phi = 20 deg.
+  // 0.3 mm into the cylinder; the rubber disc is where the fingertip is at phi = 20 deg.
   const Scene bottle = BuiltInScene("bottle");
   const SceneObject& cylinder = bottle.objects[0];
   const double lead_in_s = bottle.trajectory.keyframes[1].t_s;
   const Rigid3 world_from_sensor = bottle.trajectory.PoseAt(lead_in_s + 5.0);
   const Eigen::Vector3d tip_world = world_from_sensor * Eigen::Vector3d(0, 0, 8.0);
   const Eigen::Vector3d tip_object = cylinder.world_from_object.inverse() * tip_world;
-  EXPECT_NEAR(30.0 - std::hypot(tip_object.x(), tip_object.z()), 0.8, 1e-9);
+  EXPECT_NEAR(30.0 - std::hypot(tip_object.x(), tip_object.z()), 0.3, 1e-9);
   const double phi = 20.0 * M_PI / 180.0;
   EXPECT_DOUBLE_EQ(cylinder.FrictionAt({-30 * std::sin(phi), 0, -30 * std::cos(phi)}), 1.2);
   EXPECT_DOUBLE_EQ(cylinder.FrictionAt({0, 0, -30}), 0.3);
