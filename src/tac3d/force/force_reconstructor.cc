@@ -70,7 +70,6 @@ ForceReconstructor::ForceReconstructor(const Eigen::MatrixXd& h,
   }
   k_double_ = factor.solve(h.transpose());
   k_ = k_double_.cast<float>();
-  h_ = h;
   d_work_.resize(n);
   f_work_.resize(n);
   invalid_.reserve(num_markers_);
@@ -119,7 +118,7 @@ void ForceReconstructor::UpdateInvalidSet() {
     for (size_t k = 0; k < invalid_.size(); ++k) {
       const int row = axis * num_markers_ + invalid_[k];
       const int slot = axis * static_cast<int>(invalid_.size()) + static_cast<int>(k);
-      h_invalid_.row(slot) = h_.row(row);
+      h_invalid_.row(slot) = ht_.col(row).transpose();
       k_invalid_.col(slot) = k_double_.col(row);
     }
   }

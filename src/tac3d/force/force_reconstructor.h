@@ -142,7 +142,6 @@ class ForceReconstructor {
   ForceReconstructorOptions options_;
   Eigen::MatrixXd k_double_;  // K in double, for the uncertainty and the invalid-marker update
   Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> k_;
-  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> h_;
 
   // Per-frame workspace and the cache of the last validity mask.
   Eigen::VectorXf d_work_;
@@ -154,8 +153,9 @@ class ForceReconstructor {
   Eigen::LLT<Eigen::MatrixXd> restricted_factor_;  // of I - H_R K_R
   Eigen::VectorXd z_work_;
 
-  // Contact-support refinement: H^T H, H^T (row j = column j of H), each marker's neighbours
-  // within the support margin, and the workspace of the support problem.
+  // H^T, row-major: row j is column j of H (the support's right-hand side), column r is row r
+  // of H (H_R for lost markers). Then, for the contact-support refinement: H^T H, each
+  // marker's neighbours within the support margin, and the workspace of the support problem.
   Eigen::MatrixXd hth_;
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> ht_;
   std::vector<std::vector<int>> support_neighbours_;
