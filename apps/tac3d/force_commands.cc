@@ -41,6 +41,8 @@ void RegisterEvalForce(CLI::App& eval) {
       ->capture_default_str();
   cmd->add_option("--weight-rule", args->weight_rule, "discrepancy, gcv or given")->capture_default_str();
   cmd->add_option("--weight", o.weight.weight, "w for --weight-rule given, (mm/N)^2");
+  cmd->add_flag("--no-support-refinement", [&o](std::int64_t) { o.support_refinement = false; },
+                "the paper's F = K D alone, without the contact-support re-solve");
   cmd->add_option("--seed", o.seed, "random seed of the presses and the noise")->capture_default_str();
   cmd->callback([args] {
     EvalForceOptions options = args->options;

@@ -270,7 +270,9 @@ nlohmann::json EvaluateForce(const EvalForceOptions& options) {
                                                         frames.begin() + calibration.size());
   const WeightSelection selection =
       SelectRegularizationWeight(spectrum, calibration_frames, noise, options.weight);
-  ForceReconstructor reconstructor(nominal.h, markers, {.weight = selection.weight});
+  ForceReconstructor reconstructor(
+      nominal.h, markers,
+      {.weight = selection.weight, .support_refinement = options.support_refinement});
   timing["inverse_setup"] = Seconds(start);
   std::vector<ForcePair> pairs;
   for (size_t k = 0; k < calibration.size(); ++k) {

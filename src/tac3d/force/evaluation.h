@@ -43,6 +43,9 @@ struct EvalForceOptions {
   double full_scale_normal_n = 10.0;
   double full_scale_tangential_n = 5.0;
   WeightSelectionOptions weight;
+  /// The inverse's contact-support re-solve (ForceReconstructorOptions); false: the paper's
+  /// F = K D alone.
+  bool support_refinement = true;
   ContactOptions contact;
   std::uint64_t seed = 20221122;
   bool show_progress = true;
