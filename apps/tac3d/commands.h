@@ -124,4 +124,7 @@ void WriteReplayFiles(const ReplayRun& run, const std::string& folder);
 /// Writes text to a file. @throws Error naming the file if it cannot.
 void WriteTextFile(const std::string& path, const std::string& text);
 
+/// Prints an evaluation's checks ([{name, value, unit, tolerance, pass}]), one line each.
+void PrintChecks(const nlohmann::json& checks);
+
 }  // namespace tac3d::cli

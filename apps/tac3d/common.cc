@@ -1,3 +1,4 @@
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 
@@ -18,6 +19,14 @@ std::string DefaultCacheDir() {
   if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg) return std::string(xdg) + "/tac3d";
   if (const char* home = std::getenv("HOME"); home && *home) return std::string(home) + "/.cache/tac3d";
   return ".tac3d-cache";
+}
+
+void PrintChecks(const nlohmann::json& checks) {
+  for (const nlohmann::json& check : checks) {
+    std::printf("%-4s %-26s %.4g %s (tolerance %.4g)\n", check.at("pass").get<bool>() ? "ok" : "FAIL",
+                check.at("name").get<std::string>().c_str(), check.at("value").get<double>(),
+                check.at("unit").get<std::string>().c_str(), check.at("tolerance").get<double>());
+  }
 }
 
 void MakeDirectory(const std::string& path) {

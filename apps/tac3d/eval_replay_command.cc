@@ -125,11 +125,7 @@ void RegisterEvalReplay(CLI::App& eval) {
     std::printf("markers: position RMSE %.4f mm, displacement RMSE %.4f mm; contact agreement %.3f, IoU %.3f\n",
                 s.position_rmse_mm, s.displacement_rmse_mm, s.contact_agreement, s.contact_iou);
     std::printf("frames by flag: %s\n", j.at("frames_by_flag").dump().c_str());
-    for (const nlohmann::json& check : j.at("checks")) {
-      std::printf("%-4s %-26s %.4g %s (tolerance %.4g)\n", check.at("pass").get<bool>() ? "ok" : "FAIL",
-                  check.at("name").get<std::string>().c_str(), check.at("value").get<double>(),
-                  check.at("unit").get<std::string>().c_str(), check.at("tolerance").get<double>());
-    }
+    PrintChecks(j.at("checks"));
     if (!args->out.empty()) std::printf("wrote %s/{report.json,frames.csv,force_pairs.csv}\n", args->out.c_str());
   });
 }

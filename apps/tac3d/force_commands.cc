@@ -1,14 +1,11 @@
 #include <cstdio>
-#include <fstream>
 #include <memory>
 
-#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
 #include "tac3d/force/evaluation.h"
 #include "tac3d/force/force_gains.h"
-#include "tac3d/util/error.h"
 
 namespace tac3d::cli {
 
@@ -56,11 +53,7 @@ void RegisterEvalForce(CLI::App& eval) {
       std::printf("%s\n", j.dump(2).c_str());
       return;
     }
-    for (const nlohmann::json& check : j.at("checks")) {
-      std::printf("%-4s %-26s %.4g %s (tolerance %.4g)\n", check.at("pass").get<bool>() ? "ok" : "FAIL",
-                  check.at("name").get<std::string>().c_str(), check.at("value").get<double>(),
-                  check.at("unit").get<std::string>().c_str(), check.at("tolerance").get<double>());
-    }
+    PrintChecks(j.at("checks"));
     std::printf("resultant error, %% of full scale, max x y z: %s, rms x y z: %s\n",
                 j.at("resultant_error_max_pct_fs_xyz").dump().c_str(),
                 j.at("resultant_error_rms_pct_fs_xyz").dump().c_str());
@@ -87,11 +80,7 @@ void RegisterCalibrateForce(CLI::App& app) {
   cmd->callback([args] {
     const ForceGainFit fit = FitForceGains(LoadForcePairs(args->pairs));
     const nlohmann::json j = ToJson(fit);
-    if (!args->out.empty()) {
-      std::ofstream file(args->out);
-      file << j.dump(2) << "\n";
-      if (!file) throw Error(fmt::format("cannot write '{}'", args->out));
-    }
+    if (!args->out.empty()) WriteTextFile(args->out, j.dump(2) + "\n");
     if (args->json) {
       std::printf("%s\n", j.dump(2).c_str());
       return;

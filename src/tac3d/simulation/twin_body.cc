@@ -83,10 +83,6 @@ int CountFreeDofs(const fem::DomeMesh& dome) {
   return free;
 }
 
-nlohmann::json ToJson(const contact::SurfaceGrid& grid) {
-  return {{"nx", grid.nx}, {"ny", grid.ny}, {"dx_mm", grid.dx_mm}, {"dy_mm", grid.dy_mm}};
-}
-
 TwinBodyOptions TwinBodyOptionsFromJson(const nlohmann::json& j) {
   TwinBodyOptions o;
   o.cells_per_pitch = j.at("cells_per_pitch").get<int>();
@@ -144,6 +140,10 @@ void TwinBodyOptions::Validate() const {
           surface_depth_mm);
   Require(clamp_floor >= 0.0 && clamp_floor <= 1e-3, "clamp_floor", "in [0, 1e-3]", clamp_floor);
   Require(max_direct_free_dofs >= 1, "max_direct_free_dofs", ">= 1", max_direct_free_dofs);
+}
+
+nlohmann::json ToJson(const contact::SurfaceGrid& grid) {
+  return {{"nx", grid.nx}, {"ny", grid.ny}, {"dx_mm", grid.dx_mm}, {"dy_mm", grid.dy_mm}};
 }
 
 nlohmann::json ToJson(const TwinBodyOptions& o) {

@@ -47,6 +47,7 @@ struct TwinBodyOptions {
 };
 
 nlohmann::json ToJson(const TwinBodyOptions& options);
+nlohmann::json ToJson(const contact::SurfaceGrid& grid);
 
 /// The twin's elastic body: the scene's sensor (BodyModelOptionsFromSensor) with the
 /// deviation applied (refinement x mesh_refinement, E x youngs_modulus_factor, nu x
