@@ -8,19 +8,6 @@
 #include "tac3d/fem/evaluation.h"
 
 namespace tac3d::cli {
-namespace {
-
-const char* Describe(fem::ComplianceCacheStatus status) {
-  switch (status) {
-    case fem::ComplianceCacheStatus::kLoaded: return "loaded from the cache";
-    case fem::ComplianceCacheStatus::kBuiltMissing: return "built (not cached yet)";
-    case fem::ComplianceCacheStatus::kRebuiltStale: return "rebuilt (the cached file was stale)";
-    case fem::ComplianceCacheStatus::kRebuiltCorrupt: return "rebuilt (the cached file was corrupt)";
-  }
-  return "?";
-}
-
-}  // namespace
 
 void RegisterBuildModel(CLI::App& app) {
   auto args = std::make_shared<ModelArgs>();

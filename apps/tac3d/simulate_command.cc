@@ -10,20 +10,6 @@
 namespace tac3d::cli {
 namespace {
 
-const char* Describe(fem::ComplianceCacheStatus status) {
-  switch (status) {
-    case fem::ComplianceCacheStatus::kLoaded:
-      return "loaded from the cache";
-    case fem::ComplianceCacheStatus::kBuiltMissing:
-      return "built (not cached yet)";
-    case fem::ComplianceCacheStatus::kRebuiltStale:
-      return "rebuilt (the cached file was stale)";
-    case fem::ComplianceCacheStatus::kRebuiltCorrupt:
-      return "rebuilt (the cached file was corrupt)";
-  }
-  return "?";
-}
-
 nlohmann::json ToJson(const TwinDeviation& d) {
   return {{"mesh_refinement", d.mesh_refinement},
           {"youngs_modulus_factor", d.youngs_modulus_factor},

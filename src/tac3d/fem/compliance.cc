@@ -147,31 +147,9 @@ ComplianceCacheResult LoadOrBuildComplianceModel(const BodyModelOptions& options
   ComplianceCacheResult result;
   result.path =
       (std::filesystem::path(cache_dir) / fmt::format("compliance_{:016x}.bin", key)).string();
-  if (!std::filesystem::exists(result.path)) {
-    result.status = ComplianceCacheStatus::kBuiltMissing;
-  } else {
-    try {
-      CacheFile cached = ReadCacheFile(result.path);
-      if (cached.key == key) {
-        result.model = std::move(cached.model);
-        result.status = ComplianceCacheStatus::kLoaded;
-      } else {
-        result.status = ComplianceCacheStatus::kRebuiltStale;
-        result.reason =
-            fmt::format("key {:016x}, expected {:016x} (other options or code)", cached.key, key);
-      }
-    } catch (const Error& e) {
-      result.status = ComplianceCacheStatus::kRebuiltCorrupt;
-      result.reason = e.what();
-    }
-  }
-  if (result.status != ComplianceCacheStatus::kLoaded) {
-    result.model = CalcComplianceModel(options, show_progress);
-    std::error_code error;
-    std::filesystem::create_directories(cache_dir, error);
-    if (error) throw Error(fmt::format("cannot create the cache directory {}", cache_dir));
-    SaveComplianceModel(result.model, result.path);
-  }
+  result.status = LoadOrBuildCacheFile(
+      result.path, key, ReadCacheFile, [&] { return CalcComplianceModel(options, show_progress); },
+      SaveComplianceModel, &result.model, &result.reason);
   result.elapsed_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return result;

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "tac3d/fem/body_model.h"
+#include "tac3d/util/cache_file.h"
 
 namespace tac3d::fem {
 
@@ -72,13 +73,8 @@ void SaveComplianceModel(const ComplianceModel& model, const std::string& path);
 ///   not that of its options and this code (FemCodeVersion) (another version built it).
 ComplianceModel LoadComplianceModel(const std::string& path);
 
-/// What LoadOrBuildComplianceModel did.
-enum class ComplianceCacheStatus {
-  kLoaded,          ///< the cached file was valid and used
-  kBuiltMissing,    ///< no cached file: built and saved
-  kRebuiltStale,    ///< the file was for other options or code: rebuilt and overwritten
-  kRebuiltCorrupt,  ///< the file was unreadable, truncated or failed its checksum: rebuilt
-};
+/// What LoadOrBuildComplianceModel did (the cache policy is util/cache_file.h's).
+using ComplianceCacheStatus = CacheStatus;
 
 struct ComplianceCacheResult {
   ComplianceModel model;

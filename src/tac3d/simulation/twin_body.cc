@@ -456,31 +456,10 @@ TwinBodyCacheResult LoadOrBuildTwinBodyModel(const fem::BodyModelOptions& body,
   TwinBodyCacheResult result;
   result.path =
       (std::filesystem::path(cache_dir) / fmt::format("twin_body_{:016x}.bin", key)).string();
-  if (!std::filesystem::exists(result.path)) {
-    result.status = fem::ComplianceCacheStatus::kBuiltMissing;
-  } else {
-    try {
-      CachedModel cached = ReadTwinBodyFile(result.path);
-      if (cached.key == key) {
-        result.model = std::move(cached.model);
-        result.status = fem::ComplianceCacheStatus::kLoaded;
-      } else {
-        result.status = fem::ComplianceCacheStatus::kRebuiltStale;
-        result.reason =
-            fmt::format("key {:016x}, expected {:016x} (other inputs or code)", cached.key, key);
-      }
-    } catch (const Error& e) {
-      result.status = fem::ComplianceCacheStatus::kRebuiltCorrupt;
-      result.reason = e.what();
-    }
-  }
-  if (result.status != fem::ComplianceCacheStatus::kLoaded) {
-    result.model = CalcTwinBodyModel(body, options, show_progress);
-    std::error_code error;
-    std::filesystem::create_directories(cache_dir, error);
-    if (error) throw Error(fmt::format("cannot create the cache directory {}", cache_dir));
-    SaveTwinBodyModel(result.model, result.path);
-  }
+  result.status = LoadOrBuildCacheFile(
+      result.path, key, ReadTwinBodyFile,
+      [&] { return CalcTwinBodyModel(body, options, show_progress); }, SaveTwinBodyModel,
+      &result.model, &result.reason);
   result.elapsed_s = Seconds(start);
   return result;
 }

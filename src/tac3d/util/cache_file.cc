@@ -158,4 +158,14 @@ CacheRecord ReadCacheRecord(const std::string& path,
   return record;
 }
 
+const char* Describe(CacheStatus status) {
+  switch (status) {
+    case CacheStatus::kLoaded: return "loaded from the cache";
+    case CacheStatus::kBuiltMissing: return "built (not cached yet)";
+    case CacheStatus::kRebuiltStale: return "rebuilt (the cached file was stale)";
+    case CacheStatus::kRebuiltCorrupt: return "rebuilt (the cached file was corrupt)";
+  }
+  return "?";
+}
+
 }  // namespace tac3d

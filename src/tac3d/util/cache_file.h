@@ -2,9 +2,13 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <system_error>
 #include <vector>
+
+#include "tac3d/util/error.h"
 
 namespace tac3d {
 
@@ -41,5 +45,57 @@ void WriteCacheRecord(const std::string& path,
 CacheRecord ReadCacheRecord(const std::string& path,
                             const std::string& magic,
                             std::uint32_t format_version);
+
+/// What a load-or-build did with its cache file.
+enum class CacheStatus {
+  kLoaded,          ///< the cached file was valid and used
+  kBuiltMissing,    ///< no cached file: built and saved
+  kRebuiltStale,    ///< the file was for other inputs or code: rebuilt and overwritten
+  kRebuiltCorrupt,  ///< the file was unreadable, truncated or failed its checksum: rebuilt
+};
+
+/// A phrase for messages: "loaded from the cache", "built (not cached yet)", ...
+const char* Describe(CacheStatus status);
+
+/// The policy of every cached model: the file at `path` is used only if it reads back whole and
+/// its key is `key`; otherwise the model is built and saved over it (its folder created), so a
+/// stale or corrupt file is never used.
+/// @param read read(path) returns an object with members `key` and `model`; it throws
+///   tac3d::Error if the file is unreadable, truncated or fails its checksum.
+/// @param build build() returns the model; save(model, path) writes it.
+/// @param reason set to why the file was not used (empty when loaded).
+/// @throws tac3d::Error if the folder cannot be created, or as build and save do.
+template <typename Model, typename Read, typename Build, typename Save>
+CacheStatus LoadOrBuildCacheFile(const std::string& path,
+                                 std::uint64_t key,
+                                 const Read& read,
+                                 const Build& build,
+                                 const Save& save,
+                                 Model* model,
+                                 std::string* reason) {
+  CacheStatus status = CacheStatus::kBuiltMissing;
+  reason->clear();
+  if (std::filesystem::exists(path)) {
+    try {
+      auto cached = read(path);
+      if (cached.key == key) {
+        *model = std::move(cached.model);
+        return CacheStatus::kLoaded;
+      }
+      status = CacheStatus::kRebuiltStale;
+      *reason = fmt::format("key {:016x}, expected {:016x} (other inputs or code)", cached.key, key);
+    } catch (const Error& e) {
+      status = CacheStatus::kRebuiltCorrupt;
+      *reason = e.what();
+    }
+  }
+  *model = build();
+  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+  std::error_code error;
+  if (!folder.empty()) std::filesystem::create_directories(folder, error);
+  if (error) throw Error(fmt::format("cannot create the cache directory {}", folder.string()));
+  save(*model, path);
+  return status;
+}
 
 }  // namespace tac3d
