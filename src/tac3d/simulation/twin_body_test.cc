@@ -34,6 +34,21 @@ TwinBodyOptions SmallOptions() {
   return options;
 }
 
+// The 2 x 2 points SmallOptions' quadrature spreads a cell's load over, 0.01 mm under the
+// sphere (TwinBodyOptions::surface_depth_mm), computed here from their definition.
+std::vector<Eigen::Vector3d> CellQuadraturePoints(const TwinBodyModel& model, int node) {
+  const Eigen::Vector2d c = model.grid.node_position_mm(node);
+  const double r = model.body.sphere_radius_mm;
+  std::vector<Eigen::Vector3d> points;
+  for (const double fy : {-0.25, 0.25}) {
+    for (const double fx : {-0.25, 0.25}) {
+      const double x = c.x() + fx * model.grid.dx_mm, y = c.y() + fy * model.grid.dy_mm;
+      points.emplace_back(x, y, model.body.sphere_center_z_mm() + std::sqrt(r * r - x * x - y * y) - 0.01);
+    }
+  }
+  return points;
+}
+
 const TwinBodyModel& SmallModel() {
   static const TwinBodyModel model = CalcTwinBodyModel(SmallBody(), SmallOptions());
   return model;
@@ -117,17 +132,8 @@ TEST(TwinBody, KernelAgreesWithDirectFemColumns) {
   const double sign[3] = {1, 1, -1};
   const auto column_error = [&](int node) {
     // 2 x 2 point forces over the cell, as SmallOptions' quadrature.
-    const Eigen::Vector2d c = grid.node_position_mm(node);
-    std::vector<Eigen::Vector3d> sub;
-    for (const double fy : {-0.25, 0.25}) {
-      for (const double fx : {-0.25, 0.25}) {
-        const double x = c.x() + fx * grid.dx_mm, y = c.y() + fy * grid.dy_mm;
-        const double r = model.body.sphere_radius_mm;
-        sub.emplace_back(
-            x, y, model.body.sphere_center_z_mm() + std::sqrt(r * r - x * x - y * y) - 0.01);
-      }
-    }
-    const Eigen::SparseMatrix<double> p = fem_model.CalcPointInterpolation(sub);
+    const Eigen::SparseMatrix<double> p =
+        fem_model.CalcPointInterpolation(CellQuadraturePoints(model, node));
     Eigen::SparseMatrix<double> average(12, 3);
     for (int in = 0; in < 3; ++in) {
       for (int s = 0; s < 4; ++s) average.insert(in * 4 + s, in) = 0.25;
@@ -152,8 +158,10 @@ TEST(TwinBody, KernelAgreesWithDirectFemColumns) {
   std::printf("kernel vs FEM: centre column %.2e, off-centre column %.2e (relative max)\n",
               centre_error,
               corner_error);
-  EXPECT_LT(centre_error, 0.05);  // the symmetrisation's change only
-  EXPECT_LT(corner_error, 0.5);   // a 3 mm dome seen from 2 mm off-centre: approximate
+  // Measured 0.6% and 7.1%: the centre column differs by the symmetrisation only; 2 mm off
+  // the centre of a 3 mm dome the translation-invariant kernel is an approximation.
+  EXPECT_LT(centre_error, 0.02);
+  EXPECT_LT(corner_error, 0.15);
   EXPECT_GT(corner_error, centre_error);
 }
 
@@ -165,17 +173,8 @@ TEST(TwinBody, MarkerResponseMatchesForwardSolves) {
   const contact::SurfaceGrid& grid = model.grid;
   const int n = grid.num_nodes();
   for (const int node : {(grid.ny / 2) * grid.nx + grid.nx / 2, 3 * grid.nx + 5}) {
-    const Eigen::Vector2d c = grid.node_position_mm(node);
-    std::vector<Eigen::Vector3d> sub;
-    for (const double fy : {-0.25, 0.25}) {
-      for (const double fx : {-0.25, 0.25}) {
-        const double x = c.x() + fx * grid.dx_mm, y = c.y() + fy * grid.dy_mm;
-        const double r = model.body.sphere_radius_mm;
-        sub.emplace_back(
-            x, y, model.body.sphere_center_z_mm() + std::sqrt(r * r - x * x - y * y) - 0.01);
-      }
-    }
-    const Eigen::SparseMatrix<double> p = fem_model.CalcPointInterpolation(sub);
+    const Eigen::SparseMatrix<double> p =
+        fem_model.CalcPointInterpolation(CellQuadraturePoints(model, node));
     for (int dir = 0; dir < 3; ++dir) {
       Eigen::VectorXd load = Eigen::VectorXd::Zero(fem_model.mesh().num_dofs());
       for (int s = 0; s < 4; ++s) load += 0.25 * p.row(dir * 4 + s).transpose();
