@@ -9,6 +9,11 @@ function(tac3d_add_library)
     $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/src>
     $<INSTALL_INTERFACE:include>)
   target_link_libraries(${target} PUBLIC ${ARG_DEPS})
+  # Eigen's alignment follows the SIMD flags (32 bytes with -march=x86-64-v3, 16 without),
+  # and with it the layout and allocator of every Eigen object the library shares. Fixing it
+  # at 16 keeps the ABI independent of -march, so consumers built with default flags (and
+  # Debian's Open3D, built so) can share Eigen objects with tac3d; it travels with the target.
+  target_compile_definitions(${target} PUBLIC EIGEN_MAX_ALIGN_BYTES=16)
   target_link_libraries(tac3d INTERFACE ${target})
   install(TARGETS ${target} EXPORT tac3dTargets ARCHIVE DESTINATION lib)
   install(DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR}/ DESTINATION include/tac3d/${ARG_NAME}
