@@ -1,7 +1,20 @@
-# tac3d_add_library(NAME <module> SRCS ... DEPS ...): the static library tac3d_<module>,
-# aliased tac3d::<module>, linked into the umbrella target tac3d::tac3d.
+# Eigen's ABI follows the SIMD flags: with -march=x86-64-v3 fixed-size objects are aligned to 32
+# bytes and dynamic ones come from Eigen's own aligned allocator, without it from malloc, so a
+# matrix allocated on one side and freed on the other aborts ("double free or corruption").
+# These definitions make the ABI the same whatever -march each side uses: at most 16-byte
+# alignment is assumed of any object, and every allocation goes through Eigen's allocator
+# (which frees any alignment's blocks). They travel with every tac3d target to consumers.
+if(NOT TARGET tac3d_eigen_abi)
+  add_library(tac3d_eigen_abi INTERFACE)
+  target_compile_definitions(tac3d_eigen_abi INTERFACE EIGEN_MAX_ALIGN_BYTES=16 EIGEN_MALLOC_ALREADY_ALIGNED=0)
+  install(TARGETS tac3d_eigen_abi EXPORT tac3dTargets)
+endif()
+
+# tac3d_add_library(NAME <module> SRCS ... DEPS ... [INTERNAL_HEADERS ...]): the static library
+# tac3d_<module>, aliased tac3d::<module>, linked into the umbrella target tac3d::tac3d. Its
+# headers are installed but for INTERNAL_HEADERS and test helpers (test_*.h).
 function(tac3d_add_library)
-  cmake_parse_arguments(ARG "" "NAME" "SRCS;DEPS" ${ARGN})
+  cmake_parse_arguments(ARG "" "NAME" "SRCS;DEPS;INTERNAL_HEADERS" ${ARGN})
   set(target tac3d_${ARG_NAME})
   add_library(${target} STATIC ${ARG_SRCS})
   add_library(tac3d::${ARG_NAME} ALIAS ${target})
@@ -9,15 +22,15 @@ function(tac3d_add_library)
     $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/src>
     $<INSTALL_INTERFACE:include>)
   target_link_libraries(${target} PUBLIC ${ARG_DEPS})
-  # Eigen's alignment follows the SIMD flags (32 bytes with -march=x86-64-v3, 16 without),
-  # and with it the layout and allocator of every Eigen object the library shares. Fixing it
-  # at 16 keeps the ABI independent of -march, so consumers built with default flags (and
-  # Debian's Open3D, built so) can share Eigen objects with tac3d; it travels with the target.
-  target_compile_definitions(${target} PUBLIC EIGEN_MAX_ALIGN_BYTES=16)
+  target_link_libraries(${target} PUBLIC tac3d_eigen_abi)
   target_link_libraries(tac3d INTERFACE ${target})
   install(TARGETS ${target} EXPORT tac3dTargets ARCHIVE DESTINATION lib)
+  set(excluded PATTERN "test_*.h" EXCLUDE)
+  foreach(header IN LISTS ARG_INTERNAL_HEADERS)
+    list(APPEND excluded PATTERN ${header} EXCLUDE)
+  endforeach()
   install(DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR}/ DESTINATION include/tac3d/${ARG_NAME}
-    FILES_MATCHING PATTERN "*.h")
+    FILES_MATCHING PATTERN "*.h" ${excluded})
 endfunction()
 
 # tac3d_add_test(NAME <module>/<x>_test SRCS ... DEPS ... [LABELS ...]): a GoogleTest

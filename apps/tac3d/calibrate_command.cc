@@ -4,10 +4,13 @@
 
 #include <nlohmann/json.hpp>
 
+#include <CLI/CLI.hpp>
+
 #include "commands.h"
 #include "tac3d/calib/virtual_stereo_calibration.h"
 #include "tac3d/twin/calibration_set.h"
 #include "tac3d/util/error.h"
+#include "tac3d/util/file_io.h"
 
 namespace tac3d::cli {
 namespace {
@@ -79,12 +82,14 @@ nlohmann::json IntrinsicsJson(const CameraIntrinsics& c) {
 void RunCalibrate(CalibrateArgs a) {
   if (a.images.empty()) throw Error("calibrate: --images DIR is required (or use `calibrate render-set`)");
   if (a.out.empty()) throw Error("calibrate: --out FILE is required");
+  CheckOutputFile(a.out, "--out", {".yaml", ".yml"});
   const std::string board_path =
       a.board.empty() ? (std::filesystem::path(a.images) / "board.yaml").string() : a.board;
   const CalibrationBoardFile board = LoadCalibrationBoardFile(board_path);
   const SensorConfig nominal = LoadSensorOrDefault(a.config);
   a.options.progress = !a.json;
-  const std::vector<CalibrationImage> images = LoadCalibrationImages(a.images);
+  const std::vector<CalibrationImage> images = LoadCalibrationImages(a.images, nominal.camera.intrinsics.width,
+                                                                      nominal.camera.intrinsics.height);
   const VirtualStereoCalibration result = CalibrateVirtualStereo(images, board, nominal, a.options);
   SaveSensorConfig(result.ApplyTo(nominal), a.out);
 

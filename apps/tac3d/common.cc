@@ -4,6 +4,8 @@
 
 #include <fmt/format.h>
 
+#include <nlohmann/json.hpp>
+
 #include "commands.h"
 #include "tac3d/design/light_path_design.h"
 #include "tac3d/util/error.h"

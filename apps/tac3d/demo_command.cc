@@ -10,7 +10,10 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <CLI/CLI.hpp>
+
 #include "commands.h"
+#include "twin_runs.h"
 #include "tac3d/design/light_path_design.h"
 #include "tac3d/design/light_path_drawing.h"
 #include "tac3d/eval/marker_evaluation.h"

@@ -3,10 +3,13 @@
 
 #include <nlohmann/json.hpp>
 
+#include <CLI/CLI.hpp>
+
 #include "commands.h"
 #include "tac3d/design/light_path_design.h"
 #include "tac3d/design/light_path_drawing.h"
 #include "tac3d/util/error.h"
+#include "tac3d/util/file_io.h"
 
 namespace tac3d::cli {
 namespace {
@@ -36,6 +39,9 @@ nlohmann::json RootJson(const LightPathRoot& r) {
 }
 
 void Run(const DesignArgs& args) {
+  CheckOutputFile(args.out, "--out", {".yaml", ".yml"});
+  if (!args.svg.empty()) CheckOutputFile(args.svg, "--svg", {".svg"});
+  if (!args.png.empty()) CheckOutputFile(args.png, "--png", {".png"});
   const SensorConfig base = args.base_config.empty() ? SensorConfig{} : LoadSensorConfig(args.base_config);
   const LightPathDesign design = DesignLightPath(args.options, base);
   const auto& o = args.options;

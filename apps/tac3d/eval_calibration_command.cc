@@ -3,6 +3,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include <CLI/CLI.hpp>
+
 #include "commands.h"
 #include "tac3d/eval/calibration_evaluation.h"
 #include "tac3d/eval/marker_evaluation.h"

@@ -3,6 +3,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include <CLI/CLI.hpp>
+
 #include "commands.h"
 #include "tac3d/twin/render_evaluation.h"
 

@@ -2,9 +2,13 @@
 #include <fstream>
 #include <memory>
 
+#include <CLI/CLI.hpp>
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include "commands.h"
+#include "tac3d/util/file_io.h"
+#include "twin_runs.h"
 #include "tac3d/fem/compliance.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/progress.h"
@@ -22,12 +26,6 @@ std::function<void(int, int)> Progress(std::unique_ptr<ProgressBar>& bar, const 
 }
 
 }  // namespace
-
-void WriteTextFile(const std::string& path, const std::string& text) {
-  std::ofstream file(path);
-  file << text;
-  if (!file) throw Error(fmt::format("cannot write '{}'", path));
-}
 
 ReplayRun RunReplay(const ReplayArgs& a, const std::function<void(const TwinStep&, const TactileFrame&)>& on_frame) {
   if (!a.gains.empty() && !a.calibration.empty()) throw Error("give --gains or --calibration, not both");
@@ -65,9 +63,9 @@ ReplayRun RunReplay(const ReplayArgs& a, const std::function<void(const TwinStep
 
 void WriteReplayFiles(const ReplayRun& run, const std::string& folder) {
   MakeDirectory(folder);
-  WriteTextFile(folder + "/report.json", run.report.dump(2) + "\n");
-  WriteTextFile(folder + "/frames.csv", ReplayFramesToCsv(run.replay.frames));
-  WriteTextFile(folder + "/force_pairs.csv",
+  WriteTextFileAtomically(folder + "/report.json", run.report.dump(2) + "\n");
+  WriteTextFileAtomically(folder + "/frames.csv", ReplayFramesToCsv(run.replay.frames));
+  WriteTextFileAtomically(folder + "/force_pairs.csv",
                 ForcePairsToCsv(run.calibration ? run.calibration->pairs
                                                 : ReplayForcePairs(run.replay, run.options.pipeline.force.gains)));
 }

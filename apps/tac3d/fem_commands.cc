@@ -3,7 +3,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include <CLI/CLI.hpp>
+
 #include "commands.h"
+#include "model_args.h"
 #include "tac3d/fem/compliance.h"
 #include "tac3d/fem/evaluation.h"
 

@@ -3,8 +3,12 @@
 
 #include <nlohmann/json.hpp>
 
+#include <CLI/CLI.hpp>
+
 #include "commands.h"
-#include "tac3d/force/evaluation.h"
+#include "tac3d/util/file_io.h"
+#include "model_args.h"
+#include "tac3d/eval/force_evaluation.h"
 #include "tac3d/force/force_gains.h"
 
 namespace tac3d::cli {
@@ -80,7 +84,7 @@ void RegisterCalibrateForce(CLI::App& app) {
   cmd->callback([args] {
     const ForceGainFit fit = FitForceGains(LoadForcePairs(args->pairs));
     const nlohmann::json j = ToJson(fit);
-    if (!args->out.empty()) WriteTextFile(args->out, j.dump(2) + "\n");
+    if (!args->out.empty()) WriteTextFileAtomically(args->out, j.dump(2) + "\n");
     if (args->json) {
       std::printf("%s\n", j.dump(2).c_str());
       return;

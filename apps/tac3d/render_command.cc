@@ -1,13 +1,18 @@
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <sstream>
 
+#include <fmt/ranges.h>
 #include <opencv2/imgcodecs.hpp>
+
+#include <CLI/CLI.hpp>
 
 #include "commands.h"
 #include "tac3d/io/marker_csv.h"
 #include "tac3d/twin/camera_renderer.h"
 #include "tac3d/util/error.h"
+#include "tac3d/util/file_io.h"
 
 namespace tac3d::cli {
 namespace {
@@ -30,7 +35,9 @@ void AddCommon(CLI::App* cmd, RenderArgs& a) {
   cmd->add_option("--config", a.config, "sensor YAML (default: the built-in prototype)");
   cmd->add_option("--out", a.out, "PNG to write")->capture_default_str();
   cmd->add_option("--seed", a.options.seed, "noise seed")->capture_default_str();
-  cmd->add_option("--frame", a.frame, "frame index (varies the noise)")->capture_default_str();
+  cmd->add_option("--frame", a.frame, "frame index (varies the noise)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--no-noise", a.no_noise, "no shot or read noise");
   cmd->add_option("--blur", a.options.blur_sigma_px, "lens blur sigma, px")->capture_default_str();
   cmd->add_option("--vignetting", a.options.vignetting, "light loss at the corners, fraction")
@@ -43,12 +50,15 @@ void AddCommon(CLI::App* cmd, RenderArgs& a) {
 }
 
 void Write(const cv::Mat& image, const std::string& path) {
-  if (!cv::imwrite(path, image)) throw Error(fmt::format("cannot write '{}'", path));
+  std::vector<std::uint8_t> png;
+  if (!cv::imencode(".png", image, png)) throw Error(fmt::format("cannot encode '{}'", path));
+  WriteTextFileAtomically(path, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
   std::printf("wrote %s (%dx%d)\n", path.c_str(), image.cols, image.rows);
 }
 
 void RunMarkers(RenderArgs a) {
   a.options.noise = !a.no_noise;
+  CheckOutputFile(a.out, "--out", {".png"});
   const SensorConfig config = LoadSensorOrDefault(a.config);
   const auto markers = a.positions.empty() ? config.MarkerPositions()
                                            : ReadMarkerPositionsCsv(a.positions);
@@ -59,6 +69,10 @@ void RunMarkers(RenderArgs a) {
 void RunBoard(RenderArgs a) {
   a.options.noise = !a.no_noise;
   if (a.asymmetric) a.board.grid.layout = CalibrationBoard::Layout::kAsymmetric;
+  CheckOutputFile(a.out, "--out", {".png"});
+  for (double v : a.pose) {
+    if (!std::isfinite(v)) throw Error(fmt::format("--pose {}: every number must be finite", fmt::join(a.pose, ",")));
+  }
   const SensorConfig config = LoadSensorOrDefault(a.config);
   const BoardImageRenderer renderer(config, a.options);
   const Rigid3 pose = a.board.SensorFromBoard({a.pose[0], a.pose[1], a.pose[2]},

@@ -7,7 +7,10 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include <CLI/CLI.hpp>
+
 #include "commands.h"
+#include "tac3d/util/file_io.h"
 #include "tac3d/dataset/twin_dataset.h"
 #include "tac3d/fem/compliance.h"
 #include "tac3d/pipeline/pipeline.h"
@@ -20,6 +23,14 @@ namespace {
 
 std::atomic<bool> g_interrupted{false};
 
+// Camera options whose width and height (0) are taken from the sensor config.
+CameraSourceOptions CameraWithSensorResolution() {
+  CameraSourceOptions camera;
+  camera.width = 0;
+  camera.height = 0;
+  return camera;
+}
+
 struct RunArgs {
   std::string source;
   std::string config;
@@ -28,18 +39,21 @@ struct RunArgs {
   std::string udp;
   std::string record;
   bool record_images = false;
+  bool overwrite = false;
   bool json = false;
   int reference_frames = PipelineOptions{}.reference_frames;
   double weight = PipelineOptions{}.force.weight;
   std::vector<double> gains = {1.0, 1.0, 1.0};
   long max_frames = 0;
-  CameraSourceOptions camera;
+  CameraSourceOptions camera = CameraWithSensorResolution();
   double exposure = 0.0;
 };
 
-std::unique_ptr<FrameSource> OpenSource(const RunArgs& a) {
+std::unique_ptr<FrameSource> OpenSource(const RunArgs& a, const SensorConfig& config) {
   if (a.source.rfind("dataset:", 0) == 0) return OpenTwinDataset(a.source.substr(8));
   CameraSourceOptions camera = a.camera;
+  if (camera.width == 0) camera.width = config.camera.intrinsics.width;
+  if (camera.height == 0) camera.height = config.camera.intrinsics.height;
   if (a.exposure > 0) camera.exposure = a.exposure;
   return OpenFrameSource(a.source, camera);
 }
@@ -76,8 +90,13 @@ nlohmann::json Summary(const TactileFrame& f) {
 }
 
 void Run(const RunArgs& a) {
+  if (a.record_images && a.record.empty()) throw Error("--record-images needs --record FILE");
+  if (a.overwrite && a.record.empty()) throw Error("--overwrite needs --record FILE");
+  // Arguments that can fail are checked before the compliance model is loaded or built.
+  if (!a.udp.empty()) ParseUdp(a.udp);
+  if (!a.record.empty()) CheckOutputFile(a.record, "--record");
   const SensorConfig config = LoadSensorOrDefault(a.config);
-  std::unique_ptr<FrameSource> source = OpenSource(a);
+  std::unique_ptr<FrameSource> source = OpenSource(a, config);
   std::fprintf(stderr, "source: %s\n", source->Describe().c_str());
   MakeDirectory(a.cache_dir);
   const fem::ComplianceCacheResult model =
@@ -97,7 +116,7 @@ void Run(const RunArgs& a) {
                  a.sn.c_str(), sender->local_endpoint().ToString().c_str());
   }
   std::optional<RecordingWriter> recorder;
-  if (!a.record.empty()) recorder.emplace(a.record);
+  if (!a.record.empty()) recorder.emplace(a.record, RecordingWriterOptions{.overwrite = a.overwrite});
 
   g_interrupted = false;
   std::signal(SIGINT, [](int) { g_interrupted = true; });
@@ -134,7 +153,7 @@ void Run(const RunArgs& a) {
         if (*command == SensorCommand::kStop) g_interrupted = true;
       }
     }
-    if (a.json) std::printf("%s\n", Summary(out).dump().c_str());
+    if (a.json) WriteLineFlushed(stdout, Summary(out).dump());
   }
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
@@ -158,15 +177,16 @@ void RegisterRun(CLI::App& app) {
   cmd->add_option("--sn", a->sn, "the sensor's serial number in the stream")->capture_default_str();
   cmd->add_option("--udp", a->udp, "stream the Tac3D protocol to HOST:PORT");
   cmd->add_option("--record", a->record, "record the frames to this file (crash-safe)");
-  cmd->add_flag("--record-images", a->record_images, "record the raw camera images too");
+  cmd->add_flag("--record-images", a->record_images, "record the raw camera images too (with --record)");
+  cmd->add_flag("--overwrite", a->overwrite, "replace the --record file if it exists");
   cmd->add_flag("--json", a->json, "print each frame's summary as a JSON line");
   cmd->add_option("--reference-frames", a->reference_frames, "static frames taken as the reference")
       ->capture_default_str();
   cmd->add_option("--weight", a->weight, "Tikhonov weight w, (mm/N)^2")->capture_default_str();
   cmd->add_option("--gains", a->gains, "force gains Cx Cy Cz")->expected(3);
   cmd->add_option("--max-frames", a->max_frames, "stop after this many frames (0: until the source ends)");
-  cmd->add_option("--width", a->camera.width, "camera width")->capture_default_str();
-  cmd->add_option("--height", a->camera.height, "camera height")->capture_default_str();
+  cmd->add_option("--width", a->camera.width, "camera width (default: the sensor config's)");
+  cmd->add_option("--height", a->camera.height, "camera height (default: the sensor config's)");
   cmd->add_option("--fps", a->camera.fps, "camera frame rate")->capture_default_str();
   cmd->add_option("--exposure", a->exposure, "camera exposure (driver units; default automatic)");
   cmd->callback([a] { Run(*a); });

@@ -2,7 +2,10 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 
+#include <CLI/CLI.hpp>
+
 #include "commands.h"
+#include "twin_runs.h"
 #include "tac3d/dataset/twin_dataset.h"
 #include "tac3d/simulation/simulation.h"
 #include "tac3d/util/error.h"

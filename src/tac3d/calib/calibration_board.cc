@@ -7,6 +7,8 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "tac3d/sensor/sensor_config.h"
+#include "tac3d/sensor/yaml_reader.h"
 #include "tac3d/util/error.h"
 
 namespace tac3d {
@@ -99,9 +101,10 @@ void CalibrationBoard::Validate() const {
       throw Error(fmt::format("calibration board: {} = {} must be {}", field, value, bound));
     }
   };
-  require(rows >= 3, "rows", ">= 3", rows);
-  require(cols >= 3, "cols", ">= 3", cols);
-  require(spacing_mm > 0, "spacing_mm", "> 0", spacing_mm);
+  require(rows >= 3 && rows <= kMaxDotsPerSide, "rows", "in [3, 1000]", rows);
+  require(cols >= 3 && cols <= kMaxDotsPerSide, "cols", "in [3, 1000]", cols);
+  require(spacing_mm > 0 && spacing_mm <= SensorLimits::kMaxLengthMm, "spacing_mm", "> 0 and <= 1000 mm",
+          spacing_mm);
   require(dot_diameter_mm > 0 && dot_diameter_mm < NearestDotDistance(), "dot_diameter_mm",
           "> 0 and smaller than the distance between neighbouring dots", dot_diameter_mm);
 }
@@ -135,14 +138,7 @@ Rigid3 CalibrationBoard::ReferenceSensorFromBoard() const {
 }
 
 CalibrationBoardFile LoadCalibrationBoardFile(const std::string& path) {
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::BadFile&) {
-    throw Error(fmt::format("cannot open board file '{}'", path));
-  } catch (const YAML::Exception& e) {
-    throw Error(fmt::format("{}: not valid YAML: {}", path, e.what()));
-  }
+  const YAML::Node root = LoadYamlFile(path, "board file");
   CalibrationBoardFile file;
   Section top(root, "", path);
   {

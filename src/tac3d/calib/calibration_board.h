@@ -13,6 +13,10 @@ namespace tac3d {
 /// at (c * spacing, r * spacing); asymmetric (OpenCV's layout): at
 /// ((2c + r % 2) * spacing, r * spacing). Board frame: origin at dot (0, 0), the dots in
 /// its z = 0 plane, x along a row, y down the columns, z away from the printed face.
+/// Rows and columns of a board's dot grid at most: boards have tens, and a typo should not
+/// allocate millions of dots.
+inline constexpr int kMaxDotsPerSide = 1000;
+
 struct CalibrationBoard {
   enum class Layout { kSymmetric, kAsymmetric };
   Layout layout = Layout::kSymmetric;

@@ -50,6 +50,9 @@ TEST(CalibrationBoard, Validates) {
   board = {};
   board.spacing_mm = 0;
   EXPECT_THROW(board.Validate(), Error);
+  board = {};
+  board.rows = 100000;  // issue 14, defect 5: died in bad_alloc
+  EXPECT_THROW(board.Validate(), Error);
   EXPECT_NO_THROW(CalibrationBoard{}.Validate());
 }
 

@@ -4,6 +4,9 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <optional>
 
 #include <Eigen/Cholesky>
 #include <opencv2/calib3d.hpp>
@@ -11,6 +14,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "tac3d/util/error.h"
+#include "tac3d/util/image_header.h"
 #include "tac3d/util/progress.h"
 
 namespace tac3d {
@@ -365,7 +369,7 @@ VirtualStereoCalibration CalibrateVirtualStereo(const std::vector<CalibrationIma
   return out;
 }
 
-std::vector<CalibrationImage> LoadCalibrationImages(const std::string& dir) {
+std::vector<CalibrationImage> LoadCalibrationImages(const std::string& dir, int max_width, int max_height) {
   namespace fs = std::filesystem;
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) throw Error(fmt::format("'{}' is not a directory", dir));
@@ -382,7 +386,18 @@ std::vector<CalibrationImage> LoadCalibrationImages(const std::string& dir) {
   std::sort(paths.begin(), paths.end());
   std::vector<CalibrationImage> images;
   for (const fs::path& p : paths) {
-    images.push_back({p.filename().string(), cv::imread(p.string(), cv::IMREAD_GRAYSCALE)});
+    std::ifstream in(p, std::ios::binary);
+    const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::optional<ImageDimensions> dims = ReadImageHeaderDimensions(bytes.data(), bytes.size());
+    cv::Mat image;
+    if (!bytes.empty() && (!dims || (dims->width <= max_width && dims->height <= max_height))) {
+      try {
+        image = cv::imdecode(bytes, cv::IMREAD_GRAYSCALE);
+      } catch (const cv::Exception&) {
+        image.release();  // a decoder's refusal is an unreadable file like any other
+      }
+    }
+    images.push_back({p.filename().string(), image});
   }
   return images;
 }

@@ -98,9 +98,12 @@ VirtualStereoCalibration CalibrateVirtualStereo(const std::vector<CalibrationIma
                                                 const VirtualStereoCalibrationOptions& options = {});
 
 /// Reads a calibration folder: every .png, .jpg, .jpeg, .bmp, .tif or .tiff file in `dir`
-/// (not its subfolders), sorted by name. Files that cannot be decoded come back with an
-/// empty image, so the calibration refuses them with the reason.
+/// (not its subfolders), sorted by name. Files that cannot be decoded, or whose header
+/// claims more than max_width x max_height pixels (the camera's resolution: such a file is
+/// not from this sensor, and decoding it could allocate gigabytes), come back with an empty
+/// image, so the calibration refuses them with the reason.
 /// @throws Error if `dir` is not a readable directory.
-std::vector<CalibrationImage> LoadCalibrationImages(const std::string& dir);
+std::vector<CalibrationImage> LoadCalibrationImages(const std::string& dir, int max_width = 8192,
+                                                    int max_height = 8192);
 
 }  // namespace tac3d

@@ -46,13 +46,22 @@ TEST(LoadCalibrationImages, ListsImagesByNameAndKeepsCorruptOnesEmpty) {
   std::ofstream(dir + "/a.png") << "not a PNG";
   std::ofstream(dir + "/board.yaml") << "board: {}";
   std::filesystem::create_directories(dir + "/sub.png");
-  const std::vector<CalibrationImage> images = LoadCalibrationImages(dir);
-  ASSERT_EQ(images.size(), 3u);
+  // Issue 14, defect 2: a PNG whose header claims 60000 x 60000 pixels stopped calibrate.
+  std::vector<std::uint8_t> huge;
+  ASSERT_TRUE(cv::imencode(".png", cv::Mat(8, 8, CV_8UC1, cv::Scalar(0)), huge));
+  const std::uint8_t side[4] = {0x00, 0x00, 0xEA, 0x60};
+  std::copy(side, side + 4, huge.begin() + 16);
+  std::copy(side, side + 4, huge.begin() + 20);
+  std::ofstream(dir + "/d.png", std::ios::binary).write(reinterpret_cast<const char*>(huge.data()), huge.size());
+  const std::vector<CalibrationImage> images = LoadCalibrationImages(dir, 640, 480);
+  ASSERT_EQ(images.size(), 4u);
   EXPECT_EQ(images[0].name, "C.JPG");  // byte order: upper case first
   EXPECT_EQ(images[1].name, "a.png");
   EXPECT_EQ(images[2].name, "b.png");
+  EXPECT_EQ(images[3].name, "d.png");
   EXPECT_TRUE(images[1].image.empty());
   EXPECT_EQ(images[2].image.size(), grey.size());
+  EXPECT_TRUE(images[3].image.empty());
   EXPECT_THROW(LoadCalibrationImages(dir + "/missing"), Error);
 }
 

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <string>
+#include <vector>
 
 #include "tac3d/contact/evaluation.h"
 
@@ -14,9 +16,17 @@ TEST(EvaluateContact, FineGridMeetsTheAcceptance) {
   options.cells_per_radius = 32.0;
   const nlohmann::json report = EvaluateContact(options);
   std::printf("%s\n", report.dump(2).c_str());
+  // Every check the evaluation promises is there: a loop over nothing would pass.
+  const std::vector<std::string> expected = {
+      "hertz_radius_error_pct",  "hertz_peak_error_pct",         "hertz_profile_rms_pct",
+      "mindlin_stick_error_pct", "mindlin_shift_error_pct",      "mindlin_full_slide_error_pct",
+      "history_residual_shift_error_pct", "slip_mu_error_pct", "all_converged"};
+  std::vector<std::string> names;
   for (const auto& check : report.at("checks")) {
+    names.push_back(check.at("name").get<std::string>());
     EXPECT_TRUE(check.at("pass").get<bool>()) << check.dump();
   }
+  EXPECT_EQ(names, expected);
 }
 
 }  // namespace

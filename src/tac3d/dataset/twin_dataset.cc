@@ -10,6 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "tac3d/util/error.h"
+#include "tac3d/util/file_io.h"
 
 namespace tac3d {
 namespace {
@@ -21,25 +22,6 @@ constexpr int kVersion = 1;
 constexpr char kSurfaceMagic[8] = {'T', 'A', 'C', '3', 'D', 'S', 'R', 'F'};
 
 std::string StepName(int step) { return fmt::format("{:06d}", step); }
-
-// Writes through a temporary name and renames, so the final name only ever holds a whole file.
-template <typename WriteFn>
-void WriteAtomically(const std::string& path, WriteFn write) {
-  const std::string tmp = path + ".tmp";
-  write(tmp);
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) throw Error(fmt::format("cannot rename '{}' to '{}': {}", tmp, path, ec.message()));
-}
-
-void WriteText(const std::string& path, const std::string& text) {
-  WriteAtomically(path, [&](const std::string& tmp) {
-    std::ofstream out(tmp, std::ios::binary);
-    out << text;
-    out.flush();
-    if (!out) throw Error(fmt::format("cannot write '{}'", tmp));
-  });
-}
 
 nlohmann::json ReadJson(const std::string& path) {
   std::ifstream in(path);
@@ -67,7 +49,7 @@ std::vector<Eigen::Vector3d> Vec3s(const nlohmann::json& j) {
 }
 
 void WriteSurface(const std::string& path, const SurfaceTractions& s) {
-  WriteAtomically(path, [&](const std::string& tmp) {
+  WriteFileAtomically(path, [&](const std::string& tmp) {
     std::ofstream out(tmp, std::ios::binary);
     const std::uint32_t version = kVersion;
     const std::uint64_t n = s.positions_mm.size();
@@ -129,12 +111,12 @@ TwinDatasetWriter::TwinDatasetWriter(const std::string& folder, const nlohmann::
   header_ = header;
   header_["format"] = kFormat;
   header_["version"] = kVersion;
-  WriteText(folder + "/dataset.json", header_.dump(2) + "\n");
+  WriteTextFileAtomically(folder + "/dataset.json", header_.dump(2) + "\n");
 }
 
 void TwinDatasetWriter::UpdateHeader(const nlohmann::json& keys) {
   for (const auto& [key, value] : keys.items()) header_[key] = value;
-  WriteText(folder_ + "/dataset.json", header_.dump(2) + "\n");
+  WriteTextFileAtomically(folder_ + "/dataset.json", header_.dump(2) + "\n");
 }
 
 void TwinDatasetWriter::Write(const TwinStep& step) {
@@ -173,7 +155,7 @@ void TwinDatasetWriter::Write(const TwinStep& step) {
     if (!cv::imencode(".png", step.image, png, {cv::IMWRITE_PNG_COMPRESSION, 1})) {
       throw Error(fmt::format("dataset step {}: the image does not encode as PNG", step.index));
     }
-    WriteText(folder_ + "/" + rel, std::string(png.begin(), png.end()));
+    WriteTextFileAtomically(folder_ + "/" + rel, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
     j["image"] = rel;
   }
   if (!s.positions_mm.empty()) {
@@ -181,7 +163,7 @@ void TwinDatasetWriter::Write(const TwinStep& step) {
     WriteSurface(folder_ + "/" + rel, s);
     j["surface"] = rel;
   }
-  WriteText(folder_ + "/steps/" + name + ".json", j.dump() + "\n");
+  WriteTextFileAtomically(folder_ + "/steps/" + name + ".json", j.dump() + "\n");
 }
 
 TwinDatasetReader::TwinDatasetReader(const std::string& folder) : folder_(folder) {

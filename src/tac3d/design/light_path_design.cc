@@ -6,6 +6,7 @@
 
 #include <Eigen/LU>
 
+#include "tac3d/sensor/sensor_config.h"
 #include "tac3d/util/error.h"
 
 namespace tac3d {
@@ -242,9 +243,10 @@ void LightPathDesignOptions::Validate() const {
       throw Error(fmt::format("light path design: {} = {} must be {}", field, value, bound));
     }
   };
-  require(h_mm > 0, "h_mm", "> 0", h_mm);
-  require(l_mm > 0, "l_mm", "> 0", l_mm);
-  require(d_mm > 0, "d_mm", "> 0", d_mm);
+  const std::string length_bound = fmt::format("> 0 and <= {} mm", SensorLimits::kMaxLengthMm);
+  for (const auto& [field, value] : {std::pair{"h_mm", h_mm}, {"l_mm", l_mm}, {"d_mm", d_mm}}) {
+    require(value > 0 && value <= SensorLimits::kMaxLengthMm, field, length_bound.c_str(), value);
+  }
   require(fov_deg > 0 && fov_deg < 180, "fov_deg", "in (0, 180) deg", fov_deg);
   require(starts_per_axis >= 2 && starts_per_axis <= 40, "starts_per_axis", "in [2, 40]",
           starts_per_axis);

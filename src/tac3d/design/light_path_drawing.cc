@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "tac3d/util/error.h"
+#include "tac3d/util/file_io.h"
 
 namespace tac3d {
 namespace {
@@ -100,9 +101,7 @@ std::string LightPathDrawing::ToSvg() const {
 }
 
 void LightPathDrawing::WriteSvg(const std::string& path) const {
-  std::ofstream out(path);
-  out << ToSvg();
-  if (!out) throw Error(fmt::format("cannot write '{}'", path));
+  WriteTextFileAtomically(path, ToSvg());
 }
 
 void LightPathDrawing::WritePng(const std::string& path, int width_px) const {
@@ -136,7 +135,9 @@ void LightPathDrawing::WritePng(const std::string& path, int width_px) const {
     cv::putText(image, l.text, to_px(l.at + Eigen::Vector2d(0.8, 0.8)), cv::FONT_HERSHEY_SIMPLEX,
                 0.5 * width_px / 1200.0, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
   }
-  if (!cv::imwrite(path, image)) throw Error(fmt::format("cannot write '{}'", path));
+  std::vector<std::uint8_t> png;
+  if (!cv::imencode(".png", image, png)) throw Error(fmt::format("cannot encode '{}' as PNG", path));
+  WriteTextFileAtomically(path, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
 }
 
 }  // namespace tac3d

@@ -113,7 +113,11 @@ nlohmann::json ToJson(const ForceGainFit& fit) {
 }
 
 ForceGainFit FitForceGains(const std::vector<ForcePair>& pairs) {
-  if (pairs.empty()) throw Error("FitForceGains: no force pairs");
+  if (static_cast<int>(pairs.size()) < kMinForcePairs) {
+    throw Error(fmt::format("FitForceGains: {} force pair(s); the fit needs at least {} (with fewer, "
+                            "R^2 says nothing about the gains)",
+                            pairs.size(), kMinForcePairs));
+  }
   ForceGainFit fit;
   fit.num_pairs = static_cast<int>(pairs.size());
   const double count = static_cast<double>(pairs.size());

@@ -34,6 +34,10 @@ std::vector<ForcePair> LoadForcePairs(const std::string& path);
 /// Writes pairs in the format ParseForcePairs reads (17 significant digits).
 std::string ForcePairsToCsv(const std::vector<ForcePair>& pairs);
 
+/// The fewest pairs FitForceGains accepts: one gain an axis fitted on one or two pairs fits
+/// them (almost) exactly whatever the sensor does, so its R^2 would mean nothing.
+inline constexpr int kMinForcePairs = 3;
+
 /// The per-axis gains and how well they fit.
 struct ForceGainFit {
   /// (Cx, Cy, Cz): reference ~ C * measured per axis (dimensionless).

@@ -59,6 +59,14 @@ TEST(FitForceGains, UnexcitedOrReversedAxisThrows) {
   EXPECT_THROW(FitForceGains(reversed), Error);
 }
 
+// Issue 14, defect 7: one pair was accepted and reported R^2 = 1.
+TEST(FitForceGains, TooFewPairsAreRefused) {
+  const std::vector<ForcePair> pairs = RandomPairs(Eigen::Vector3d::Ones(), 0.0, kMinForcePairs);
+  EXPECT_NO_THROW(FitForceGains(pairs));
+  EXPECT_THAT([&] { FitForceGains({pairs.front()}); },
+              ::testing::ThrowsMessage<Error>(::testing::HasSubstr("1 force pair(s); the fit needs at least 3")));
+}
+
 TEST(ForcePairCsv, RoundTripsExactly) {
   const std::vector<ForcePair> pairs = RandomPairs(Eigen::Vector3d(1.1, 0.9, 1.2), 0.01, 7);
   const std::vector<ForcePair> parsed = ParseForcePairs(ForcePairsToCsv(pairs));

@@ -60,6 +60,14 @@ ForceReconstructor::ForceReconstructor(const Eigen::MatrixXd& h,
                             n, n, num_markers_, h.rows(), h.cols()));
   }
   if (!h.allFinite()) throw Error("ForceReconstructor: H has a non-finite entry");
+  // Far above H^T H's eigenvalues, w I swamps the data term and every force is ~0.
+  const double mean_eigenvalue = h.squaredNorm() / n;
+  if (options_.weight > kMaxWeightToMeanEigenvalue * mean_eigenvalue) {
+    throw Error(fmt::format(
+        "ForceReconstructor: weight w = {} (mm/N)^2 is more than {:g} times H^T H's mean eigenvalue "
+        "({:.3g}): the regularisation would drive every force to ~0",
+        options_.weight, kMaxWeightToMeanEigenvalue, mean_eigenvalue));
+  }
   Eigen::MatrixXd normal = Eigen::MatrixXd::Identity(n, n) * options_.weight;
   normal.selfadjointView<Eigen::Lower>().rankUpdate(h.transpose());
   const Eigen::LLT<Eigen::MatrixXd> factor(normal);

@@ -7,6 +7,11 @@
 
 namespace tac3d {
 
+/// The largest Tikhonov weight ForceReconstructor accepts, as a multiple of the mean
+/// eigenvalue of H^T H: beyond it the forces are shrunk to nothing (`--weight 1e300` gave
+/// exactly zero forces).
+inline constexpr double kMaxWeightToMeanEigenvalue = 1e4;
+
 struct ForceReconstructorOptions {
   /// The Tikhonov weight w of eq. (3) ((mm/N)^2), e.g. from SelectRegularizationWeight.
   double weight = 0.0;

@@ -294,6 +294,8 @@ TEST_F(ForceReconstructorTest, BadInputThrows) {
   EXPECT_THROW(make({.support_margin_pitches = -1.0}), Error);
   EXPECT_THROW(make({.support_weight = 0.0}), Error);
   EXPECT_THROW(make({.max_support_markers = 0}), Error);
+  // Issue 14, defect 7: w = 1e300 made every force exactly 0.
+  EXPECT_THAT([&] { Make(1e300); }, ::testing::ThrowsMessage<Error>(::testing::HasSubstr("the regularisation would drive every force to ~0")));
   EXPECT_THROW(Make(1e-4, Eigen::Vector3d(1, 0, 1)), Error);
   EXPECT_THROW(Make(1e-4, Eigen::Vector3d(1, 1, NAN)), Error);
   EXPECT_THROW(ForceReconstructor(model_.h.topRows(6), model_.marker_positions, {.weight = 1.0}),

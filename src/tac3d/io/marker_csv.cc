@@ -60,6 +60,10 @@ std::vector<Eigen::Vector3d> ReadMarkerPositionsCsv(const std::string& path) {
     if (cursor != end) {
       throw Error(fmt::format("{}:{}: expected 3 comma-separated numbers", path, line_number));
     }
+    if (positions.size() == kMaxMarkerCsvRows) {
+      throw Error(fmt::format("{}:{}: more than {} marker positions (a sensor has at most 100 x 100)",
+                              path, line_number, kMaxMarkerCsvRows));
+    }
     positions.push_back(p);
   }
   if (!header_seen) throw Error(fmt::format("{}: empty, expected the header '{}'", path, kHeader));

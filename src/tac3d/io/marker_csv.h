@@ -1,11 +1,15 @@
 #pragma once
 
+#include <cstddef>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
 
 namespace tac3d {
+
+/// The most rows ReadMarkerPositionsCsv accepts: SensorLimits' 100 x 100 markers.
+inline constexpr std::size_t kMaxMarkerCsvRows = 100 * 100;
 
 /// Marker positions as CSV: a header line `x_mm,y_mm,z_mm`, then one line per marker in
 /// grid order (row-major), sensor frame. Blank lines and lines starting with # are skipped.

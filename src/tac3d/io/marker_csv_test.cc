@@ -28,6 +28,18 @@ TEST(MarkerCsv, RoundTripIsExact) {
   EXPECT_TRUE(back[1] == p[1]);
 }
 
+// Issue 14, defect 5: a 100000-row file died in bad_alloc further on.
+TEST(MarkerCsv, MoreRowsThanAnySensorHasAreRefused) {
+  const std::string path = testing::MakeTempDir("rows") + "/many.csv";
+  {
+    std::ofstream out(path);
+    out << "x_mm,y_mm,z_mm\n";
+    for (std::size_t i = 0; i <= kMaxMarkerCsvRows; ++i) out << "0,0,1\n";
+  }
+  EXPECT_THAT([&] { ReadMarkerPositionsCsv(path); },
+              ::testing::ThrowsMessage<Error>(::testing::HasSubstr("more than 10000 marker positions")));
+}
+
 TEST(MarkerCsv, MalformedLinesAreRefusedWithTheirLineNumber) {
   auto error_of = [](const std::string& text) {
     try {

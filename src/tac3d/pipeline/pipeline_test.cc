@@ -112,7 +112,8 @@ TEST(Pipeline, InitialisesThenRecoversAKnownForceDistribution) {
               ::testing::PrintToString(f.resultant_force_n.transpose()).c_str(),
               ::testing::PrintToString(total.transpose()).c_str());
   EXPECT_LT(displacement_rmse, 0.01);
-  EXPECT_LT((f.resultant_force_n - total).norm(), 0.1 * total.norm());
+  // Measured 0.24% of |F| (2026-11-24); 1% leaves room for noise, not for a broken inverse.
+  EXPECT_LT((f.resultant_force_n - total).norm(), 0.01 * total.norm());
   // The contact markers surround the press; the normals point out of the body.
   int contact = 0;
   Eigen::Vector2d centroid = Eigen::Vector2d::Zero();

@@ -121,7 +121,7 @@ RecordingWriter::RecordingWriter(const std::string& path, const RecordingWriterO
     throw Error(fmt::format("cannot create recording '{}': {}{}",
                             path,
                             std::strerror(errno),
-                            errno == EEXIST ? " (set overwrite to replace it)" : ""));
+                            errno == EEXIST ? " (it exists: RecordingWriterOptions::overwrite, `tac3d run --overwrite`, replaces it)" : ""));
   }
   std::vector<std::uint8_t> header;
   PutBytes(&header, kRecordingMagic, sizeof(kRecordingMagic));

@@ -141,7 +141,7 @@ TEST(Recording, RefusesWhatItCannotWriteOrRead) {
     RecordingWriter again(path);
     ADD_FAILURE() << "replaced an existing recording";
   } catch (const Error& e) {
-    EXPECT_THAT(e.what(), HasSubstr("overwrite"));
+    EXPECT_THAT(e.what(), HasSubstr("`tac3d run --overwrite`"));
   }
   RecordingWriter writer(path, {.overwrite = true});
   TactileFrame bad = MakeSyntheticTactileFrame("S", 0);

@@ -13,6 +13,7 @@
 #include "tac3d/design/light_path_design.h"
 #include "tac3d/sensor/yaml_reader.h"
 #include "tac3d/util/error.h"
+#include "tac3d/util/file_io.h"
 
 namespace tac3d {
 namespace {
@@ -348,12 +349,7 @@ void Scene::Validate() const {
 }
 
 Scene ParseScene(const std::string& yaml_text, const std::string& source, const std::string& base_dir) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(yaml_text);
-  } catch (const YAML::Exception& e) {
-    throw Error(fmt::format("{}: not valid YAML: {}", source, e.what()));
-  }
+  const YAML::Node root = ParseYamlDocument(yaml_text, source);
   Scene scene;
   {
     YamlReader r(root, "", &source);
@@ -377,11 +373,8 @@ Scene ParseScene(const std::string& yaml_text, const std::string& source, const 
 }
 
 Scene LoadScene(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw Error(fmt::format("scene file '{}' cannot be opened", path));
-  std::stringstream text;
-  text << in.rdbuf();
-  return ParseScene(text.str(), path, fs::path(path).parent_path().string());
+  return ParseScene(ReadFileCapped(path, kMaxConfigFileBytes, "scene file"), path,
+                    fs::path(path).parent_path().string());
 }
 
 Scene LoadSceneOrBuiltIn(const std::string& path_or_name) {

@@ -9,6 +9,7 @@
 
 #include "tac3d/sensor/yaml_reader.h"
 #include "tac3d/util/error.h"
+#include "tac3d/util/file_io.h"
 
 namespace tac3d {
 namespace {
@@ -31,11 +32,28 @@ void ValidateRotation(const Eigen::Matrix3d& r, const std::string& field) {
   }
 }
 
+// A length in (0, kMaxLengthMm] mm.
+void RequireLength(double value, const std::string& field) {
+  Require(value > 0 && value <= SensorLimits::kMaxLengthMm, field,
+          fmt::format("> 0 and <= {} mm", SensorLimits::kMaxLengthMm), value);
+}
+
+// A position whose coordinates are finite and within kMaxLengthMm of the sensor origin.
+void RequirePosition(const Eigen::Vector3d& p, const std::string& field) {
+  for (int i = 0; i < 3; ++i) {
+    Require(std::abs(p(i)) <= SensorLimits::kMaxLengthMm, fmt::format("{}[{}]", field, i),
+            fmt::format("finite, |x| <= {} mm", SensorLimits::kMaxLengthMm), p(i));
+  }
+}
+
 void ValidateIntrinsics(const CameraIntrinsics& c, const std::string& field) {
-  Require(c.width > 1, field + ".width", "> 1", c.width);
-  Require(c.height > 1, field + ".height", "> 1", c.height);
-  Require(c.fx > 0, field + ".fx", "> 0", c.fx);
-  Require(c.fy > 0, field + ".fy", "> 0", c.fy);
+  const std::string side_bound = fmt::format("> 1 and <= {}", SensorLimits::kMaxImageSidePx);
+  Require(c.width > 1 && c.width <= SensorLimits::kMaxImageSidePx, field + ".width", side_bound, c.width);
+  Require(c.height > 1 && c.height <= SensorLimits::kMaxImageSidePx, field + ".height", side_bound,
+          c.height);
+  const std::string focal_bound = fmt::format("> 0 and <= {:g} px", SensorLimits::kMaxFocalLengthPx);
+  Require(c.fx > 0 && c.fx <= SensorLimits::kMaxFocalLengthPx, field + ".fx", focal_bound, c.fx);
+  Require(c.fy > 0 && c.fy <= SensorLimits::kMaxFocalLengthPx, field + ".fy", focal_bound, c.fy);
   Require(c.cx > 0 && c.cx < c.width, field + ".cx", "inside the image (0, width)", c.cx);
   Require(c.cy > 0 && c.cy < c.height, field + ".cy", "inside the image (0, height)", c.cy);
   for (int i = 0; i < 5; ++i) {
@@ -45,8 +63,9 @@ void ValidateIntrinsics(const CameraIntrinsics& c, const std::string& field) {
 }
 
 void ValidateRectangle(const Rectangle3& r, const std::string& field) {
-  Require(r.half_u > 0, field + ".half_u_mm", "> 0", r.half_u);
-  Require(r.half_v > 0, field + ".half_v_mm", "> 0", r.half_v);
+  RequirePosition(r.center, field + ".center_mm");
+  RequireLength(r.half_u, field + ".half_u_mm");
+  RequireLength(r.half_v, field + ".half_v_mm");
   const double skew = std::abs(r.u_axis.dot(r.v_axis));
   const double norm_error =
       std::max(std::abs(r.u_axis.norm() - 1.0), std::abs(r.v_axis.norm() - 1.0));
@@ -174,10 +193,11 @@ void SensorConfig::Validate() const {
   Require(camera.horizontal_fov_deg > 0 && camera.horizontal_fov_deg < 180,
           "camera.horizontal_fov_deg", "in (0, 180) deg", camera.horizontal_fov_deg);
   ValidateRotation(camera.sensor_from_cam.linear(), "camera.sensor_from_cam.rotation");
+  RequirePosition(camera.sensor_from_cam.translation(), "camera.sensor_from_cam.position_mm");
 
-  Require(light_path.h_mm > 0, "light_path.h_mm", "> 0", light_path.h_mm);
-  Require(light_path.l_mm > 0, "light_path.l_mm", "> 0", light_path.l_mm);
-  Require(light_path.d_mm > 0, "light_path.d_mm", "> 0", light_path.d_mm);
+  RequireLength(light_path.h_mm, "light_path.h_mm");
+  RequireLength(light_path.l_mm, "light_path.l_mm");
+  RequireLength(light_path.d_mm, "light_path.d_mm");
   Require(light_path.fov_deg > 0 && light_path.fov_deg < 180, "light_path.fov_deg",
           "in (0, 180) deg", light_path.fov_deg);
 
@@ -198,6 +218,7 @@ void SensorConfig::Validate() const {
     const std::string field = fmt::format("virtual_cameras[{}]", i);
     ValidateIntrinsics(v.intrinsics, field + ".intrinsics");
     ValidateRotation(v.sensor_from_vcam.linear(), field + ".sensor_from_vcam.rotation");
+    RequirePosition(v.sensor_from_vcam.translation(), field + ".sensor_from_vcam.position_mm");
     Require(v.column_begin >= 0 && v.column_begin < v.column_end, field + ".column_begin",
             ">= 0 and < column_end", v.column_begin);
     Require(v.column_end <= v.intrinsics.width, field + ".column_end", "<= the image width",
@@ -205,16 +226,18 @@ void SensorConfig::Validate() const {
   }
 
   const ElasticBodyConfig& b = elastic_body;
-  Require(b.outer_radius_mm > 0, "elastic_body.outer_radius_mm", "> 0", b.outer_radius_mm);
-  Require(b.thickness_mm > 0, "elastic_body.thickness_mm", "> 0", b.thickness_mm);
+  RequireLength(b.outer_radius_mm, "elastic_body.outer_radius_mm");
+  RequireLength(b.thickness_mm, "elastic_body.thickness_mm");
   Require(b.base_diameter_mm > 0 && b.base_diameter_mm < 2 * b.outer_radius_mm,
           "elastic_body.base_diameter_mm", "> 0 and < 2 * outer_radius_mm", b.base_diameter_mm);
-  Require(b.youngs_modulus_mpa > 0, "elastic_body.youngs_modulus_mpa", "> 0",
-          b.youngs_modulus_mpa);
+  Require(b.youngs_modulus_mpa > 0 && b.youngs_modulus_mpa <= SensorLimits::kMaxYoungsModulusMpa,
+          "elastic_body.youngs_modulus_mpa",
+          fmt::format("> 0 and <= {:g} MPa", SensorLimits::kMaxYoungsModulusMpa), b.youngs_modulus_mpa);
   Require(b.poisson_ratio > -1.0 && b.poisson_ratio < 0.5, "elastic_body.poisson_ratio",
           "in (-1, 0.5)", b.poisson_ratio);
-  Require(b.refractive_index >= 1.0, "elastic_body.refractive_index", ">= 1",
-          b.refractive_index);
+  const std::string index_bound = fmt::format("in [1, {}]", SensorLimits::kMaxRefractiveIndex);
+  Require(b.refractive_index >= 1.0 && b.refractive_index <= SensorLimits::kMaxRefractiveIndex,
+          "elastic_body.refractive_index", index_bound, b.refractive_index);
   const double base_radius = 0.5 * b.base_diameter_mm;
   const double edge_thickness = SphereCenter().z() + std::sqrt(b.outer_radius_mm * b.outer_radius_mm -
                                                                base_radius * base_radius);
@@ -222,14 +245,15 @@ void SensorConfig::Validate() const {
           "small enough that the outer sphere stays above the base at its edge",
           b.base_diameter_mm);
 
-  Require(glass.thickness_mm > 0, "glass.thickness_mm", "> 0", glass.thickness_mm);
-  Require(glass.refractive_index >= 1.0, "glass.refractive_index", ">= 1",
-          glass.refractive_index);
+  RequireLength(glass.thickness_mm, "glass.thickness_mm");
+  Require(glass.refractive_index >= 1.0 && glass.refractive_index <= SensorLimits::kMaxRefractiveIndex,
+          "glass.refractive_index", index_bound, glass.refractive_index);
 
   const MarkerConfig& m = markers;
-  Require(m.rows >= 2, "markers.rows", ">= 2", m.rows);
-  Require(m.cols >= 2, "markers.cols", ">= 2", m.cols);
-  Require(m.pitch_mm > 0, "markers.pitch_mm", "> 0", m.pitch_mm);
+  const std::string count_bound = fmt::format(">= 2 and <= {}", SensorLimits::kMaxMarkersPerSide);
+  Require(m.rows >= 2 && m.rows <= SensorLimits::kMaxMarkersPerSide, "markers.rows", count_bound, m.rows);
+  Require(m.cols >= 2 && m.cols <= SensorLimits::kMaxMarkersPerSide, "markers.cols", count_bound, m.cols);
+  RequireLength(m.pitch_mm, "markers.pitch_mm");
   Require(m.dot_diameter_mm > 0 && m.dot_diameter_mm < m.pitch_mm, "markers.dot_diameter_mm",
           "> 0 and < pitch_mm", m.dot_diameter_mm);
   Require(m.depth_mm >= 0 && m.depth_mm < b.thickness_mm, "markers.depth_mm",
@@ -289,12 +313,7 @@ FlatLayers SensorConfig::MakeFlatLayers(bool with_gel) const {
 }
 
 SensorConfig ParseSensorConfig(const std::string& yaml_text, const std::string& source) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(yaml_text);
-  } catch (const YAML::Exception& e) {
-    throw Error(fmt::format("{}: not valid YAML: {}", source, e.what()));
-  }
+  const YAML::Node root = ParseYamlDocument(yaml_text, source);
   if (!root || root.IsNull()) throw Error(fmt::format("{}: empty sensor config", source));
   SensorConfig c;
   {
@@ -367,11 +386,7 @@ SensorConfig ParseSensorConfig(const std::string& yaml_text, const std::string& 
 }
 
 SensorConfig LoadSensorConfig(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw Error(fmt::format("cannot open sensor config '{}'", path));
-  std::stringstream text;
-  text << in.rdbuf();
-  return ParseSensorConfig(text.str(), path);
+  return ParseSensorConfig(ReadFileCapped(path, kMaxConfigFileBytes, "sensor config"), path);
 }
 
 std::string SensorConfigToYaml(const SensorConfig& c) {
@@ -456,10 +471,13 @@ std::string SensorConfigToYaml(const SensorConfig& c) {
 }
 
 void SaveSensorConfig(const SensorConfig& config, const std::string& path) {
-  std::ofstream out(path);
-  if (!out) throw Error(fmt::format("cannot write sensor config '{}'", path));
-  out << SensorConfigToYaml(config);
-  if (!out) throw Error(fmt::format("failed writing sensor config '{}'", path));
+  // Never write a file tac3d could not read back.
+  try {
+    config.Validate();
+  } catch (const Error& e) {
+    throw Error(fmt::format("not writing sensor config '{}': {}", path, e.what()));
+  }
+  WriteTextFileAtomically(path, SensorConfigToYaml(config));
 }
 
 }  // namespace tac3d

@@ -9,6 +9,18 @@
 
 namespace tac3d {
 
+/// Upper bounds SensorConfig::Validate enforces beyond the physical ones, far above any
+/// fingertip sensor, so a typo (a width of 2e9, 10000 x 10000 markers) is an error instead
+/// of an allocation that never ends (docs/sensor-config.md lists them).
+struct SensorLimits {
+  static constexpr int kMaxImageSidePx = 8192;        ///< camera width and height
+  static constexpr int kMaxMarkersPerSide = 100;      ///< markers.rows and cols
+  static constexpr double kMaxLengthMm = 1000.0;      ///< every length and |coordinate|
+  static constexpr double kMaxFocalLengthPx = 1e6;    ///< fx, fy
+  static constexpr double kMaxYoungsModulusMpa = 1e3; ///< silicones are 0.05-10 MPa
+  static constexpr double kMaxRefractiveIndex = 3.0;
+};
+
 /// The real camera (paper: IMX219-77, 48 deg horizontal field of view).
 struct CameraConfig {
   CameraIntrinsics intrinsics = CameraIntrinsics::FromFieldOfView(640, 480, 48.0);

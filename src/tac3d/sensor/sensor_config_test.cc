@@ -1,6 +1,9 @@
 #include "tac3d/sensor/sensor_config.h"
 
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <limits>
 #include <random>
 #include <regex>
 
@@ -137,6 +140,75 @@ TEST(SensorConfig, RefusesBadFilesClearly) {
   EXPECT_THROW(ParseSensorConfig("camera: [1, 2", "x.yaml"), Error);
   EXPECT_THROW(ParseSensorConfig("", "x.yaml"), Error);
   EXPECT_THROW(ParseSensorConfig("- 1\n- 2\n", "x.yaml"), Error);
+}
+
+// Issue 14, defect 3: NaN and infinity in position vectors were accepted.
+TEST(SensorConfig, RefusesNonFiniteNumbersAnywhere) {
+  ExpectRefused("position_mm: \\[0.0, 0.0, -40.0\\]", "position_mm: [.nan, 0.0, -40.0]",
+                "camera.sensor_from_cam.position_mm[0]: '.nan' is not a finite number");
+  ExpectRefused("position_mm: \\[0.0, 0.0, -40.0\\]", "position_mm: [0.0, .inf, -40.0]",
+                "'.inf' is not a finite number");
+  ExpectRefused("youngs_modulus_mpa: 1.0", "youngs_modulus_mpa: .nan", "is not a finite number");
+  // A config built in code (a calibration gone wrong) is refused too, and is never saved.
+  SensorConfig c = RichConfig();
+  c.mirrors[2].surface.center.x() = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(c.Validate(), Error);
+  const std::string path = testing::MakeTempDir("nan") + "/sensor.yaml";
+  EXPECT_THROW(SaveSensorConfig(c, path), Error);
+  EXPECT_FALSE(std::filesystem::exists(path));
+  c = RichConfig();
+  c.virtual_cameras[1].sensor_from_vcam.translation().z() = std::numeric_limits<double>::infinity();
+  EXPECT_THROW(c.Validate(), Error);
+}
+
+// Issue 14, defect 4: a duplicated key (the first won) and a second document (ignored).
+TEST(SensorConfig, RefusesDuplicateKeysAndSecondDocumentsNamingTheLine) {
+  const std::string yaml = SensorConfigToYaml(SensorConfig{});
+  const std::string duplicated = std::regex_replace(yaml, std::regex("  rows: 20\n"), "  rows: 20\n  rows: 10\n");
+  ASSERT_NE(duplicated, yaml);
+  const int line = 1 + static_cast<int>(std::count(yaml.begin(), yaml.begin() + yaml.find("  rows: 20"), '\n'));
+  try {
+    ParseSensorConfig(duplicated, "dup.yaml");
+    FAIL() << "a duplicated key was accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              fmt::format("dup.yaml: line {}: duplicated key 'rows' (first at line {})", line + 1, line));
+  }
+  const int lines = static_cast<int>(std::count(yaml.begin(), yaml.end(), '\n'));
+  try {
+    ParseSensorConfig(yaml + "---\nmarkers:\n  rows: 10\n", "two.yaml");
+    FAIL() << "a second document was accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              fmt::format("two.yaml: line {}: a second YAML document; the file must hold one",
+                          lines + 1));  // the line of its "---"
+  }
+  EXPECT_NO_THROW(ParseSensorConfig(yaml + "...\n", "end.yaml"));  // an explicit end is fine
+  // yaml-cpp 0.7's LoadAll loops allocating without end on a stray ',' (issue 1040): refused.
+  EXPECT_THROW(ParseSensorConfig(",\n", "comma.yaml"), Error);
+  EXPECT_THROW(ParseSensorConfig(yaml + "---\n,\n", "comma.yaml"), Error);
+}
+
+// Issue 14, defects 5 and 7: sizes without an upper bound hung or died in bad_alloc.
+TEST(SensorConfig, RefusesValuesBeyondTheDocumentedLimits) {
+  ExpectRefused("  width: 640", "  width: 2000000000", "camera.width = 2000000000 is out of range");
+  ExpectRefused("  width: 640", "  width: 2000000000", "<= 8192");
+  ExpectRefused("  rows: 20\n  cols: 20", "  rows: 10000\n  cols: 10000", "markers.rows = 10000 is out of range");
+  ExpectRefused("youngs_modulus_mpa: 1.0", "youngs_modulus_mpa: 1e300", "<= 1000 MPa");
+  ExpectRefused("outer_radius_mm: 45.0", "outer_radius_mm: 1e300", "elastic_body.outer_radius_mm");
+  ExpectRefused("  d_mm: 8.0", "  d_mm: 1e9", "light_path.d_mm = 1000000000 is out of range");
+  ExpectRefused("refractive_index: 1.41", "refractive_index: 1e9", "elastic_body.refractive_index");
+}
+
+TEST(SensorConfig, RefusesAFolderAndADeviceAsAFile) {
+  const std::string dir = testing::MakeTempDir("folder");
+  try {
+    LoadSensorConfig(dir);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), fmt::format("sensor config '{}' is a directory, not a file", dir));
+  }
+  EXPECT_THROW(LoadSensorConfig("/dev/zero"), Error);
 }
 
 TEST(SensorConfig, MarkersLieOnTheInnerSphereRowMajor) {

@@ -1,10 +1,103 @@
 #include "tac3d/sensor/yaml_reader.h"
 
+#include <yaml-cpp/eventhandler.h>
+#include <yaml-cpp/parser.h>
+
+#include <cmath>
 #include <exception>
+#include <map>
+#include <optional>
+#include <sstream>
+#include <vector>
 
 #include "tac3d/util/error.h"
+#include "tac3d/util/file_io.h"
 
 namespace tac3d {
+namespace {
+
+// Throws on the first mapping, at any depth, that holds a key twice.
+void RefuseDuplicateKeys(const YAML::Node& node, const std::string& source) {
+  if (node.IsSequence()) {
+    for (const YAML::Node& element : node) RefuseDuplicateKeys(element, source);
+  } else if (node.IsMap()) {
+    std::map<std::string, int> first_line;
+    for (const auto& kv : node) {
+      const int line = kv.first.Mark().line + 1;
+      const std::string key = kv.first.IsScalar() ? kv.first.Scalar() : "<complex key>";
+      const auto [it, inserted] = first_line.emplace(key, line);
+      if (!inserted) {
+        throw Error(fmt::format(
+            "{}: line {}: duplicated key '{}' (first at line {})", source, line, key, it->second));
+      }
+      RefuseDuplicateKeys(kv.second, source);
+    }
+  }
+}
+
+// Records where a document starts; its content is not needed.
+class DocumentProbe final : public YAML::EventHandler {
+ public:
+  int line = 0;
+
+  void OnDocumentStart(const YAML::Mark& mark) override { line = mark.line + 1; }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnScalar(const YAML::Mark&,
+                const std::string&,
+                YAML::anchor_t,
+                const std::string&) override {}
+  void OnSequenceStart(const YAML::Mark&,
+                       const std::string&,
+                       YAML::anchor_t,
+                       YAML::EmitterStyle::value) override {}
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark&,
+                  const std::string&,
+                  YAML::anchor_t,
+                  YAML::EmitterStyle::value) override {}
+  void OnMapEnd() override {}
+};
+
+// The line where a second document starts, if the text has one (a closing "..." is not one).
+// Parsed event by event with a bound on the documents looked at, not with
+// YAML::LoadAll: yaml-cpp 0.7's LoadAll loops allocating without end on a stray ','
+// (yaml-cpp issue 1040; fixed upstream in 2024, after Debian 12's 0.7).
+std::optional<int> FindSecondDocument(const std::string& text) {
+  std::istringstream stream(text);
+  YAML::Parser parser(stream);
+  for (int document = 0; document < 2; ++document) {
+    DocumentProbe probe;
+    if (!parser.HandleNextDocument(probe)) return std::nullopt;
+    if (document > 0) return probe.line;
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+YAML::Node ParseYamlDocument(const std::string& text, const std::string& source) {
+  YAML::Node root;
+  std::optional<int> second_document_line;
+  try {
+    root = YAML::Load(text);
+    second_document_line = FindSecondDocument(text);
+  } catch (const YAML::Exception& e) {
+    throw Error(fmt::format("{}: not valid YAML: {}", source, e.what()));
+  }
+  if (second_document_line) {
+    throw Error(fmt::format("{}: line {}: a second YAML document; the file must hold one",
+                            source,
+                            *second_document_line));
+  }
+  RefuseDuplicateKeys(root, source);
+  return root;
+}
+
+YAML::Node LoadYamlFile(const std::string& path, std::string_view what) {
+  return ParseYamlDocument(ReadFileCapped(path, kMaxConfigFileBytes, what), path);
+}
 
 YamlReader::YamlReader(YAML::Node node, std::string path, const std::string* source)
     : node_(std::move(node)), path_(std::move(path)), source_(source) {
@@ -26,7 +119,9 @@ YAML::Node YamlReader::Required(const std::string& key) {
   return child;
 }
 
-YamlReader YamlReader::Child(const std::string& key) { return YamlReader(Required(key), Join(key), source_); }
+YamlReader YamlReader::Child(const std::string& key) {
+  return YamlReader(Required(key), Join(key), source_);
+}
 
 YAML::Node YamlReader::Sequence(const std::string& key) {
   YAML::Node n = Required(key);
@@ -61,7 +156,8 @@ Eigen::Matrix3d YamlReader::Matrix3(const std::string& key) {
   Eigen::Matrix3d m;
   for (int r = 0; r < 3; ++r) {
     if (!n[r].IsSequence() || n[r].size() != 3) Fail(Join(key), "must be 3 rows of 3 numbers");
-    for (int c = 0; c < 3; ++c) m(r, c) = AsDouble(n[r][c], fmt::format("{}[{}][{}]", Join(key), r, c));
+    for (int c = 0; c < 3; ++c)
+      m(r, c) = AsDouble(n[r][c], fmt::format("{}[{}][{}]", Join(key), r, c));
   }
   return m;
 }
@@ -72,11 +168,14 @@ void YamlReader::Fail(const std::string& where, const std::string& what) const {
 
 double YamlReader::AsDouble(const YAML::Node& n, const std::string& where) const {
   if (!n.IsScalar()) Fail(where, "must be a number");
+  double value = 0.0;
   try {
-    return n.as<double>();
+    value = n.as<double>();
   } catch (const YAML::Exception&) {
     Fail(where, fmt::format("'{}' is not a number", n.Scalar()));
   }
+  if (!std::isfinite(value)) Fail(where, fmt::format("'{}' is not a finite number", n.Scalar()));
+  return value;
 }
 
 }  // namespace tac3d

@@ -2,12 +2,25 @@
 
 #include <set>
 #include <string>
+#include <string_view>
 
 #include <Eigen/Core>
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
 namespace tac3d {
+
+/// Parses YAML text that must hold exactly one document, with no key twice in any mapping
+/// (yaml-cpp keeps the first of a duplicated key silently, so a typo'd copy would be ignored).
+/// @param source the file name for messages.
+/// @throws Error naming the source and line of a syntax error, a duplicated key, or a second
+///   non-empty document.
+YAML::Node ParseYamlDocument(const std::string& text, const std::string& source);
+
+/// Reads a YAML file of at most kMaxConfigFileBytes (util/file_io.h) and parses it with
+/// ParseYamlDocument. @param what what the file is, for messages ("sensor config").
+/// @throws Error as ReadFileCapped and ParseYamlDocument do.
+YAML::Node LoadYamlFile(const std::string& path, std::string_view what);
 
 /// Reads one YAML mapping strictly, with the file and the key path in every error
 /// ("sensor.yaml: markers.pitch_mm: 'abc' is not a number"): a missing key, a value of the

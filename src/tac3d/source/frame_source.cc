@@ -13,6 +13,7 @@
 
 #include "tac3d/source/threaded_capture.h"
 #include "tac3d/util/error.h"
+#include "tac3d/util/image_header.h"
 
 namespace tac3d {
 namespace {
@@ -59,9 +60,12 @@ std::string DevicePath(const std::string& device) {
 class VideoFileSource : public FrameSource {
  public:
   explicit VideoFileSource(const std::string& path) : path_(path) {
-    if (!fs::is_regular_file(path)) throw Error(fmt::format("video file '{}' does not exist", path));
-    if (!capture_.open(path) || !capture_.isOpened()) {
-      throw Error(fmt::format("video file '{}': no OpenCV backend can read it", path));
+    if (!fs::exists(path)) throw Error(fmt::format("video file '{}' does not exist", path));
+    if (!fs::is_regular_file(path)) throw Error(fmt::format("video file '{}' is not a regular file", path));
+    // FFmpeg reads every common container; OpenCV's own MJPEG reader the AVIs it writes.
+    // GStreamer is not tried: on a file it cannot read it prints pages of warnings.
+    if (!capture_.open(path, cv::CAP_FFMPEG) && !capture_.open(path, cv::CAP_OPENCV_MJPEG)) {
+      throw Error(fmt::format("video file '{}': not a video FFmpeg or the MJPEG reader can read", path));
     }
   }
   ReadStatus Read(Frame& frame) override {
@@ -90,10 +94,15 @@ class VideoFileSource : public FrameSource {
 
 class ImageFolderSource : public FrameSource {
  public:
-  ImageFolderSource(const std::string& folder, double fps)
-      : folder_(folder), files_(ListImageFiles(folder)), fps_(fps) {
+  ImageFolderSource(const std::string& folder, double fps, int max_width, int max_height)
+      : folder_(folder), files_(ListImageFiles(folder)), fps_(fps), max_width_(max_width),
+        max_height_(max_height) {
     if (files_.empty()) throw Error(fmt::format("image folder '{}' holds no image file", folder));
     if (!(fps > 0)) throw Error(fmt::format("image folder: fps = {} must be > 0", fps));
+    if (max_width < 1 || max_height < 1) {
+      throw Error(fmt::format("image folder: the largest image {} x {} must be at least 1 x 1", max_width,
+                              max_height));
+    }
   }
   ReadStatus Read(Frame& frame) override {
     if (next_ >= files_.size()) {
@@ -114,7 +123,19 @@ class ImageFolderSource : public FrameSource {
       last_error_ = fmt::format("'{}' is a truncated JPEG (no end of image after its last scan)", file);
       return ReadStatus::kBadFrame;
     }
-    frame.image = bytes_.empty() ? cv::Mat() : cv::imdecode(bytes_, cv::IMREAD_GRAYSCALE);
+    // The header's size is checked first: a decoder allocates what a (corrupt) header claims.
+    const std::optional<ImageDimensions> dims = ReadImageHeaderDimensions(bytes_.data(), bytes_.size());
+    if (dims && (dims->width > max_width_ || dims->height > max_height_)) {
+      last_error_ = fmt::format("'{}': its header claims {} x {} pixels, more than the camera's {} x {}",
+                                file, dims->width, dims->height, max_width_, max_height_);
+      return ReadStatus::kBadFrame;
+    }
+    try {
+      frame.image = bytes_.empty() ? cv::Mat() : cv::imdecode(bytes_, cv::IMREAD_GRAYSCALE);
+    } catch (const cv::Exception& e) {
+      last_error_ = fmt::format("'{}': the decoder refused it: {}", file, e.what());
+      return ReadStatus::kBadFrame;
+    }
     if (frame.image.empty()) {
       last_error_ = fmt::format("'{}' is not a readable image (corrupt or truncated)", file);
       return ReadStatus::kBadFrame;
@@ -130,6 +151,8 @@ class ImageFolderSource : public FrameSource {
   std::string folder_;
   std::vector<std::string> files_;
   double fps_;
+  int max_width_;
+  int max_height_;
   size_t next_ = 0;
   std::vector<std::uint8_t> bytes_;  // the file being decoded (reused)
 };
@@ -196,8 +219,9 @@ std::vector<std::string> ListImageFiles(const std::string& folder) {
   return files;
 }
 
-std::unique_ptr<FrameSource> OpenImageFolder(const std::string& path, double fps) {
-  return std::make_unique<ImageFolderSource>(path, fps);
+std::unique_ptr<FrameSource> OpenImageFolder(const std::string& path, double fps, int max_width,
+                                             int max_height) {
+  return std::make_unique<ImageFolderSource>(path, fps, max_width, max_height);
 }
 
 std::unique_ptr<FrameSource> OpenFrameSource(const std::string& uri, const CameraSourceOptions& camera) {
@@ -210,8 +234,12 @@ std::unique_ptr<FrameSource> OpenFrameSource(const std::string& uri, const Camer
     options.device = uri;
     return OpenCamera(options);
   }
-  if (fs::is_directory(uri)) return OpenImageFolder(uri);
-  if (fs::exists(uri)) return OpenVideoFile(uri);
+  if (fs::is_directory(uri)) return OpenImageFolder(uri, 30.0, camera.width, camera.height);
+  if (fs::is_regular_file(uri)) return OpenVideoFile(uri);
+  if (fs::exists(uri)) {
+    throw Error(fmt::format("frame source '{}' is neither a file nor a folder (a camera is camera:N or "
+                            "/dev/videoN)", uri));
+  }
   throw Error(fmt::format("frame source '{}': no such file or folder (a camera is camera:N or /dev/videoN)",
                           uri));
 }

@@ -66,15 +66,18 @@ std::unique_ptr<FrameSource> OpenVideoFile(const std::string& path);
 /// The PNG, JPEG, BMP or TIFF images of a folder, in lexicographic order of their names.
 /// Timestamps are index / fps. A file that does not decode, or a JPEG cut short (which
 /// would decode with grey rows), is a kBadFrame (named in last_error) and reading continues
-/// with the next.
+/// with the next. So is a file whose header claims more than max_width x max_height pixels
+/// (the camera's resolution), refused before it is decoded.
 /// @throws Error if the folder is missing or holds no image file.
-std::unique_ptr<FrameSource> OpenImageFolder(const std::string& path, double fps = 30.0);
+std::unique_ptr<FrameSource> OpenImageFolder(const std::string& path, double fps = 30.0,
+                                             int max_width = 8192, int max_height = 8192);
 
 /// The image files OpenImageFolder would read, sorted.
 std::vector<std::string> ListImageFiles(const std::string& folder);
 
 /// Opens what a command-line argument names: "camera:N" or "/dev/videoN" a camera (the
-/// camera options' device replaced), a folder an image folder, any other file a video.
+/// camera options' device replaced), a folder an image folder (images larger than the camera
+/// options' width x height are bad frames), any other regular file a video.
 /// @throws Error as the opener does, or if the path does not exist.
 std::unique_ptr<FrameSource> OpenFrameSource(const std::string& uri,
                                              const CameraSourceOptions& camera = {});

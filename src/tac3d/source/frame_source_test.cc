@@ -1,5 +1,6 @@
 #include "tac3d/source/frame_source.h"
 
+#include <algorithm>
 #include <atomic>
 #include <fstream>
 #include <memory>
@@ -155,6 +156,55 @@ TEST(FrameSource, MissingThingsAreClearErrors) {
   const std::string junk = dir + "/junk.avi";
   std::ofstream(junk) << "this is not a video";
   EXPECT_THROW(OpenVideoFile(junk), Error);
+}
+
+// Issue 14, defect 2: a 661-byte PNG claiming 60000 x 60000 pixels stopped the whole run
+// (OpenCV threw on CV_IO_MAX_IMAGE_PIXELS). It is one bad frame; the next image is read.
+TEST(ImageFolder, AnImageClaimingMorePixelsThanTheCameraIsOneBadFrame) {
+  const std::string dir = testing::MakeTempDir("huge_header");
+  ASSERT_TRUE(cv::imwrite(dir + "/frame_000.png", Pattern(10)));
+  std::vector<std::uint8_t> png;
+  ASSERT_TRUE(cv::imencode(".png", Pattern(20), png));
+  const std::uint8_t huge[4] = {0x00, 0x00, 0xEA, 0x60};  // 60000, big-endian
+  std::copy(huge, huge + 4, png.begin() + 16);
+  std::copy(huge, huge + 4, png.begin() + 20);
+  std::ofstream(dir + "/frame_001.png", std::ios::binary).write(reinterpret_cast<const char*>(png.data()), png.size());
+  ASSERT_TRUE(cv::imwrite(dir + "/frame_002.png", Pattern(30)));
+
+  CameraSourceOptions camera;
+  camera.width = 64;
+  camera.height = 48;
+  const auto source = OpenFrameSource(dir, camera);
+  Frame frame;
+  ASSERT_EQ(source->Read(frame), ReadStatus::kOk);
+  ASSERT_EQ(source->Read(frame), ReadStatus::kBadFrame);
+  EXPECT_THAT(source->last_error(), HasSubstr("frame_001.png': its header claims 60000 x 60000 pixels, more "
+                                              "than the camera's 64 x 48"));
+  ASSERT_EQ(source->Read(frame), ReadStatus::kOk);
+  EXPECT_EQ(frame.image.at<std::uint8_t>(2, 2), 30);
+  EXPECT_EQ(source->Read(frame), ReadStatus::kEnd);
+}
+
+// Issue 14, defect 8: /dev/null was "does not exist"; a text file printed GStreamer's noise.
+TEST(FrameSource, ADeviceOrATextFileIsRefusedWithItsReasonAndNoNoise) {
+  try {
+    OpenFrameSource("/dev/null");
+    FAIL() << "opened /dev/null";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "frame source '/dev/null' is neither a file nor a folder (a camera is camera:N or /dev/videoN)");
+  }
+  const std::string text = testing::MakeTempDir("text_source") + "/notes.txt";
+  std::ofstream(text) << "these are notes, not a video\n";
+  ::testing::internal::CaptureStderr();
+  try {
+    OpenFrameSource(text);
+    FAIL() << "opened a text file as a video";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("not a video FFmpeg or the MJPEG reader can read"));
+  }
+  const std::string noise = ::testing::internal::GetCapturedStderr();
+  EXPECT_EQ(std::count(noise.begin(), noise.end(), '\n'), 0) << noise;
 }
 
 TEST(CameraSourceOptions, ValidateNamesTheField) {

@@ -1,7 +1,5 @@
 #include "tac3d/util/cache_file.h"
 
-#include <unistd.h>
-
 #include <bit>
 #include <cstring>
 #include <ctime>
@@ -10,6 +8,7 @@
 #include <iterator>
 
 #include "tac3d/util/error.h"
+#include "tac3d/util/file_io.h"
 
 namespace tac3d {
 namespace {
@@ -93,20 +92,14 @@ void WriteCacheRecord(const std::string& path,
   }
   const std::uint64_t checksum = Fnv1a(body.data(), body.size());
 
-  const std::string temporary = fmt::format("{}.tmp{}", path, getpid());
-  {
+  WriteFileAtomically(path, [&](const std::string& temporary) {
     std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
     out.write(magic.data(), 8);
     out.write(body.data(), static_cast<std::streamsize>(body.size()));
     out.write(reinterpret_cast<const char*>(&checksum), sizeof(checksum));
+    out.flush();
     if (!out) throw Error(fmt::format("cannot write the cache file {}", temporary));
-  }
-  std::error_code error;
-  std::filesystem::rename(temporary, path, error);
-  if (error) {
-    std::filesystem::remove(temporary, error);
-    throw Error(fmt::format("cannot rename {} to {}", temporary, path));
-  }
+  });
 }
 
 CacheRecord ReadCacheRecord(const std::string& path,

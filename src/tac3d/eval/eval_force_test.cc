@@ -4,7 +4,7 @@
 
 #include <gtest/gtest.h>
 
-#include "tac3d/force/evaluation.h"
+#include "tac3d/eval/force_evaluation.h"
 #include "tac3d/testing/testing.h"
 
 namespace tac3d {

@@ -1,4 +1,4 @@
-#include "tac3d/force/evaluation.h"
+#include "tac3d/eval/force_evaluation.h"
 
 #include <algorithm>
 #include <chrono>

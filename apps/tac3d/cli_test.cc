@@ -1,0 +1,102 @@
+// The command line as a user runs it: bad arguments get a clear error and exit code 1
+// before any work, and nothing is left half-written (issue 14, defects 6, 7 and 8).
+#include <fmt/format.h>
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "tac3d/testing/testing.h"
+
+namespace tac3d {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+struct Outcome {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr together
+};
+
+Outcome RunCli(const std::string& arguments) {
+  const std::string command = std::string(TAC3D_CLI_PATH) + " " + arguments + " 2>&1";
+  Outcome outcome;
+  std::FILE* pipe = ::popen(command.c_str(), "r");
+  if (pipe == nullptr) return outcome;
+  char buffer[4096];
+  while (const size_t n = std::fread(buffer, 1, sizeof(buffer), pipe))
+    outcome.output.append(buffer, n);
+  const int status = ::pclose(pipe);
+  outcome.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return outcome;
+}
+
+int CountFiles(const std::string& dir) {
+  return static_cast<int>(std::distance(fs::directory_iterator(dir), fs::directory_iterator()));
+}
+
+TEST(Cli, DesignChecksEveryOutputBeforeWritingAny) {
+  const std::string dir = testing::MakeTempDir("design");
+  Outcome o = RunCli(fmt::format("design --out {0}/s.yaml --png {0}/x.notanext", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("--png '" + dir + "/x.notanext' must end in .png"));
+  o = RunCli(fmt::format("design --out {0}/s.yaml --svg {0}/missing/d.svg", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("the folder '" + dir + "/missing' does not exist"));
+  EXPECT_EQ(CountFiles(dir), 0) << "a failed design left a file behind";
+  o = RunCli(fmt::format("design --out {0}/s.yaml --png {0}/d.png --svg {0}/d.svg", dir));
+  EXPECT_EQ(o.exit_code, 0) << o.output;
+  EXPECT_EQ(CountFiles(dir), 3);
+}
+
+TEST(Cli, DesignRefusesAThicknessBeyondTheLimit) {
+  const Outcome o = RunCli("design --d 1e9 --out " + testing::MakeTempDir("d") + "/s.yaml");
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("d_mm = 1000000000 must be > 0 and <= 1000 mm"));
+}
+
+TEST(Cli, RenderRefusesANegativeFrameAndANonFinitePose) {
+  const std::string dir = testing::MakeTempDir("render");
+  Outcome o = RunCli(fmt::format("render markers --frame -1 --out {}/f.png", dir));
+  EXPECT_NE(o.exit_code, 0);
+  EXPECT_THAT(o.output, HasSubstr("--frame"));
+  o = RunCli(fmt::format("render board --pose nan,0,0,0,0,0 --out {}/b.png", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("every number must be finite"));
+  EXPECT_EQ(CountFiles(dir), 0);
+}
+
+TEST(Cli, CalibrateChecksItsOutputBeforeCalibrating) {
+  const std::string dir = testing::MakeTempDir("calibrate");
+  const Outcome o =
+      RunCli(fmt::format("calibrate --images {0} --out {0}/missing/sensor.yaml", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("the folder '" + dir + "/missing' does not exist"));
+}
+
+TEST(Cli, RunRefusesContradictoryFlagsAndNamesWhatASourceIs) {
+  const std::string dir = testing::MakeTempDir("run");
+  Outcome o = RunCli(fmt::format("run --source {} --record-images", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("--record-images needs --record FILE"));
+  o = RunCli(fmt::format("run --source /dev/null --config {}", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("sensor config '" + dir + "' is a directory, not a file"));
+  o = RunCli("run --source /dev/null");
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("'/dev/null' is neither a file nor a folder"));
+  std::ofstream(dir + "/notes.txt") << "not a video\n";
+  o = RunCli(fmt::format("run --source {}/notes.txt", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_EQ(std::count(o.output.begin(), o.output.end(), '\n'), 1) << "more than the error:\n"
+                                                                   << o.output;
+}
+
+}  // namespace
+}  // namespace tac3d

@@ -1,0 +1,65 @@
+#pragma once
+
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "commands.h"
+#include "tac3d/eval/replay_evaluation.h"
+#include "tac3d/simulation/simulation.h"
+
+namespace tac3d::cli {
+
+/// A twin simulation as `tac3d simulate` and the demo run it.
+struct SimulateArgs {
+  std::string scene;
+  std::string out;
+  std::string cache_dir = DefaultCacheDir();
+  bool no_images = false;
+  int steps = 0;
+  bool json = false;
+};
+
+struct SimulateRun {
+  simulation::SimulationSummary summary;
+  nlohmann::json model;  ///< the twin body: cache file and status, body, grid, symbol
+};
+
+/// Loads the scene (a file or a built-in name) and the twin body (from the cache, or built),
+/// simulates it with progress bars and writes the dataset to args.out.
+/// @throws Error on a bad scene, a non-empty output folder or a failed write.
+SimulateRun SimulateToDataset(const SimulateArgs& args);
+
+/// A replay evaluation as `tac3d eval replay` and the demo run it.
+struct ReplayArgs {
+  std::string dataset;
+  std::string calibration;    ///< a calibration dataset to fit the gains on, or ""
+  std::vector<double> gains;  ///< Cx Cy Cz when given, else unit gains or the fitted ones
+  std::string config;         ///< sensor YAML, or "" for the dataset's scene's sensor
+  std::string cache_dir = DefaultCacheDir();
+  int max_steps = 0;
+  int max_support_markers = 0;  ///< ForceReconstructorOptions::max_support_markers; 0: default
+  bool show_progress = true;
+};
+
+struct ReplayRun {
+  ReplayOptions options;  ///< as run, the gains included
+  std::optional<ReplayGainCalibration> calibration;
+  ReplayResult replay;
+  nlohmann::json report;  ///< the summary (ToJson), the calibration's fit and summary
+};
+
+/// Loads the sensor and the nominal compliance (from the cache), fits the gains on the
+/// calibration dataset if one is given, and replays the dataset.
+/// @throws Error on bad arguments or datasets (ReplayTwinDataset, FitForceGains).
+ReplayRun RunReplay(const ReplayArgs& args,
+                    const std::function<void(const TwinStep&, const TactileFrame&)>& on_frame = {});
+
+/// Writes report.json, frames.csv (per-frame measured vs true) and force_pairs.csv (the
+/// calibration's pairs if gains were fitted, else the dataset's own: `tac3d calibrate-force
+/// --pairs` reproduces the gains from it) into `folder`. @throws Error if a file cannot be written.
+void WriteReplayFiles(const ReplayRun& run, const std::string& folder);
+
+}  // namespace tac3d::cli

@@ -1,0 +1,107 @@
+#include "tac3d/util/file_io.h"
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+#include <fstream>
+#include <system_error>
+
+#include "tac3d/util/error.h"
+
+namespace tac3d {
+namespace fs = std::filesystem;
+
+std::string ReadFileCapped(const std::string& path, std::size_t max_bytes, std::string_view what) {
+  std::error_code ec;
+  const fs::file_status status = fs::status(path, ec);
+  if (ec || !fs::exists(status)) throw Error(fmt::format("{} '{}' does not exist", what, path));
+  if (fs::is_directory(status))
+    throw Error(fmt::format("{} '{}' is a directory, not a file", what, path));
+  if (!fs::is_regular_file(status)) {
+    throw Error(fmt::format("{} '{}' is not a regular file (a device or a pipe?)", what, path));
+  }
+  const std::uintmax_t size = fs::file_size(path, ec);
+  if (!ec && size > max_bytes) {
+    throw Error(fmt::format(
+        "{} '{}' is {} bytes, more than the limit of {} bytes", what, path, size, max_bytes));
+  }
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(fmt::format("{} '{}' cannot be opened", what, path));
+  // Read at most one byte past the cap, in case the file grew since its size was taken.
+  std::string text(max_bytes + 1, '\0');
+  in.read(text.data(), static_cast<std::streamsize>(text.size()));
+  if (in.bad()) throw Error(fmt::format("{} '{}' cannot be read", what, path));
+  text.resize(static_cast<std::size_t>(in.gcount()));
+  if (text.size() > max_bytes) {
+    throw Error(fmt::format("{} '{}' is larger than the limit of {} bytes", what, path, max_bytes));
+  }
+  return text;
+}
+
+void CheckOutputFile(const std::string& path,
+                     std::string_view what,
+                     std::initializer_list<std::string_view> extensions) {
+  if (path.empty()) throw Error(fmt::format("{}: empty output path", what));
+  const fs::path p(path);
+  std::error_code ec;
+  if (fs::is_directory(p, ec)) throw Error(fmt::format("{} '{}' is a directory", what, path));
+  if (extensions.size() > 0) {
+    std::string ext = p.extension().string();
+    std::transform(
+        ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+    if (std::find(extensions.begin(), extensions.end(), ext) == extensions.end()) {
+      std::string allowed;
+      for (std::string_view e : extensions)
+        allowed += fmt::format("{}{}", allowed.empty() ? "" : ", ", e);
+      throw Error(fmt::format("{} '{}' must end in {}", what, path, allowed));
+    }
+  }
+  const fs::path parent = p.has_parent_path() ? p.parent_path() : fs::path(".");
+  if (!fs::is_directory(parent, ec)) {
+    throw Error(
+        fmt::format("{} '{}': the folder '{}' does not exist", what, path, parent.string()));
+  }
+  if (::access(parent.c_str(), W_OK) != 0) {
+    throw Error(
+        fmt::format("{} '{}': the folder '{}' is not writable", what, path, parent.string()));
+  }
+}
+
+void WriteFileAtomically(const std::string& path,
+                         const std::function<void(const std::string&)>& write) {
+  const std::string temporary = fmt::format("{}.tmp{}", path, ::getpid());
+  std::error_code ec;
+  try {
+    write(temporary);
+  } catch (...) {
+    fs::remove(temporary, ec);
+    throw;
+  }
+  fs::rename(temporary, path, ec);
+  if (ec) {
+    std::error_code ignored;
+    fs::remove(temporary, ignored);
+    throw Error(fmt::format("cannot rename '{}' to '{}': {}", temporary, path, ec.message()));
+  }
+}
+
+void WriteTextFileAtomically(const std::string& path, std::string_view content) {
+  WriteFileAtomically(path, [&](const std::string& temporary) {
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    out.write(content.data(), static_cast<std::streamsize>(content.size()));
+    out.flush();
+    if (!out) throw Error(fmt::format("cannot write '{}'", path));
+  });
+}
+
+void WriteLineFlushed(std::FILE* out, std::string_view line) {
+  if (std::fwrite(line.data(), 1, line.size(), out) != line.size() ||
+      std::fputc('\n', out) == EOF || std::fflush(out) != 0) {
+    throw Error("cannot write a line to the output (closed pipe?)");
+  }
+}
+
+}  // namespace tac3d
