@@ -1,6 +1,9 @@
 #include "tac3d/friction/friction_map.h"
 
+#include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <random>
 #include <set>
 #include <utility>
@@ -10,6 +13,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "tac3d/friction/friction_output.h"
+#include "tac3d/scene/ply.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
 
@@ -389,6 +394,7 @@ TEST_F(FrictionMapTwoRegions, MeshLiesOnTheObjectsPlaneAfterTheCoverOffset) {
     if (std::abs(p.x()) < 9 && std::abs(p.y()) < 4) {
       ++interior;
       EXPECT_NEAR(p.z(), 0.0, 0.02) << "vertex " << v << " at " << p.transpose();
+      EXPECT_GT(m.vertex_normals[v].z(), 0.99) << "normals point out of the object, up";
     }
   }
   EXPECT_GT(interior, 500);
@@ -402,6 +408,33 @@ TEST_F(FrictionMapTwoRegions, SummaryReportAndJson) {
   EXPECT_EQ(j.at("vertices"), s.vertices);
   EXPECT_EQ(j.at("slip_points"), s.slip_points);
   EXPECT_DOUBLE_EQ(j.at("poisson_time_s").get<double>(), s.poisson_time_s);
+}
+
+TEST_F(FrictionMapTwoRegions, WritesPlyAndPngOfTheMap) {
+  const FrictionMapResult& m = *result_;
+  const std::string dir = tac3d::testing::MakeTempDir("friction_map");
+  WriteFrictionMapPly(m, dir + "/map.ply");
+  const TriangleMesh mesh = ReadPly(dir + "/map.ply");
+  ASSERT_EQ(mesh.vertices.size(), m.vertices_mm.size());
+  EXPECT_EQ(mesh.triangles.size(), m.triangles.size());
+  for (size_t v = 0; v < m.vertices_mm.size(); v += 97) {
+    const double mu = mesh.vertex_properties.at("mu")[v];
+    if (std::isnan(m.mu[v])) {
+      EXPECT_TRUE(std::isnan(mu));
+    } else {
+      EXPECT_NEAR(mu, m.mu[v], 1e-6);
+    }
+  }
+  // From above: blue (x < 0), red (x > 0) and grey (the static press) are all there.
+  const RenderSummary png = WriteFrictionMapPng(m, dir + "/map.png");
+  EXPECT_GT(png.covered_pixels, 100000);
+  EXPECT_GT(png.band_pixels[static_cast<int>(FrictionBand::kLow)], 0.3 * png.covered_pixels);
+  EXPECT_GT(png.band_pixels[static_cast<int>(FrictionBand::kHigh)], 0.3 * png.covered_pixels);
+  EXPECT_GT(png.band_pixels[static_cast<int>(FrictionBand::kUnknown)], 0.05 * png.covered_pixels);
+  WriteSlipPointsCsv(m.slip_points, dir + "/slips.csv");
+  std::ifstream csv(dir + "/slips.csv");
+  const long lines = std::count(std::istreambuf_iterator<char>(csv), std::istreambuf_iterator<char>(), '\n');
+  EXPECT_EQ(lines, m.summary.slip_points + 1);
 }
 
 // ---- Degenerate streams ------------------------------------------------------------------
