@@ -1,14 +1,14 @@
 #include "tac3d/friction/friction_map.h"
 
-#include <algorithm>
-#include <chrono>
-#include <cmath>
-
 #include <fmt/format.h>
-#include <nlohmann/json.hpp>
 #include <open3d/geometry/KDTreeFlann.h>
 #include <open3d/geometry/PointCloud.h>
 #include <open3d/geometry/TriangleMesh.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <nlohmann/json.hpp>
 
 #include "tac3d/util/error.h"
 
@@ -24,7 +24,8 @@ double SecondsSince(Clock::time_point start) {
 
 void Require(bool ok, const char* field, const char* bound, double value) {
   if (!ok || std::isnan(value)) {
-    throw Error(fmt::format("FrictionMapOptions.{} = {} is out of range: must be {}", field, value, bound));
+    throw Error(
+        fmt::format("FrictionMapOptions.{} = {} is out of range: must be {}", field, value, bound));
   }
 }
 
@@ -42,7 +43,8 @@ std::shared_ptr<open3d::geometry::PointCloud> Resample(const std::vector<Eigen::
 
 // Drops the vertices farther than trim_distance_mm from every point of the cloud (with the
 // triangles that use them) and the vertices no triangle uses.
-void Trim(const open3d::geometry::PointCloud& cloud, double trim_distance_mm,
+void Trim(const open3d::geometry::PointCloud& cloud,
+          double trim_distance_mm,
           open3d::geometry::TriangleMesh& mesh) {
   const open3d::geometry::KDTreeFlann tree(cloud);
   std::vector<bool> remove(mesh.vertices_.size(), false);
@@ -57,7 +59,8 @@ void Trim(const open3d::geometry::PointCloud& cloud, double trim_distance_mm,
 }
 
 // mu, confidence and slip count at every vertex (equations 5 and 6).
-void AssignFriction(const std::vector<SlipPoint>& slips, const FrictionMapOptions& options,
+void AssignFriction(const std::vector<SlipPoint>& slips,
+                    const FrictionMapOptions& options,
                     FrictionMapResult& result) {
   const size_t n = result.vertices_mm.size();
   result.mu.assign(n, kNaN);
@@ -113,25 +116,39 @@ FrictionMapOptions FrictionMapOptions::FromSensor(const SensorConfig& sensor) {
 }
 
 double FrictionMapOptions::SlipThresholdMm() const {
-  return slip_sigmas * std::sqrt(2.0 * (marker_noise_mm * marker_noise_mm + pose_noise_mm * pose_noise_mm));
+  return slip_sigmas *
+         std::sqrt(2.0 * (marker_noise_mm * marker_noise_mm + pose_noise_mm * pose_noise_mm));
 }
 
 void FrictionMapOptions::Validate() const {
-  Require(contact_threshold_n >= 0 && std::isfinite(contact_threshold_n), "contact_threshold_n",
-          ">= 0 and finite", contact_threshold_n);
-  Require(cover_thickness_mm >= 0 && cover_thickness_mm <= 5, "cover_thickness_mm", "in [0, 5]",
+  Require(contact_threshold_n >= 0 && std::isfinite(contact_threshold_n),
+          "contact_threshold_n",
+          ">= 0 and finite",
+          contact_threshold_n);
+  Require(cover_thickness_mm >= 0 && cover_thickness_mm <= 5,
+          "cover_thickness_mm",
+          "in [0, 5]",
           cover_thickness_mm);
-  Require(marker_noise_mm > 0 && std::isfinite(marker_noise_mm), "marker_noise_mm", "> 0 and finite",
+  Require(marker_noise_mm > 0 && std::isfinite(marker_noise_mm),
+          "marker_noise_mm",
+          "> 0 and finite",
           marker_noise_mm);
-  Require(pose_noise_mm >= 0 && std::isfinite(pose_noise_mm), "pose_noise_mm", ">= 0 and finite",
+  Require(pose_noise_mm >= 0 && std::isfinite(pose_noise_mm),
+          "pose_noise_mm",
+          ">= 0 and finite",
           pose_noise_mm);
-  Require(slip_sigmas > 0 && std::isfinite(slip_sigmas), "slip_sigmas", "> 0 and finite", slip_sigmas);
-  Require(voxel_size_mm > 0 && std::isfinite(voxel_size_mm), "voxel_size_mm", "> 0 and finite",
+  Require(
+      slip_sigmas > 0 && std::isfinite(slip_sigmas), "slip_sigmas", "> 0 and finite", slip_sigmas);
+  Require(voxel_size_mm > 0 && std::isfinite(voxel_size_mm),
+          "voxel_size_mm",
+          "> 0 and finite",
           voxel_size_mm);
   Require(poisson_depth >= 4 && poisson_depth <= 12, "poisson_depth", "in [4, 12]", poisson_depth);
   Require(poisson_scale >= 1 && poisson_scale <= 2, "poisson_scale", "in [1, 2]", poisson_scale);
   Require(num_threads >= 0, "num_threads", ">= 0 (0: one a core)", num_threads);
-  Require(trim_distance_mm > 0 && std::isfinite(trim_distance_mm), "trim_distance_mm", "> 0 and finite",
+  Require(trim_distance_mm > 0 && std::isfinite(trim_distance_mm),
+          "trim_distance_mm",
+          "> 0 and finite",
           trim_distance_mm);
   Require(radius_mm > 0 && std::isfinite(radius_mm), "radius_mm", "> 0 and finite", radius_mm);
   Require(alpha >= 0 && std::isfinite(alpha), "alpha", ">= 0 and finite", alpha);
@@ -142,29 +159,53 @@ void FrictionMapOptions::Validate() const {
 
 std::string ToString(FrictionMapStatus status) {
   switch (status) {
-    case FrictionMapStatus::kNotRun: return "not_run";
-    case FrictionMapStatus::kOk: return "ok";
-    case FrictionMapStatus::kNoContact: return "no_contact";
-    case FrictionMapStatus::kTooFewPoints: return "too_few_points";
-    case FrictionMapStatus::kReconstructionFailed: return "reconstruction_failed";
-    case FrictionMapStatus::kNoSlip: return "no_slip";
+    case FrictionMapStatus::kNotRun:
+      return "not_run";
+    case FrictionMapStatus::kOk:
+      return "ok";
+    case FrictionMapStatus::kNoContact:
+      return "no_contact";
+    case FrictionMapStatus::kTooFewPoints:
+      return "too_few_points";
+    case FrictionMapStatus::kReconstructionFailed:
+      return "reconstruction_failed";
+    case FrictionMapStatus::kNoSlip:
+      return "no_slip";
   }
   return "unknown";
 }
 
 std::string FrictionMapSummary::BriefReport() const {
   return fmt::format(
-      "friction map {}: {} frames ({} skipped), {} contact points -> {} resampled, {} slip points of {} "
-      "pairs (threshold {:.4f} mm, noise est. {:.4f} mm), mesh {} vertices {} triangles, unknown {:.1f}%, "
+      "friction map {}: {} frames ({} skipped), {} contact points -> {} resampled, {} slip points "
+      "of {} "
+      "pairs (threshold {:.4f} mm, noise est. {:.4f} mm), mesh {} vertices {} triangles, unknown "
+      "{:.1f}%, "
       "mu median {:.3f}, Poisson {:.2f} s, total {:.2f} s{}{}",
-      ToString(status), frames, frames_skipped, contact_points, resampled_points, slip_points, marker_pairs,
-      slip_threshold_mm, estimated_noise_mm, vertices, triangles, 100.0 * unknown_fraction, mu_median,
-      poisson_time_s, total_time_s, message.empty() ? "" : ": ", message);
+      ToString(status),
+      frames,
+      frames_skipped,
+      contact_points,
+      resampled_points,
+      slip_points,
+      marker_pairs,
+      slip_threshold_mm,
+      estimated_noise_mm,
+      vertices,
+      triangles,
+      100.0 * unknown_fraction,
+      mu_median,
+      poisson_time_s,
+      total_time_s,
+      message.empty() ? "" : ": ",
+      message);
 }
 
 nlohmann::json ToJson(const FrictionMapSummary& s) {
   // NaN is not JSON: unknown values are null.
-  const auto number = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+  const auto number = [](double v) {
+    return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
+  };
   return {{"status", ToString(s.status)},
           {"message", s.message},
           {"frames", s.frames},
@@ -192,8 +233,10 @@ nlohmann::json ToJson(const FrictionMapSummary& s) {
 
 // ---- Equations 5 and 6 -------------------------------------------------------------------
 
-double WeightedFriction(const std::vector<double>& mu_i, const std::vector<double>& distance_mm,
-                        const FrictionMapOptions& options, double* weight_sum) {
+double WeightedFriction(const std::vector<double>& mu_i,
+                        const std::vector<double>& distance_mm,
+                        const FrictionMapOptions& options,
+                        double* weight_sum) {
   TAC3D_DEMAND(mu_i.size() == distance_mm.size());
   double sum_w = 0.0, sum_w_mu = 0.0, sum_mu = 0.0;
   for (size_t i = 0; i < mu_i.size(); ++i) {
@@ -225,7 +268,8 @@ void FrictionMapBuilder::AddFrame(const TactileFrame& frame, const Rigid3& world
   const Eigen::Matrix3d r = world_from_sensor.linear();
   if (!world_from_sensor.matrix().allFinite() || !(r.transpose() * r).isIdentity(1e-6) ||
       !(r.determinant() > 0)) {
-    throw Error(fmt::format("frame {} (t = {} s): world_from_sensor is not a rigid transform", frame.index,
+    throw Error(fmt::format("frame {} (t = {} s): world_from_sensor is not a rigid transform",
+                            frame.index,
                             frame.timestamp_s));
   }
   if (frame.initialize_progress < 100) {
@@ -247,7 +291,8 @@ void FrictionMapBuilder::AddFrame(const TactileFrame& frame, const Rigid3& world
     world_mm[i] = world_from_sensor * frame.positions_mm[i];
     if (!(normal_force > options_.contact_threshold_n)) continue;
     contact[i] = true;
-    const Eigen::Vector3d surface = world_from_sensor * (frame.positions_mm[i] + options_.cover_thickness_mm * normal);
+    const Eigen::Vector3d surface =
+        world_from_sensor * (frame.positions_mm[i] + options_.cover_thickness_mm * normal);
     surface_points_.push_back(surface);
     surface_normals_.push_back(-(r * normal));
     if (!has_previous || !previous_contact_[i]) continue;
@@ -255,7 +300,8 @@ void FrictionMapBuilder::AddFrame(const TactileFrame& frame, const Rigid3& world
     const double motion = (world_mm[i] - previous_world_mm_[i]).norm();
     if (motion > threshold) {
       const Eigen::Vector3d tangential = f + normal_force * normal;
-      slip_points_.push_back({surface, tangential.norm() / normal_force, normal_force, motion, frame.index, i});
+      slip_points_.push_back(
+          {surface, tangential.norm() / normal_force, normal_force, motion, frame.index, i});
     } else {
       stuck_sum_squared_mm2_ += motion * motion;
       ++stuck_pairs_;
@@ -278,7 +324,8 @@ FrictionMapResult FrictionMapBuilder::Build(const ProgressCallback& progress) co
   s.marker_pairs = marker_pairs_;
   s.slip_points = static_cast<long>(slip_points_.size());
   s.slip_threshold_mm = options_.SlipThresholdMm();
-  if (stuck_pairs_ > 0) s.estimated_noise_mm = std::sqrt(stuck_sum_squared_mm2_ / (6.0 * stuck_pairs_));
+  if (stuck_pairs_ > 0)
+    s.estimated_noise_mm = std::sqrt(stuck_sum_squared_mm2_ / (6.0 * stuck_pairs_));
   result.slip_points = slip_points_;
   const auto finish = [&](FrictionMapStatus status, std::string message) {
     s.status = status;
@@ -286,7 +333,8 @@ FrictionMapResult FrictionMapBuilder::Build(const ProgressCallback& progress) co
     s.total_time_s = SecondsSince(start);
     return result;
   };
-  if (surface_points_.empty()) return finish(FrictionMapStatus::kNoContact, "no marker was in contact");
+  if (surface_points_.empty())
+    return finish(FrictionMapStatus::kNoContact, "no marker was in contact");
 
   Clock::time_point t = Clock::now();
   const auto cloud = Resample(surface_points_, surface_normals_, options_.voxel_size_mm);
@@ -295,13 +343,18 @@ FrictionMapResult FrictionMapBuilder::Build(const ProgressCallback& progress) co
   report(1);
   if (s.resampled_points < kMinReconstructionPoints) {
     return finish(FrictionMapStatus::kTooFewPoints,
-                  fmt::format("{} resampled points, a reconstruction needs {}", s.resampled_points,
+                  fmt::format("{} resampled points, a reconstruction needs {}",
+                              s.resampled_points,
                               kMinReconstructionPoints));
   }
 
   t = Clock::now();
   auto [mesh, densities] = open3d::geometry::TriangleMesh::CreateFromPointCloudPoisson(
-      *cloud, options_.poisson_depth, 0.0f, static_cast<float>(options_.poisson_scale), false,
+      *cloud,
+      options_.poisson_depth,
+      0.0f,
+      static_cast<float>(options_.poisson_scale),
+      false,
       options_.num_threads == 0 ? -1 : options_.num_threads);
   s.poisson_time_s = SecondsSince(t);
   s.poisson_vertices = static_cast<long>(mesh->vertices_.size());
@@ -313,9 +366,11 @@ FrictionMapResult FrictionMapBuilder::Build(const ProgressCallback& progress) co
   s.trim_time_s = SecondsSince(t);
   report(3);
   if (mesh->vertices_.empty() || mesh->triangles_.empty()) {
-    return finish(FrictionMapStatus::kReconstructionFailed,
-                  fmt::format("no vertex of the Poisson surface ({} vertices) is within {} mm of the points",
-                              s.poisson_vertices, options_.trim_distance_mm));
+    return finish(
+        FrictionMapStatus::kReconstructionFailed,
+        fmt::format("no vertex of the Poisson surface ({} vertices) is within {} mm of the points",
+                    s.poisson_vertices,
+                    options_.trim_distance_mm));
   }
   result.vertices_mm = mesh->vertices_;
   result.triangles = mesh->triangles_;
@@ -326,7 +381,8 @@ FrictionMapResult FrictionMapBuilder::Build(const ProgressCallback& progress) co
   SummariseFriction(result);
   s.mu_time_s = SecondsSince(t);
   report(4);
-  if (slip_points_.empty()) return finish(FrictionMapStatus::kNoSlip, "no slip point: mu is unknown everywhere");
+  if (slip_points_.empty())
+    return finish(FrictionMapStatus::kNoSlip, "no slip point: mu is unknown everywhere");
   return finish(FrictionMapStatus::kOk, "");
 }
 

@@ -1,13 +1,12 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
-#include <nlohmann/json_fwd.hpp>
 
 #include "tac3d/frame/tactile_frame.h"
 #include "tac3d/geometry/geometry.h"
@@ -85,11 +84,11 @@ struct FrictionMapOptions {
 /// preliminary friction estimate.
 struct SlipPoint {
   Eigen::Vector3d p_in_world_mm = Eigen::Vector3d::Zero();  ///< on the object's surface
-  double mu = 0.0;              ///< mu_i = |F_t| / F_n (>= 0)
-  double normal_force_n = 0.0;  ///< F_n = -(f . n) (> contact threshold)
-  double motion_mm = 0.0;       ///< world motion of the marker since the previous frame
-  std::int64_t frame_index = 0; ///< TactileFrame::index of the later frame
-  int marker = 0;               ///< marker index (row * cols + col)
+  double mu = 0.0;                                          ///< mu_i = |F_t| / F_n (>= 0)
+  double normal_force_n = 0.0;   ///< F_n = -(f . n) (> contact threshold)
+  double motion_mm = 0.0;        ///< world motion of the marker since the previous frame
+  std::int64_t frame_index = 0;  ///< TactileFrame::index of the later frame
+  int marker = 0;                ///< marker index (row * cols + col)
 };
 
 enum class FrictionMapStatus {
@@ -229,7 +228,9 @@ class FrictionMapBuilder {
 /// the weights' limit as they become equal. NaN without slip points.
 /// @param mu_i, distance_mm the slip points' estimates and distances (r_i <= r).
 /// @param weight_sum set to sum w_i.
-double WeightedFriction(const std::vector<double>& mu_i, const std::vector<double>& distance_mm,
-                        const FrictionMapOptions& options, double* weight_sum);
+double WeightedFriction(const std::vector<double>& mu_i,
+                        const std::vector<double>& distance_mm,
+                        const FrictionMapOptions& options,
+                        double* weight_sum);
 
 }  // namespace tac3d::friction

@@ -1,17 +1,17 @@
 #include "tac3d/friction/friction_map.h"
 
+#include <fmt/format.h>
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
 #include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <iterator>
+#include <nlohmann/json.hpp>
 #include <random>
 #include <set>
 #include <utility>
-
-#include <fmt/format.h>
-#include <gmock/gmock.h>
-#include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 
 #include "tac3d/friction/friction_output.h"
 #include "tac3d/scene/ply.h"
@@ -74,12 +74,15 @@ class ScanMaker {
   Scan Make() {
     for (double y : spec_.strokes_y_mm) {
       AddLiftedFrame(SensorPose(spec_.x_begin_mm, y));
-      const int steps = static_cast<int>(std::round((spec_.x_end_mm - spec_.x_begin_mm) / spec_.step_mm));
-      for (int k = 0; k <= steps; ++k) AddContactFrame(SensorPose(spec_.x_begin_mm + k * spec_.step_mm, y), true);
+      const int steps =
+          static_cast<int>(std::round((spec_.x_end_mm - spec_.x_begin_mm) / spec_.step_mm));
+      for (int k = 0; k <= steps; ++k)
+        AddContactFrame(SensorPose(spec_.x_begin_mm + k * spec_.step_mm, y), true);
     }
     if (spec_.static_press_frames > 0) {
       AddLiftedFrame(SensorPose(spec_.static_press_x_mm, 0));
-      for (int k = 0; k < spec_.static_press_frames; ++k) AddContactFrame(SensorPose(spec_.static_press_x_mm, 0), false);
+      for (int k = 0; k < spec_.static_press_frames; ++k)
+        AddContactFrame(SensorPose(spec_.static_press_x_mm, 0), false);
     }
     return std::move(scan_);
   }
@@ -91,7 +94,8 @@ class ScanMaker {
     frame.timestamp_s = frame.index / 30.0;
     for (int i = 0; i < 400; ++i) {
       const Eigen::Vector2d& q = nominal_[i];
-      frame.positions_mm[i] = Eigen::Vector3d(q.x(), q.y(), kTopMm - kCoverMm - q.squaredNorm() / 90.0);
+      frame.positions_mm[i] =
+          Eigen::Vector3d(q.x(), q.y(), kTopMm - kCoverMm - q.squaredNorm() / 90.0);
       frame.normals[i] = Eigen::Vector3d(q.x() / 45.0, q.y() / 45.0, 1.0).normalized();
     }
     return frame;
@@ -106,7 +110,8 @@ class ScanMaker {
   // sliding: markers slip unless drawn to stick; otherwise all stick.
   void AddContactFrame(const Rigid3& pose, bool sliding) {
     TactileFrame frame = NewFrame();
-    std::normal_distribution<double> noise(0.0, spec_.noise_mm), force_noise(0.0, spec_.force_noise_n);
+    std::normal_distribution<double> noise(0.0, spec_.noise_mm),
+        force_noise(0.0, spec_.force_noise_n);
     std::uniform_real_distribution<double> uniform(0.0, 1.0);
     std::vector<Eigen::Vector3d> world(400, Eigen::Vector3d::Constant(std::nan("")));
     const Eigen::Vector3d n(0, 0, 1);
@@ -124,7 +129,8 @@ class ScanMaker {
       const Eigen::Vector3d p_true = pose.inverse() * world[i];
       frame.positions_mm[i] = p_true + Eigen::Vector3d(noise(rng_), noise(rng_), noise(rng_));
       frame.normals[i] = n;
-      const double normal_force = 0.03 + 0.07 * std::sqrt(1 - r * r / (spec_.contact_radius_mm * spec_.contact_radius_mm));
+      const double normal_force =
+          0.03 + 0.07 * std::sqrt(1 - r * r / (spec_.contact_radius_mm * spec_.contact_radius_mm));
       const double ratio = (stick ? 0.5 : 1.0) * TrueMu(world[i].x());
       // The object drags the gel back against the sliding (+x world = +x sensor).
       const Eigen::Vector3d tangential(-ratio * normal_force, 0, 0);
@@ -156,7 +162,8 @@ struct Detection {
 
 Detection Score(const Scan& scan, const std::vector<SlipPoint>& slips) {
   long true_positive = 0;
-  for (const SlipPoint& s : slips) true_positive += scan.true_slips.count({s.frame_index, s.marker});
+  for (const SlipPoint& s : slips)
+    true_positive += scan.true_slips.count({s.frame_index, s.marker});
   const long false_positive = static_cast<long>(slips.size()) - true_positive;
   const long stuck = scan.true_pairs - static_cast<long>(scan.true_slips.size());
   return {static_cast<double>(true_positive) / std::max<size_t>(slips.size(), 1),
@@ -186,27 +193,38 @@ TEST(FrictionMapOptions, DefaultsAreValidAndEveryBoundThrows) {
     std::string message;
   };
   const std::vector<Case> cases = {
-      {[](auto& o) { o.contact_threshold_n = -0.01; }, "contact_threshold_n = -0.01 is out of range: must be >= 0 and finite"},
+      {[](auto& o) { o.contact_threshold_n = -0.01; },
+       "contact_threshold_n = -0.01 is out of range: must be >= 0 and finite"},
       {[&](auto& o) { o.contact_threshold_n = inf; }, "contact_threshold_n = inf"},
-      {[](auto& o) { o.cover_thickness_mm = -0.1; }, "cover_thickness_mm = -0.1 is out of range: must be in [0, 5]"},
+      {[](auto& o) { o.cover_thickness_mm = -0.1; },
+       "cover_thickness_mm = -0.1 is out of range: must be in [0, 5]"},
       {[](auto& o) { o.cover_thickness_mm = 5.5; }, "cover_thickness_mm = 5.5"},
-      {[](auto& o) { o.marker_noise_mm = 0; }, "marker_noise_mm = 0 is out of range: must be > 0 and finite"},
+      {[](auto& o) { o.marker_noise_mm = 0; },
+       "marker_noise_mm = 0 is out of range: must be > 0 and finite"},
       {[&](auto& o) { o.marker_noise_mm = nan; }, "marker_noise_mm = nan"},
-      {[](auto& o) { o.pose_noise_mm = -1e-3; }, "pose_noise_mm = -0.001 is out of range: must be >= 0 and finite"},
-      {[](auto& o) { o.slip_sigmas = 0; }, "slip_sigmas = 0 is out of range: must be > 0 and finite"},
-      {[](auto& o) { o.voxel_size_mm = 0; }, "voxel_size_mm = 0 is out of range: must be > 0 and finite"},
-      {[](auto& o) { o.poisson_depth = 3; }, "poisson_depth = 3 is out of range: must be in [4, 12]"},
+      {[](auto& o) { o.pose_noise_mm = -1e-3; },
+       "pose_noise_mm = -0.001 is out of range: must be >= 0 and finite"},
+      {[](auto& o) { o.slip_sigmas = 0; },
+       "slip_sigmas = 0 is out of range: must be > 0 and finite"},
+      {[](auto& o) { o.voxel_size_mm = 0; },
+       "voxel_size_mm = 0 is out of range: must be > 0 and finite"},
+      {[](auto& o) { o.poisson_depth = 3; },
+       "poisson_depth = 3 is out of range: must be in [4, 12]"},
       {[](auto& o) { o.poisson_depth = 13; }, "poisson_depth = 13"},
-      {[](auto& o) { o.poisson_scale = 0.9; }, "poisson_scale = 0.9 is out of range: must be in [1, 2]"},
+      {[](auto& o) { o.poisson_scale = 0.9; },
+       "poisson_scale = 0.9 is out of range: must be in [1, 2]"},
       {[](auto& o) { o.poisson_scale = 2.5; }, "poisson_scale = 2.5"},
-      {[](auto& o) { o.num_threads = -1; }, "num_threads = -1 is out of range: must be >= 0 (0: one a core)"},
-      {[](auto& o) { o.trim_distance_mm = 0; }, "trim_distance_mm = 0 is out of range: must be > 0 and finite"},
+      {[](auto& o) { o.num_threads = -1; },
+       "num_threads = -1 is out of range: must be >= 0 (0: one a core)"},
+      {[](auto& o) { o.trim_distance_mm = 0; },
+       "trim_distance_mm = 0 is out of range: must be > 0 and finite"},
       {[](auto& o) { o.radius_mm = -1; }, "radius_mm = -1 is out of range: must be > 0 and finite"},
       {[](auto& o) { o.alpha = -0.5; }, "alpha = -0.5 is out of range: must be >= 0 and finite"},
       {[&](auto& o) { o.alpha = inf; }, "alpha = inf"},
       {[](auto& o) { o.beta = -2; }, "beta = -2 is out of range: must be >= 0 and finite"},
   };
-  for (const Case& c : cases) EXPECT_THAT(ValidateError(c.change), HasSubstr("FrictionMapOptions." + c.message));
+  for (const Case& c : cases)
+    EXPECT_THAT(ValidateError(c.change), HasSubstr("FrictionMapOptions." + c.message));
   FrictionMapOptions bad;
   bad.radius_mm = 0;
   EXPECT_THROW(FrictionMapBuilder{bad}, Error);
@@ -217,7 +235,8 @@ TEST(FrictionMapOptions, SlipThresholdIsKSigmaOfTheDifferenceOfTwoPositions) {
   EXPECT_NEAR(options.SlipThresholdMm(), 4.0 * std::sqrt(2.0) * 0.002, 1e-15);
   options.pose_noise_mm = 0.003;
   options.slip_sigmas = 3.0;
-  EXPECT_NEAR(options.SlipThresholdMm(), 3.0 * std::sqrt(2.0 * (0.002 * 0.002 + 0.003 * 0.003)), 1e-15);
+  EXPECT_NEAR(
+      options.SlipThresholdMm(), 3.0 * std::sqrt(2.0 * (0.002 * 0.002 + 0.003 * 0.003)), 1e-15);
 }
 
 TEST(FrictionMapOptions, FromSensorTakesTheMarkersDepth) {
@@ -233,7 +252,8 @@ TEST(WeightedFriction, MatchesEquations5And6) {
   FrictionMapOptions options;  // r = 1.5, alpha = 1, beta = 2
   double weight_sum = -1;
   // w1 = (1.5 - 0.5) 0.4^2 = 0.16, w2 = (1.5 - 1.0) 0.8^2 = 0.32.
-  EXPECT_NEAR(WeightedFriction({0.4, 0.8}, {0.5, 1.0}, options, &weight_sum), (0.16 * 0.4 + 0.32 * 0.8) / 0.48,
+  EXPECT_NEAR(WeightedFriction({0.4, 0.8}, {0.5, 1.0}, options, &weight_sum),
+              (0.16 * 0.4 + 0.32 * 0.8) / 0.48,
               1e-12);
   EXPECT_NEAR(weight_sum, 0.48, 1e-12);
   // alpha = beta = 0: every point weighs 1, the plain mean.
@@ -267,8 +287,8 @@ TEST(FrictionMapBuilder, SlipDetectorRecoversTheSyntheticTruth) {
   const Detection d = Score(scan, builder.slip_points());
   EXPECT_GE(d.precision, 0.995);
   EXPECT_GE(d.recall, 0.995);
-  std::cout << "precision " << d.precision << ", recall " << d.recall << ", stuck misjudged " << d.false_positive_rate
-            << "\n";
+  std::cout << "precision " << d.precision << ", recall " << d.recall << ", stuck misjudged "
+            << d.false_positive_rate << "\n";
   for (const SlipPoint& s : builder.slip_points()) {
     EXPECT_NEAR(s.p_in_world_mm.z(), 0.0, 0.02);  // on the object after the cover offset
   }
@@ -290,8 +310,8 @@ TEST(FrictionMapBuilder, SlowSlipNearTheThresholdAndNoiseEstimate) {
   EXPECT_GE(d.recall, 0.99);
   // P(chi^2_3 > 16) = 1.1e-3 of the stuck pairs.
   EXPECT_LT(d.false_positive_rate, 4e-3);
-  std::cout << "slow slip: precision " << d.precision << ", recall " << d.recall << ", stuck misjudged "
-            << d.false_positive_rate << "\n";
+  std::cout << "slow slip: precision " << d.precision << ", recall " << d.recall
+            << ", stuck misjudged " << d.false_positive_rate << "\n";
   const FrictionMapSummary summary = builder.Build().summary;
   EXPECT_EQ(summary.marker_pairs, scan.true_pairs);
   EXPECT_NEAR(summary.estimated_noise_mm, spec.noise_mm, 0.15 * spec.noise_mm);
@@ -306,9 +326,8 @@ class FrictionMapTwoRegions : public ::testing::Test {
     spec.static_press_frames = 5;
     scan_ = new Scan(ScanMaker(spec).Make());
     std::vector<std::pair<int, int>> calls;
-    result_ = new FrictionMapResult(BuilderFor(*scan_).Build([&](int done, int total) {
-      calls.emplace_back(done, total);
-    }));
+    result_ = new FrictionMapResult(
+        BuilderFor(*scan_).Build([&](int done, int total) { calls.emplace_back(done, total); }));
     progress_calls_ = new std::vector<std::pair<int, int>>(calls);
   }
   static void TearDownTestSuite() {
@@ -336,8 +355,9 @@ TEST_F(FrictionMapTwoRegions, BuildsAMeshWithMuPerVertex) {
   EXPECT_EQ(m.vertex_normals.size(), m.vertices_mm.size());
   EXPECT_EQ(static_cast<long>(m.slip_points.size()), s.slip_points);
   EXPECT_GT(s.poisson_time_s, 0.0);
-  EXPECT_THAT(*progress_calls_, ::testing::ElementsAre(std::pair(1, 4), std::pair(2, 4), std::pair(3, 4),
-                                                        std::pair(4, 4)));
+  EXPECT_THAT(
+      *progress_calls_,
+      ::testing::ElementsAre(std::pair(1, 4), std::pair(2, 4), std::pair(3, 4), std::pair(4, 4)));
   std::cout << s.BriefReport() << "\n";
 }
 
@@ -353,12 +373,13 @@ TEST_F(FrictionMapTwoRegions, RecoversMuOnEachSideAwayFromTheBoundary) {
     const double truth = TrueMu(p.x());
     EXPECT_NEAR(m.mu[v], truth, 0.05 * truth) << "vertex " << v << " at " << p.transpose();
     ++(truth < 0.5 ? low : high);
-    max_error[truth < 0.5 ? 0 : 1] = std::max(max_error[truth < 0.5 ? 0 : 1], std::abs(m.mu[v] - truth));
+    max_error[truth < 0.5 ? 0 : 1] =
+        std::max(max_error[truth < 0.5 ? 0 : 1], std::abs(m.mu[v] - truth));
   }
   EXPECT_GT(low, 200);
   EXPECT_GT(high, 200);
-  std::cout << "max |mu - truth|: " << max_error[0] << " (mu 0.3, " << low << " vertices), " << max_error[1]
-            << " (mu 0.9, " << high << " vertices)\n";
+  std::cout << "max |mu - truth|: " << max_error[0] << " (mu 0.3, " << low << " vertices), "
+            << max_error[1] << " (mu 0.9, " << high << " vertices)\n";
 }
 
 TEST_F(FrictionMapTwoRegions, UnknownWhereThereIsNoSlipPoint) {
@@ -375,7 +396,9 @@ TEST_F(FrictionMapTwoRegions, UnknownWhereThereIsNoSlipPoint) {
   // Poisson's octree is coarse where points are sparse: about a vertex per marker there.
   EXPECT_GT(pressed, 20);
   EXPECT_GE(m.summary.unknown_vertices, pressed);
-  EXPECT_NEAR(m.summary.unknown_fraction, static_cast<double>(m.summary.unknown_vertices) / m.summary.vertices, 1e-12);
+  EXPECT_NEAR(m.summary.unknown_fraction,
+              static_cast<double>(m.summary.unknown_vertices) / m.summary.vertices,
+              1e-12);
   // Known vertices: mu within r of a slip point, a positive weight sum.
   for (size_t v = 0; v < m.vertices_mm.size(); ++v) {
     if (!std::isnan(m.mu[v])) {
@@ -433,7 +456,8 @@ TEST_F(FrictionMapTwoRegions, WritesPlyAndPngOfTheMap) {
   EXPECT_GT(png.band_pixels[static_cast<int>(FrictionBand::kUnknown)], 0.05 * png.covered_pixels);
   WriteSlipPointsCsv(m.slip_points, dir + "/slips.csv");
   std::ifstream csv(dir + "/slips.csv");
-  const long lines = std::count(std::istreambuf_iterator<char>(csv), std::istreambuf_iterator<char>(), '\n');
+  const long lines =
+      std::count(std::istreambuf_iterator<char>(csv), std::istreambuf_iterator<char>(), '\n');
   EXPECT_EQ(lines, m.summary.slip_points + 1);
 }
 
@@ -505,7 +529,8 @@ TEST(FrictionMapBuilder, RefusesBadFramesAndPoses) {
     builder.AddFrame(frame, scaled);
     ADD_FAILURE() << "a scaled pose was accepted";
   } catch (const Error& e) {
-    EXPECT_THAT(e.what(), HasSubstr("frame 7 (t = 0.25 s): world_from_sensor is not a rigid transform"));
+    EXPECT_THAT(e.what(),
+                HasSubstr("frame 7 (t = 0.25 s): world_from_sensor is not a rigid transform"));
   }
   frame.forces_n.pop_back();
   EXPECT_THROW(builder.AddFrame(frame, Rigid3::Identity()), Error);
@@ -530,10 +555,13 @@ TEST(FrictionMap, RealisticScanTiming) {
       options.num_threads = threads;
       const FrictionMapResult m = BuilderFor(scan, options).Build();
       EXPECT_EQ(m.summary.status, FrictionMapStatus::kOk);
-      std::cout << "voxel " << voxel_mm << " mm, threads " << threads << ": " << m.summary.BriefReport() << "\n";
+      std::cout << "voxel " << voxel_mm << " mm, threads " << threads << ": "
+                << m.summary.BriefReport() << "\n";
       const std::string key = fmt::format("voxel_{}_threads_{}", voxel_mm, threads);
-      ::testing::Test::RecordProperty(key + "_resampled_points", std::to_string(m.summary.resampled_points));
-      ::testing::Test::RecordProperty(key + "_poisson_time_s", std::to_string(m.summary.poisson_time_s));
+      ::testing::Test::RecordProperty(key + "_resampled_points",
+                                      std::to_string(m.summary.resampled_points));
+      ::testing::Test::RecordProperty(key + "_poisson_time_s",
+                                      std::to_string(m.summary.poisson_time_s));
     }
   }
 }

@@ -1,11 +1,11 @@
 #include "tac3d/friction/friction_output.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <limits>
-
-#include <fmt/format.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
@@ -30,7 +30,8 @@ ViewBasis MakeViewBasis(const RenderOptions& options) {
 }
 
 // The mesh in pixels (x, y) and depth along the view, scaled to fit the image's margins.
-std::vector<Eigen::Vector3d> Project(const FrictionMapResult& map, const RenderOptions& options,
+std::vector<Eigen::Vector3d> Project(const FrictionMapResult& map,
+                                     const RenderOptions& options,
                                      const ViewBasis& b) {
   std::vector<Eigen::Vector3d> q(map.vertices_mm.size());
   Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
@@ -64,10 +65,14 @@ FrictionBand BandOf(double mu) {
 
 std::array<std::uint8_t, 3> BandColorRgb(FrictionBand band) {
   switch (band) {
-    case FrictionBand::kLow: return {40, 90, 255};
-    case FrictionBand::kMedium: return {40, 200, 60};
-    case FrictionBand::kHigh: return {230, 40, 40};
-    case FrictionBand::kUnknown: break;
+    case FrictionBand::kLow:
+      return {40, 90, 255};
+    case FrictionBand::kMedium:
+      return {40, 200, 60};
+    case FrictionBand::kHigh:
+      return {230, 40, 40};
+    case FrictionBand::kUnknown:
+      break;
   }
   return {150, 150, 150};
 }
@@ -92,8 +97,12 @@ void WriteFrictionMapPly(const FrictionMapResult& map, const std::string& path) 
   PlyWriteOptions options;
   options.format = PlyFormat::kBinaryLittleEndian;
   options.coordinate_type = "float";
-  options.property_types = {{"mu", "float"},   {"confidence", "float"}, {"slip_count", "int"},
-                            {"red", "uchar"},  {"green", "uchar"},      {"blue", "uchar"}};
+  options.property_types = {{"mu", "float"},
+                            {"confidence", "float"},
+                            {"slip_count", "int"},
+                            {"red", "uchar"},
+                            {"green", "uchar"},
+                            {"blue", "uchar"}};
   options.property_order = {"mu", "confidence", "slip_count", "red", "green", "blue"};
   options.comments = {"tac3d friction map: mm, world frame; mu NaN where unknown",
                       "bands: blue mu <= 0.5, green 0.5-0.8, red > 0.8, grey unknown"};
@@ -105,22 +114,34 @@ void WriteSlipPointsCsv(const std::vector<SlipPoint>& slip_points, const std::st
   if (!out) throw Error(fmt::format("cannot write slip points CSV '{}'", path));
   out << "x_mm,y_mm,z_mm,mu,normal_force_n,motion_mm,frame,marker\n";
   for (const SlipPoint& s : slip_points) {
-    out << fmt::format("{},{},{},{},{},{},{},{}\n", s.p_in_world_mm.x(), s.p_in_world_mm.y(), s.p_in_world_mm.z(),
-                       s.mu, s.normal_force_n, s.motion_mm, s.frame_index, s.marker);
+    out << fmt::format("{},{},{},{},{},{},{},{}\n",
+                       s.p_in_world_mm.x(),
+                       s.p_in_world_mm.y(),
+                       s.p_in_world_mm.z(),
+                       s.mu,
+                       s.normal_force_n,
+                       s.motion_mm,
+                       s.frame_index,
+                       s.marker);
   }
   if (!out) throw Error(fmt::format("writing slip points CSV '{}' failed", path));
 }
 
 void RenderOptions::Validate() const {
   const auto fail = [](const char* field, const std::string& value, const char* bound) {
-    throw Error(fmt::format("RenderOptions.{} = {} is out of range: must be {}", field, value, bound));
+    throw Error(
+        fmt::format("RenderOptions.{} = {} is out of range: must be {}", field, value, bound));
   };
   if (!view_direction.allFinite() || view_direction.norm() < 1e-9) {
-    fail("view_direction", fmt::format("({}, {}, {})", view_direction.x(), view_direction.y(), view_direction.z()),
+    fail("view_direction",
+         fmt::format("({}, {}, {})", view_direction.x(), view_direction.y(), view_direction.z()),
          "finite and non-zero");
   }
-  if (!up.allFinite() || up.cross(view_direction.normalized()).norm() < 1e-6 * up.norm() || up.norm() < 1e-9) {
-    fail("up", fmt::format("({}, {}, {})", up.x(), up.y(), up.z()), "finite, non-zero, not along view_direction");
+  if (!up.allFinite() || up.cross(view_direction.normalized()).norm() < 1e-6 * up.norm() ||
+      up.norm() < 1e-9) {
+    fail("up",
+         fmt::format("({}, {}, {})", up.x(), up.y(), up.z()),
+         "finite, non-zero, not along view_direction");
   }
   if (width < 16 || width > 8192) fail("width", std::to_string(width), "in [16, 8192]");
   if (height < 16 || height > 8192) fail("height", std::to_string(height), "in [16, 8192]");
@@ -128,27 +149,33 @@ void RenderOptions::Validate() const {
   if (!(ambient >= 0 && ambient <= 1)) fail("ambient", fmt::format("{}", ambient), "in [0, 1]");
 }
 
-RenderSummary WriteFrictionMapPng(const FrictionMapResult& map, const std::string& path,
+RenderSummary WriteFrictionMapPng(const FrictionMapResult& map,
+                                  const std::string& path,
                                   const RenderOptions& options) {
   options.Validate();
-  if (map.triangles.empty()) throw Error(fmt::format("friction map PNG '{}': the map has no triangle", path));
+  if (map.triangles.empty())
+    throw Error(fmt::format("friction map PNG '{}': the map has no triangle", path));
   TAC3D_DEMAND(map.mu.size() == map.vertices_mm.size());
   const ViewBasis basis = MakeViewBasis(options);
   const std::vector<Eigen::Vector3d> q = Project(map, options, basis);
   cv::Mat image(options.height, options.width, CV_8UC3, cv::Scalar(255, 255, 255));
-  cv::Mat depth(options.height, options.width, CV_64F, cv::Scalar(std::numeric_limits<double>::infinity()));
+  cv::Mat depth(
+      options.height, options.width, CV_64F, cv::Scalar(std::numeric_limits<double>::infinity()));
   cv::Mat band(options.height, options.width, CV_8S, cv::Scalar(-1));
   for (const Eigen::Vector3i& t : map.triangles) {
     const Eigen::Vector3d &a = q[t[0]], &b = q[t[1]], &c = q[t[2]];
     const double area = (b.x() - a.x()) * (c.y() - a.y()) - (b.y() - a.y()) * (c.x() - a.x());
     if (std::abs(area) < 1e-12) continue;
-    const Eigen::Vector3d pa = map.vertices_mm[t[0]], pb = map.vertices_mm[t[1]], pc = map.vertices_mm[t[2]];
+    const Eigen::Vector3d pa = map.vertices_mm[t[0]], pb = map.vertices_mm[t[1]],
+                          pc = map.vertices_mm[t[2]];
     const double lambert = std::abs((pb - pa).cross(pc - pa).normalized().dot(basis.view));
     const double shade = options.ambient + (1 - options.ambient) * lambert;
     const int x0 = std::max(0, static_cast<int>(std::floor(std::min({a.x(), b.x(), c.x()}))));
-    const int x1 = std::min(options.width - 1, static_cast<int>(std::ceil(std::max({a.x(), b.x(), c.x()}))));
+    const int x1 =
+        std::min(options.width - 1, static_cast<int>(std::ceil(std::max({a.x(), b.x(), c.x()}))));
     const int y0 = std::max(0, static_cast<int>(std::floor(std::min({a.y(), b.y(), c.y()}))));
-    const int y1 = std::min(options.height - 1, static_cast<int>(std::ceil(std::max({a.y(), b.y(), c.y()}))));
+    const int y1 =
+        std::min(options.height - 1, static_cast<int>(std::ceil(std::max({a.y(), b.y(), c.y()}))));
     for (int y = y0; y <= y1; ++y) {
       for (int x = x0; x <= x1; ++x) {
         const double px = x + 0.5, py = y + 0.5;

@@ -1,11 +1,10 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "tac3d/friction/friction_map.h"
 
@@ -64,7 +63,8 @@ struct RenderSummary {
 /// z-buffer and Lambert shading, white background, and writes it as PNG.
 /// @throws Error if the options are invalid, the map has no triangle, or the file cannot be
 ///   written.
-RenderSummary WriteFrictionMapPng(const FrictionMapResult& map, const std::string& path,
+RenderSummary WriteFrictionMapPng(const FrictionMapResult& map,
+                                  const std::string& path,
                                   const RenderOptions& options = {});
 
 }  // namespace tac3d::friction

@@ -1,11 +1,11 @@
 #include "tac3d/friction/friction_output.h"
 
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <fstream>
 #include <iterator>
-
-#include <gmock/gmock.h>
-#include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
 #include "tac3d/scene/ply.h"
@@ -67,9 +67,10 @@ TEST(WriteFrictionMapPly, BinaryWithMuConfidenceSlipCountAndColoursReadsBack) {
   std::ifstream in(path, std::ios::binary);
   const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_THAT(bytes, HasSubstr("format binary_little_endian 1.0\n"));
-  EXPECT_THAT(bytes, HasSubstr("property float x\nproperty float y\nproperty float z\nproperty float mu\n"
-                               "property float confidence\nproperty int slip_count\nproperty uchar red\n"
-                               "property uchar green\nproperty uchar blue\n"));
+  EXPECT_THAT(bytes,
+              HasSubstr("property float x\nproperty float y\nproperty float z\nproperty float mu\n"
+                        "property float confidence\nproperty int slip_count\nproperty uchar red\n"
+                        "property uchar green\nproperty uchar blue\n"));
   const TriangleMesh mesh = ReadPly(path);
   ASSERT_EQ(mesh.vertices.size(), map.vertices_mm.size());
   ASSERT_EQ(mesh.triangles.size(), map.triangles.size());
@@ -118,7 +119,8 @@ TEST(WriteFrictionMapPng, BandColoursFromAbove) {
   EXPECT_EQ(image.rows, 300);
   // Seen from above, the 4 x 3 sheet fills 90% of the 400 x 300 image: four equal bands.
   EXPECT_NEAR(summary.covered_pixels, 360 * 270, 0.02 * 360 * 270);
-  for (int k = 0; k < 4; ++k) EXPECT_NEAR(summary.band_pixels[k], 90 * 270, 0.08 * 90 * 270) << "band " << k;
+  for (int k = 0; k < 4; ++k)
+    EXPECT_NEAR(summary.band_pixels[k], 90 * 270, 0.08 * 90 * 270) << "band " << k;
   // Facing the viewer, shading is full: pixels are the band colours. x grows to the right.
   const auto expect_band = [&](int x, FrictionBand band) {
     const auto rgb = BandColorRgb(band);
@@ -158,14 +160,19 @@ TEST(WriteFrictionMapPng, OptionsAndDegenerateMapsThrow) {
     }
     return "(no error)";
   };
-  EXPECT_THAT(error_of([](auto& o) { o.view_direction.setZero(); }),
-              HasSubstr("RenderOptions.view_direction = (0, 0, 0) is out of range: must be finite and non-zero"));
+  EXPECT_THAT(
+      error_of([](auto& o) { o.view_direction.setZero(); }),
+      HasSubstr(
+          "RenderOptions.view_direction = (0, 0, 0) is out of range: must be finite and non-zero"));
   EXPECT_THAT(error_of([](auto& o) { o.up = Eigen::Vector3d(0, 0, 2); }),
               HasSubstr("RenderOptions.up = (0, 0, 2) is out of range"));
-  EXPECT_THAT(error_of([](auto& o) { o.width = 15; }), HasSubstr("RenderOptions.width = 15 is out of range: must be in [16, 8192]"));
+  EXPECT_THAT(error_of([](auto& o) { o.width = 15; }),
+              HasSubstr("RenderOptions.width = 15 is out of range: must be in [16, 8192]"));
   EXPECT_THAT(error_of([](auto& o) { o.height = 9000; }), HasSubstr("RenderOptions.height = 9000"));
-  EXPECT_THAT(error_of([](auto& o) { o.margin = 0.5; }), HasSubstr("RenderOptions.margin = 0.5 is out of range: must be in [0, 0.45]"));
-  EXPECT_THAT(error_of([](auto& o) { o.ambient = -0.1; }), HasSubstr("RenderOptions.ambient = -0.1 is out of range: must be in [0, 1]"));
+  EXPECT_THAT(error_of([](auto& o) { o.margin = 0.5; }),
+              HasSubstr("RenderOptions.margin = 0.5 is out of range: must be in [0, 0.45]"));
+  EXPECT_THAT(error_of([](auto& o) { o.ambient = -0.1; }),
+              HasSubstr("RenderOptions.ambient = -0.1 is out of range: must be in [0, 1]"));
   EXPECT_THROW(WriteFrictionMapPng(FrictionMapResult{}, path), Error);
   EXPECT_THROW(WriteFrictionMapPng(map, "/nonexistent/dir/map.png"), Error);
 }
