@@ -281,8 +281,11 @@ void FrictionMapBuilder::AddFrame(const TactileFrame& frame, const Rigid3& world
   const int n = frame.num_markers();
   const bool has_previous = static_cast<int>(previous_contact_.size()) == n;
   const double threshold = options_.SlipThresholdMm();
-  std::vector<Eigen::Vector3d> world_mm(n);
-  std::vector<bool> contact(n, false);
+  // This frame's markers, in buffers reused from frame to frame.
+  std::vector<Eigen::Vector3d>& world_mm = current_world_mm_;
+  std::vector<bool>& contact = current_contact_;
+  world_mm.assign(n, Eigen::Vector3d::Zero());
+  contact.assign(n, false);
   for (int i = 0; i < n; ++i) {
     if (!frame.valid[i]) continue;
     const Eigen::Vector3d& normal = frame.normals[i];
@@ -307,8 +310,8 @@ void FrictionMapBuilder::AddFrame(const TactileFrame& frame, const Rigid3& world
       ++stuck_pairs_;
     }
   }
-  previous_world_mm_ = std::move(world_mm);
-  previous_contact_ = std::move(contact);
+  previous_world_mm_.swap(current_world_mm_);
+  previous_contact_.swap(current_contact_);
 }
 
 FrictionMapResult FrictionMapBuilder::Build(const ProgressCallback& progress) const {

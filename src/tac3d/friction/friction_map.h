@@ -215,6 +215,8 @@ class FrictionMapBuilder {
   // The previous frame's markers in the world, and whether each was valid and in contact.
   std::vector<Eigen::Vector3d> previous_world_mm_;
   std::vector<bool> previous_contact_;
+  std::vector<Eigen::Vector3d> current_world_mm_;
+  std::vector<bool> current_contact_;
   int frames_ = 0;
   int frames_skipped_ = 0;
   long marker_pairs_ = 0;
