@@ -5,6 +5,9 @@ find_package(yaml-cpp REQUIRED)
 find_package(nlohmann_json 3 REQUIRED)
 find_package(fmt REQUIRED)
 find_package(Threads REQUIRED)
+# Normals, Poisson reconstruction and kd-trees for the friction map (only tac3d::friction links
+# it). DESIGN.md: Poisson depth 8 on 50k points in 2.7 s; PCL is 480 packages and 2x slower.
+find_package(Open3D REQUIRED)
 
 # SuiteSparse ships no CMake config in Debian 12.
 find_path(CHOLMOD_INCLUDE_DIR cholmod.h PATH_SUFFIXES suitesparse REQUIRED)

@@ -9,6 +9,7 @@ packages=(
   libopencv-dev libeigen3-dev libsuitesparse-dev libopenblas-dev
   libyaml-cpp-dev nlohmann-json3-dev libfmt-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  libopen3d-dev
 )
 missing=()
 for p in "${packages[@]}"; do

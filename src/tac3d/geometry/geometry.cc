@@ -69,4 +69,12 @@ double RotationAngleDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
   return RadToDeg(std::acos(c));
 }
 
+Rigid3 InterpolatePose(const Rigid3& a, const Rigid3& b, double s) {
+  const Eigen::Quaterniond qa(a.linear()), qb(b.linear());
+  Rigid3 pose = Rigid3::Identity();
+  pose.linear() = qa.slerp(s, qb).toRotationMatrix();
+  pose.translation() = (1 - s) * a.translation() + s * b.translation();
+  return pose;
+}
+
 }  // namespace tac3d

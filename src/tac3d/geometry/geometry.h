@@ -65,6 +65,11 @@ struct Rectangle3 {
 /// Rotation between two orientations in degrees.
 double RotationAngleDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b);
 
+/// The pose a fraction s of the way from a to b: translation linear, rotation by slerp (the
+/// shorter arc). s = 0 gives a, s = 1 gives b; s outside [0, 1] extrapolates.
+/// @pre a and b are rigid (orthonormal rotation parts).
+Rigid3 InterpolatePose(const Rigid3& a, const Rigid3& b, double s);
+
 inline constexpr double kPi = 3.14159265358979323846;
 inline constexpr double DegToRad(double deg) { return deg * kPi / 180.0; }
 inline constexpr double RadToDeg(double rad) { return rad * 180.0 / kPi; }

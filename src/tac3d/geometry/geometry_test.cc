@@ -79,5 +79,28 @@ TEST(Rotation, AngleBetween) {
   EXPECT_NEAR(RotationAngleDeg(a, b), 7.0, 1e-9);
 }
 
+TEST(InterpolatePose, EndsAndSlerpMidpoint) {
+  Rigid3 a = Rigid3::Identity();
+  a.translation() = Eigen::Vector3d(1, 2, 3);
+  Rigid3 b = Rigid3::Identity();
+  b.linear() = Eigen::AngleAxisd(DegToRad(90), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  b.translation() = Eigen::Vector3d(3, 6, -1);
+  EXPECT_THAT(InterpolatePose(a, b, 0.0).matrix(), EigenNear(a.matrix(), 1e-12));
+  EXPECT_THAT(InterpolatePose(a, b, 1.0).matrix(), EigenNear(b.matrix(), 1e-12));
+  // Halfway: 45 deg about z, translation the midpoint.
+  const Rigid3 mid = InterpolatePose(a, b, 0.5);
+  const Eigen::Matrix3d r45 = Eigen::AngleAxisd(DegToRad(45), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  EXPECT_THAT(mid.linear().eval(), EigenNear(r45, 1e-12));
+  EXPECT_THAT(mid.translation().eval(), EigenNear(Eigen::Vector3d(2, 4, 1), 1e-12));
+}
+
+TEST(InterpolatePose, TakesTheShorterArc) {
+  // 350 deg about x is -10 deg: the midpoint is -5 deg, not 175 deg.
+  Rigid3 b = Rigid3::Identity();
+  b.linear() = Eigen::AngleAxisd(DegToRad(350), Eigen::Vector3d::UnitX()).toRotationMatrix();
+  const Rigid3 mid = InterpolatePose(Rigid3::Identity(), b, 0.5);
+  EXPECT_NEAR(RotationAngleDeg(Eigen::Matrix3d::Identity(), mid.linear()), 5.0, 1e-9);
+}
+
 }  // namespace
 }  // namespace tac3d

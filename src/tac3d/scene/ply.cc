@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include <fmt/format.h>
@@ -207,20 +208,116 @@ TriangleMesh ReadPly(const std::string& path) {
   return mesh;
 }
 
-void WritePly(const TriangleMesh& mesh, const std::string& path) {
-  std::ofstream out(path);
-  if (!out) throw Error(fmt::format("cannot write PLY file '{}'", path));
-  out << "ply\nformat ascii 1.0\ncomment written by tac3d\n";
-  out << "element vertex " << mesh.vertices.size() << "\n";
-  out << "property double x\nproperty double y\nproperty double z\n";
-  for (const auto& [name, values] : mesh.vertex_properties) out << "property double " << name << "\n";
-  out << "element face " << mesh.triangles.size() << "\nproperty list uchar int vertex_indices\nend_header\n";
-  for (size_t i = 0; i < mesh.vertices.size(); ++i) {
-    out << fmt::format("{} {} {}", mesh.vertices[i].x(), mesh.vertices[i].y(), mesh.vertices[i].z());
-    for (const auto& [name, values] : mesh.vertex_properties) out << " " << fmt::format("{}", values.at(i));
-    out << "\n";
+void WritePly(const TriangleMesh& mesh, const std::string& path) { WritePly(mesh, path, PlyWriteOptions{}); }
+
+namespace {
+
+bool IsWritableType(const std::string& type) {
+  return type == "char" || type == "uchar" || type == "short" || type == "ushort" || type == "int" ||
+         type == "uint" || type == "float" || type == "double";
+}
+
+// Writes one value as a PLY type, ascii or binary little-endian.
+class BodyWriter {
+ public:
+  BodyWriter(std::ostream& out, PlyFormat format) : out_(out), format_(format) {}
+
+  void Write(const std::string& type, double value, bool first) {
+    if (type == "float") return Put(static_cast<float>(value), first);
+    if (type == "double") return Put(value, first);
+    if (type == "char") return Put(Integer<std::int8_t>(value), first);
+    if (type == "uchar") return Put(Integer<std::uint8_t>(value), first);
+    if (type == "short") return Put(Integer<std::int16_t>(value), first);
+    if (type == "ushort") return Put(Integer<std::uint16_t>(value), first);
+    if (type == "int") return Put(Integer<std::int32_t>(value), first);
+    TAC3D_DEMAND(type == "uint");
+    Put(Integer<std::uint32_t>(value), first);
   }
-  for (const Eigen::Vector3i& t : mesh.triangles) out << "3 " << t.x() << " " << t.y() << " " << t.z() << "\n";
+  void EndLine() {
+    if (format_ == PlyFormat::kAscii) out_ << "\n";
+  }
+
+ private:
+  template <typename T>
+  static T Integer(double value) {
+    if (std::isnan(value)) return T{0};
+    const double lo = static_cast<double>(std::numeric_limits<T>::min());
+    const double hi = static_cast<double>(std::numeric_limits<T>::max());
+    return static_cast<T>(std::clamp(std::round(value), lo, hi));
+  }
+  template <typename T>
+  void Put(T value, bool first) {
+    if (format_ == PlyFormat::kAscii) {
+      if (!first) out_ << ' ';
+      if constexpr (sizeof(T) == 1) {
+        out_ << static_cast<int>(value);
+      } else {
+        out_ << fmt::format("{}", value);
+      }
+      return;
+    }
+    static_assert(std::endian::native == std::endian::little, "binary PLY writing assumes a little-endian host");
+    out_.write(reinterpret_cast<const char*>(&value), sizeof(T));
+  }
+
+  std::ostream& out_;
+  PlyFormat format_;
+};
+
+}  // namespace
+
+void PlyWriteOptions::Validate() const {
+  if (coordinate_type != "float" && coordinate_type != "double") {
+    throw Error(fmt::format("PlyWriteOptions.coordinate_type = '{}': must be float or double", coordinate_type));
+  }
+  for (const auto& [name, type] : property_types) {
+    if (!IsWritableType(type)) {
+      throw Error(fmt::format("PlyWriteOptions.property_types[{}] = '{}': must be char, uchar, short, ushort, "
+                              "int, uint, float or double",
+                              name, type));
+    }
+  }
+}
+
+void WritePly(const TriangleMesh& mesh, const std::string& path, const PlyWriteOptions& options) {
+  options.Validate();
+  std::vector<std::string> names;
+  for (const std::string& name : options.property_order) {
+    if (mesh.vertex_properties.count(name) > 0) names.push_back(name);
+  }
+  for (const auto& [name, values] : mesh.vertex_properties) {
+    if (std::find(names.begin(), names.end(), name) == names.end()) names.push_back(name);
+    if (values.size() != mesh.vertices.size()) {
+      throw Error(fmt::format("PLY file '{}': vertex property '{}' has {} values for {} vertices", path, name,
+                              values.size(), mesh.vertices.size()));
+    }
+  }
+  const auto type_of = [&](const std::string& name) {
+    const auto it = options.property_types.find(name);
+    return it == options.property_types.end() ? std::string("double") : it->second;
+  };
+  const bool binary = options.format == PlyFormat::kBinaryLittleEndian;
+  std::ofstream out(path, binary ? std::ios::binary : std::ios::out);
+  if (!out) throw Error(fmt::format("cannot write PLY file '{}'", path));
+  out << "ply\nformat " << (binary ? "binary_little_endian" : "ascii") << " 1.0\ncomment written by tac3d\n";
+  for (const std::string& comment : options.comments) out << "comment " << comment << "\n";
+  out << "element vertex " << mesh.vertices.size() << "\n";
+  for (const char* axis : {"x", "y", "z"}) out << "property " << options.coordinate_type << " " << axis << "\n";
+  for (const std::string& name : names) out << "property " << type_of(name) << " " << name << "\n";
+  out << "element face " << mesh.triangles.size() << "\nproperty list uchar int vertex_indices\nend_header\n";
+  BodyWriter writer(out, options.format);
+  std::vector<std::pair<std::string, const std::vector<double>*>> columns;
+  for (const std::string& name : names) columns.emplace_back(type_of(name), &mesh.vertex_properties.at(name));
+  for (size_t i = 0; i < mesh.vertices.size(); ++i) {
+    for (int k = 0; k < 3; ++k) writer.Write(options.coordinate_type, mesh.vertices[i][k], k == 0);
+    for (const auto& [type, values] : columns) writer.Write(type, (*values)[i], false);
+    writer.EndLine();
+  }
+  for (const Eigen::Vector3i& t : mesh.triangles) {
+    writer.Write("uchar", 3, true);
+    for (int k = 0; k < 3; ++k) writer.Write("int", t[k], false);
+    writer.EndLine();
+  }
   if (!out) throw Error(fmt::format("writing PLY file '{}' failed", path));
 }
 

@@ -29,4 +29,29 @@ TriangleMesh ReadPly(const std::string& path);
 /// @throws Error if the file cannot be written.
 void WritePly(const TriangleMesh& mesh, const std::string& path);
 
+enum class PlyFormat { kAscii, kBinaryLittleEndian };
+
+/// How WritePly encodes a mesh.
+struct PlyWriteOptions {
+  PlyFormat format = PlyFormat::kAscii;
+  /// PLY type of x, y, z: "float" or "double".
+  std::string coordinate_type = "double";
+  /// PLY scalar type of a vertex property by name: "char", "uchar", "short", "ushort", "int",
+  /// "uint", "float" or "double". Unlisted properties are "double". Integer types take the
+  /// value rounded and clamped to their range; NaN is kept only by "float" and "double".
+  /// Colours that MeshLab and Blender show: uchar "red", "green", "blue".
+  std::map<std::string, std::string> property_types;
+  /// Vertex properties in this order first, then the others by name.
+  std::vector<std::string> property_order;
+  std::vector<std::string> comments;  ///< `comment` lines of the header
+
+  /// @throws Error naming the field: an unknown type.
+  void Validate() const;
+};
+
+/// Writes a PLY, ascii or binary little-endian, with the types the options give.
+/// @throws Error if the options are invalid, a property's size is not the vertex count, or
+///   the file cannot be written.
+void WritePly(const TriangleMesh& mesh, const std::string& path, const PlyWriteOptions& options);
+
 }  // namespace tac3d

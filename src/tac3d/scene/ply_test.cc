@@ -1,6 +1,8 @@
 #include "tac3d/scene/ply.h"
 
+#include <cmath>
 #include <cstring>
+#include <iterator>
 #include <fstream>
 
 #include <gmock/gmock.h>
@@ -67,6 +69,65 @@ TEST(Ply, BinaryLittleEndianRoundTripsThroughTheReader) {
   EXPECT_EQ(reread.vertices, mesh.vertices);
   EXPECT_EQ(reread.triangles, mesh.triangles);
   EXPECT_EQ(reread.vertex_properties, mesh.vertex_properties);
+}
+
+TEST(Ply, WrittenBinaryWithTypedPropertiesReadsBack) {
+  TriangleMesh mesh;
+  mesh.vertices = {{0, 0, 0}, {1.5, 0, 0}, {0, 2.25, -1}};
+  mesh.triangles = {{0, 1, 2}};
+  mesh.vertex_properties["mu"] = {0.25, std::nan(""), 0.875};
+  mesh.vertex_properties["red"] = {0, 254.6, 300};  // rounded and clamped to uchar
+  mesh.vertex_properties["slip_count"] = {3, 0, -2};
+  PlyWriteOptions options;
+  options.format = PlyFormat::kBinaryLittleEndian;
+  options.coordinate_type = "float";
+  options.property_types = {{"mu", "float"}, {"red", "uchar"}, {"slip_count", "int"}};
+  options.property_order = {"slip_count", "mu"};
+  options.comments = {"a test"};
+  const std::string path = testing::MakeTempDir("ply") + "/typed.ply";
+  WritePly(mesh, path, options);
+  std::ifstream in(path, std::ios::binary);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_THAT(text, HasSubstr("format binary_little_endian 1.0\ncomment written by tac3d\ncomment a test\n"
+                              "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                              "property int slip_count\nproperty float mu\nproperty uchar red\n"));
+  // Header, then 3 x (3 floats + int + float + uchar) and one face (uchar + 3 ints).
+  EXPECT_EQ(text.size() - text.find("end_header\n") - 11, 3u * (12 + 4 + 4 + 1) + 13u);
+  const TriangleMesh reread = ReadPly(path);
+  EXPECT_EQ(reread.vertices, mesh.vertices);  // exact in float
+  EXPECT_EQ(reread.triangles, mesh.triangles);
+  EXPECT_EQ(reread.vertex_properties.at("mu")[0], 0.25);
+  EXPECT_TRUE(std::isnan(reread.vertex_properties.at("mu")[1]));
+  EXPECT_EQ(reread.vertex_properties.at("red"), (std::vector<double>{0, 255, 255}));
+  EXPECT_EQ(reread.vertex_properties.at("slip_count"), (std::vector<double>{3, 0, -2}));
+}
+
+TEST(Ply, WriteOptionsAreValidated) {
+  TriangleMesh mesh;
+  mesh.vertices = {{0, 0, 0}};
+  const std::string path = testing::MakeTempDir("ply") + "/bad.ply";
+  PlyWriteOptions options;
+  options.coordinate_type = "int";
+  EXPECT_THROW(
+      {
+        try {
+          WritePly(mesh, path, options);
+        } catch (const Error& e) {
+          EXPECT_THAT(e.what(), HasSubstr("PlyWriteOptions.coordinate_type = 'int'"));
+          throw;
+        }
+      },
+      Error);
+  options = PlyWriteOptions{};
+  options.property_types["mu"] = "long double";
+  EXPECT_THROW(WritePly(mesh, path, options), Error);
+  mesh.vertex_properties["mu"] = {0.1, 0.2};
+  try {
+    WritePly(mesh, path, PlyWriteOptions{});
+    ADD_FAILURE() << "a property of the wrong size was written";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("vertex property 'mu' has 2 values for 1 vertices"));
+  }
 }
 
 TEST(Ply, BinaryBigEndianFloatsAndShortIndices) {

@@ -222,12 +222,7 @@ Rigid3 Trajectory::PoseAt(double t_s) const {
                                      [](double t, const Keyframe& k) { return t < k.t_s; });
   const Keyframe& b = *next;
   const Keyframe& a = *(next - 1);
-  const double s = (t_s - a.t_s) / (b.t_s - a.t_s);
-  const Eigen::Quaterniond qa(a.world_from_sensor.linear()), qb(b.world_from_sensor.linear());
-  Rigid3 pose = Rigid3::Identity();
-  pose.linear() = qa.slerp(s, qb).toRotationMatrix();
-  pose.translation() = (1 - s) * a.world_from_sensor.translation() + s * b.world_from_sensor.translation();
-  return pose;
+  return InterpolatePose(a.world_from_sensor, b.world_from_sensor, (t_s - a.t_s) / (b.t_s - a.t_s));
 }
 
 double Trajectory::StepTime(int k) const {

@@ -1,0 +1,392 @@
+#include "tac3d/friction/friction_map.h"
+
+#include <fmt/format.h>
+#include <open3d/geometry/KDTreeFlann.h>
+#include <open3d/geometry/PointCloud.h>
+#include <open3d/geometry/TriangleMesh.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "tac3d/util/error.h"
+
+namespace tac3d::friction {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+using Clock = std::chrono::steady_clock;
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+void Require(bool ok, const char* field, const char* bound, double value) {
+  if (!ok || std::isnan(value)) {
+    throw Error(
+        fmt::format("FrictionMapOptions.{} = {} is out of range: must be {}", field, value, bound));
+  }
+}
+
+// The cloud resampled on voxels (points and normals averaged, normals renormalised).
+std::shared_ptr<open3d::geometry::PointCloud> Resample(const std::vector<Eigen::Vector3d>& points,
+                                                       const std::vector<Eigen::Vector3d>& normals,
+                                                       double voxel_size_mm) {
+  open3d::geometry::PointCloud cloud;
+  cloud.points_ = points;
+  cloud.normals_ = normals;
+  auto resampled = cloud.VoxelDownSample(voxel_size_mm);
+  resampled->NormalizeNormals();
+  return resampled;
+}
+
+// Drops the vertices farther than trim_distance_mm from every point of the cloud (with the
+// triangles that use them) and the vertices no triangle uses.
+void Trim(const open3d::geometry::PointCloud& cloud,
+          double trim_distance_mm,
+          open3d::geometry::TriangleMesh& mesh) {
+  const open3d::geometry::KDTreeFlann tree(cloud);
+  std::vector<bool> remove(mesh.vertices_.size(), false);
+  std::vector<int> index(1);
+  std::vector<double> distance2(1);
+  const double limit2 = trim_distance_mm * trim_distance_mm;
+  for (size_t v = 0; v < mesh.vertices_.size(); ++v) {
+    remove[v] = tree.SearchKNN(mesh.vertices_[v], 1, index, distance2) < 1 || distance2[0] > limit2;
+  }
+  mesh.RemoveVerticesByMask(remove);
+  mesh.RemoveUnreferencedVertices();
+}
+
+// mu, confidence and slip count at every vertex (equations 5 and 6).
+void AssignFriction(const std::vector<SlipPoint>& slips,
+                    const FrictionMapOptions& options,
+                    FrictionMapResult& result) {
+  const size_t n = result.vertices_mm.size();
+  result.mu.assign(n, kNaN);
+  result.confidence.assign(n, 0.0);
+  result.slip_count.assign(n, 0);
+  if (slips.empty()) return;
+  open3d::geometry::PointCloud cloud;
+  cloud.points_.reserve(slips.size());
+  for (const SlipPoint& s : slips) cloud.points_.push_back(s.p_in_world_mm);
+  const open3d::geometry::KDTreeFlann tree(cloud);
+  std::vector<int> index;
+  std::vector<double> distance2, mu_i, r_i;
+  for (size_t v = 0; v < n; ++v) {
+    const int found = tree.SearchRadius(result.vertices_mm[v], options.radius_mm, index, distance2);
+    if (found <= 0) continue;
+    mu_i.resize(found);
+    r_i.resize(found);
+    for (int k = 0; k < found; ++k) {
+      mu_i[k] = slips[index[k]].mu;
+      r_i[k] = std::sqrt(distance2[k]);
+    }
+    result.mu[v] = WeightedFriction(mu_i, r_i, options, &result.confidence[v]);
+    result.slip_count[v] = found;
+  }
+}
+
+void SummariseFriction(FrictionMapResult& result) {
+  FrictionMapSummary& s = result.summary;
+  std::vector<double> known;
+  for (double mu : result.mu) {
+    if (!std::isnan(mu)) known.push_back(mu);
+  }
+  s.vertices = static_cast<long>(result.vertices_mm.size());
+  s.triangles = static_cast<long>(result.triangles.size());
+  s.unknown_vertices = s.vertices - static_cast<long>(known.size());
+  s.unknown_fraction = s.vertices > 0 ? static_cast<double>(s.unknown_vertices) / s.vertices : kNaN;
+  if (!known.empty()) {
+    std::sort(known.begin(), known.end());
+    s.mu_min = known.front();
+    s.mu_max = known.back();
+    s.mu_median = known[known.size() / 2];
+  }
+}
+
+}  // namespace
+
+// ---- Options -----------------------------------------------------------------------------
+
+FrictionMapOptions FrictionMapOptions::FromSensor(const SensorConfig& sensor) {
+  FrictionMapOptions options;
+  options.cover_thickness_mm = sensor.markers.depth_mm;
+  return options;
+}
+
+double FrictionMapOptions::SlipThresholdMm() const {
+  return slip_sigmas *
+         std::sqrt(2.0 * (marker_noise_mm * marker_noise_mm + pose_noise_mm * pose_noise_mm));
+}
+
+void FrictionMapOptions::Validate() const {
+  Require(contact_threshold_n >= 0 && std::isfinite(contact_threshold_n),
+          "contact_threshold_n",
+          ">= 0 and finite",
+          contact_threshold_n);
+  Require(cover_thickness_mm >= 0 && cover_thickness_mm <= 5,
+          "cover_thickness_mm",
+          "in [0, 5]",
+          cover_thickness_mm);
+  Require(marker_noise_mm > 0 && std::isfinite(marker_noise_mm),
+          "marker_noise_mm",
+          "> 0 and finite",
+          marker_noise_mm);
+  Require(pose_noise_mm >= 0 && std::isfinite(pose_noise_mm),
+          "pose_noise_mm",
+          ">= 0 and finite",
+          pose_noise_mm);
+  Require(
+      slip_sigmas > 0 && std::isfinite(slip_sigmas), "slip_sigmas", "> 0 and finite", slip_sigmas);
+  Require(voxel_size_mm > 0 && std::isfinite(voxel_size_mm),
+          "voxel_size_mm",
+          "> 0 and finite",
+          voxel_size_mm);
+  Require(poisson_depth >= 4 && poisson_depth <= 12, "poisson_depth", "in [4, 12]", poisson_depth);
+  Require(poisson_scale >= 1 && poisson_scale <= 2, "poisson_scale", "in [1, 2]", poisson_scale);
+  Require(num_threads >= 0, "num_threads", ">= 0 (0: one a core)", num_threads);
+  Require(trim_distance_mm > 0 && std::isfinite(trim_distance_mm),
+          "trim_distance_mm",
+          "> 0 and finite",
+          trim_distance_mm);
+  Require(radius_mm > 0 && std::isfinite(radius_mm), "radius_mm", "> 0 and finite", radius_mm);
+  Require(alpha >= 0 && std::isfinite(alpha), "alpha", ">= 0 and finite", alpha);
+  Require(beta >= 0 && std::isfinite(beta), "beta", ">= 0 and finite", beta);
+}
+
+// ---- Summary -----------------------------------------------------------------------------
+
+std::string ToString(FrictionMapStatus status) {
+  switch (status) {
+    case FrictionMapStatus::kNotRun:
+      return "not_run";
+    case FrictionMapStatus::kOk:
+      return "ok";
+    case FrictionMapStatus::kNoContact:
+      return "no_contact";
+    case FrictionMapStatus::kTooFewPoints:
+      return "too_few_points";
+    case FrictionMapStatus::kReconstructionFailed:
+      return "reconstruction_failed";
+    case FrictionMapStatus::kNoSlip:
+      return "no_slip";
+  }
+  return "unknown";
+}
+
+std::string FrictionMapSummary::BriefReport() const {
+  return fmt::format(
+      "friction map {}: {} frames ({} skipped), {} contact points -> {} resampled, {} slip points "
+      "of {} "
+      "pairs (threshold {:.4f} mm, noise est. {:.4f} mm), mesh {} vertices {} triangles, unknown "
+      "{:.1f}%, "
+      "mu median {:.3f}, Poisson {:.2f} s, total {:.2f} s{}{}",
+      ToString(status),
+      frames,
+      frames_skipped,
+      contact_points,
+      resampled_points,
+      slip_points,
+      marker_pairs,
+      slip_threshold_mm,
+      estimated_noise_mm,
+      vertices,
+      triangles,
+      100.0 * unknown_fraction,
+      mu_median,
+      poisson_time_s,
+      total_time_s,
+      message.empty() ? "" : ": ",
+      message);
+}
+
+nlohmann::json ToJson(const FrictionMapSummary& s) {
+  // NaN is not JSON: unknown values are null.
+  const auto number = [](double v) {
+    return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
+  };
+  return {{"status", ToString(s.status)},
+          {"message", s.message},
+          {"frames", s.frames},
+          {"frames_skipped", s.frames_skipped},
+          {"contact_points", s.contact_points},
+          {"marker_pairs", s.marker_pairs},
+          {"slip_points", s.slip_points},
+          {"slip_threshold_mm", s.slip_threshold_mm},
+          {"estimated_noise_mm", number(s.estimated_noise_mm)},
+          {"resampled_points", s.resampled_points},
+          {"poisson_vertices", s.poisson_vertices},
+          {"vertices", s.vertices},
+          {"triangles", s.triangles},
+          {"unknown_vertices", s.unknown_vertices},
+          {"unknown_fraction", number(s.unknown_fraction)},
+          {"mu_min", number(s.mu_min)},
+          {"mu_median", number(s.mu_median)},
+          {"mu_max", number(s.mu_max)},
+          {"resample_time_s", s.resample_time_s},
+          {"poisson_time_s", s.poisson_time_s},
+          {"trim_time_s", s.trim_time_s},
+          {"mu_time_s", s.mu_time_s},
+          {"total_time_s", s.total_time_s}};
+}
+
+// ---- Equations 5 and 6 -------------------------------------------------------------------
+
+double WeightedFriction(const std::vector<double>& mu_i,
+                        const std::vector<double>& distance_mm,
+                        const FrictionMapOptions& options,
+                        double* weight_sum) {
+  TAC3D_DEMAND(mu_i.size() == distance_mm.size());
+  double sum_w = 0.0, sum_w_mu = 0.0, sum_mu = 0.0;
+  for (size_t i = 0; i < mu_i.size(); ++i) {
+    const double w = std::pow(std::max(options.radius_mm - distance_mm[i], 0.0), options.alpha) *
+                     std::pow(mu_i[i], options.beta);
+    sum_w += w;
+    sum_w_mu += w * mu_i[i];
+    sum_mu += mu_i[i];
+  }
+  if (weight_sum != nullptr) *weight_sum = sum_w;
+  if (mu_i.empty()) return kNaN;
+  if (sum_w > 0) return sum_w_mu / sum_w;
+  return sum_mu / static_cast<double>(mu_i.size());
+}
+
+// ---- Builder -----------------------------------------------------------------------------
+
+FrictionMapBuilder::FrictionMapBuilder(const FrictionMapOptions& options) : options_(options) {
+  options_.Validate();
+}
+
+void FrictionMapBuilder::BreakStroke() {
+  previous_world_mm_.clear();
+  previous_contact_.clear();
+}
+
+void FrictionMapBuilder::AddFrame(const TactileFrame& frame, const Rigid3& world_from_sensor) {
+  frame.Validate();
+  const Eigen::Matrix3d r = world_from_sensor.linear();
+  if (!world_from_sensor.matrix().allFinite() || !(r.transpose() * r).isIdentity(1e-6) ||
+      !(r.determinant() > 0)) {
+    throw Error(fmt::format("frame {} (t = {} s): world_from_sensor is not a rigid transform",
+                            frame.index,
+                            frame.timestamp_s));
+  }
+  if (frame.initialize_progress < 100) {
+    ++frames_skipped_;
+    BreakStroke();
+    return;
+  }
+  ++frames_;
+  const int n = frame.num_markers();
+  const bool has_previous = static_cast<int>(previous_contact_.size()) == n;
+  const double threshold = options_.SlipThresholdMm();
+  // This frame's markers, in buffers reused from frame to frame.
+  std::vector<Eigen::Vector3d>& world_mm = current_world_mm_;
+  std::vector<bool>& contact = current_contact_;
+  world_mm.assign(n, Eigen::Vector3d::Zero());
+  contact.assign(n, false);
+  for (int i = 0; i < n; ++i) {
+    if (!frame.valid[i]) continue;
+    const Eigen::Vector3d& normal = frame.normals[i];
+    const Eigen::Vector3d& f = frame.forces_n[i];
+    const double normal_force = -f.dot(normal);
+    world_mm[i] = world_from_sensor * frame.positions_mm[i];
+    if (!(normal_force > options_.contact_threshold_n)) continue;
+    contact[i] = true;
+    const Eigen::Vector3d surface =
+        world_from_sensor * (frame.positions_mm[i] + options_.cover_thickness_mm * normal);
+    surface_points_.push_back(surface);
+    surface_normals_.push_back(-(r * normal));
+    if (!has_previous || !previous_contact_[i]) continue;
+    ++marker_pairs_;
+    const double motion = (world_mm[i] - previous_world_mm_[i]).norm();
+    if (motion > threshold) {
+      const Eigen::Vector3d tangential = f + normal_force * normal;
+      slip_points_.push_back(
+          {surface, tangential.norm() / normal_force, normal_force, motion, frame.index, i});
+    } else {
+      stuck_sum_squared_mm2_ += motion * motion;
+      ++stuck_pairs_;
+    }
+  }
+  previous_world_mm_.swap(current_world_mm_);
+  previous_contact_.swap(current_contact_);
+}
+
+FrictionMapResult FrictionMapBuilder::Build(const ProgressCallback& progress) const {
+  const Clock::time_point start = Clock::now();
+  const auto report = [&](int done) {
+    if (progress) progress(done, 4);
+  };
+  FrictionMapResult result;
+  FrictionMapSummary& s = result.summary;
+  s.frames = frames_;
+  s.frames_skipped = frames_skipped_;
+  s.contact_points = static_cast<long>(surface_points_.size());
+  s.marker_pairs = marker_pairs_;
+  s.slip_points = static_cast<long>(slip_points_.size());
+  s.slip_threshold_mm = options_.SlipThresholdMm();
+  if (stuck_pairs_ > 0)
+    s.estimated_noise_mm = std::sqrt(stuck_sum_squared_mm2_ / (6.0 * stuck_pairs_));
+  result.slip_points = slip_points_;
+  const auto finish = [&](FrictionMapStatus status, std::string message) {
+    s.status = status;
+    s.message = std::move(message);
+    s.total_time_s = SecondsSince(start);
+    return result;
+  };
+  if (surface_points_.empty())
+    return finish(FrictionMapStatus::kNoContact, "no marker was in contact");
+
+  Clock::time_point t = Clock::now();
+  const auto cloud = Resample(surface_points_, surface_normals_, options_.voxel_size_mm);
+  s.resampled_points = static_cast<long>(cloud->points_.size());
+  s.resample_time_s = SecondsSince(t);
+  report(1);
+  if (s.resampled_points < kMinReconstructionPoints) {
+    return finish(FrictionMapStatus::kTooFewPoints,
+                  fmt::format("{} resampled points, a reconstruction needs {}",
+                              s.resampled_points,
+                              kMinReconstructionPoints));
+  }
+
+  t = Clock::now();
+  auto [mesh, densities] = open3d::geometry::TriangleMesh::CreateFromPointCloudPoisson(
+      *cloud,
+      options_.poisson_depth,
+      0.0f,
+      static_cast<float>(options_.poisson_scale),
+      false,
+      options_.num_threads == 0 ? -1 : options_.num_threads);
+  s.poisson_time_s = SecondsSince(t);
+  s.poisson_vertices = static_cast<long>(mesh->vertices_.size());
+  report(2);
+
+  t = Clock::now();
+  Trim(*cloud, options_.trim_distance_mm, *mesh);
+  mesh->ComputeVertexNormals();
+  s.trim_time_s = SecondsSince(t);
+  report(3);
+  if (mesh->vertices_.empty() || mesh->triangles_.empty()) {
+    return finish(
+        FrictionMapStatus::kReconstructionFailed,
+        fmt::format("no vertex of the Poisson surface ({} vertices) is within {} mm of the points",
+                    s.poisson_vertices,
+                    options_.trim_distance_mm));
+  }
+  result.vertices_mm = mesh->vertices_;
+  result.triangles = mesh->triangles_;
+  result.vertex_normals = mesh->vertex_normals_;
+
+  t = Clock::now();
+  AssignFriction(slip_points_, options_, result);
+  SummariseFriction(result);
+  s.mu_time_s = SecondsSince(t);
+  report(4);
+  if (slip_points_.empty())
+    return finish(FrictionMapStatus::kNoSlip, "no slip point: mu is unknown everywhere");
+  return finish(FrictionMapStatus::kOk, "");
+}
+
+}  // namespace tac3d::friction

@@ -1,0 +1,181 @@
+#include "tac3d/friction/friction_output.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <iterator>
+#include <opencv2/imgcodecs.hpp>
+
+#include "tac3d/scene/ply.h"
+#include "tac3d/testing/testing.h"
+#include "tac3d/util/error.h"
+
+namespace tac3d::friction {
+namespace {
+
+using ::testing::HasSubstr;
+
+// A flat 4 x 3 mm grid in z = 0 with four bands along x: mu 0.3 (x < 1), 0.65 (x < 2),
+// 0.95 (x < 3) and unknown beyond.
+FrictionMapResult BandedSheet() {
+  FrictionMapResult map;
+  const int nx = 41, ny = 31;
+  for (int j = 0; j < ny; ++j) {
+    for (int i = 0; i < nx; ++i) {
+      const double x = 0.1 * i, y = 0.1 * j;
+      map.vertices_mm.emplace_back(x, y, 0.0);
+      map.vertex_normals.emplace_back(0, 0, 1);
+      const double mu = x < 1 ? 0.3 : x < 2 ? 0.65 : x < 3 ? 0.95 : std::nan("");
+      map.mu.push_back(mu);
+      map.confidence.push_back(std::isnan(mu) ? 0.0 : 0.5 + x);
+      map.slip_count.push_back(std::isnan(mu) ? 0 : 1 + i % 7);
+    }
+  }
+  for (int j = 0; j + 1 < ny; ++j) {
+    for (int i = 0; i + 1 < nx; ++i) {
+      const int a = j * nx + i;
+      map.triangles.emplace_back(a, a + 1, a + nx + 1);
+      map.triangles.emplace_back(a, a + nx + 1, a + nx);
+    }
+  }
+  map.slip_points.push_back({Eigen::Vector3d(0.5, 1.25, 0.0), 0.31, 0.07, 0.25, 12, 210});
+  map.slip_points.push_back({Eigen::Vector3d(2.5, -1.0, 0.001), 0.93, 0.05, 0.2, 13, 7});
+  return map;
+}
+
+TEST(FrictionBand, PaperBands) {
+  EXPECT_EQ(BandOf(0.0), FrictionBand::kLow);
+  EXPECT_EQ(BandOf(0.5), FrictionBand::kLow);
+  EXPECT_EQ(BandOf(0.5001), FrictionBand::kMedium);
+  EXPECT_EQ(BandOf(0.8), FrictionBand::kMedium);
+  EXPECT_EQ(BandOf(0.8001), FrictionBand::kHigh);
+  EXPECT_EQ(BandOf(std::nan("")), FrictionBand::kUnknown);
+  // Blue, green, red, grey: the dominant channel.
+  EXPECT_GT(BandColorRgb(FrictionBand::kLow)[2], 200);
+  EXPECT_GT(BandColorRgb(FrictionBand::kMedium)[1], 150);
+  EXPECT_GT(BandColorRgb(FrictionBand::kHigh)[0], 200);
+  const auto grey = BandColorRgb(FrictionBand::kUnknown);
+  EXPECT_TRUE(grey[0] == grey[1] && grey[1] == grey[2]);
+}
+
+TEST(WriteFrictionMapPly, BinaryWithMuConfidenceSlipCountAndColoursReadsBack) {
+  const FrictionMapResult map = BandedSheet();
+  const std::string path = tac3d::testing::MakeTempDir("friction_output") + "/map.ply";
+  WriteFrictionMapPly(map, path);
+  std::ifstream in(path, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_THAT(bytes, HasSubstr("format binary_little_endian 1.0\n"));
+  EXPECT_THAT(bytes,
+              HasSubstr("property float x\nproperty float y\nproperty float z\nproperty float mu\n"
+                        "property float confidence\nproperty int slip_count\nproperty uchar red\n"
+                        "property uchar green\nproperty uchar blue\n"));
+  const TriangleMesh mesh = ReadPly(path);
+  ASSERT_EQ(mesh.vertices.size(), map.vertices_mm.size());
+  ASSERT_EQ(mesh.triangles.size(), map.triangles.size());
+  EXPECT_EQ(mesh.triangles[5], map.triangles[5]);
+  const auto& mu = mesh.vertex_properties.at("mu");
+  for (size_t v = 0; v < map.vertices_mm.size(); ++v) {
+    EXPECT_NEAR(mesh.vertices[v].x(), map.vertices_mm[v].x(), 1e-6);
+    if (std::isnan(map.mu[v])) {
+      EXPECT_TRUE(std::isnan(mu[v]));
+    } else {
+      EXPECT_FLOAT_EQ(static_cast<float>(mu[v]), static_cast<float>(map.mu[v]));
+    }
+    EXPECT_EQ(mesh.vertex_properties.at("slip_count")[v], map.slip_count[v]);
+    EXPECT_FLOAT_EQ(static_cast<float>(mesh.vertex_properties.at("confidence")[v]),
+                    static_cast<float>(map.confidence[v]));
+    const auto rgb = BandColorRgb(BandOf(map.mu[v]));
+    EXPECT_EQ(mesh.vertex_properties.at("red")[v], rgb[0]);
+    EXPECT_EQ(mesh.vertex_properties.at("green")[v], rgb[1]);
+    EXPECT_EQ(mesh.vertex_properties.at("blue")[v], rgb[2]);
+  }
+}
+
+TEST(WriteSlipPointsCsv, OneLineAPoint) {
+  const std::string path = tac3d::testing::MakeTempDir("friction_output") + "/slips.csv";
+  WriteSlipPointsCsv(BandedSheet().slip_points, path);
+  std::ifstream in(path);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(text,
+            "x_mm,y_mm,z_mm,mu,normal_force_n,motion_mm,frame,marker\n"
+            "0.5,1.25,0,0.31,0.07,0.25,12,210\n"
+            "2.5,-1,0.001,0.93,0.05,0.2,13,7\n");
+  EXPECT_THROW(WriteSlipPointsCsv({}, "/nonexistent/dir/slips.csv"), Error);
+}
+
+TEST(WriteFrictionMapPng, BandColoursFromAbove) {
+  const FrictionMapResult map = BandedSheet();
+  const std::string path = tac3d::testing::MakeTempDir("friction_output") + "/map.png";
+  RenderOptions options;
+  options.width = 400;
+  options.height = 300;
+  options.ambient = 0.3;
+  const RenderSummary summary = WriteFrictionMapPng(map, path, options);
+  const cv::Mat image = cv::imread(path, cv::IMREAD_COLOR);
+  ASSERT_FALSE(image.empty());
+  EXPECT_EQ(image.cols, 400);
+  EXPECT_EQ(image.rows, 300);
+  // Seen from above, the 4 x 3 sheet fills 90% of the 400 x 300 image: four equal bands.
+  EXPECT_NEAR(summary.covered_pixels, 360 * 270, 0.02 * 360 * 270);
+  for (int k = 0; k < 4; ++k)
+    EXPECT_NEAR(summary.band_pixels[k], 90 * 270, 0.08 * 90 * 270) << "band " << k;
+  // Facing the viewer, shading is full: pixels are the band colours. x grows to the right.
+  const auto expect_band = [&](int x, FrictionBand band) {
+    const auto rgb = BandColorRgb(band);
+    const cv::Vec3b bgr = image.at<cv::Vec3b>(150, x);
+    EXPECT_EQ(bgr, cv::Vec3b(rgb[2], rgb[1], rgb[0])) << "column " << x;
+  };
+  expect_band(60, FrictionBand::kLow);
+  expect_band(150, FrictionBand::kMedium);
+  expect_band(240, FrictionBand::kHigh);
+  expect_band(330, FrictionBand::kUnknown);
+  EXPECT_EQ(image.at<cv::Vec3b>(5, 5), cv::Vec3b(255, 255, 255));  // background
+
+  // Tilted 60 deg: Lambert shading darkens to ambient + (1 - ambient) cos 60.
+  options.view_direction = Eigen::Vector3d(std::sin(DegToRad(60)), 0, -std::cos(DegToRad(60)));
+  options.up = Eigen::Vector3d::UnitY();
+  WriteFrictionMapPng(map, path, options);
+  const cv::Mat tilted = cv::imread(path, cv::IMREAD_COLOR);
+  const double shade = 0.3 + 0.7 * 0.5;
+  const cv::Vec3b centre = tilted.at<cv::Vec3b>(150, 200);
+  const auto green = BandColorRgb(FrictionBand::kMedium);
+  const auto red = BandColorRgb(FrictionBand::kHigh);
+  const bool is_green = std::abs(centre[1] - green[1] * shade) <= 1.0;
+  const bool is_red = std::abs(centre[2] - red[0] * shade) <= 1.0;
+  EXPECT_TRUE(is_green || is_red) << centre;
+}
+
+TEST(WriteFrictionMapPng, OptionsAndDegenerateMapsThrow) {
+  const FrictionMapResult map = BandedSheet();
+  const std::string path = tac3d::testing::MakeTempDir("friction_output") + "/bad.png";
+  const auto error_of = [&](const std::function<void(RenderOptions&)>& change) -> std::string {
+    RenderOptions options;
+    change(options);
+    try {
+      WriteFrictionMapPng(map, path, options);
+    } catch (const Error& e) {
+      return e.what();
+    }
+    return "(no error)";
+  };
+  EXPECT_THAT(
+      error_of([](auto& o) { o.view_direction.setZero(); }),
+      HasSubstr(
+          "RenderOptions.view_direction = (0, 0, 0) is out of range: must be finite and non-zero"));
+  EXPECT_THAT(error_of([](auto& o) { o.up = Eigen::Vector3d(0, 0, 2); }),
+              HasSubstr("RenderOptions.up = (0, 0, 2) is out of range"));
+  EXPECT_THAT(error_of([](auto& o) { o.width = 15; }),
+              HasSubstr("RenderOptions.width = 15 is out of range: must be in [16, 8192]"));
+  EXPECT_THAT(error_of([](auto& o) { o.height = 9000; }), HasSubstr("RenderOptions.height = 9000"));
+  EXPECT_THAT(error_of([](auto& o) { o.margin = 0.5; }),
+              HasSubstr("RenderOptions.margin = 0.5 is out of range: must be in [0, 0.45]"));
+  EXPECT_THAT(error_of([](auto& o) { o.ambient = -0.1; }),
+              HasSubstr("RenderOptions.ambient = -0.1 is out of range: must be in [0, 1]"));
+  EXPECT_THROW(WriteFrictionMapPng(FrictionMapResult{}, path), Error);
+  EXPECT_THROW(WriteFrictionMapPng(map, "/nonexistent/dir/map.png"), Error);
+}
+
+}  // namespace
+}  // namespace tac3d::friction
