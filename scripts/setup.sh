@@ -9,6 +9,7 @@ packages=(
   libopencv-dev libeigen3-dev libsuitesparse-dev libopenblas-dev
   libyaml-cpp-dev nlohmann-json3-dev libfmt-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  python3-numpy  # io/recording_export_test loads the exported .npy files with numpy
 )
 missing=()
 for p in "${packages[@]}"; do
