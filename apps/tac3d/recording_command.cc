@@ -1,10 +1,10 @@
 // `tac3d recording info|export` and the replay behind `tac3d run --source recording:FILE`
 // (docs/recording.md).
 
+#include <fmt/format.h>
+
 #include <cstdio>
 #include <memory>
-
-#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
@@ -82,16 +82,21 @@ void Info(const InfoArgs& a) {
 }
 
 void Export(const ExportArgs& a) {
-  const RecordingExportResult result =
-      ExportRecording(a.path, a.out, {.format = ParseRecordingExportFormat(a.format), .overwrite = a.overwrite});
-  std::printf("exported %lld frames of %d x %d markers to %s:", static_cast<long long>(result.frames), result.rows,
-              result.cols, a.out.c_str());
+  const RecordingExportResult result = ExportRecording(
+      a.path, a.out, {.format = ParseRecordingExportFormat(a.format), .overwrite = a.overwrite});
+  std::printf("exported %lld frames of %d x %d markers to %s:",
+              static_cast<long long>(result.frames),
+              result.rows,
+              result.cols,
+              a.out.c_str());
   for (const std::string& file : result.files) {
     const auto slash = file.find_last_of('/');
     std::printf(" %s", slash == std::string::npos ? file.c_str() : file.c_str() + slash + 1);
   }
   std::printf("\n");
-  ReportEnd(result.status, result.message, fmt::format("the {} frames before it were exported", result.frames));
+  ReportEnd(result.status,
+            result.message,
+            fmt::format("the {} frames before it were exported", result.frames));
 }
 
 }  // namespace
@@ -105,7 +110,8 @@ void RunRecording(const RecordingRunArgs& args) {
   std::optional<RecordedFrame> current;
   bool zero_noted = false;
   const FrameLoopCounts counts = RunFrameLoop(
-      outputs, args.max_frames,
+      outputs,
+      args.max_frames,
       [&](const std::atomic<bool>& stop, const TactileFrame*& frame, const cv::Mat*& image) {
         current = replay.Next(&stop);
         if (!current) return Produced::kEnd;
@@ -116,31 +122,41 @@ void RunRecording(const RecordingRunArgs& args) {
       },
       [&zero_noted] {
         if (!zero_noted) {
-          std::fprintf(stderr, "ignored $C (zero): a recording's frames were computed when it was recorded\n");
+          std::fprintf(
+              stderr,
+              "ignored $C (zero): a recording's frames were computed when it was recorded\n");
         }
         zero_noted = true;
       });
-  std::fprintf(stderr, "%ld frames replayed from %s%s\n", counts.emitted, args.path.c_str(),
+  std::fprintf(stderr,
+               "%ld frames replayed from %s%s\n",
+               counts.emitted,
+               args.path.c_str(),
                outputs.RecordedNote().c_str());
-  ReportEnd(replay.status(), replay.message(), fmt::format("the {} frames before it were replayed", counts.emitted));
+  ReportEnd(replay.status(),
+            replay.message(),
+            fmt::format("the {} frames before it were replayed", counts.emitted));
 }
 
 void RegisterRecording(CLI::App& app) {
   CLI::App* recording =
-      app.add_subcommand("recording", "Inspect or export a recording (tac3d run --record); replay one with "
-                                      "tac3d run --source recording:FILE");
+      app.add_subcommand("recording",
+                         "Inspect or export a recording (tac3d run --record); replay one with "
+                         "tac3d run --source recording:FILE");
   recording->require_subcommand(1);
 
   auto info = std::make_shared<InfoArgs>();
-  CLI::App* info_cmd = recording->add_subcommand(
-      "info", "Frames, duration, SN, marker grid, images, flags and how the file ends (truncated, corrupt)");
+  CLI::App* info_cmd = recording->add_subcommand("info",
+                                                 "Frames, duration, SN, marker grid, images, flags "
+                                                 "and how the file ends (truncated, corrupt)");
   info_cmd->add_option("FILE", info->path, "the recording")->required();
   info_cmd->add_flag("--json", info->json, "print JSON");
   info_cmd->callback([info] { Info(*info); });
 
   auto ex = std::make_shared<ExportArgs>();
   CLI::App* export_cmd = recording->add_subcommand(
-      "export", "The good frames as .npy arrays (numpy) or CSV tables, one file per field or table");
+      "export",
+      "The good frames as .npy arrays (numpy) or CSV tables, one file per field or table");
   export_cmd->add_option("FILE", ex->path, "the recording")->required();
   export_cmd->add_option("--out", ex->out, "output folder (created if missing)")->required();
   export_cmd->add_option("--format", ex->format, "npy or csv")

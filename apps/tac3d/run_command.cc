@@ -54,7 +54,11 @@ void Run(const RunArgs& a) {
   options.force.gains = Eigen::Vector3d(a.gains[0], a.gains[1], a.gains[2]);
   Pipeline pipeline(config, model.model.h, model.model.marker_positions, options);
 
-  FrameOutputs outputs({.udp = a.udp, .record = a.record, .record_images = a.record_images, .json = a.json, .sn = a.sn});
+  FrameOutputs outputs({.udp = a.udp,
+                        .record = a.record,
+                        .record_images = a.record_images,
+                        .json = a.json,
+                        .sn = a.sn});
   Frame frame;
   TactileFrame out;
   std::string failure;
@@ -74,7 +78,8 @@ void Run(const RunArgs& a) {
         try {
           pipeline.Process(frame, out);
         } catch (const Error& e) {
-          std::fprintf(stderr, "skipped frame %lld: %s\n", static_cast<long long>(frame.index), e.what());
+          std::fprintf(stderr, "skipped frame %lld: %s\n", static_cast<long long>(frame.index),
+                       e.what());
           return Produced::kSkipped;
         }
         produced = &out;
@@ -93,10 +98,12 @@ void Run(const RunArgs& a) {
 void RegisterRun(CLI::App& app) {
   auto a = std::make_shared<RunArgs>();
   CLI::App* cmd = app.add_subcommand(
-      "run", "Camera (or video, image folder, twin dataset) to 3D markers, displacements and forces, every frame; or a recording's frames replayed");
+      "run",
+      "Camera (or video, image folder, twin dataset) to 3D markers, displacements and forces, "
+      "every frame; or a recording's frames replayed");
   cmd->add_option("--source", a->source,
-                  "camera:N, /dev/videoN, a video file, an image folder, dataset:DIR, or recording:FILE "
-                  "(replays its frames)")
+                  "camera:N, /dev/videoN, a video file, an image folder, dataset:DIR, or "
+                  "recording:FILE (replays its frames)")
       ->required();
   cmd->add_option("--config", a->config, "sensor YAML (default: the built-in prototype)");
   cmd->add_option("--cache", a->cache_dir, "directory of cached compliance models")->capture_default_str();
@@ -114,15 +121,24 @@ void RegisterRun(CLI::App& app) {
   cmd->add_option("--height", a->camera.height, "camera height")->capture_default_str();
   cmd->add_option("--fps", a->camera.fps, "camera frame rate")->capture_default_str();
   cmd->add_option("--exposure", a->exposure, "camera exposure (driver units; default automatic)");
-  cmd->add_option("--speed", a->speed, "recording:FILE pace: 1 recorded, 2 twice as fast, 0 as fast as possible")
+  cmd->add_option("--speed", a->speed,
+                  "recording:FILE pace: 1 recorded, 2 twice as fast, 0 as fast as possible")
       ->capture_default_str();
   cmd->callback([a, cmd] {
     if (const std::optional<std::string> path = RecordingSourcePath(a->source)) {
-      RefuseOptions(*cmd, {"--config", "--cache", "--reference-frames", "--weight", "--gains", "--width", "--height", "--fps", "--exposure"},
+      RefuseOptions(*cmd,
+                    {"--config", "--cache", "--reference-frames", "--weight", "--gains", "--width",
+                     "--height", "--fps", "--exposure"},
                     "does not apply to a recording: its frames were computed when it was recorded");
-      return RunRecording({.path = *path, .speed = a->speed, .max_frames = a->max_frames,
+      return RunRecording({.path = *path,
+                           .speed = a->speed,
+                           .max_frames = a->max_frames,
                            .sn = cmd->count("--sn") > 0 ? std::optional(a->sn) : std::nullopt,
-                           .outputs = {.udp = a->udp, .record = a->record, .record_images = a->record_images, .json = a->json, .sn = {}}});
+                           .outputs = {.udp = a->udp,
+                                       .record = a->record,
+                                       .record_images = a->record_images,
+                                       .json = a->json,
+                                       .sn = {}}});
     }
     RefuseOptions(*cmd, {"--speed"}, "applies to --source recording:FILE only");
     Run(*a);

@@ -1,10 +1,10 @@
 #include "run_outputs.h"
 
-#include <csignal>
-#include <cstdio>
+#include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
-#include <fmt/format.h>
+#include <csignal>
+#include <cstdio>
 #include <nlohmann/json.hpp>
 
 #include "tac3d/util/error.h"
@@ -26,7 +26,8 @@ UdpSenderOptions ParseUdp(const std::string& host_port) {
     port = std::stoi(host_port.substr(colon + 1));
   } catch (const std::exception&) {
   }
-  if (port < 1 || port > 65535) throw Error(fmt::format("--udp '{}': the port must be 1-65535", host_port));
+  if (port < 1 || port > 65535)
+    throw Error(fmt::format("--udp '{}': the port must be 1-65535", host_port));
   options.port = static_cast<std::uint16_t>(port);
   return options;
 }
@@ -38,10 +39,14 @@ nlohmann::json Summary(const TactileFrame& f) {
     contact += f.contact[i];
   }
   const auto v = [](const Eigen::Vector3d& x) { return nlohmann::json{x.x(), x.y(), x.z()}; };
-  return {{"sn", f.sn},           {"index", f.index},
-          {"timestamp_s", f.timestamp_s}, {"initialize_progress", f.initialize_progress},
-          {"flags", FrameFlagNames(f.flags)}, {"valid_markers", valid},
-          {"contact_markers", contact},   {"resultant_force_n", v(f.resultant_force_n)},
+  return {{"sn", f.sn},
+          {"index", f.index},
+          {"timestamp_s", f.timestamp_s},
+          {"initialize_progress", f.initialize_progress},
+          {"flags", FrameFlagNames(f.flags)},
+          {"valid_markers", valid},
+          {"contact_markers", contact},
+          {"resultant_force_n", v(f.resultant_force_n)},
           {"resultant_moment_nmm", v(f.resultant_moment_nmm)}};
 }
 
@@ -50,8 +55,11 @@ nlohmann::json Summary(const TactileFrame& f) {
 FrameOutputs::FrameOutputs(const FrameOutputArgs& args) : args_(args) {
   if (!args.udp.empty()) {
     sender_.emplace(ParseUdp(args.udp));
-    std::fprintf(stderr, "streaming to %s%s (commands on %s)\n", sender_->destination().ToString().c_str(),
-                 args.sn.empty() ? "" : (" as SN " + args.sn).c_str(), sender_->local_endpoint().ToString().c_str());
+    std::fprintf(stderr,
+                 "streaming to %s%s (commands on %s)\n",
+                 sender_->destination().ToString().c_str(),
+                 args.sn.empty() ? "" : (" as SN " + args.sn).c_str(),
+                 sender_->local_endpoint().ToString().c_str());
   }
   if (!args.record.empty()) recorder_.emplace(args.record);
 }
@@ -67,10 +75,13 @@ std::optional<SensorCommand> FrameOutputs::PollCommand() {
 }
 
 std::string FrameOutputs::RecordedNote() const {
-  return recorder_ ? fmt::format(", {} recorded to {}", recorder_->frames_written(), args_.record) : "";
+  return recorder_ ? fmt::format(", {} recorded to {}", recorder_->frames_written(), args_.record)
+                   : "";
 }
 
-FrameLoopCounts RunFrameLoop(FrameOutputs& outputs, long max_frames, const FrameProducer& produce,
+FrameLoopCounts RunFrameLoop(FrameOutputs& outputs,
+                             long max_frames,
+                             const FrameProducer& produce,
                              const std::function<void()>& on_zero) {
   g_stop = false;
   std::signal(SIGINT, [](int) { g_stop = true; });
@@ -110,7 +121,9 @@ std::optional<std::string> RecordingSourcePath(const std::string& source) {
   return source.substr(kPrefix.size());
 }
 
-void RefuseOptions(const CLI::App& cmd, std::initializer_list<const char*> names, const std::string& why) {
+void RefuseOptions(const CLI::App& cmd,
+                   std::initializer_list<const char*> names,
+                   const std::string& why) {
   for (const char* name : names) {
     if (cmd.count(name) > 0) throw Error(fmt::format("{} {}", name, why));
   }

@@ -7,10 +7,9 @@
 #include <atomic>
 #include <functional>
 #include <initializer_list>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
-
-#include <opencv2/core.hpp>
 
 #include "tac3d/frame/tactile_frame.h"
 #include "tac3d/protocol/udp_sender.h"
@@ -63,8 +62,8 @@ enum class Produced {
 /// Gives the next frame: sets `frame` (and `image`, possibly empty) to storage it owns, valid
 /// until its next call. `stop` is set by Ctrl-C, SIGTERM or the client's `$Q`; a producer that
 /// waits checks it.
-using FrameProducer =
-    std::function<Produced(const std::atomic<bool>& stop, const TactileFrame*& frame, const cv::Mat*& image)>;
+using FrameProducer = std::function<Produced(
+    const std::atomic<bool>& stop, const TactileFrame*& frame, const cv::Mat*& image)>;
 
 struct FrameLoopCounts {
   long emitted = 0;
@@ -74,7 +73,9 @@ struct FrameLoopCounts {
 /// The loop of `tac3d run`: takes frames from `produce` and emits them until it ends,
 /// `max_frames` (> 0) have been emitted, Ctrl-C or SIGTERM, or the client's `$Q`; a `$C` calls
 /// `on_zero`. The signal handlers are in place only during the loop.
-FrameLoopCounts RunFrameLoop(FrameOutputs& outputs, long max_frames, const FrameProducer& produce,
+FrameLoopCounts RunFrameLoop(FrameOutputs& outputs,
+                             long max_frames,
+                             const FrameProducer& produce,
                              const std::function<void()>& on_zero);
 
 /// `tac3d run --source recording:FILE`: the recording's frames, as they were computed, to the
@@ -96,6 +97,8 @@ std::optional<std::string> RecordingSourcePath(const std::string& source);
 void RunRecording(const RecordingRunArgs& args);
 
 /// @throws Error naming the first of `names` given on `cmd`'s command line, with `why`.
-void RefuseOptions(const CLI::App& cmd, std::initializer_list<const char*> names, const std::string& why);
+void RefuseOptions(const CLI::App& cmd,
+                   std::initializer_list<const char*> names,
+                   const std::string& why);
 
 }  // namespace tac3d::cli

@@ -1,20 +1,21 @@
 #include "tac3d/io/npy.h"
 
+#include <fmt/format.h>
+
 #include <bit>
 #include <cerrno>
 #include <cstring>
 #include <limits>
-
-#include <fmt/format.h>
 
 #include "tac3d/util/error.h"
 
 namespace tac3d {
 namespace {
 
-static_assert(std::endian::native == std::endian::little, "the .npy files are written little-endian");
+static_assert(std::endian::native == std::endian::little,
+              "the .npy files are written little-endian");
 
-constexpr char kMagic[] = "\x93NUMPY";  // 6 bytes and the terminating zero
+constexpr char kMagic[] = "\x93NUMPY";             // 6 bytes and the terminating zero
 constexpr std::size_t kPreambleBytes = 6 + 2 + 2;  // magic, version 1.0, u16 header length
 constexpr std::size_t kAlign = 64;
 
@@ -56,14 +57,19 @@ std::size_t NpyItemBytes(NpyType type) {
   TAC3D_DEMAND(false);
 }
 
-std::string NpyHeader(NpyType type, const std::vector<std::int64_t>& shape, std::size_t total_bytes) {
+std::string NpyHeader(NpyType type,
+                      const std::vector<std::int64_t>& shape,
+                      std::size_t total_bytes) {
   const std::string dict = fmt::format("{{'descr': '{}', 'fortran_order': False, 'shape': {}, }}",
-                                       NpyDescr(type), ShapeTuple(shape));
+                                       NpyDescr(type),
+                                       ShapeTuple(shape));
   const std::size_t needed = kPreambleBytes + dict.size() + 1;  // + '\n'
   if (total_bytes == 0) total_bytes = (needed + kAlign - 1) / kAlign * kAlign;
   if (total_bytes % kAlign != 0 || total_bytes < needed || total_bytes - kPreambleBytes > 0xffff) {
     throw Error(fmt::format(".npy header of {} bytes cannot hold {} bytes in a multiple of {}",
-                            total_bytes, needed, kAlign));
+                            total_bytes,
+                            needed,
+                            kAlign));
   }
   const auto header_len = static_cast<std::uint16_t>(total_bytes - kPreambleBytes);
   std::string header(kMagic, 6);
@@ -130,7 +136,9 @@ void NpyWriter::Close() {
   }
 }
 
-void WriteNpy(const std::string& path, NpyType type, const std::vector<std::int64_t>& shape,
+void WriteNpy(const std::string& path,
+              NpyType type,
+              const std::vector<std::int64_t>& shape,
               const void* data) {
   if (shape.empty()) throw Error(fmt::format("'{}': an array needs at least one dimension", path));
   NpyWriter writer(path, type, std::vector<std::int64_t>(shape.begin() + 1, shape.end()));

@@ -28,7 +28,8 @@ std::size_t NpyItemBytes(NpyType type);
 /// @param total_bytes the header's length, or 0 for the shortest multiple of 64 that holds it.
 /// @throws Error if the dict does not fit in total_bytes, total_bytes is not a multiple of 64,
 /// or a dimension is negative.
-std::string NpyHeader(NpyType type, const std::vector<std::int64_t>& shape,
+std::string NpyHeader(NpyType type,
+                      const std::vector<std::int64_t>& shape,
                       std::size_t total_bytes = 0);
 
 /// Streams an array of shape (T, item_shape...), C order, into an .npy file whose T grows
@@ -67,7 +68,9 @@ class NpyWriter {
 
 /// Writes a whole array of the given shape (C order) to `path` in one go; `data` holds the
 /// product of `shape` values. @throws Error as NpyWriter does, or if shape is empty.
-void WriteNpy(const std::string& path, NpyType type, const std::vector<std::int64_t>& shape,
+void WriteNpy(const std::string& path,
+              NpyType type,
+              const std::vector<std::int64_t>& shape,
               const void* data);
 
 }  // namespace tac3d

@@ -36,7 +36,8 @@ TEST(NpyHeader, MatchesNumpysBytes) {
             NumpyHeader("{'descr': '<u4', 'fortran_order': False, 'shape': (5,), }"));
   EXPECT_EQ(NpyHeader(NpyType::kBool, {2, 3}, 128),
             NumpyHeader("{'descr': '|b1', 'fortran_order': False, 'shape': (2, 3), }"));
-  EXPECT_THAT(NpyHeader(NpyType::kInt64, {2}), HasSubstr("{'descr': '<i8', 'fortran_order': False, 'shape': (2,), }"));
+  EXPECT_THAT(NpyHeader(NpyType::kInt64, {2}),
+              HasSubstr("{'descr': '<i8', 'fortran_order': False, 'shape': (2,), }"));
 }
 
 TEST(NpyHeader, IsTheShortestMultipleOfSixtyFourUnlessTold) {
@@ -58,7 +59,8 @@ TEST(NpyWriter, RoundTripsEveryType) {
   const std::string dir = testing::MakeTempDir("npy");
   // 4 x 2 x 3 doubles, distinct, with the values a float format loses first.
   std::vector<double> f(24);
-  for (std::size_t i = 0; i < f.size(); ++i) f[i] = 0.1 * static_cast<double>(i) - 1e-300 + 1.0 / 3.0;
+  for (std::size_t i = 0; i < f.size(); ++i)
+    f[i] = 0.1 * static_cast<double>(i) - 1e-300 + 1.0 / 3.0;
   f[5] = std::numeric_limits<double>::quiet_NaN();
   f[6] = -0.0;
   WriteNpy(dir + "/f.npy", NpyType::kFloat64, {4, 2, 3}, f.data());

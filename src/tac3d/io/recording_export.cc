@@ -1,5 +1,7 @@
 #include "tac3d/io/recording_export.h"
 
+#include <fmt/format.h>
+
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
@@ -7,8 +9,6 @@
 #include <iterator>
 #include <memory>
 #include <optional>
-
-#include <fmt/format.h>
 
 #include "tac3d/io/npy.h"
 #include "tac3d/util/error.h"
@@ -18,11 +18,18 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr const char* kNpyNames[] = {
-    "positions_mm.npy",      "displacements_mm.npy",      "forces_n.npy",
-    "normals.npy",           "valid.npy",                 "contact.npy",
-    "timestamp_s.npy",       "index.npy",                 "flags.npy",
-    "initialize_progress.npy", "resultant_force_n.npy",   "resultant_moment_nmm.npy"};
+constexpr const char* kNpyNames[] = {"positions_mm.npy",
+                                     "displacements_mm.npy",
+                                     "forces_n.npy",
+                                     "normals.npy",
+                                     "valid.npy",
+                                     "contact.npy",
+                                     "timestamp_s.npy",
+                                     "index.npy",
+                                     "flags.npy",
+                                     "initialize_progress.npy",
+                                     "resultant_force_n.npy",
+                                     "resultant_moment_nmm.npy"};
 constexpr const char* kCsvNames[] = {"frames.csv", "markers.csv"};
 
 std::string TempPath(const std::string& path) { return path + ".tmp"; }
@@ -60,7 +67,9 @@ class TempFiles {
     for (const std::string& path : finals_) {
       std::error_code ec;
       fs::rename(TempPath(path), path, ec);
-      if (ec) throw Error(fmt::format("cannot rename '{}' to '{}': {}", TempPath(path), path, ec.message()));
+      if (ec)
+        throw Error(
+            fmt::format("cannot rename '{}' to '{}': {}", TempPath(path), path, ec.message()));
     }
     committed_ = true;
   }
@@ -83,12 +92,21 @@ class NpyExporter : public FrameExporter {
   NpyExporter(const TempFiles& files, int markers) : bytes_(static_cast<std::size_t>(markers)) {
     const std::int64_t n = markers;
     const std::vector<std::pair<NpyType, std::vector<std::int64_t>>> layout = {
-        {NpyType::kFloat64, {n, 3}}, {NpyType::kFloat64, {n, 3}}, {NpyType::kFloat64, {n, 3}},
-        {NpyType::kFloat64, {n, 3}}, {NpyType::kBool, {n}},       {NpyType::kBool, {n}},
-        {NpyType::kFloat64, {}},     {NpyType::kInt64, {}},       {NpyType::kUint32, {}},
-        {NpyType::kInt64, {}},       {NpyType::kFloat64, {3}},    {NpyType::kFloat64, {3}}};
+        {NpyType::kFloat64, {n, 3}},
+        {NpyType::kFloat64, {n, 3}},
+        {NpyType::kFloat64, {n, 3}},
+        {NpyType::kFloat64, {n, 3}},
+        {NpyType::kBool, {n}},
+        {NpyType::kBool, {n}},
+        {NpyType::kFloat64, {}},
+        {NpyType::kInt64, {}},
+        {NpyType::kUint32, {}},
+        {NpyType::kInt64, {}},
+        {NpyType::kFloat64, {3}},
+        {NpyType::kFloat64, {3}}};
     for (std::size_t i = 0; i < layout.size(); ++i) {
-      writers_.push_back(std::make_unique<NpyWriter>(files.temp(i), layout[i].first, layout[i].second));
+      writers_.push_back(
+          std::make_unique<NpyWriter>(files.temp(i), layout[i].first, layout[i].second));
     }
   }
 
@@ -157,12 +175,27 @@ class CsvExporter : public FrameExporter {
     }
     // {} prints the shortest text that reads back as the same double.
     buffer_.clear();
-    fmt::format_to(std::back_inserter(buffer_), "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
-                   frame_number, f.index, f.timestamp_s, CsvField(f.sn), f.rows, f.cols,
-                   f.initialize_progress, f.flags, FrameFlagNames(f.flags), valid, contact,
-                   recorded.image.rows, recorded.image.cols, f.resultant_force_n.x(),
-                   f.resultant_force_n.y(), f.resultant_force_n.z(), f.resultant_moment_nmm.x(),
-                   f.resultant_moment_nmm.y(), f.resultant_moment_nmm.z());
+    fmt::format_to(std::back_inserter(buffer_),
+                   "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+                   frame_number,
+                   f.index,
+                   f.timestamp_s,
+                   CsvField(f.sn),
+                   f.rows,
+                   f.cols,
+                   f.initialize_progress,
+                   f.flags,
+                   FrameFlagNames(f.flags),
+                   valid,
+                   contact,
+                   recorded.image.rows,
+                   recorded.image.cols,
+                   f.resultant_force_n.x(),
+                   f.resultant_force_n.y(),
+                   f.resultant_force_n.z(),
+                   f.resultant_moment_nmm.x(),
+                   f.resultant_moment_nmm.y(),
+                   f.resultant_moment_nmm.z());
     frames_.write(buffer_.data(), static_cast<std::streamsize>(buffer_.size()));
     buffer_.clear();
     for (int i = 0; i < f.num_markers(); ++i) {
@@ -171,10 +204,27 @@ class CsvExporter : public FrameExporter {
       const Eigen::Vector3d& g = f.forces_n[i];
       const Eigen::Vector3d& n = f.normals[i];
       fmt::format_to(std::back_inserter(buffer_),
-                     "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n", frame_number,
-                     f.index, f.timestamp_s, i, i / f.cols, i % f.cols, f.valid[i] ? 1 : 0,
-                     f.contact[i] ? 1 : 0, p.x(), p.y(), p.z(), d.x(), d.y(), d.z(), g.x(), g.y(),
-                     g.z(), n.x(), n.y(), n.z());
+                     "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+                     frame_number,
+                     f.index,
+                     f.timestamp_s,
+                     i,
+                     i / f.cols,
+                     i % f.cols,
+                     f.valid[i] ? 1 : 0,
+                     f.contact[i] ? 1 : 0,
+                     p.x(),
+                     p.y(),
+                     p.z(),
+                     d.x(),
+                     d.y(),
+                     d.z(),
+                     g.x(),
+                     g.y(),
+                     g.z(),
+                     n.x(),
+                     n.y(),
+                     n.z());
     }
     markers_.write(buffer_.data(), static_cast<std::streamsize>(buffer_.size()));
   }
@@ -212,7 +262,8 @@ std::vector<std::string> RecordingExportFileNames(RecordingExportFormat format) 
   return {std::begin(kNpyNames), std::end(kNpyNames)};
 }
 
-RecordingExportResult ExportRecording(const std::string& recording, const std::string& folder,
+RecordingExportResult ExportRecording(const std::string& recording,
+                                      const std::string& folder,
                                       const RecordingExportOptions& options) {
   RecordingReader reader(recording);
   const std::vector<std::string> names = RecordingExportFileNames(options.format);
@@ -234,11 +285,18 @@ RecordingExportResult ExportRecording(const std::string& recording, const std::s
   }
   for (; recorded; recorded = reader.Next()) {
     const TactileFrame& f = recorded->frame;
-    if (options.format == RecordingExportFormat::kNpy && (f.rows != result.rows || f.cols != result.cols)) {
+    if (options.format == RecordingExportFormat::kNpy &&
+        (f.rows != result.rows || f.cols != result.cols)) {
       throw Error(fmt::format(
           "recording '{}': frame {} (index {}) has a {} x {} marker grid, the first a {} x {}; "
           ".npy arrays need one grid (export as csv instead)",
-          recording, result.frames, f.index, f.rows, f.cols, result.rows, result.cols));
+          recording,
+          result.frames,
+          f.index,
+          f.rows,
+          f.cols,
+          result.rows,
+          result.cols));
     }
     exporter->Add(result.frames, *recorded);
     ++result.frames;

@@ -51,7 +51,8 @@ std::vector<std::string> RecordingExportFileNames(RecordingExportFormat format);
 /// @throws Error if the recording cannot be opened or holds no good frame, the folder cannot
 ///   be created or written, a file exists (without overwrite), or the marker grid changes
 ///   between frames (kNpy needs one N).
-RecordingExportResult ExportRecording(const std::string& recording, const std::string& folder,
+RecordingExportResult ExportRecording(const std::string& recording,
+                                      const std::string& folder,
                                       const RecordingExportOptions& options = {});
 
 }  // namespace tac3d

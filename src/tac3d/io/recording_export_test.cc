@@ -1,5 +1,6 @@
 #include "tac3d/io/recording_export.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -8,8 +9,6 @@
 #include <fstream>
 #include <limits>
 #include <sstream>
-
-#include <fmt/format.h>
 
 #include "tac3d/frame/synthetic_frame.h"
 #include "tac3d/testing/npy_reader.h"
@@ -57,8 +56,10 @@ testing::NpyArray Read(const std::string& path) {
 // Bit-exact equality, NaN equal to NaN.
 bool Same(double a, double b) { return (std::isnan(a) && std::isnan(b)) || a == b; }
 
-void ExpectVectors(const testing::NpyArray& a, int frames,
-                   const std::vector<Eigen::Vector3d> TactileFrame::*field, const char* name) {
+void ExpectVectors(const testing::NpyArray& a,
+                   int frames,
+                   const std::vector<Eigen::Vector3d> TactileFrame::*field,
+                   const char* name) {
   EXPECT_EQ(a.descr, "<f8") << name;
   EXPECT_FALSE(a.fortran_order) << name;
   ASSERT_EQ(a.shape, (std::vector<std::int64_t>{frames, kMarkers, 3})) << name;
@@ -109,7 +110,8 @@ TEST(RecordingExport, NpyHoldsEveryFieldExactly) {
 
   const std::string out = dir + "/out/";
   ExpectVectors(Read(out + "positions_mm.npy"), 7, &TactileFrame::positions_mm, "positions");
-  ExpectVectors(Read(out + "displacements_mm.npy"), 7, &TactileFrame::displacements_mm, "displacements");
+  ExpectVectors(
+      Read(out + "displacements_mm.npy"), 7, &TactileFrame::displacements_mm, "displacements");
   ExpectVectors(Read(out + "forces_n.npy"), 7, &TactileFrame::forces_n, "forces");
   ExpectVectors(Read(out + "normals.npy"), 7, &TactileFrame::normals, "normals");
   const auto valid = Read(out + "valid.npy");
@@ -271,11 +273,13 @@ TEST(RecordingExport, GridChangeIsRefusedForNpyWithoutLeavingFiles) {
     ExportRecording(dir + "/rec.tac3d", dir + "/out");
     ADD_FAILURE() << "exported two grids into one array";
   } catch (const Error& e) {
-    EXPECT_THAT(e.what(), HasSubstr("frame 1 (index 1) has a 5 x 4 marker grid, the first a 4 x 5"));
+    EXPECT_THAT(e.what(),
+                HasSubstr("frame 1 (index 1) has a 5 x 4 marker grid, the first a 4 x 5"));
   }
   EXPECT_TRUE(Listing(dir + "/out").empty());
   // CSV has a row per marker with its grid, so it takes both.
-  const auto csv = ExportRecording(dir + "/rec.tac3d", dir + "/csv", {.format = RecordingExportFormat::kCsv});
+  const auto csv =
+      ExportRecording(dir + "/rec.tac3d", dir + "/csv", {.format = RecordingExportFormat::kCsv});
   EXPECT_EQ(csv.frames, 2);
   EXPECT_EQ(Lines(dir + "/csv/markers.csv").size(), 41u);
 }
@@ -337,22 +341,29 @@ assert np.array_equal(rows[:, 17:20], nn.reshape(-1, 3))
 assert np.array_equal(rows[:, 6].astype(bool), v.reshape(-1))
 print('numpy', np.__version__, 'ok')
 )",
-      fmt::arg("n", kMarkers), fmt::arg("m", m), fmt::arg("t3", f3.timestamp_s),
-      fmt::arg("fl0", Frame(0).flags), fmt::arg("fl3", f3.flags),
-      fmt::arg("px", f3.positions_mm[m].x()), fmt::arg("pz", f3.positions_mm[m].z()),
-      fmt::arg("fy", f3.forces_n[m].y()), fmt::arg("nz", f3.normals[m].z()),
-      fmt::arg("contacts", [] {
-        int n = 0;
-        for (int t = 0; t < 5; ++t) {
-          for (const bool b : Frame(t).contact) n += b;
-        }
-        return n;
-      }()),
-      fmt::arg("Fz", f3.resultant_force_n.z()), fmt::arg("Mx", f3.resultant_moment_nmm.x()));
+      fmt::arg("n", kMarkers),
+      fmt::arg("m", m),
+      fmt::arg("t3", f3.timestamp_s),
+      fmt::arg("fl0", Frame(0).flags),
+      fmt::arg("fl3", f3.flags),
+      fmt::arg("px", f3.positions_mm[m].x()),
+      fmt::arg("pz", f3.positions_mm[m].z()),
+      fmt::arg("fy", f3.forces_n[m].y()),
+      fmt::arg("nz", f3.normals[m].z()),
+      fmt::arg("contacts",
+               [] {
+                 int n = 0;
+                 for (int t = 0; t < 5; ++t) {
+                   for (const bool b : Frame(t).contact) n += b;
+                 }
+                 return n;
+               }()),
+      fmt::arg("Fz", f3.resultant_force_n.z()),
+      fmt::arg("Mx", f3.resultant_moment_nmm.x()));
   std::ofstream(dir + "/check.py") << script;
   const std::string log = dir + "/check.log";
-  const int status = std::system(
-      fmt::format("/usr/bin/python3 {}/check.py {} > {} 2>&1", dir, dir, log).c_str());
+  const int status =
+      std::system(fmt::format("/usr/bin/python3 {}/check.py {} > {} 2>&1", dir, dir, log).c_str());
   std::ifstream in(log);
   const std::string output(std::istreambuf_iterator<char>(in), {});
   EXPECT_EQ(status, 0) << output;

@@ -1,9 +1,9 @@
 #include "tac3d/record/recording_info.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <filesystem>
-
-#include <fmt/format.h>
 
 namespace tac3d {
 namespace {
@@ -33,8 +33,13 @@ double RecordingInfo::mean_fps() const {
 }
 
 std::string RecordingInfo::BriefReport() const {
-  return fmt::format("{}: {} frames, {:.3f} s, SN {}, {}, {}", path, frames, duration_s(), Join(sns),
-                     Grids(grids), RecordingStatusName(status));
+  return fmt::format("{}: {} frames, {:.3f} s, SN {}, {}, {}",
+                     path,
+                     frames,
+                     duration_s(),
+                     Join(sns),
+                     Grids(grids),
+                     RecordingStatusName(status));
 }
 
 std::string RecordingInfo::FullReport() const {
@@ -44,21 +49,23 @@ std::string RecordingInfo::FullReport() const {
   };
   row("file", fmt::format("{} ({} bytes)", path, file_bytes));
   row("frames", fmt::format("{}", frames));
-  row("index", frames > 0 ? fmt::format("{} .. {} ({} gaps)", first_index, last_index, index_gaps)
-                          : "none");
-  row("timestamps", frames > 0 ? fmt::format("{:.6f} .. {:.6f} s{}", first_timestamp_s,
-                                             last_timestamp_s,
-                                             timestamps_backwards > 0
-                                                 ? fmt::format(" ({} going backwards)",
-                                                               timestamps_backwards)
-                                                 : "")
-                               : "none");
+  row("index",
+      frames > 0 ? fmt::format("{} .. {} ({} gaps)", first_index, last_index, index_gaps) : "none");
+  row("timestamps",
+      frames > 0 ? fmt::format("{:.6f} .. {:.6f} s{}",
+                               first_timestamp_s,
+                               last_timestamp_s,
+                               timestamps_backwards > 0
+                                   ? fmt::format(" ({} going backwards)", timestamps_backwards)
+                                   : "")
+                 : "none");
   row("duration", fmt::format("{:.3f} s ({:.2f} frames/s)", duration_s(), mean_fps()));
   row("SN", Join(sns));
   row("markers (rows x cols)", Grids(grids));
-  row("images", frames_with_image > 0 ? fmt::format("{} of {} frames, {}", frames_with_image,
-                                                    frames, Grids(image_sizes))
-                                      : "none");
+  row("images",
+      frames_with_image > 0
+          ? fmt::format("{} of {} frames, {}", frames_with_image, frames, Grids(image_sizes))
+          : "none");
   for (std::size_t i = 0; i < std::size(kAllFrameFlags); ++i) {
     row(fmt::format("flag {}", FrameFlagName(kAllFrameFlags[i])),
         fmt::format("{} frames", flag_frames[i]));
@@ -94,7 +101,8 @@ RecordingInfo ReadRecordingInfo(const std::string& path) {
     AddDistinct(&info.grids, RecordingInfo::Grid{f.rows, f.cols});
     if (!recorded->image.empty()) {
       ++info.frames_with_image;
-      AddDistinct(&info.image_sizes, RecordingInfo::Grid{recorded->image.rows, recorded->image.cols});
+      AddDistinct(&info.image_sizes,
+                  RecordingInfo::Grid{recorded->image.rows, recorded->image.cols});
     }
     for (std::size_t i = 0; i < std::size(kAllFrameFlags); ++i) {
       info.flag_frames[i] += f.has(kAllFrameFlags[i]);

@@ -33,9 +33,9 @@ struct RecordingInfo {
   std::int64_t index_gaps = 0;
   /// Frames whose timestamp is before the previous one's.
   std::int64_t timestamps_backwards = 0;
-  std::vector<std::string> sns;     ///< distinct, in order of first appearance
-  std::vector<Grid> grids;          ///< distinct marker grids, in order of first appearance
-  std::vector<Grid> image_sizes;    ///< distinct image sizes (rows x cols), in that order
+  std::vector<std::string> sns;   ///< distinct, in order of first appearance
+  std::vector<Grid> grids;        ///< distinct marker grids, in order of first appearance
+  std::vector<Grid> image_sizes;  ///< distinct image sizes (rows x cols), in that order
   /// Frames carrying each FrameFlag, in kAllFrameFlags order.
   std::array<std::int64_t, std::size(kAllFrameFlags)> flag_frames{};
   std::int64_t unflagged_frames = 0;  ///< frames with no flag at all

@@ -1,8 +1,8 @@
 #include "tac3d/record/recording_replay.h"
 
-#include <cmath>
-
 #include <fmt/format.h>
+
+#include <cmath>
 
 #include "tac3d/util/error.h"
 
@@ -10,9 +10,10 @@ namespace tac3d {
 
 void RecordingReplayOptions::Validate() const {
   if (!std::isfinite(speed) || speed < 0.0) {
-    throw Error(fmt::format("replay speed {} must be finite and >= 0 (1: recorded pace, 0: as "
-                            "fast as possible)",
-                            speed));
+    throw Error(
+        fmt::format("replay speed {} must be finite and >= 0 (1: recorded pace, 0: as "
+                    "fast as possible)",
+                    speed));
   }
 }
 

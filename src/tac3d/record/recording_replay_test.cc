@@ -1,5 +1,6 @@
 #include "tac3d/record/recording_replay.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -8,8 +9,6 @@
 #include <fstream>
 #include <limits>
 #include <thread>
-
-#include <fmt/format.h>
 
 #include "tac3d/frame/synthetic_frame.h"
 #include "tac3d/testing/testing.h"

@@ -52,7 +52,9 @@ inline bool ReadNpy(const std::string& path, NpyArray* array, std::string* error
   array->shape.clear();
   const std::string dims = m[3];
   const std::regex number("[0-9]+");
-  for (auto it = std::sregex_iterator(dims.begin(), dims.end(), number); it != std::sregex_iterator(); ++it) {
+  for (auto it = std::sregex_iterator(dims.begin(), dims.end(), number);
+       it != std::sregex_iterator();
+       ++it) {
     array->shape.push_back(std::stoll(it->str()));
   }
   array->data = bytes.substr(array->header_bytes);
