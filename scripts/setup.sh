@@ -10,6 +10,7 @@ packages=(
   libyaml-cpp-dev nlohmann-json3-dev libfmt-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libopen3d-dev
+  python3-numpy  # io/recording_export_test loads the exported .npy files with numpy
 )
 missing=()
 for p in "${packages[@]}"; do

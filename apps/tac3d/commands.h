@@ -21,6 +21,7 @@ void RegisterBuildModel(CLI::App& app);
 void RegisterRun(CLI::App& app);
 void RegisterSimulate(CLI::App& app);
 void RegisterCalibrateForce(CLI::App& app);
+void RegisterRecording(CLI::App& app);  // recording_command.cc: `tac3d recording info|export`
 
 /// `tac3d eval <what>`: accuracy evaluations against the twin's truth or analytic oracles,
 /// each printing its figures (JSON with --json). Each adds itself to the `eval` group.

@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
   tac3d::cli::RegisterSimulate(app);
   tac3d::cli::RegisterCalibrateForce(app);
   tac3d::cli::RegisterEval(app);
+  tac3d::cli::RegisterRecording(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

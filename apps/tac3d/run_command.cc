@@ -1,27 +1,20 @@
-#include <atomic>
-#include <csignal>
 #include <cstdio>
 #include <memory>
 #include <optional>
 
 #include <fmt/format.h>
-#include <nlohmann/json.hpp>
 
 #include <CLI/CLI.hpp>
 
 #include "commands.h"
-#include "tac3d/util/file_io.h"
+#include "run_outputs.h"
 #include "tac3d/dataset/twin_dataset.h"
 #include "tac3d/fem/compliance.h"
 #include "tac3d/pipeline/pipeline.h"
-#include "tac3d/protocol/udp_sender.h"
-#include "tac3d/record/recording.h"
 #include "tac3d/util/error.h"
 
 namespace tac3d::cli {
 namespace {
-
-std::atomic<bool> g_interrupted{false};
 
 // Camera options whose width and height (0) are taken from the sensor config.
 CameraSourceOptions CameraWithSensorResolution() {
@@ -47,6 +40,7 @@ struct RunArgs {
   long max_frames = 0;
   CameraSourceOptions camera = CameraWithSensorResolution();
   double exposure = 0.0;
+  double speed = 1.0;  // a recording's replay only
 };
 
 std::unique_ptr<FrameSource> OpenSource(const RunArgs& a, const SensorConfig& config) {
@@ -58,43 +52,18 @@ std::unique_ptr<FrameSource> OpenSource(const RunArgs& a, const SensorConfig& co
   return OpenFrameSource(a.source, camera);
 }
 
-UdpSenderOptions ParseUdp(const std::string& host_port) {
-  const size_t colon = host_port.rfind(':');
-  if (colon == std::string::npos || colon == 0) {
-    throw Error(fmt::format("--udp '{}': expected HOST:PORT, e.g. 127.0.0.1:9988", host_port));
-  }
-  UdpSenderOptions options;
-  options.host = host_port.substr(0, colon);
-  int port = 0;
-  try {
-    port = std::stoi(host_port.substr(colon + 1));
-  } catch (const std::exception&) {
-  }
-  if (port < 1 || port > 65535) throw Error(fmt::format("--udp '{}': the port must be 1-65535", host_port));
-  options.port = static_cast<std::uint16_t>(port);
-  return options;
-}
-
-nlohmann::json Summary(const TactileFrame& f) {
-  int valid = 0, contact = 0;
-  for (int i = 0; i < f.num_markers(); ++i) {
-    valid += f.valid[i];
-    contact += f.contact[i];
-  }
-  const auto v = [](const Eigen::Vector3d& x) { return nlohmann::json{x.x(), x.y(), x.z()}; };
-  return {{"sn", f.sn},           {"index", f.index},
-          {"timestamp_s", f.timestamp_s}, {"initialize_progress", f.initialize_progress},
-          {"flags", FrameFlagNames(f.flags)}, {"valid_markers", valid},
-          {"contact_markers", contact},   {"resultant_force_n", v(f.resultant_force_n)},
-          {"resultant_moment_nmm", v(f.resultant_moment_nmm)}};
+FrameOutputArgs OutputArgs(const RunArgs& a) {
+  return {.udp = a.udp,
+          .record = a.record,
+          .record_images = a.record_images,
+          .json = a.json,
+          .sn = a.sn,
+          .overwrite = a.overwrite};
 }
 
 void Run(const RunArgs& a) {
-  if (a.record_images && a.record.empty()) throw Error("--record-images needs --record FILE");
-  if (a.overwrite && a.record.empty()) throw Error("--overwrite needs --record FILE");
-  // Arguments that can fail are checked before the compliance model is loaded or built.
-  if (!a.udp.empty()) ParseUdp(a.udp);
-  if (!a.record.empty()) CheckOutputFile(a.record, "--record");
+  // Checked before the compliance model is loaded (or built, ~1 min).
+  OutputArgs(a).Validate();
   const SensorConfig config = LoadSensorOrDefault(a.config);
   std::unique_ptr<FrameSource> source = OpenSource(a, config);
   std::fprintf(stderr, "source: %s\n", source->Describe().c_str());
@@ -109,56 +78,37 @@ void Run(const RunArgs& a) {
   options.force.gains = Eigen::Vector3d(a.gains[0], a.gains[1], a.gains[2]);
   Pipeline pipeline(config, model.model.h, model.model.marker_positions, options);
 
-  std::optional<UdpSender> sender;
-  if (!a.udp.empty()) {
-    sender.emplace(ParseUdp(a.udp));
-    std::fprintf(stderr, "streaming to %s as SN %s (commands on %s)\n", sender->destination().ToString().c_str(),
-                 a.sn.c_str(), sender->local_endpoint().ToString().c_str());
-  }
-  std::optional<RecordingWriter> recorder;
-  if (!a.record.empty()) recorder.emplace(a.record, RecordingWriterOptions{.overwrite = a.overwrite});
-
-  g_interrupted = false;
-  std::signal(SIGINT, [](int) { g_interrupted = true; });
-  std::signal(SIGTERM, [](int) { g_interrupted = true; });
+  FrameOutputs outputs(OutputArgs(a));
   Frame frame;
   TactileFrame out;
-  long processed = 0, bad = 0;
   std::string failure;
-  while (!g_interrupted && (a.max_frames <= 0 || processed < a.max_frames)) {
-    const ReadStatus status = source->Read(frame);
-    if (status == ReadStatus::kEnd) break;
-    if (status == ReadStatus::kFailed) {
-      failure = source->last_error();
-      break;
-    }
-    if (status == ReadStatus::kBadFrame) {
-      ++bad;
-      std::fprintf(stderr, "skipped a bad frame: %s\n", source->last_error().c_str());
-      continue;
-    }
-    try {
-      pipeline.Process(frame, out);
-    } catch (const Error& e) {
-      ++bad;
-      std::fprintf(stderr, "skipped frame %lld: %s\n", static_cast<long long>(frame.index), e.what());
-      continue;
-    }
-    ++processed;
-    if (recorder) recorder->Write(out, a.record_images ? frame.image : cv::Mat());
-    if (sender) {
-      sender->Send(out);
-      while (const std::optional<SensorCommand> command = sender->PollCommand()) {
-        if (*command == SensorCommand::kZero) pipeline.RequestZero();
-        if (*command == SensorCommand::kStop) g_interrupted = true;
-      }
-    }
-    if (a.json) WriteLineFlushed(stdout, Summary(out).dump());
-  }
-  std::signal(SIGINT, SIG_DFL);
-  std::signal(SIGTERM, SIG_DFL);
-  std::fprintf(stderr, "%ld frames processed, %ld skipped%s\n", processed, bad,
-               recorder ? fmt::format(", {} recorded to {}", recorder->frames_written(), a.record).c_str() : "");
+  const FrameLoopCounts counts = RunFrameLoop(
+      outputs, a.max_frames,
+      [&](const std::atomic<bool>&, const TactileFrame*& produced, const cv::Mat*& image) {
+        const ReadStatus status = source->Read(frame);
+        if (status == ReadStatus::kEnd) return Produced::kEnd;
+        if (status == ReadStatus::kFailed) {
+          failure = source->last_error();
+          return Produced::kEnd;
+        }
+        if (status == ReadStatus::kBadFrame) {
+          std::fprintf(stderr, "skipped a bad frame: %s\n", source->last_error().c_str());
+          return Produced::kSkipped;
+        }
+        try {
+          pipeline.Process(frame, out);
+        } catch (const Error& e) {
+          std::fprintf(stderr, "skipped frame %lld: %s\n", static_cast<long long>(frame.index),
+                       e.what());
+          return Produced::kSkipped;
+        }
+        produced = &out;
+        image = &frame.image;
+        return Produced::kFrame;
+      },
+      [&pipeline] { pipeline.RequestZero(); });
+  std::fprintf(stderr, "%ld frames processed, %ld skipped%s\n", counts.emitted, counts.skipped,
+               outputs.RecordedNote().c_str());
   // The recording is complete up to the last frame; now say why the source ended.
   if (!failure.empty()) throw Error(fmt::format("the frame source failed: {}", failure));
 }
@@ -168,9 +118,12 @@ void Run(const RunArgs& a) {
 void RegisterRun(CLI::App& app) {
   auto a = std::make_shared<RunArgs>();
   CLI::App* cmd = app.add_subcommand(
-      "run", "Camera (or video, image folder, twin dataset) to 3D markers, displacements and forces, every frame");
+      "run",
+      "Camera (or video, image folder, twin dataset) to 3D markers, displacements and forces, "
+      "every frame; or a recording's frames replayed");
   cmd->add_option("--source", a->source,
-                  "camera:N, /dev/videoN, a video file, an image folder, or dataset:DIR")
+                  "camera:N, /dev/videoN, a video file, an image folder, dataset:DIR, or "
+                  "recording:FILE (replays its frames)")
       ->required();
   cmd->add_option("--config", a->config, "sensor YAML (default: the built-in prototype)");
   cmd->add_option("--cache", a->cache_dir, "directory of cached compliance models")->capture_default_str();
@@ -189,7 +142,29 @@ void RegisterRun(CLI::App& app) {
   cmd->add_option("--height", a->camera.height, "camera height (default: the sensor config's)");
   cmd->add_option("--fps", a->camera.fps, "camera frame rate")->capture_default_str();
   cmd->add_option("--exposure", a->exposure, "camera exposure (driver units; default automatic)");
-  cmd->callback([a] { Run(*a); });
+  cmd->add_option("--speed", a->speed,
+                  "recording:FILE pace: 1 recorded, 2 twice as fast, 0 as fast as possible")
+      ->capture_default_str();
+  cmd->callback([a, cmd] {
+    if (const std::optional<std::string> path = RecordingSourcePath(a->source)) {
+      RefuseOptions(*cmd,
+                    {"--config", "--cache", "--reference-frames", "--weight", "--gains", "--width",
+                     "--height", "--fps", "--exposure"},
+                    "does not apply to a recording: its frames were computed when it was recorded");
+      return RunRecording({.path = *path,
+                           .speed = a->speed,
+                           .max_frames = a->max_frames,
+                           .sn = cmd->count("--sn") > 0 ? std::optional(a->sn) : std::nullopt,
+                           .outputs = {.udp = a->udp,
+                                       .record = a->record,
+                                       .record_images = a->record_images,
+                                       .json = a->json,
+                                       .sn = {},
+                                       .overwrite = a->overwrite}});
+    }
+    RefuseOptions(*cmd, {"--speed"}, "applies to --source recording:FILE only");
+    Run(*a);
+  });
 }
 
 }  // namespace tac3d::cli

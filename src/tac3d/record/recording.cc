@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <bit>
 #include <cerrno>
@@ -307,16 +308,30 @@ double ReplayDelay(double first_timestamp_s, double timestamp_s, double elapsed_
   return std::max(0.0, (timestamp_s - first_timestamp_s) / speed - elapsed_s);
 }
 
-void ReplayPacer::Wait(double timestamp_s) {
+bool ReplayPacer::Wait(double timestamp_s, const std::atomic<bool>* stop) {
+  if (stop != nullptr && *stop) return false;
   const auto now = std::chrono::steady_clock::now();
   if (!first_timestamp_s_) {
     first_timestamp_s_ = timestamp_s;
     start_ = now;
-    return;
+    return true;
   }
   const double elapsed_s = std::chrono::duration<double>(now - start_).count();
   const double delay_s = ReplayDelay(*first_timestamp_s_, timestamp_s, elapsed_s, speed_);
-  if (delay_s > 0.0) std::this_thread::sleep_for(std::chrono::duration<double>(delay_s));
+  if (delay_s <= 0.0) return true;
+  const auto due = now + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                             std::chrono::duration<double>(delay_s));
+  // Sleep in slices, so that a stop request (Ctrl-C) ends even a long gap promptly.
+  constexpr auto kSlice = std::chrono::milliseconds(10);
+  for (auto t = now; t < due; t = std::chrono::steady_clock::now()) {
+    if (stop != nullptr && *stop) {
+      waited_s_ += std::chrono::duration<double>(t - now).count();
+      return false;
+    }
+    std::this_thread::sleep_for(std::min<std::chrono::steady_clock::duration>(due - t, kSlice));
+  }
+  waited_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - now).count();
+  return true;
 }
 
 }  // namespace tac3d

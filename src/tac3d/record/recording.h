@@ -1,5 +1,6 @@
 #pragma once
 
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <fstream>
@@ -114,10 +115,16 @@ class ReplayPacer {
  public:
   /// @param speed 1: recorded speed; 2: twice as fast; <= 0: as fast as possible.
   explicit ReplayPacer(double speed = 1.0) : speed_(speed) {}
-  void Wait(double timestamp_s);
+  void Wait(double timestamp_s) { Wait(timestamp_s, nullptr); }
+  /// As Wait, but gives up (returns false) as soon as `stop` is set, checked every 10 ms of
+  /// the wait; true when the frame is due. `stop` may be null.
+  bool Wait(double timestamp_s, const std::atomic<bool>* stop);
+  /// Seconds spent waiting so far (0 at speed <= 0).
+  double waited_s() const { return waited_s_; }
 
  private:
   double speed_;
+  double waited_s_ = 0.0;
   std::optional<double> first_timestamp_s_;
   std::chrono::steady_clock::time_point start_;
 };

@@ -1,0 +1,109 @@
+#pragma once
+
+// What `tac3d run` does with each TactileFrame, shared by its two kinds of source: camera
+// images through the Pipeline (run_command.cc) and a recording's frames replayed as they were
+// computed (recording_command.cc).
+
+#include <atomic>
+#include <functional>
+#include <initializer_list>
+#include <opencv2/core.hpp>
+#include <optional>
+#include <string>
+
+#include "tac3d/frame/tactile_frame.h"
+#include "tac3d/protocol/udp_sender.h"
+#include "tac3d/record/recording.h"
+
+namespace CLI {
+class App;
+}
+
+namespace tac3d::cli {
+
+/// The frame-level outputs of `tac3d run` (docs/pipeline.md).
+struct FrameOutputArgs {
+  std::string udp;             ///< stream the Tac3D protocol to HOST:PORT, or ""
+  std::string record;          ///< record the frames to this new file, or ""
+  bool record_images = false;  ///< record each frame's image too
+  bool json = false;           ///< print each frame's summary as a JSON line on stdout
+  std::string sn;              ///< the SN the frames carry, for the messages only ("" unknown)
+  bool overwrite = false;      ///< replace an existing `record` file
+
+  /// Checks what can be checked before any work: HOST:PORT's form, --record-images and
+  /// --overwrite only with --record, the record file's folder. @throws Error naming the flag.
+  void Validate() const;
+};
+
+/// Opens the outputs a run asked for and sends every frame to each of them.
+class FrameOutputs {
+ public:
+  /// Validates the arguments, opens the UDP sender and the recording and names them on stderr.
+  /// @throws Error on a malformed HOST:PORT, a host that does not resolve, or a recording
+  /// file that exists or cannot be created.
+  explicit FrameOutputs(const FrameOutputArgs& args);
+
+  /// Records the frame (with `image` if record_images and it is not empty), streams it, and
+  /// prints its JSON line. @throws Error as RecordingWriter::Write and UdpSender::Send do.
+  void Emit(const TactileFrame& frame, const cv::Mat& image);
+  /// The next command the UDP client sent (`$C`, `$Q`); nullopt when none or no stream.
+  std::optional<SensorCommand> PollCommand();
+  /// ", N recorded to FILE" when recording, else "".
+  std::string RecordedNote() const;
+
+ private:
+  FrameOutputArgs args_;
+  std::optional<UdpSender> sender_;
+  std::optional<RecordingWriter> recorder_;
+};
+
+/// What a run's frame producer made of one step.
+enum class Produced {
+  kFrame,    ///< a frame to emit
+  kSkipped,  ///< nothing to emit this time (a bad image); go on
+  kEnd,      ///< no more frames
+};
+
+/// Gives the next frame: sets `frame` (and `image`, possibly empty) to storage it owns, valid
+/// until its next call. `stop` is set by Ctrl-C, SIGTERM or the client's `$Q`; a producer that
+/// waits checks it.
+using FrameProducer = std::function<Produced(
+    const std::atomic<bool>& stop, const TactileFrame*& frame, const cv::Mat*& image)>;
+
+struct FrameLoopCounts {
+  long emitted = 0;
+  long skipped = 0;
+};
+
+/// The loop of `tac3d run`: takes frames from `produce` and emits them until it ends,
+/// `max_frames` (> 0) have been emitted, Ctrl-C or SIGTERM, or the client's `$Q`; a `$C` calls
+/// `on_zero`. The signal handlers are in place only during the loop.
+FrameLoopCounts RunFrameLoop(FrameOutputs& outputs,
+                             long max_frames,
+                             const FrameProducer& produce,
+                             const std::function<void()>& on_zero);
+
+/// `tac3d run --source recording:FILE`: the recording's frames, as they were computed, to the
+/// run's outputs at `speed` times the recorded pace (0: as fast as possible).
+struct RecordingRunArgs {
+  std::string path;
+  double speed = 1.0;
+  long max_frames = 0;
+  std::optional<std::string> sn;  ///< replaces the recorded SN when given
+  FrameOutputArgs outputs;
+};
+
+/// The recording's path when `source` is "recording:FILE", else nullopt.
+std::optional<std::string> RecordingSourcePath(const std::string& source);
+
+/// Replays, then reports how the recording ended: a truncated file (a killed writer) is a
+/// warning on stderr, a corrupt one an Error, both after the good frames were emitted.
+/// @throws Error on bad arguments, a file that is not a recording, or a corrupt record.
+void RunRecording(const RecordingRunArgs& args);
+
+/// @throws Error naming the first of `names` given on `cmd`'s command line, with `why`.
+void RefuseOptions(const CLI::App& cmd,
+                   std::initializer_list<const char*> names,
+                   const std::string& why);
+
+}  // namespace tac3d::cli

@@ -1,0 +1,58 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "tac3d/record/recording.h"
+
+namespace tac3d {
+
+enum class RecordingExportFormat {
+  /// frames.csv (one row a frame) and markers.csv (one row a frame and marker).
+  kCsv,
+  /// One .npy array a field, frames along the first axis (RecordingNpyFiles()).
+  kNpy,
+};
+
+/// @throws Error unless `name` is "csv" or "npy".
+RecordingExportFormat ParseRecordingExportFormat(const std::string& name);
+
+struct RecordingExportOptions {
+  RecordingExportFormat format = RecordingExportFormat::kNpy;
+  /// false: refuse to replace a file that is already in the output folder.
+  bool overwrite = false;
+};
+
+/// What an export wrote and how the recording ended.
+struct RecordingExportResult {
+  std::vector<std::string> files;  ///< paths written, in RecordingExportFileNames() order
+  std::int64_t frames = 0;         ///< frames exported (the recording's good frames)
+  int rows = 0;                    ///< the marker grid
+  int cols = 0;
+  RecordingStatus status = RecordingStatus::kReading;  ///< as RecordingReader::status()
+  std::string message;                                 ///< RecordingReader::message()
+};
+
+/// The file names an export in `format` writes. For kNpy, with T frames and N = rows * cols
+/// markers in grid order: positions_mm, displacements_mm, forces_n, normals (T x N x 3 <f8),
+/// valid, contact (T x N |b1), timestamp_s (T <f8), index (T <i8), flags (T <u4),
+/// initialize_progress (T <i8), resultant_force_n, resultant_moment_nmm (T x 3 <f8).
+std::vector<std::string> RecordingExportFileNames(RecordingExportFormat format);
+
+/// Exports a recording's good frames to `folder` (docs/recording.md, "Export").
+///
+/// The folder is checked before the recording is read: it is created if missing, and a file
+/// the export would write that is already there is refused unless options.overwrite. Every
+/// file is written under a temporary name (NAME.tmp) and renamed into place only after all of
+/// them are complete, so an export that fails leaves no partial file under a final name.
+/// A truncated or corrupt recording is exported up to its last good frame and the result
+/// says how it ended; it is not an error.
+/// @throws Error if the recording cannot be opened or holds no good frame, the folder cannot
+///   be created or written, a file exists (without overwrite), or the marker grid changes
+///   between frames (kNpy needs one N).
+RecordingExportResult ExportRecording(const std::string& recording,
+                                      const std::string& folder,
+                                      const RecordingExportOptions& options = {});
+
+}  // namespace tac3d

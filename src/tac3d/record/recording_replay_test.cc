@@ -1,0 +1,165 @@
+#include "tac3d/record/recording_replay.h"
+
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <thread>
+
+#include "tac3d/frame/synthetic_frame.h"
+#include "tac3d/testing/testing.h"
+#include "tac3d/util/error.h"
+
+namespace tac3d {
+namespace {
+
+using ::testing::HasSubstr;
+using Clock = std::chrono::steady_clock;
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+cv::Mat TestImage(int seed) {
+  cv::Mat image(24, 32, CV_8UC1);
+  cv::theRNG().state = seed;
+  cv::randu(image, 0, 256);
+  return image;
+}
+
+// Frames 0..n-1 (timestamps i / 90 s), an image with every third; returns the file's path.
+std::string WriteRecording(const std::string& path, int n) {
+  RecordingWriter writer(path);
+  for (int i = 0; i < n; ++i) {
+    writer.Write(MakeSyntheticTactileFrame("AD2-0065L", i), i % 3 == 0 ? TestImage(i) : cv::Mat());
+  }
+  return path;
+}
+
+std::vector<RecordedFrame> ReplayAll(RecordingReplay* replay) {
+  std::vector<RecordedFrame> frames;
+  while (auto f = replay->Next()) frames.push_back(std::move(*f));
+  return frames;
+}
+
+TEST(RecordingReplay, GivesEveryFrameExactlyAsRecorded) {
+  const std::string path = WriteRecording(testing::MakeTempDir("replay") + "/rec.tac3d", 12);
+  RecordingReplay replay(path, {.speed = 0.0});
+  const auto frames = ReplayAll(&replay);
+  ASSERT_EQ(frames.size(), 12u) << replay.message();
+  for (int i = 0; i < 12; ++i) {
+    EXPECT_EQ(frames[i].frame, MakeSyntheticTactileFrame("AD2-0065L", i)) << i;
+    if (i % 3 == 0) {
+      ASSERT_EQ(frames[i].image.size(), cv::Size(32, 24)) << i;
+      EXPECT_EQ(cv::norm(frames[i].image, TestImage(i), cv::NORM_INF), 0.0) << i;
+    } else {
+      EXPECT_TRUE(frames[i].image.empty()) << i;
+    }
+  }
+  EXPECT_EQ(replay.status(), RecordingStatus::kComplete);
+  EXPECT_EQ(replay.frames_read(), 12);
+  EXPECT_EQ(replay.waited_s(), 0.0);  // speed 0: as fast as possible
+  EXPECT_THAT(replay.Describe(), HasSubstr("as fast as possible"));
+}
+
+TEST(RecordingReplay, KeepsTheRecordedPace) {
+  // 12 frames at 90 fps: 11 / 90 = 0.122 s from the first to the last.
+  const std::string path = WriteRecording(testing::MakeTempDir("replay") + "/rec.tac3d", 12);
+  for (const double speed : {1.0, 2.0}) {
+    RecordingReplay replay(path, {.speed = speed});
+    const auto start = Clock::now();
+    EXPECT_EQ(ReplayAll(&replay).size(), 12u);
+    const double expected_s = 11.0 / 90.0 / speed;
+    EXPECT_GE(SecondsSince(start), expected_s) << "speed " << speed;
+    EXPECT_LT(SecondsSince(start), expected_s + 0.5) << "speed " << speed;  // a loaded machine
+    EXPECT_GT(replay.waited_s(), 0.5 * expected_s) << "speed " << speed;
+    EXPECT_THAT(replay.Describe(), HasSubstr(fmt::format("at {}x", speed)));
+  }
+}
+
+TEST(RecordingReplay, TruncatedFileGivesItsGoodFramesThenTheReason) {
+  const std::string dir = testing::MakeTempDir("replay");
+  const std::string path = WriteRecording(dir + "/rec.tac3d", 5);
+  // Cut in the middle of the fourth record.
+  std::int64_t cut = 0;
+  {
+    RecordingReader reader(path);
+    for (int i = 0; i < 3; ++i) reader.Next();
+    cut = reader.offset() + 100;
+  }
+  std::filesystem::resize_file(path, static_cast<std::uintmax_t>(cut));
+  RecordingReplay replay(path, {.speed = 0.0});
+  const auto frames = ReplayAll(&replay);
+  ASSERT_EQ(frames.size(), 3u);
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(frames[i].frame, MakeSyntheticTactileFrame("AD2-0065L", i));
+  EXPECT_EQ(replay.status(), RecordingStatus::kTruncated);
+  EXPECT_THAT(replay.message(), HasSubstr("truncated after 3 frames"));
+  EXPECT_EQ(replay.Next(), std::nullopt);  // stays at the end
+}
+
+TEST(RecordingReplay, CorruptRecordEndsTheReplayThere) {
+  const std::string path = WriteRecording(testing::MakeTempDir("replay") + "/rec.tac3d", 5);
+  std::int64_t at = 0;
+  {
+    RecordingReader reader(path);
+    reader.Next();
+    reader.Next();
+    at = reader.offset() + 8 + 50;  // a payload byte of the third record
+  }
+  {
+    std::fstream f(path, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(at);
+    f.put('\x7f');
+  }
+  RecordingReplay replay(path, {.speed = 0.0});
+  EXPECT_EQ(ReplayAll(&replay).size(), 2u);
+  EXPECT_EQ(replay.status(), RecordingStatus::kCorrupt);
+  EXPECT_THAT(replay.message(), HasSubstr("checksum"));
+}
+
+TEST(RecordingReplay, RefusesBadSpeedsAndFiles) {
+  const std::string dir = testing::MakeTempDir("replay");
+  const std::string path = WriteRecording(dir + "/rec.tac3d", 1);
+  for (const double speed : {-1.0, std::nan(""), std::numeric_limits<double>::infinity()}) {
+    try {
+      RecordingReplay replay(path, {.speed = speed});
+      ADD_FAILURE() << "accepted speed " << speed;
+    } catch (const Error& e) {
+      EXPECT_THAT(e.what(), HasSubstr("speed"));
+    }
+  }
+  EXPECT_THROW(RecordingReplay(dir + "/missing.tac3d"), Error);
+  std::ofstream(dir + "/text") << "not a recording";
+  EXPECT_THROW(RecordingReplay(dir + "/text"), Error);
+}
+
+TEST(ReplayPacer, AtSpeedZeroNeverSleeps) {
+  ReplayPacer pacer(0.0);
+  const auto start = Clock::now();
+  for (int i = 0; i < 1000; ++i) EXPECT_TRUE(pacer.Wait(i * 1.0, nullptr));  // 999 s recorded
+  EXPECT_EQ(pacer.waited_s(), 0.0);
+  EXPECT_LT(SecondsSince(start), 0.5);
+}
+
+TEST(ReplayPacer, StopEndsALongWaitPromptly) {
+  ReplayPacer pacer(1.0);
+  std::atomic<bool> stop{false};
+  ASSERT_TRUE(pacer.Wait(0.0, &stop));
+  const auto start = Clock::now();
+  std::thread stopper([&stop] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    stop = true;
+  });
+  EXPECT_FALSE(pacer.Wait(100.0, &stop));  // due in 100 s
+  stopper.join();
+  EXPECT_LT(SecondsSince(start), 2.0);
+  EXPECT_GE(SecondsSince(start), 0.04);
+  EXPECT_FALSE(pacer.Wait(101.0, &stop));  // stays stopped
+}
+
+}  // namespace
+}  // namespace tac3d
