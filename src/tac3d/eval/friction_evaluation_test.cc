@@ -1,11 +1,14 @@
 #include "tac3d/eval/friction_evaluation.h"
 
 #include <cmath>
+#include <random>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "tac3d/dataset/twin_dataset.h"
 #include "tac3d/scene/scene.h"
+#include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
 
 namespace tac3d {
@@ -115,6 +118,67 @@ TEST(FrictionEvaluation, NearestSurfacePointOfEachShape) {
   FrictionEvaluationOptions bad;
   bad.coverage_distance_mm = 0;
   EXPECT_THROW(bad.Validate(), Error);
+}
+
+// The chain after the pipeline on the friction_block scene: its trajectory's poses, frames
+// made from them (markers within 4.5 mm of the sensor's axis pressed flat on the block, every
+// one slipping while the sensor slides, |F_t| = true mu x F_n, noise as the pipeline's), the
+// recorder (strokes broken at the lifts), the map and the evaluation against the scene's
+// truth. Loose bounds: equations 5 and 6 blur the boundary over r = 1.5 mm.
+TEST(FrictionEvaluation, SyntheticFramesAlongTheBlockScene) {
+  const Scene scene = BuiltInScene("friction_block");
+  const SceneObject& block = scene.objects[0];
+  const double face_z = block.world_from_object.translation().z() - 0.5 * block.size_mm.z();
+  std::mt19937_64 rng(testing::kRandomSeed);
+  std::normal_distribution<double> noise(0.0, 0.002), force_noise(0.0, 0.0005);
+  friction::FrictionMapOptions options;
+  options.cover_thickness_mm = 0.5;
+  friction::FrictionMapBuilder builder(options);
+  FrictionReplayRecorder recorder(builder);
+  std::vector<Eigen::Vector3d> touched;
+  const Trajectory& t = scene.trajectory;
+  Rigid3 previous = t.PoseAt(t.StepTime(0));
+  for (int k = 0; k < t.steps; k += 2) {
+    const Rigid3 pose = t.PoseAt(t.StepTime(k));
+    TwinStep step;
+    step.index = k;
+    step.world_from_sensor = pose;
+    step.marker_slip.assign(400, 0);
+    TactileFrame frame = TactileFrame::Sized(20, 20);
+    frame.index = k;
+    frame.timestamp_s = t.StepTime(k);
+    const bool pressed = pose.translation().z() + 8.0 > face_z;
+    const bool moving = (pose.translation() - previous.translation()).norm() > 0.05;
+    previous = pose;
+    for (int i = 0; i < 400; ++i) {
+      const Eigen::Vector2d q((i % 20 - 9.5) * 1.27, (i / 20 - 9.5) * 1.27);
+      frame.normals[i] = Eigen::Vector3d(q.x() / 45.0, q.y() / 45.0, 1.0).normalized();
+      frame.positions_mm[i] = Eigen::Vector3d(q.x(), q.y(), 7.5 - q.squaredNorm() / 90.0);
+      if (!pressed || q.norm() > 4.5) continue;
+      const Eigen::Vector3d world(pose.translation().x() + q.x(), pose.translation().y() + q.y(), face_z - 0.5);
+      frame.positions_mm[i] = pose.inverse() * world + Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+      frame.normals[i] = Eigen::Vector3d::UnitZ();
+      const double mu = block.FrictionAt(block.world_from_object.inverse() * (world + Eigen::Vector3d(0, 0, 0.5)));
+      const double fn = 0.1 - 0.015 * q.norm();
+      frame.forces_n[i] = Eigen::Vector3d(moving ? mu * fn : 0.0, 0.0, -fn) +
+                          Eigen::Vector3d(force_noise(rng), force_noise(rng), force_noise(rng));
+      step.marker_slip[i] = moving;
+      touched.push_back(world + Eigen::Vector3d(0, 0, 0.5));
+    }
+    recorder.Add(step, frame);
+  }
+  EXPECT_EQ(recorder.strokes(), 3);
+  const friction::FrictionMapResult map = builder.Build();
+  ASSERT_EQ(map.summary.status, friction::FrictionMapStatus::kOk) << map.summary.message;
+  const FrictionEvaluation e = EvaluateFrictionMap(scene, map, recorder.truth(), touched);
+  std::printf("%s\n", e.BriefReport().c_str());
+  EXPECT_LT(e.mu_mae, 0.05);
+  EXPECT_GT(e.band_agreement, 0.9);
+  EXPECT_LT(e.boundary_error_mm, 1.0);
+  EXPECT_GT(e.coverage, 0.9);
+  EXPECT_LT(e.surface_rms_mm, 0.02);
+  EXPECT_GT(e.slip_precision, 0.99);
+  EXPECT_GT(e.slip_recall, 0.95);
 }
 
 }  // namespace
