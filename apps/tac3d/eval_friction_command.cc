@@ -131,8 +131,8 @@ void RegisterEvalFriction(CLI::App& eval) {
       j["files"] = WriteFrictionMapFiles(map, args->out + "/" + scene.name, args->map.View(map));
       j["replay"] = run.report;
       j["strokes"] = recorder.strokes();
+      j["map_options"] = MapOptionsJson(builder.options());
       WriteTextFile(args->out + "/" + scene.name + "/evaluation.json", j.dump(2) + "\n");
-      std::fprintf(stderr, "%s\n", e.BriefReport().c_str());
       results.push_back(std::move(e));
       scenes.push_back(std::move(j));
     }

@@ -60,12 +60,25 @@ void AddRecording(const std::string& path, const friction::PoseTrack& poses,
 
 void FrictionMapArgs::Add(CLI::App* cmd) {
   cmd->add_option("--contact-threshold", contact_threshold_n, "contact marker's normal force, N (default 0.02)");
+  cmd->add_option("--slip-contact-threshold", slip_contact_threshold_n,
+                  "normal force of a marker for slip detection, N (< 0: --contact-threshold)")
+      ->capture_default_str();
+  cmd->add_option("--tangential-motion", tangential_motion,
+                  "slip by the motion in the tangent plane (false: the paper's 3D motion)")
+      ->capture_default_str();
   cmd->add_option("--slip-sigmas", slip_sigmas, "k of the slip threshold (default 4)");
   cmd->add_option("--marker-noise", marker_noise_mm, "per-axis marker position noise, mm (default 0.002)");
   cmd->add_option("--radius", radius_mm, "r of equations 5 and 6, mm (default 1.5)");
   cmd->add_option("--voxel", voxel_size_mm, "resampling voxel, mm (default 0.25)");
   cmd->add_option("--depth", poisson_depth, "Poisson octree depth (default 8)");
-  cmd->add_option("--beta", beta, "mu_i exponent of the weights (default 2)");
+  cmd->add_option("--beta", beta, "mu_i exponent of the weights (the paper's: 2)")->capture_default_str();
+  cmd->add_option("--gamma", gamma,
+                  "F_n exponent of the weights (the paper's: 0; 1 with --beta 0: the ratio of the summed "
+                  "forces)")
+      ->capture_default_str();
+  cmd->add_option("--min-slip-points", min_slip_points,
+                  "slip points within r a vertex needs for a mu (the paper's: 1)")
+      ->capture_default_str();
   cmd->add_option("--view", view, "PNG view direction X Y Z, world (default: onto the mesh's outer side)")
       ->expected(3);
   cmd->add_option("--up", up, "PNG up direction X Y Z, world (default: y)")->expected(3);
@@ -80,6 +93,10 @@ friction::FrictionMapOptions FrictionMapArgs::Options(const SensorConfig& sensor
   if (voxel_size_mm >= 0) o.voxel_size_mm = voxel_size_mm;
   if (poisson_depth >= 0) o.poisson_depth = poisson_depth;
   if (beta >= 0) o.beta = beta;
+  if (gamma >= 0) o.normal_force_exponent = gamma;
+  if (min_slip_points >= 0) o.min_slip_points = min_slip_points;
+  if (slip_contact_threshold_n >= 0) o.slip_contact_threshold_n = slip_contact_threshold_n;
+  o.tangential_motion = tangential_motion;
   o.Validate();
   return o;
 }
@@ -100,6 +117,25 @@ friction::RenderOptions FrictionMapArgs::View(const friction::FrictionMapResult&
   }
   r.Validate();
   return r;
+}
+
+nlohmann::json MapOptionsJson(const friction::FrictionMapOptions& o) {
+  return {{"contact_threshold_n", o.contact_threshold_n},
+          {"slip_contact_threshold_n", o.SlipContactThresholdN()},
+          {"cover_thickness_mm", o.cover_thickness_mm},
+          {"marker_noise_mm", o.marker_noise_mm},
+          {"pose_noise_mm", o.pose_noise_mm},
+          {"slip_sigmas", o.slip_sigmas},
+          {"slip_threshold_mm", o.SlipThresholdMm()},
+          {"tangential_motion", o.tangential_motion},
+          {"voxel_size_mm", o.voxel_size_mm},
+          {"poisson_depth", o.poisson_depth},
+          {"trim_distance_mm", o.trim_distance_mm},
+          {"radius_mm", o.radius_mm},
+          {"alpha", o.alpha},
+          {"beta", o.beta},
+          {"gamma", o.normal_force_exponent},
+          {"min_slip_points", o.min_slip_points}};
 }
 
 nlohmann::json WriteFrictionMapFiles(const friction::FrictionMapResult& map, const std::string& folder,
@@ -189,6 +225,7 @@ void RegisterFrictionMap(CLI::App& app) {
     bar.Finish();
     summary["frames_in"] = frames;
     summary["input_s"] = input_s;
+    summary["options"] = MapOptionsJson(builder->options());
     summary["map"] = friction::ToJson(map.summary);
     summary["files"] = WriteFrictionMapFiles(map, args->out, args->map.View(map));
     WriteTextFile(args->out + "/summary.json", summary.dump(2) + "\n");

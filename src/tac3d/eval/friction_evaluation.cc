@@ -115,6 +115,7 @@ void Finish(FrictionEvaluation& e) {
   e.coverage = ratio(e.covered_points, e.touched_points);
   e.slip_precision = ratio(e.slip_true_positives, e.slip_points);
   e.slip_recall = ratio(e.true_slips_found, e.true_slips);
+  e.slip_recall_loaded = ratio(e.true_loaded_slips_found, e.true_loaded_slips);
   const std::vector<double>& b = e.boundary_distances_mm;
   e.boundary_error_mm = b.empty() ? kNaN : std::accumulate(b.begin(), b.end(), 0.0) / b.size();
   e.boundary_error_p90_mm = Percentile(b, 0.9);
@@ -188,6 +189,9 @@ void FrictionEvaluationOptions::Validate() const {
   if (!(coverage_distance_mm > 0) || !std::isfinite(coverage_distance_mm)) {
     throw Error(fmt::format("FrictionEvaluationOptions::coverage_distance_mm = {} must be > 0", coverage_distance_mm));
   }
+  if (!(loaded_marker_n >= 0) || !std::isfinite(loaded_marker_n)) {
+    throw Error(fmt::format("FrictionEvaluationOptions::loaded_marker_n = {} must be >= 0", loaded_marker_n));
+  }
   if (!(touched_voxel_mm > 0) || !std::isfinite(touched_voxel_mm)) {
     throw Error(fmt::format("FrictionEvaluationOptions::touched_voxel_mm = {} must be > 0", touched_voxel_mm));
   }
@@ -214,12 +218,22 @@ SurfacePoint NearestSurfacePoint(const Scene& scene, const Eigen::Vector3d& p_in
 
 void FrictionReplayRecorder::Add(const TwinStep& step, const TactileFrame& frame) {
   builder_.AddFrame(frame, step.world_from_sensor);
-  bool contact = false;
-  for (size_t i = 0; i < frame.forces_n.size() && !contact; ++i) {
-    contact = frame.valid[i] && -frame.forces_n[i].dot(frame.normals[i]) > builder_.options().contact_threshold_n;
-  }
   FrameTruth& t = truth_[frame.index];
   t.marker_slip = step.marker_slip;
+  t.measured_contact.assign(frame.forces_n.size(), 0);
+  t.true_normal_force_n.clear();
+  bool contact = false;
+  for (size_t i = 0; i < frame.forces_n.size(); ++i) {
+    const double fn = -frame.forces_n[i].dot(frame.normals[i]);
+    t.measured_contact[i] = frame.valid[i] && fn > builder_.options().SlipContactThresholdN();
+    if (i < step.marker_forces_n.size()) {
+      // The true force's normal component along the measured normal (the sensor's z if the
+      // marker was not measured).
+      const Eigen::Vector3d n = frame.valid[i] ? frame.normals[i] : Eigen::Vector3d::UnitZ();
+      t.true_normal_force_n.push_back(-step.marker_forces_n[i].dot(n));
+    }
+    contact = contact || (frame.valid[i] && fn > builder_.options().contact_threshold_n);
+  }
   t.has_previous = previous_ && frame.initialize_progress >= 100;
   if (contact && !previous_) ++strokes_;
   previous_ = contact && frame.initialize_progress >= 100;
@@ -256,6 +270,7 @@ FrictionEvaluation EvaluateFrictionMap(const Scene& scene, const friction::Frict
   FrictionEvaluation e;
   e.scene = scene.name;
   e.map = map.summary;
+  e.loaded_marker_n = options.loaded_marker_n;
   const size_t n = map.vertices_mm.size();
   const std::vector<double> area = VertexAreas(map);
   std::vector<double> true_mu(n, kNaN);
@@ -292,12 +307,27 @@ FrictionEvaluation EvaluateFrictionMap(const Scene& scene, const friction::Frict
       ++e.slip_true_positives;
     }
   }
+  const FrictionReplayRecorder::FrameTruth* previous = nullptr;
   for (const auto& [frame, t] : truth) {
+    const FrictionReplayRecorder::FrameTruth* before = previous;
+    previous = &t;
     if (!t.has_previous) continue;
     for (size_t i = 0; i < t.marker_slip.size(); ++i) {
       if (!t.marker_slip[i]) continue;
       ++e.true_slips;
-      if (detected.count({frame, static_cast<int>(i)})) ++e.true_slips_found;
+      const bool found = detected.count({frame, static_cast<int>(i)}) > 0;
+      if (i < t.true_normal_force_n.size() && t.true_normal_force_n[i] > options.loaded_marker_n) {
+        ++e.true_loaded_slips;
+        if (found) ++e.true_loaded_slips_found;
+      }
+      if (found) {
+        ++e.true_slips_found;
+      } else {
+        const auto in_contact = [i](const FrictionReplayRecorder::FrameTruth* f) {
+          return f != nullptr && i < f->measured_contact.size() && f->measured_contact[i];
+        };
+        if (!in_contact(&t) || !in_contact(before)) ++e.true_slips_missed_no_contact;
+      }
     }
   }
   Finish(e);
@@ -308,6 +338,7 @@ FrictionEvaluation EvaluateFrictionMap(const Scene& scene, const friction::Frict
 FrictionEvaluation PoolFrictionEvaluations(const std::vector<FrictionEvaluation>& scenes) {
   FrictionEvaluation all;
   all.scene = "overall";
+  if (!scenes.empty()) all.loaded_marker_n = scenes.front().loaded_marker_n;
   for (const FrictionEvaluation& e : scenes) {
     all.vertices += e.vertices;
     all.known_vertices += e.known_vertices;
@@ -319,12 +350,20 @@ FrictionEvaluation PoolFrictionEvaluations(const std::vector<FrictionEvaluation>
     all.surface_max_mm = std::isnan(all.surface_max_mm) ? e.surface_max_mm : std::max(all.surface_max_mm, e.surface_max_mm);
     all.boundary_distances_mm.insert(all.boundary_distances_mm.end(), e.boundary_distances_mm.begin(),
                                      e.boundary_distances_mm.end());
+    for (double level : e.boundary_levels) {
+      if (std::find(all.boundary_levels.begin(), all.boundary_levels.end(), level) == all.boundary_levels.end()) {
+        all.boundary_levels.push_back(level);
+      }
+    }
     all.touched_points += e.touched_points;
     all.covered_points += e.covered_points;
     all.slip_points += e.slip_points;
     all.slip_true_positives += e.slip_true_positives;
     all.true_slips += e.true_slips;
     all.true_slips_found += e.true_slips_found;
+    all.true_slips_missed_no_contact += e.true_slips_missed_no_contact;
+    all.true_loaded_slips += e.true_loaded_slips;
+    all.true_loaded_slips_found += e.true_loaded_slips_found;
     all.simulate_s += e.simulate_s;
     all.replay_s += e.replay_s;
     all.map_s += e.map_s;
@@ -337,9 +376,11 @@ FrictionEvaluation PoolFrictionEvaluations(const std::vector<FrictionEvaluation>
 std::string FrictionEvaluation::BriefReport() const {
   return fmt::format(
       "{}: mu_mae {:.4f}, band_agreement {:.4f}, boundary_error {:.3f} mm (p90 {:.3f}), coverage {:.4f}, "
-      "surface_rms {:.4f} mm, slip precision {:.4f} recall {:.4f} ({} slip points, {} true slips)",
+      "surface_rms {:.4f} mm, slip precision {:.4f} recall {:.4f} ({} slip points, {} true slips, "
+      "{} missed without measured contact; recall {:.4f} where the true F_n > {} N)",
       scene, mu_mae, band_agreement, boundary_error_mm, boundary_error_p90_mm, coverage, surface_rms_mm,
-      slip_precision, slip_recall, slip_points, true_slips);
+      slip_precision, slip_recall, slip_points, true_slips, true_slips_missed_no_contact, slip_recall_loaded,
+      loaded_marker_n);
 }
 
 nlohmann::json ToJson(const FrictionEvaluation& e, const FrictionTargets& targets) {
@@ -385,6 +426,10 @@ nlohmann::json ToJson(const FrictionEvaluation& e, const FrictionTargets& target
           {"slip_true_positives", e.slip_true_positives},
           {"true_slips", e.true_slips},
           {"true_slips_found", e.true_slips_found},
+          {"true_slips_missed_no_contact", e.true_slips_missed_no_contact},
+          {"slip_recall_loaded", num(e.slip_recall_loaded)},
+          {"true_loaded_slips", e.true_loaded_slips},
+          {"true_loaded_slips_found", e.true_loaded_slips_found},
           {"map", e.scene == "overall" ? nlohmann::json() : friction::ToJson(e.map)},
           {"seconds",
            {{"simulate", e.simulate_s}, {"replay", e.replay_s}, {"map", e.map_s}, {"evaluate", e.evaluate_s}}},

@@ -27,6 +27,9 @@ struct FrictionEvaluationOptions {
   /// The touched true surface (the twin's surface nodes in contact at some step, mapped to the
   /// world and projected onto the object) is deduplicated on voxels of this edge (mm, > 0).
   double touched_voxel_mm = 0.25;
+  /// slip_recall_loaded counts the true slips whose true normal force exceeds this (N, >= 0):
+  /// the slips a force threshold can see. The headline recall counts them all.
+  double loaded_marker_n = 0.02;
   /// @throws Error naming the field and its bound.
   void Validate() const;
 };
@@ -55,6 +58,10 @@ class FrictionReplayRecorder {
   /// of the same stroke (only then can a slip be detected).
   struct FrameTruth {
     std::vector<std::uint8_t> marker_slip;
+    /// The measured frame's contact markers (valid, F_n over the builder's threshold).
+    std::vector<std::uint8_t> measured_contact;
+    /// The twin's per-marker normal force (N).
+    std::vector<double> true_normal_force_n;
     bool has_previous = false;
   };
   const std::map<std::int64_t, FrameTruth>& truth() const { return truth_; }
@@ -118,6 +125,16 @@ struct FrictionEvaluation {
   long slip_true_positives = 0;
   long true_slips = 0;
   long true_slips_found = 0;
+  /// Missed true slips whose marker was not in measured contact in the frame or the one
+  /// before (the rest moved less than the slip threshold).
+  long true_slips_missed_no_contact = 0;
+  /// Recall over the true slips whose true normal force exceeds loaded_marker_n (a diagnostic:
+  /// the twin counts a marker as slipping when one cell of its 3 x 3 patch slips, however
+  /// lightly it is pressed).
+  double slip_recall_loaded = kNaN;
+  double loaded_marker_n = 0.0;
+  long true_loaded_slips = 0;
+  long true_loaded_slips_found = 0;
   /// The builder's summary for the map.
   friction::FrictionMapSummary map;
   // ---- Times (s) ----

@@ -96,6 +96,7 @@ TEST(FrictionEvaluation, KnownErrorsOnTheBlock) {
   EXPECT_NEAR(all.mu_mae, 0.5 * e.mu_mae, 1e-4);
   const nlohmann::json j = ToJson(all);
   EXPECT_FALSE(j.at("all_pass").get<bool>());  // slip precision 0.5
+  EXPECT_EQ(all.boundary_levels, std::vector<double>{0.7});
   EXPECT_TRUE(j.at("slip_recall").is_number());
 }
 
