@@ -1,11 +1,11 @@
 // `tac3d eval friction`: the friction-map scenes simulated by the twin, their images run
 // through the pipeline, mapped and compared with the scenes' truth (issue 11).
+#include <fmt/format.h>
+
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
-
-#include <fmt/format.h>
 
 #include "commands.h"
 #include "friction_command.h"
@@ -24,14 +24,17 @@ double Seconds(std::chrono::steady_clock::time_point since) {
 
 // The dataset of a scene in `folder`: reused if it is complete, else simulated there. Returns
 // the simulation's time (the header's, when reused).
-double EnsureDataset(const std::string& scene, const std::string& folder, const std::string& cache_dir) {
+double EnsureDataset(const std::string& scene,
+                     const std::string& folder,
+                     const std::string& cache_dir) {
   if (std::filesystem::exists(folder + "/dataset.json")) {
     const TwinDatasetReader reader(folder);
     const nlohmann::json& h = reader.header();
     if (!h.contains("summary")) {
-      throw Error(fmt::format("{}: the simulation did not finish (no summary in dataset.json); remove the "
-                              "folder to simulate it again",
-                              folder));
+      throw Error(
+          fmt::format("{}: the simulation did not finish (no summary in dataset.json); remove the "
+                      "folder to simulate it again",
+                      folder));
     }
     std::fprintf(stderr, "reusing %s\n", folder.c_str());
     return h.at("summary").at("timings_s").value("total", 0.0);
@@ -65,21 +68,33 @@ void RegisterEvalFriction(CLI::App& eval) {
       "friction",
       "Friction maps of the twin's friction scenes through the whole chain (images -> pipeline -> "
       "map) against the scenes' truth: mu, bands, boundaries, coverage, surface, slip points");
-  cmd->add_option("--scenes", args->scenes, "built-in scenes or scene files")->capture_default_str();
-  cmd->add_option("--datasets", args->datasets,
-                  "folder of the scenes' datasets (DIR/<scene>): reused when complete, else simulated "
-                  "there (default OUT/datasets)");
-  cmd->add_option("--out", args->out, "per scene map.ply, map.png, slip_points.csv, evaluation.json; "
-                                      "report.json")->capture_default_str();
-  cmd->add_option("--calibration", args->calibration,
-                  "force-calibration dataset to fit the gains on (default: DATASETS/force_calibration, "
-                  "simulated if missing)");
-  cmd->add_option("--gains", args->gains, "force gains Cx Cy Cz instead of a calibration")->expected(3);
-  cmd->add_option("--cache", args->cache_dir, "directory of cached models")->capture_default_str();
-  cmd->add_option("--steps", args->max_steps, "replay only the first N steps of each scene (0: all)")
+  cmd->add_option("--scenes", args->scenes, "built-in scenes or scene files")
       ->capture_default_str();
-  cmd->add_option("--coverage-distance", args->evaluation.coverage_distance_mm,
-                  "a touched point is covered by a known vertex this near, mm")->capture_default_str();
+  cmd->add_option(
+      "--datasets",
+      args->datasets,
+      "folder of the scenes' datasets (DIR/<scene>): reused when complete, else simulated "
+      "there (default OUT/datasets)");
+  cmd->add_option("--out",
+                  args->out,
+                  "per scene map.ply, map.png, slip_points.csv, evaluation.json; "
+                  "report.json")
+      ->capture_default_str();
+  cmd->add_option(
+      "--calibration",
+      args->calibration,
+      "force-calibration dataset to fit the gains on (default: DATASETS/force_calibration, "
+      "simulated if missing)");
+  cmd->add_option("--gains", args->gains, "force gains Cx Cy Cz instead of a calibration")
+      ->expected(3);
+  cmd->add_option("--cache", args->cache_dir, "directory of cached models")->capture_default_str();
+  cmd->add_option(
+         "--steps", args->max_steps, "replay only the first N steps of each scene (0: all)")
+      ->capture_default_str();
+  cmd->add_option("--coverage-distance",
+                  args->evaluation.coverage_distance_mm,
+                  "a touched point is covered by a known vertex this near, mm")
+      ->capture_default_str();
   args->map.Add(cmd);
   cmd->add_flag("--json", args->json, "print JSON");
   cmd->callback([args] {
@@ -93,8 +108,10 @@ void RegisterEvalFriction(CLI::App& eval) {
     replay.gains = args->gains;
     nlohmann::json report = {{"datasets", datasets}};
     if (args->gains.empty()) {
-      replay.calibration = args->calibration.empty() ? datasets + "/force_calibration" : args->calibration;
-      if (args->calibration.empty()) EnsureDataset("force_calibration", replay.calibration, args->cache_dir);
+      replay.calibration =
+          args->calibration.empty() ? datasets + "/force_calibration" : args->calibration;
+      if (args->calibration.empty())
+        EnsureDataset("force_calibration", replay.calibration, args->cache_dir);
     }
     std::vector<FrictionEvaluation> results;
     nlohmann::json scenes = nlohmann::json::array();
@@ -107,7 +124,8 @@ void RegisterEvalFriction(CLI::App& eval) {
       FrictionReplayRecorder recorder(builder);
       replay.dataset = folder;
       auto start = std::chrono::steady_clock::now();
-      const ReplayRun run = RunReplay(replay, [&](const TwinStep& s, const TactileFrame& f) { recorder.Add(s, f); });
+      const ReplayRun run =
+          RunReplay(replay, [&](const TwinStep& s, const TactileFrame& f) { recorder.Add(s, f); });
       const double replay_s = Seconds(start);
       if (run.calibration) {  // fitted once, reused for the other scenes
         replay.calibration.clear();
@@ -118,12 +136,14 @@ void RegisterEvalFriction(CLI::App& eval) {
       report["gains"] = replay.gains.empty() ? std::vector<double>{1, 1, 1} : replay.gains;
       start = std::chrono::steady_clock::now();
       ProgressBar bar(scene.name + " map", 4);
-      const friction::FrictionMapResult map = builder.Build([&](int done, int) { bar.Update(done); });
+      const friction::FrictionMapResult map =
+          builder.Build([&](int done, int) { bar.Update(done); });
       bar.Finish();
       const double map_s = Seconds(start);
       const std::vector<Eigen::Vector3d> touched =
           TouchedTrueSurface(reader, scene, args->evaluation.touched_voxel_mm, args->max_steps);
-      FrictionEvaluation e = EvaluateFrictionMap(scene, map, recorder.truth(), touched, args->evaluation);
+      FrictionEvaluation e =
+          EvaluateFrictionMap(scene, map, recorder.truth(), touched, args->evaluation);
       e.simulate_s = simulate_s;
       e.replay_s = replay_s;
       e.map_s = map_s;
@@ -150,12 +170,17 @@ void RegisterEvalFriction(CLI::App& eval) {
     for (const FrictionEvaluation& e : results) std::printf("%s\n", e.BriefReport().c_str());
     std::printf("%s\n", overall.BriefReport().c_str());
     for (const nlohmann::json& c : report["overall"]["checks"]) {
-      std::printf("%-4s %-18s %s (%s %.4g)\n", c.at("pass").get<bool>() ? "ok" : "FAIL",
-                  c.at("name").get<std::string>().c_str(), c.at("value").dump().c_str(),
-                  c.at("bound").get<std::string>() == "max" ? "<=" : ">=", c.at("tolerance").get<double>());
+      std::printf("%-4s %-18s %s (%s %.4g)\n",
+                  c.at("pass").get<bool>() ? "ok" : "FAIL",
+                  c.at("name").get<std::string>().c_str(),
+                  c.at("value").dump().c_str(),
+                  c.at("bound").get<std::string>() == "max" ? "<=" : ">=",
+                  c.at("tolerance").get<double>());
     }
-    std::printf("wrote %s/report.json and %s/<scene>/{map.ply,map.png,slip_points.csv,evaluation.json}\n",
-                args->out.c_str(), args->out.c_str());
+    std::printf(
+        "wrote %s/report.json and %s/<scene>/{map.ply,map.png,slip_points.csv,evaluation.json}\n",
+        args->out.c_str(),
+        args->out.c_str());
   });
 }
 

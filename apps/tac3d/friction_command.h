@@ -1,10 +1,9 @@
 #pragma once
 
 // Shared by `tac3d friction-map` and `tac3d eval friction`.
-#include <string>
-
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "tac3d/friction/friction_map.h"
 #include "tac3d/friction/friction_output.h"
@@ -43,7 +42,8 @@ nlohmann::json MapOptionsJson(const friction::FrictionMapOptions& o);
 
 /// Writes map.ply, slip_points.csv, map.png (bands, the view) into `folder` and returns what
 /// was written (files, the render's band pixels) as JSON.
-nlohmann::json WriteFrictionMapFiles(const friction::FrictionMapResult& map, const std::string& folder,
+nlohmann::json WriteFrictionMapFiles(const friction::FrictionMapResult& map,
+                                     const std::string& folder,
                                      const friction::RenderOptions& view);
 
 }  // namespace tac3d::cli

@@ -1,10 +1,10 @@
+#include <gtest/gtest.h>
+
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
-#include <string>
-
-#include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <string>
 
 // Issue 11's friction-map acceptance (ctest label `eval`, not run by CI): `tac3d eval friction`
 // on the three friction scenes, simulated by the twin (minutes each; the twin body is built
@@ -29,8 +29,10 @@ TEST(EvalFriction, MeetsTheAcceptanceOnTheFrictionScenes) {
   for (const nlohmann::json& scene : report.at("scenes")) {
     SCOPED_TRACE(scene.at("scene").get<std::string>());
     for (const nlohmann::json& check : scene.at("checks")) {
-      std::printf("%s %s %s\n", scene.at("scene").get<std::string>().c_str(),
-                  check.at("name").get<std::string>().c_str(), check.at("value").dump().c_str());
+      std::printf("%s %s %s\n",
+                  scene.at("scene").get<std::string>().c_str(),
+                  check.at("name").get<std::string>().c_str(),
+                  check.at("value").dump().c_str());
       EXPECT_TRUE(check.at("pass").get<bool>()) << check.dump();
     }
   }

@@ -1,15 +1,15 @@
 #include "tac3d/eval/friction_evaluation.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <nlohmann/json.hpp>
 #include <numeric>
 #include <set>
 #include <tuple>
 #include <unordered_map>
-
-#include <fmt/format.h>
-#include <nlohmann/json.hpp>
 
 #include "tac3d/dataset/twin_dataset.h"
 #include "tac3d/friction/friction_output.h"
@@ -50,17 +50,21 @@ Eigen::Vector3d NearestOnObject(const SceneObject& o, const Eigen::Vector3d& p) 
       return q;
     }
     default:
-      throw Error(fmt::format("friction evaluation: object '{}' is a {}; the truth's surface is "
-                              "known for sphere, cylinder and box only",
-                              o.name, ToString(o.shape)));
+      throw Error(
+          fmt::format("friction evaluation: object '{}' is a {}; the truth's surface is "
+                      "known for sphere, cylinder and box only",
+                      o.name,
+                      ToString(o.shape)));
   }
 }
 
 // A uniform hash grid over points for fixed-radius nearest queries.
 class PointGrid {
  public:
-  PointGrid(const std::vector<Eigen::Vector3d>& points, double cell_mm) : points_(points), cell_(cell_mm) {
-    for (size_t i = 0; i < points.size(); ++i) cells_[Key(points[i])].push_back(static_cast<int>(i));
+  PointGrid(const std::vector<Eigen::Vector3d>& points, double cell_mm)
+      : points_(points), cell_(cell_mm) {
+    for (size_t i = 0; i < points.size(); ++i)
+      cells_[Key(points[i])].push_back(static_cast<int>(i));
   }
   // Nearest point within `radius` (<= the cell size x reach) or -1.
   int Nearest(const Eigen::Vector3d& p, double radius, double* distance = nullptr) const {
@@ -84,11 +88,14 @@ class PointGrid {
 
  private:
   std::tuple<long, long, long> Cell(const Eigen::Vector3d& p) const {
-    return {std::lround(std::floor(p.x() / cell_)), std::lround(std::floor(p.y() / cell_)),
+    return {std::lround(std::floor(p.x() / cell_)),
+            std::lround(std::floor(p.y() / cell_)),
             std::lround(std::floor(p.z() / cell_))};
   }
   static std::int64_t Pack(long x, long y, long z) {
-    const auto u = [](long v) { return static_cast<std::int64_t>(v + (1 << 20)) & ((1 << 21) - 1); };
+    const auto u = [](long v) {
+      return static_cast<std::int64_t>(v + (1 << 20)) & ((1 << 21) - 1);
+    };
     return (u(x) << 42) | (u(y) << 21) | u(z);
   }
   std::int64_t Key(const Eigen::Vector3d& p) const {
@@ -141,8 +148,10 @@ double TrueMu(const Scene& scene, const Eigen::Vector3d& p_world) {
 
 // Boundary figures: contours of the estimate at the midpoints of materials that meet across
 // a mesh edge, and their distance to the true boundary at the same level.
-void EvaluateBoundaries(const Scene& scene, const friction::FrictionMapResult& map,
-                        const std::vector<double>& true_mu, FrictionEvaluation& e) {
+void EvaluateBoundaries(const Scene& scene,
+                        const friction::FrictionMapResult& map,
+                        const std::vector<double>& true_mu,
+                        FrictionEvaluation& e) {
   std::set<std::pair<int, int>> edges;
   for (const Eigen::Vector3i& t : map.triangles) {
     for (int k = 0; k < 3; ++k) {
@@ -152,7 +161,8 @@ void EvaluateBoundaries(const Scene& scene, const friction::FrictionMapResult& m
   }
   std::set<std::pair<double, double>> pairs;
   for (const auto& [a, b] : edges) {
-    if (true_mu[a] != true_mu[b]) pairs.insert({std::min(true_mu[a], true_mu[b]), std::max(true_mu[a], true_mu[b])});
+    if (true_mu[a] != true_mu[b])
+      pairs.insert({std::min(true_mu[a], true_mu[b]), std::max(true_mu[a], true_mu[b])});
   }
   for (const auto& [lo, hi] : pairs) {
     const double level = 0.5 * (lo + hi);
@@ -174,8 +184,10 @@ void EvaluateBoundaries(const Scene& scene, const friction::FrictionMapResult& m
       const double ma = map.mu[a], mb = map.mu[b];
       if (!std::isfinite(ma) || !std::isfinite(mb) || (ma - level) * (mb - level) >= 0) continue;
       const double s = (level - ma) / (mb - ma);
-      const Eigen::Vector3d c = NearestSurfacePoint(
-          scene, map.vertices_mm[a] + s * (map.vertices_mm[b] - map.vertices_mm[a])).p_in_world_mm;
+      const Eigen::Vector3d c =
+          NearestSurfacePoint(scene,
+                              map.vertices_mm[a] + s * (map.vertices_mm[b] - map.vertices_mm[a]))
+              .p_in_world_mm;
       double d2 = std::numeric_limits<double>::infinity();
       for (const Eigen::Vector3d& q : boundary) d2 = std::min(d2, (q - c).squaredNorm());
       e.boundary_distances_mm.push_back(std::sqrt(d2));
@@ -187,13 +199,16 @@ void EvaluateBoundaries(const Scene& scene, const friction::FrictionMapResult& m
 
 void FrictionEvaluationOptions::Validate() const {
   if (!(coverage_distance_mm > 0) || !std::isfinite(coverage_distance_mm)) {
-    throw Error(fmt::format("FrictionEvaluationOptions::coverage_distance_mm = {} must be > 0", coverage_distance_mm));
+    throw Error(fmt::format("FrictionEvaluationOptions::coverage_distance_mm = {} must be > 0",
+                            coverage_distance_mm));
   }
   if (!(loaded_marker_n >= 0) || !std::isfinite(loaded_marker_n)) {
-    throw Error(fmt::format("FrictionEvaluationOptions::loaded_marker_n = {} must be >= 0", loaded_marker_n));
+    throw Error(fmt::format("FrictionEvaluationOptions::loaded_marker_n = {} must be >= 0",
+                            loaded_marker_n));
   }
   if (!(touched_voxel_mm > 0) || !std::isfinite(touched_voxel_mm)) {
-    throw Error(fmt::format("FrictionEvaluationOptions::touched_voxel_mm = {} must be > 0", touched_voxel_mm));
+    throw Error(fmt::format("FrictionEvaluationOptions::touched_voxel_mm = {} must be > 0",
+                            touched_voxel_mm));
   }
 }
 
@@ -240,8 +255,10 @@ void FrictionReplayRecorder::Add(const TwinStep& step, const TactileFrame& frame
   if (!previous_) builder_.BreakStroke();
 }
 
-std::vector<Eigen::Vector3d> TouchedTrueSurface(const TwinDatasetReader& dataset, const Scene& scene,
-                                                double voxel_mm, int max_steps) {
+std::vector<Eigen::Vector3d> TouchedTrueSurface(const TwinDatasetReader& dataset,
+                                                const Scene& scene,
+                                                double voxel_mm,
+                                                int max_steps) {
   std::set<std::tuple<long, long, long>> seen;
   std::vector<Eigen::Vector3d> points;
   const std::vector<int>& steps = dataset.steps();
@@ -251,7 +268,8 @@ std::vector<Eigen::Vector3d> TouchedTrueSurface(const TwinDatasetReader& dataset
     for (size_t i = 0; i < step.surface.states.size(); ++i) {
       if (step.surface.states[i] == ContactState::kSeparated) continue;
       const Eigen::Vector3d p =
-          NearestSurfacePoint(scene, step.world_from_sensor * step.surface.positions_mm[i]).p_in_world_mm;
+          NearestSurfacePoint(scene, step.world_from_sensor * step.surface.positions_mm[i])
+              .p_in_world_mm;
       const std::tuple<long, long, long> key{std::lround(std::floor(p.x() / voxel_mm)),
                                              std::lround(std::floor(p.y() / voxel_mm)),
                                              std::lround(std::floor(p.z() / voxel_mm))};
@@ -261,10 +279,12 @@ std::vector<Eigen::Vector3d> TouchedTrueSurface(const TwinDatasetReader& dataset
   return points;
 }
 
-FrictionEvaluation EvaluateFrictionMap(const Scene& scene, const friction::FrictionMapResult& map,
-                                       const std::map<std::int64_t, FrictionReplayRecorder::FrameTruth>& truth,
-                                       const std::vector<Eigen::Vector3d>& touched,
-                                       const FrictionEvaluationOptions& options) {
+FrictionEvaluation EvaluateFrictionMap(
+    const Scene& scene,
+    const friction::FrictionMapResult& map,
+    const std::map<std::int64_t, FrictionReplayRecorder::FrameTruth>& truth,
+    const std::vector<Eigen::Vector3d>& touched,
+    const FrictionEvaluationOptions& options) {
   options.Validate();
   const auto start = std::chrono::steady_clock::now();
   FrictionEvaluation e;
@@ -280,7 +300,8 @@ FrictionEvaluation EvaluateFrictionMap(const Scene& scene, const friction::Frict
     true_mu[v] = scene.objects[s.object].FrictionAt(s.p_in_object_mm);
     e.area_mm2 += area[v];
     e.surface_sq_area += area[v] * s.distance_mm * s.distance_mm;
-    e.surface_max_mm = std::isnan(e.surface_max_mm) ? s.distance_mm : std::max(e.surface_max_mm, s.distance_mm);
+    e.surface_max_mm =
+        std::isnan(e.surface_max_mm) ? s.distance_mm : std::max(e.surface_max_mm, s.distance_mm);
     if (!std::isfinite(map.mu[v])) continue;
     known_vertices.push_back(map.vertices_mm[v]);
     e.known_area_mm2 += area[v];
@@ -347,11 +368,15 @@ FrictionEvaluation PoolFrictionEvaluations(const std::vector<FrictionEvaluation>
     all.mu_abs_error_area += e.mu_abs_error_area;
     all.band_agree_area += e.band_agree_area;
     all.surface_sq_area += e.surface_sq_area;
-    all.surface_max_mm = std::isnan(all.surface_max_mm) ? e.surface_max_mm : std::max(all.surface_max_mm, e.surface_max_mm);
-    all.boundary_distances_mm.insert(all.boundary_distances_mm.end(), e.boundary_distances_mm.begin(),
+    all.surface_max_mm = std::isnan(all.surface_max_mm)
+                             ? e.surface_max_mm
+                             : std::max(all.surface_max_mm, e.surface_max_mm);
+    all.boundary_distances_mm.insert(all.boundary_distances_mm.end(),
+                                     e.boundary_distances_mm.begin(),
                                      e.boundary_distances_mm.end());
     for (double level : e.boundary_levels) {
-      if (std::find(all.boundary_levels.begin(), all.boundary_levels.end(), level) == all.boundary_levels.end()) {
+      if (std::find(all.boundary_levels.begin(), all.boundary_levels.end(), level) ==
+          all.boundary_levels.end()) {
         all.boundary_levels.push_back(level);
       }
     }
@@ -375,26 +400,46 @@ FrictionEvaluation PoolFrictionEvaluations(const std::vector<FrictionEvaluation>
 
 std::string FrictionEvaluation::BriefReport() const {
   return fmt::format(
-      "{}: mu_mae {:.4f}, band_agreement {:.4f}, boundary_error {:.3f} mm (p90 {:.3f}), coverage {:.4f}, "
+      "{}: mu_mae {:.4f}, band_agreement {:.4f}, boundary_error {:.3f} mm (p90 {:.3f}), coverage "
+      "{:.4f}, "
       "surface_rms {:.4f} mm, slip precision {:.4f} recall {:.4f} ({} slip points, {} true slips, "
       "{} missed without measured contact; recall {:.4f} where the true F_n > {} N)",
-      scene, mu_mae, band_agreement, boundary_error_mm, boundary_error_p90_mm, coverage, surface_rms_mm,
-      slip_precision, slip_recall, slip_points, true_slips, true_slips_missed_no_contact, slip_recall_loaded,
+      scene,
+      mu_mae,
+      band_agreement,
+      boundary_error_mm,
+      boundary_error_p90_mm,
+      coverage,
+      surface_rms_mm,
+      slip_precision,
+      slip_recall,
+      slip_points,
+      true_slips,
+      true_slips_missed_no_contact,
+      slip_recall_loaded,
       loaded_marker_n);
 }
 
 nlohmann::json ToJson(const FrictionEvaluation& e, const FrictionTargets& targets) {
-  const auto num = [](double v) -> nlohmann::json { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
+  const auto num = [](double v) -> nlohmann::json {
+    return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json();
+  };
   nlohmann::json checks = nlohmann::json::array();
   bool all_pass = true;
-  const auto check = [&](const char* name, double value, const char* unit, double tolerance, bool at_most) {
-    const bool pass = std::isfinite(value) && (at_most ? value <= tolerance : value >= tolerance);
-    // A scene without a material boundary has no boundary figure: not a failure.
-    const bool skip = std::string(name) == "boundary_error_mm" && e.boundary_levels.empty();
-    if (!skip) all_pass = all_pass && pass;
-    checks.push_back({{"name", name}, {"value", num(value)}, {"unit", unit}, {"tolerance", tolerance},
-                      {"bound", at_most ? "max" : "min"}, {"pass", skip || pass}});
-  };
+  const auto check =
+      [&](const char* name, double value, const char* unit, double tolerance, bool at_most) {
+        const bool pass =
+            std::isfinite(value) && (at_most ? value <= tolerance : value >= tolerance);
+        // A scene without a material boundary has no boundary figure: not a failure.
+        const bool skip = std::string(name) == "boundary_error_mm" && e.boundary_levels.empty();
+        if (!skip) all_pass = all_pass && pass;
+        checks.push_back({{"name", name},
+                          {"value", num(value)},
+                          {"unit", unit},
+                          {"tolerance", tolerance},
+                          {"bound", at_most ? "max" : "min"},
+                          {"pass", skip || pass}});
+      };
   check("mu_mae", e.mu_mae, "", targets.mu_mae, true);
   check("band_agreement", e.band_agreement, "", targets.band_agreement, false);
   check("boundary_error_mm", e.boundary_error_mm, "mm", targets.boundary_error_mm, true);
@@ -402,39 +447,43 @@ nlohmann::json ToJson(const FrictionEvaluation& e, const FrictionTargets& target
   check("surface_rms_mm", e.surface_rms_mm, "mm", targets.surface_rms_mm, true);
   check("slip_precision", e.slip_precision, "", targets.slip_precision, false);
   check("slip_recall", e.slip_recall, "", targets.slip_recall, false);
-  return {{"scene", e.scene},
-          {"mu_mae", num(e.mu_mae)},
-          {"mu_mae_weighting", "area (a third of each adjacent triangle), vertices with a known mu"},
-          {"band_agreement", num(e.band_agreement)},
-          {"boundary_error_mm", num(e.boundary_error_mm)},
-          {"boundary_error_p90_mm", num(e.boundary_error_p90_mm)},
-          {"boundary_error_max_mm", num(e.boundary_error_max_mm)},
-          {"boundary_levels", e.boundary_levels},
-          {"boundary_contour_points", e.boundary_distances_mm.size()},
-          {"coverage", num(e.coverage)},
-          {"surface_rms_mm", num(e.surface_rms_mm)},
-          {"surface_max_mm", num(e.surface_max_mm)},
-          {"slip_precision", num(e.slip_precision)},
-          {"slip_recall", num(e.slip_recall)},
-          {"vertices", e.vertices},
-          {"known_vertices", e.known_vertices},
-          {"area_mm2", e.area_mm2},
-          {"known_area_mm2", e.known_area_mm2},
-          {"touched_points", e.touched_points},
-          {"covered_points", e.covered_points},
-          {"slip_points", e.slip_points},
-          {"slip_true_positives", e.slip_true_positives},
-          {"true_slips", e.true_slips},
-          {"true_slips_found", e.true_slips_found},
-          {"true_slips_missed_no_contact", e.true_slips_missed_no_contact},
-          {"slip_recall_loaded", num(e.slip_recall_loaded)},
-          {"true_loaded_slips", e.true_loaded_slips},
-          {"true_loaded_slips_found", e.true_loaded_slips_found},
-          {"map", e.scene == "overall" ? nlohmann::json() : friction::ToJson(e.map)},
-          {"seconds",
-           {{"simulate", e.simulate_s}, {"replay", e.replay_s}, {"map", e.map_s}, {"evaluate", e.evaluate_s}}},
-          {"checks", checks},
-          {"all_pass", all_pass}};
+  return {
+      {"scene", e.scene},
+      {"mu_mae", num(e.mu_mae)},
+      {"mu_mae_weighting", "area (a third of each adjacent triangle), vertices with a known mu"},
+      {"band_agreement", num(e.band_agreement)},
+      {"boundary_error_mm", num(e.boundary_error_mm)},
+      {"boundary_error_p90_mm", num(e.boundary_error_p90_mm)},
+      {"boundary_error_max_mm", num(e.boundary_error_max_mm)},
+      {"boundary_levels", e.boundary_levels},
+      {"boundary_contour_points", e.boundary_distances_mm.size()},
+      {"coverage", num(e.coverage)},
+      {"surface_rms_mm", num(e.surface_rms_mm)},
+      {"surface_max_mm", num(e.surface_max_mm)},
+      {"slip_precision", num(e.slip_precision)},
+      {"slip_recall", num(e.slip_recall)},
+      {"vertices", e.vertices},
+      {"known_vertices", e.known_vertices},
+      {"area_mm2", e.area_mm2},
+      {"known_area_mm2", e.known_area_mm2},
+      {"touched_points", e.touched_points},
+      {"covered_points", e.covered_points},
+      {"slip_points", e.slip_points},
+      {"slip_true_positives", e.slip_true_positives},
+      {"true_slips", e.true_slips},
+      {"true_slips_found", e.true_slips_found},
+      {"true_slips_missed_no_contact", e.true_slips_missed_no_contact},
+      {"slip_recall_loaded", num(e.slip_recall_loaded)},
+      {"true_loaded_slips", e.true_loaded_slips},
+      {"true_loaded_slips_found", e.true_loaded_slips_found},
+      {"map", e.scene == "overall" ? nlohmann::json() : friction::ToJson(e.map)},
+      {"seconds",
+       {{"simulate", e.simulate_s},
+        {"replay", e.replay_s},
+        {"map", e.map_s},
+        {"evaluate", e.evaluate_s}}},
+      {"checks", checks},
+      {"all_pass", all_pass}};
 }
 
 }  // namespace tac3d

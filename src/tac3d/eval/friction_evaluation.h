@@ -1,13 +1,12 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <limits>
 #include <map>
 #include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "tac3d/friction/friction_map.h"
 
@@ -78,8 +77,10 @@ class FrictionReplayRecorder {
 /// slip) at some step, mapped to the world by the step's pose and projected onto the
 /// scene's objects, deduplicated on voxels of `voxel_mm`. Reads every step's tractions.
 /// @param max_steps only the first N steps (0: all).
-std::vector<Eigen::Vector3d> TouchedTrueSurface(const TwinDatasetReader& dataset, const Scene& scene,
-                                                double voxel_mm, int max_steps = 0);
+std::vector<Eigen::Vector3d> TouchedTrueSurface(const TwinDatasetReader& dataset,
+                                                const Scene& scene,
+                                                double voxel_mm,
+                                                int max_steps = 0);
 
 /// A friction map against the truth. Every "area-weighted" figure weighs a mesh vertex by a
 /// third of the area of its triangles. Fields start at "not run" values (NaN, 0).
@@ -161,10 +162,12 @@ struct FrictionTargets {
 /// Compares the map with the scene's truth.
 /// @param truth the recorder's per-frame slip truth; @param touched TouchedTrueSurface.
 /// @throws Error as NearestSurfacePoint.
-FrictionEvaluation EvaluateFrictionMap(const Scene& scene, const friction::FrictionMapResult& map,
-                                       const std::map<std::int64_t, FrictionReplayRecorder::FrameTruth>& truth,
-                                       const std::vector<Eigen::Vector3d>& touched,
-                                       const FrictionEvaluationOptions& options = {});
+FrictionEvaluation EvaluateFrictionMap(
+    const Scene& scene,
+    const friction::FrictionMapResult& map,
+    const std::map<std::int64_t, FrictionReplayRecorder::FrameTruth>& truth,
+    const std::vector<Eigen::Vector3d>& touched,
+    const FrictionEvaluationOptions& options = {});
 
 /// The scenes pooled: sums and counts added, figures recomputed from them (area-weighted
 /// over all scenes' vertices, contour points, touched points and slip points).

@@ -1,10 +1,10 @@
 #include "tac3d/eval/friction_evaluation.h"
 
-#include <cmath>
-#include <random>
-
 #include <gtest/gtest.h>
+
+#include <cmath>
 #include <nlohmann/json.hpp>
+#include <random>
 
 #include "tac3d/dataset/twin_dataset.h"
 #include "tac3d/scene/scene.h"
@@ -156,10 +156,13 @@ TEST(FrictionEvaluation, SyntheticFramesAlongTheBlockScene) {
       frame.normals[i] = Eigen::Vector3d(q.x() / 45.0, q.y() / 45.0, 1.0).normalized();
       frame.positions_mm[i] = Eigen::Vector3d(q.x(), q.y(), 7.5 - q.squaredNorm() / 90.0);
       if (!pressed || q.norm() > 4.5) continue;
-      const Eigen::Vector3d world(pose.translation().x() + q.x(), pose.translation().y() + q.y(), face_z - 0.5);
-      frame.positions_mm[i] = pose.inverse() * world + Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+      const Eigen::Vector3d world(
+          pose.translation().x() + q.x(), pose.translation().y() + q.y(), face_z - 0.5);
+      frame.positions_mm[i] =
+          pose.inverse() * world + Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
       frame.normals[i] = Eigen::Vector3d::UnitZ();
-      const double mu = block.FrictionAt(block.world_from_object.inverse() * (world + Eigen::Vector3d(0, 0, 0.5)));
+      const double mu = block.FrictionAt(block.world_from_object.inverse() *
+                                         (world + Eigen::Vector3d(0, 0, 0.5)));
       const double fn = 0.1 - 0.015 * q.norm();
       frame.forces_n[i] = Eigen::Vector3d(moving ? mu * fn : 0.0, 0.0, -fn) +
                           Eigen::Vector3d(force_noise(rng), force_noise(rng), force_noise(rng));
