@@ -125,6 +125,7 @@ void Finish(FrictionEvaluation& e) {
   e.slip_recall_loaded = ratio(e.true_loaded_slips_found, e.true_loaded_slips);
   const std::vector<double>& b = e.boundary_distances_mm;
   e.boundary_error_mm = b.empty() ? kNaN : std::accumulate(b.begin(), b.end(), 0.0) / b.size();
+  e.boundary_error_median_mm = Percentile(b, 0.5);
   e.boundary_error_p90_mm = Percentile(b, 0.9);
   e.boundary_error_max_mm = b.empty() ? kNaN : *std::max_element(b.begin(), b.end());
 }
@@ -453,6 +454,7 @@ nlohmann::json ToJson(const FrictionEvaluation& e, const FrictionTargets& target
       {"mu_mae_weighting", "area (a third of each adjacent triangle), vertices with a known mu"},
       {"band_agreement", num(e.band_agreement)},
       {"boundary_error_mm", num(e.boundary_error_mm)},
+      {"boundary_error_median_mm", num(e.boundary_error_median_mm)},
       {"boundary_error_p90_mm", num(e.boundary_error_p90_mm)},
       {"boundary_error_max_mm", num(e.boundary_error_max_mm)},
       {"boundary_levels", e.boundary_levels},

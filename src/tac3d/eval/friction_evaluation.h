@@ -98,6 +98,7 @@ struct FrictionEvaluation {
   /// on the surface, crossed on mesh edges with both ends known) to the true boundary between
   /// them (located by bisection on the true surface); NaN if no two materials meet.
   double boundary_error_mm = kNaN;
+  double boundary_error_median_mm = kNaN;
   double boundary_error_p90_mm = kNaN;
   double boundary_error_max_mm = kNaN;
   /// Fraction of the touched true surface (TouchedTrueSurface) with a known-mu vertex within
