@@ -22,6 +22,7 @@ void RegisterRun(CLI::App& app);
 void RegisterSimulate(CLI::App& app);
 void RegisterCalibrateForce(CLI::App& app);
 void RegisterRecording(CLI::App& app);  // recording_command.cc: `tac3d recording info|export`
+void RegisterFrictionMap(CLI::App& app);
 
 /// `tac3d eval <what>`: accuracy evaluations against the twin's truth or analytic oracles,
 /// each printing its figures (JSON with --json). Each adds itself to the `eval` group.
@@ -32,6 +33,7 @@ void RegisterEvalFem(CLI::App& eval);
 void RegisterEvalContact(CLI::App& eval);
 void RegisterEvalForce(CLI::App& eval);
 void RegisterEvalReplay(CLI::App& eval);
+void RegisterEvalFriction(CLI::App& eval);
 
 /// The sensor a command works on: the YAML file if one is given, else the built-in
 /// prototype with its designed mirrors.

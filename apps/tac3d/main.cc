@@ -17,6 +17,7 @@ int main(int argc, char** argv) {
   tac3d::cli::RegisterRun(app);
   tac3d::cli::RegisterSimulate(app);
   tac3d::cli::RegisterCalibrateForce(app);
+  tac3d::cli::RegisterFrictionMap(app);
   tac3d::cli::RegisterEval(app);
   tac3d::cli::RegisterRecording(app);
   try {

@@ -67,23 +67,33 @@ void AssignFriction(const std::vector<SlipPoint>& slips,
   result.confidence.assign(n, 0.0);
   result.slip_count.assign(n, 0);
   if (slips.empty()) return;
+  // Only slip points pressed beyond the surface's contact threshold vote: those found with a
+  // lower slip_contact_threshold_n count as slips but their forces are too uncertain for mu.
+  std::vector<const SlipPoint*> voters;
+  for (const SlipPoint& s : slips) {
+    if (s.normal_force_n > options.contact_threshold_n) voters.push_back(&s);
+  }
+  if (voters.empty()) return;
   open3d::geometry::PointCloud cloud;
-  cloud.points_.reserve(slips.size());
-  for (const SlipPoint& s : slips) cloud.points_.push_back(s.p_in_world_mm);
+  cloud.points_.reserve(voters.size());
+  for (const SlipPoint* s : voters) cloud.points_.push_back(s->p_in_world_mm);
   const open3d::geometry::KDTreeFlann tree(cloud);
   std::vector<int> index;
-  std::vector<double> distance2, mu_i, r_i;
+  std::vector<double> distance2, mu_i, r_i, fn_i;
   for (size_t v = 0; v < n; ++v) {
     const int found = tree.SearchRadius(result.vertices_mm[v], options.radius_mm, index, distance2);
     if (found <= 0) continue;
+    result.slip_count[v] = found;
+    if (found < options.min_slip_points) continue;
     mu_i.resize(found);
     r_i.resize(found);
+    fn_i.resize(found);
     for (int k = 0; k < found; ++k) {
-      mu_i[k] = slips[index[k]].mu;
+      mu_i[k] = voters[index[k]]->mu;
       r_i[k] = std::sqrt(distance2[k]);
+      fn_i[k] = voters[index[k]]->normal_force_n;
     }
-    result.mu[v] = WeightedFriction(mu_i, r_i, options, &result.confidence[v]);
-    result.slip_count[v] = found;
+    result.mu[v] = WeightedFriction(mu_i, r_i, options, &result.confidence[v], fn_i);
   }
 }
 
@@ -153,6 +163,11 @@ void FrictionMapOptions::Validate() const {
   Require(radius_mm > 0 && std::isfinite(radius_mm), "radius_mm", "> 0 and finite", radius_mm);
   Require(alpha >= 0 && std::isfinite(alpha), "alpha", ">= 0 and finite", alpha);
   Require(beta >= 0 && std::isfinite(beta), "beta", ">= 0 and finite", beta);
+  Require(slip_contact_threshold_n < 0 || std::isfinite(slip_contact_threshold_n), "slip_contact_threshold_n",
+          "finite (< 0: contact_threshold_n)", slip_contact_threshold_n);
+  Require(min_slip_points >= 1, "min_slip_points", ">= 1", min_slip_points);
+  Require(normal_force_exponent >= 0 && std::isfinite(normal_force_exponent), "normal_force_exponent",
+          ">= 0 and finite", normal_force_exponent);
 }
 
 // ---- Summary -----------------------------------------------------------------------------
@@ -236,12 +251,16 @@ nlohmann::json ToJson(const FrictionMapSummary& s) {
 double WeightedFriction(const std::vector<double>& mu_i,
                         const std::vector<double>& distance_mm,
                         const FrictionMapOptions& options,
-                        double* weight_sum) {
+                        double* weight_sum,
+                        const std::vector<double>& normal_force_n) {
   TAC3D_DEMAND(mu_i.size() == distance_mm.size());
+  TAC3D_DEMAND(normal_force_n.empty() || normal_force_n.size() == mu_i.size());
+  const bool force_weights = !normal_force_n.empty() && options.normal_force_exponent != 0.0;
   double sum_w = 0.0, sum_w_mu = 0.0, sum_mu = 0.0;
   for (size_t i = 0; i < mu_i.size(); ++i) {
-    const double w = std::pow(std::max(options.radius_mm - distance_mm[i], 0.0), options.alpha) *
-                     std::pow(mu_i[i], options.beta);
+    double w = std::pow(std::max(options.radius_mm - distance_mm[i], 0.0), options.alpha) *
+               std::pow(mu_i[i], options.beta);
+    if (force_weights) w *= std::pow(std::max(normal_force_n[i], 0.0), options.normal_force_exponent);
     sum_w += w;
     sum_w_mu += w * mu_i[i];
     sum_mu += mu_i[i];
@@ -281,6 +300,7 @@ void FrictionMapBuilder::AddFrame(const TactileFrame& frame, const Rigid3& world
   const int n = frame.num_markers();
   const bool has_previous = static_cast<int>(previous_contact_.size()) == n;
   const double threshold = options_.SlipThresholdMm();
+  const double slip_contact = options_.SlipContactThresholdN();
   // This frame's markers, in buffers reused from frame to frame.
   std::vector<Eigen::Vector3d>& world_mm = current_world_mm_;
   std::vector<bool>& contact = current_contact_;
@@ -292,15 +312,23 @@ void FrictionMapBuilder::AddFrame(const TactileFrame& frame, const Rigid3& world
     const Eigen::Vector3d& f = frame.forces_n[i];
     const double normal_force = -f.dot(normal);
     world_mm[i] = world_from_sensor * frame.positions_mm[i];
-    if (!(normal_force > options_.contact_threshold_n)) continue;
-    contact[i] = true;
+    const bool surface_contact = normal_force > options_.contact_threshold_n;
+    contact[i] = normal_force > slip_contact;
+    if (!surface_contact && !contact[i]) continue;
     const Eigen::Vector3d surface =
         world_from_sensor * (frame.positions_mm[i] + options_.cover_thickness_mm * normal);
-    surface_points_.push_back(surface);
-    surface_normals_.push_back(-(r * normal));
-    if (!has_previous || !previous_contact_[i]) continue;
+    if (surface_contact) {
+      surface_points_.push_back(surface);
+      surface_normals_.push_back(-(r * normal));
+    }
+    if (!contact[i] || !has_previous || !previous_contact_[i]) continue;
     ++marker_pairs_;
-    const double motion = (world_mm[i] - previous_world_mm_[i]).norm();
+    Eigen::Vector3d moved = world_mm[i] - previous_world_mm_[i];
+    if (options_.tangential_motion) {
+      const Eigen::Vector3d n_world = r * normal;
+      moved -= moved.dot(n_world) * n_world;
+    }
+    const double motion = moved.norm();
     if (motion > threshold) {
       const Eigen::Vector3d tangential = f + normal_force * normal;
       slip_points_.push_back(

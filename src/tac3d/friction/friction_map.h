@@ -26,6 +26,13 @@ struct FrictionMapOptions {
   /// this far along their outward normal so the cloud lies on the object's surface.
   /// SensorConfig::markers.depth_mm; FromSensor sets it.
   double cover_thickness_mm = 0.5;
+  /// A marker counts as in contact for slip detection (a pair of adjacent frames, a slip
+  /// point) where its normal force exceeds this (N); < 0: contact_threshold_n. Lower than
+  /// contact_threshold_n, it finds the slips at the contact's edge, whose small forces are
+  /// too uncertain to place the surface cloud (such markers are not pressed flat on the
+  /// object) but still move with the sensor. Only slip points over contact_threshold_n vote
+  /// for mu (equations 5 and 6): the others are slips, but their force ratio is unreliable.
+  double slip_contact_threshold_n = -1.0;
 
   // ---- Slip points ----
   /// Per-axis standard deviation of a measured marker position (mm, > 0). The pipeline's
@@ -41,6 +48,13 @@ struct FrictionMapOptions {
   /// alone marks it as slipping is P(chi^2_3 > k^2): 2.9e-2 for k = 3, 1.1e-3 for k = 4,
   /// 1.5e-5 for k = 5.
   double slip_sigmas = 4.0;
+  /// Measure a marker's motion in the surface's tangent plane only (the component along its
+  /// world normal removed) instead of the whole 3D motion (the paper's). Pressing and
+  /// lifting move contact markers along the normal without sliding on the object; counted,
+  /// they make slip points whose force ratio is not mu (rising during a lift, where F_n
+  /// drops under a held tangential load). The threshold stays k sqrt(2 (...)) (conservative
+  /// for two components).
+  bool tangential_motion = false;
 
   // ---- Resampling and reconstruction ----
   /// Edge of the voxels the cloud is averaged in (mm, > 0): resampling makes it uniform and
@@ -69,9 +83,26 @@ struct FrictionMapOptions {
   /// beta (>= 0, finite): large beta lowers the weight of small mu_i, which come from stuck
   /// markers misjudged as slipping (the paper selects a large beta).
   double beta = 2.0;
+  /// gamma (>= 0, finite): the weights also take F_n^gamma, w_i = (r - r_i)^alpha mu_i^beta
+  /// F_n,i^gamma. Not in the paper (0 leaves its equation 6 as it is). With beta = 0 and
+  /// gamma = 1, equation 5 becomes sum w |F_t,i| / sum w F_n,i, the ratio of the forces summed
+  /// near the vertex: per-marker forces from the force inverse are smoothed over neighbouring
+  /// markers, so the ratio of one marker's components is noisy (worst at the contact's edge,
+  /// where F_n is small) while sums over a neighbourhood are not (docs/friction.md, twin
+  /// evaluation).
+  double normal_force_exponent = 0.0;
+  /// A vertex with fewer slip points than this within r keeps mu unknown (NaN) (>= 1): at the
+  /// rim of the scanned patch a vertex sees only a few markers at the contact's edge, where
+  /// F_n is small and the force ratio least reliable. 1 (the paper): any slip point will do.
+  int min_slip_points = 1;
 
   /// The defaults with cover_thickness_mm = sensor.markers.depth_mm.
   static FrictionMapOptions FromSensor(const SensorConfig& sensor);
+
+  /// slip_contact_threshold_n, or contact_threshold_n where that is < 0 (N).
+  double SlipContactThresholdN() const {
+    return slip_contact_threshold_n < 0 ? contact_threshold_n : slip_contact_threshold_n;
+  }
 
   /// k sqrt(2 (marker_noise^2 + pose_noise^2)) in mm.
   double SlipThresholdMm() const;
@@ -230,9 +261,11 @@ class FrictionMapBuilder {
 /// the weights' limit as they become equal. NaN without slip points.
 /// @param mu_i, distance_mm the slip points' estimates and distances (r_i <= r).
 /// @param weight_sum set to sum w_i.
+/// @param normal_force_n the slip points' F_n for the F_n^gamma factor (empty: gamma ignored).
 double WeightedFriction(const std::vector<double>& mu_i,
                         const std::vector<double>& distance_mm,
                         const FrictionMapOptions& options,
-                        double* weight_sum);
+                        double* weight_sum,
+                        const std::vector<double>& normal_force_n = {});
 
 }  // namespace tac3d::friction

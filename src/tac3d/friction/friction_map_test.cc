@@ -222,6 +222,10 @@ TEST(FrictionMapOptions, DefaultsAreValidAndEveryBoundThrows) {
       {[](auto& o) { o.alpha = -0.5; }, "alpha = -0.5 is out of range: must be >= 0 and finite"},
       {[&](auto& o) { o.alpha = inf; }, "alpha = inf"},
       {[](auto& o) { o.beta = -2; }, "beta = -2 is out of range: must be >= 0 and finite"},
+      {[](auto& o) { o.normal_force_exponent = -1; },
+       "normal_force_exponent = -1 is out of range: must be >= 0 and finite"},
+      {[](auto& o) { o.min_slip_points = 0; }, "min_slip_points = 0 is out of range: must be >= 1"},
+      {[&](auto& o) { o.slip_contact_threshold_n = inf; }, "slip_contact_threshold_n = inf"},
   };
   for (const Case& c : cases)
     EXPECT_THAT(ValidateError(c.change), HasSubstr("FrictionMapOptions." + c.message));
@@ -265,6 +269,22 @@ TEST(WeightedFriction, MatchesEquations5And6) {
   options.alpha = 1;
   options.beta = 8;
   EXPECT_NEAR(WeightedFriction({0.9, 0.9, 0.1}, {0.5, 0.5, 0.1}, options, nullptr), 0.9, 1e-6);
+}
+
+// gamma = 1, beta = 0: equation 5 becomes the ratio of the summed forces near the vertex,
+// sum w |F_t| / sum w F_n (mu_i = |F_t| / F_n).
+TEST(WeightedFriction, NormalForceWeightsGiveTheRatioOfSummedForces) {
+  FrictionMapOptions options;
+  options.alpha = 0;
+  options.beta = 0;
+  options.normal_force_exponent = 1;
+  const std::vector<double> fn = {0.1, 0.01}, ft = {0.05, 0.02};
+  double weight_sum = -1;
+  EXPECT_NEAR(WeightedFriction({ft[0] / fn[0], ft[1] / fn[1]}, {0.2, 0.4}, options, &weight_sum, fn),
+              (ft[0] + ft[1]) / (fn[0] + fn[1]), 1e-12);
+  EXPECT_NEAR(weight_sum, 0.11, 1e-12);
+  // Without forces the exponent is ignored: the plain mean.
+  EXPECT_NEAR(WeightedFriction({0.5, 2.0}, {0.2, 0.4}, options, nullptr), 1.25, 1e-12);
 }
 
 TEST(WeightedFriction, DegenerateWeights) {

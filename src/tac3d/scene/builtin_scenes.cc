@@ -2,6 +2,7 @@
 // convention of Scene: the fingertip faces +z at the identity pose, objects sit above it
 // with a small clearance, and the sensor moves up into them.
 #include <cmath>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -174,6 +175,147 @@ Scene Bottle() {
   return s;
 }
 
+// ---- Friction-map scenes (paper section IV.B, Fig. 1, 8, 9) ----
+// The sensor slides over the object in overlapping strokes that together cover a patch of
+// its surface: pressed 0.3 mm (inside the rated range, as above), slid at kStrokeStepMm a
+// step, lifted back to the clearance, moved clear of the object to the next stroke's start.
+// A stroke never drags across another: every stroke starts from a lift.
+constexpr double kStrokeStepMm = 0.08;  // sliding per step (7x the slip threshold, 0.011 mm)
+constexpr int kPressSteps = 10;          // 0.8 mm down (clearance + depth) or up
+constexpr int kTransferSteps = 10;       // lifted, to the next stroke's start
+
+// Keyframes at step counts: the trajectory's steps are one a unit of `step`, so each
+// keyframe lands on a step and the speed between keyframes is set by their step counts.
+class StepPath {
+ public:
+  explicit StepPath(Trajectory& t) : t_(t) {}
+  void Start(const Rigid3& pose) { t_.keyframes.push_back({0.0, pose}); }
+  void MoveTo(const Rigid3& pose, int steps) {
+    step_ += steps;
+    t_.keyframes.push_back({step_ * kStepS, pose});
+  }
+  void Finish() { t_.steps = step_ + 1; }
+
+ private:
+  static constexpr double kStepS = 0.01;
+  Trajectory& t_;
+  int step_ = 0;
+};
+
+// Two materials on a flat block (Fig. 1, 8): the block of two_material_slide, mu 1.0 for
+// x < 0 and 0.4 for x >= 0, stroked along x from -12 to +12 mm at y = -6, 0, +6 (the
+// pressed patch is ~10 mm across, so neighbouring strokes overlap by ~4 mm), alternating
+// direction.
+Scene FrictionBlock() {
+  Scene s = Base("friction_block");
+  const double top = s.sensor.elastic_body.thickness_mm;
+  SceneObject block = Object("block", SceneObject::Shape::kBox, {0, 0, top + kClearanceMm + 5.0}, 0.4);
+  block.size_mm = {60, 40, 10};
+  FrictionRegion rough;
+  rough.kind = FrictionRegion::Kind::kBox;
+  rough.min_mm = {-31, -21, -6};
+  rough.max_mm = {0, 21, 6};
+  rough.mu = 1.0;
+  block.friction.regions.push_back(rough);
+  s.objects.push_back(block);
+  const double depth = 0.3, half_length = 12.0;
+  const int slide_steps = static_cast<int>(std::lround(2.0 * half_length / kStrokeStepMm));
+  StepPath path(s.trajectory);
+  const double ys[] = {-6.0, 0.0, 6.0};
+  for (int k = 0; k < 3; ++k) {
+    const double from = k % 2 == 0 ? -half_length : half_length;
+    const Eigen::Vector3d lifted(from, ys[k], 0.0);
+    if (k == 0) path.Start(PoseFromRpy(lifted, Eigen::Vector3d::Zero()));
+    else path.MoveTo(PoseFromRpy(lifted, Eigen::Vector3d::Zero()), kTransferSteps);
+    path.MoveTo(PoseFromRpy({from, ys[k], kClearanceMm + depth}, Eigen::Vector3d::Zero()), kPressSteps);
+    path.MoveTo(PoseFromRpy({-from, ys[k], kClearanceMm + depth}, Eigen::Vector3d::Zero()), slide_steps);
+    path.MoveTo(PoseFromRpy({-from, ys[k], 0.0}, Eigen::Vector3d::Zero()), kPressSteps);
+  }
+  path.Finish();
+  return s;
+}
+
+// Strokes round a cylinder (axis along y through axis_point, radius r) between phi_from and
+// phi_to (deg; phi = 0 at its bottom line, the sensor's z axis pointing at the axis, as in
+// Bottle) at the given y offsets, alternating direction; a keyframe every degree (the sensor
+// origin's chord between two cuts (r + thickness)(1 - cos 0.5 deg) into its arc: the press
+// is 0.0014 mm deeper halfway between keyframes at r = 30, 0.0018 mm at r = 40).
+void CylinderStrokes(Trajectory& t, const Eigen::Vector3d& axis_point, double radius, double top,
+                     double phi_from, double phi_to, const std::vector<double>& ys) {
+  const double depth = 0.3;
+  auto pose = [&](double phi_deg, double y, double d) {
+    const double phi = phi_deg * M_PI / 180.0;
+    const double reach = radius + top - d;  // sensor origin to axis
+    return PoseFromRpy(axis_point + Eigen::Vector3d(-reach * std::sin(phi), y, -reach * std::cos(phi)),
+                       Eigen::Vector3d(0, phi_deg, 0));
+  };
+  const int steps_per_degree =
+      static_cast<int>(std::lround(radius * M_PI / 180.0 / kStrokeStepMm));
+  const int degrees = static_cast<int>(std::lround(phi_to - phi_from));
+  StepPath path(t);
+  for (size_t k = 0; k < ys.size(); ++k) {
+    const double from = k % 2 == 0 ? phi_from : phi_to, dir = k % 2 == 0 ? 1.0 : -1.0;
+    if (k == 0) path.Start(pose(from, ys[k], -kClearanceMm));
+    else path.MoveTo(pose(from, ys[k], -kClearanceMm), kTransferSteps);
+    path.MoveTo(pose(from, ys[k], depth), kPressSteps);
+    for (int i = 1; i <= degrees; ++i) path.MoveTo(pose(from + dir * i, ys[k], depth), steps_per_degree);
+    path.MoveTo(pose(from + dir * degrees, ys[k], -kClearanceMm), kPressSteps);
+  }
+  path.Finish();
+}
+
+// The bottle of Bottle (radius 30 mm, mu 0.3, an 8 mm rubber disc of mu 1.2 at phi = 20 deg,
+// Fig. 1, 9), stroked round from phi = 0 to 40 deg at y = -5, 0, +5 mm: the pressed patch is
+// ~7 mm round the cylinder and ~10 mm along it, so the strokes overlap by ~5 mm and cover
+// the disc.
+Scene FrictionBottle() {
+  Scene s = Base("friction_bottle");
+  const double top = s.sensor.elastic_body.thickness_mm;
+  const double radius = 30.0;
+  const Eigen::Vector3d axis_point(0, 0, top + kClearanceMm + radius);
+  SceneObject bottle = Object("bottle", SceneObject::Shape::kCylinder, axis_point, 0.3);
+  bottle.radius_mm = radius;
+  bottle.length_mm = 120.0;
+  FrictionRegion disc;
+  disc.kind = FrictionRegion::Kind::kBall;
+  const double disc_angle = 20.0 * M_PI / 180.0;
+  disc.center_mm = {-radius * std::sin(disc_angle), 0, -radius * std::cos(disc_angle)};
+  disc.radius_mm = 4.0;
+  disc.mu = 1.2;
+  bottle.friction.regions.push_back(disc);
+  s.objects.push_back(bottle);
+  CylinderStrokes(s.trajectory, axis_point, radius, top, 0.0, 40.0, {-5.0, 0.0, 5.0});
+  return s;
+}
+
+// A paint can (cylinder of radius 40 mm, axis along y) with three materials, one in each of
+// the paper's bands: painted metal mu 0.65 (green), a strip of rubber tape round it at
+// y in [-14, -4] mm, mu 1.0 (red), and a paper sticker at phi in [5, 30] deg, y in [-1, 14]
+// mm, mu 0.35 (blue). Stroked round from phi = -15 to 25 deg at y = -6, 0, +6 mm.
+Scene FrictionPaintCan() {
+  Scene s = Base("friction_paint_can");
+  const double top = s.sensor.elastic_body.thickness_mm;
+  const double radius = 40.0;
+  const Eigen::Vector3d axis_point(0, 0, top + kClearanceMm + radius);
+  SceneObject can = Object("can", SceneObject::Shape::kCylinder, axis_point, 0.65);
+  can.radius_mm = radius;
+  can.length_mm = 100.0;
+  FrictionRegion tape;
+  tape.kind = FrictionRegion::Kind::kBox;
+  tape.min_mm = {-radius - 1, -14, -radius - 1};
+  tape.max_mm = {radius + 1, -4, radius + 1};
+  tape.mu = 1.0;
+  FrictionRegion sticker;  // the bottom half's points with phi in [5, 30] deg: x = -r sin(phi)
+  sticker.kind = FrictionRegion::Kind::kBox;
+  sticker.min_mm = {-radius * std::sin(30.0 * M_PI / 180.0), -1, -radius - 1};
+  sticker.max_mm = {-radius * std::sin(5.0 * M_PI / 180.0), 14, 0};
+  sticker.mu = 0.35;
+  can.friction.regions = {tape, sticker};
+  s.objects.push_back(can);
+  CylinderStrokes(s.trajectory, axis_point, radius, top, -15.0, 25.0, {-6.0, 0.0, 6.0});
+  return s;
+}
+
 // Holds the first pose for kLeadInSteps more steps at the trajectory's step spacing: the
 // keyframes move later by that time and the step count grows by kLeadInSteps.
 void AddLeadIn(Trajectory& t) {
@@ -187,7 +329,8 @@ void AddLeadIn(Trajectory& t) {
 }  // namespace
 
 std::vector<std::string> BuiltInSceneNames() {
-  return {"force_calibration", "probe", "pins", "two_material_slide", "bottle"};
+  return {"force_calibration", "probe", "pins", "two_material_slide", "bottle",
+          "friction_block", "friction_bottle", "friction_paint_can"};
 }
 
 Scene BuiltInScene(const std::string& name) {
@@ -197,6 +340,9 @@ Scene BuiltInScene(const std::string& name) {
   else if (name == "pins") scene = Pins();
   else if (name == "two_material_slide") scene = TwoMaterialSlide();
   else if (name == "bottle") scene = Bottle();
+  else if (name == "friction_block") scene = FrictionBlock();
+  else if (name == "friction_bottle") scene = FrictionBottle();
+  else if (name == "friction_paint_can") scene = FrictionPaintCan();
   else throw Error(fmt::format("no built-in scene '{}' (there are: {})", name, fmt::join(BuiltInSceneNames(), ", ")));
   AddLeadIn(scene.trajectory);
   scene.Validate();

@@ -185,5 +185,47 @@ TEST(BuiltInScenes, AreValidAndTouchTheirObjects) {
   EXPECT_THROW(BuiltInScene("nope"), Error);
 }
 
+// The friction-map scenes: three strokes each, pressed 0.3 mm (the fingertip's top point in
+// the object), lifted clear in between, each at its own offset along the strokes' normal, so
+// no stroke drags across another; the materials in the paper's bands.
+TEST(BuiltInScenes, FrictionScenesStrokeInThreeLiftedPasses) {
+  for (const std::string name : {"friction_block", "friction_bottle", "friction_paint_can"}) {
+    SCOPED_TRACE(name);
+    const Scene scene = BuiltInScene(name);
+    const SceneObject& object = scene.objects[0];
+    const Trajectory& t = scene.trajectory;
+    std::vector<double> offsets;  // y of each pressed segment
+    bool pressed = false;
+    double max_depth = -1e9;
+    for (int k = 0; k < t.steps; ++k) {
+      const Rigid3 pose = t.PoseAt(t.StepTime(k));
+      const Eigen::Vector3d tip = object.world_from_object.inverse() * (pose * Eigen::Vector3d(0, 0, 8.0));
+      const double depth = object.shape == SceneObject::Shape::kBox
+                               ? tip.z() + 0.5 * object.size_mm.z()
+                               : object.radius_mm - std::hypot(tip.x(), tip.z());
+      max_depth = std::max(max_depth, depth);
+      if (depth > 0 && !pressed) offsets.push_back(tip.y());
+      if (depth > 0) EXPECT_NEAR(tip.y(), offsets.back(), 1e-9) << k;
+      pressed = depth > 0;
+    }
+    EXPECT_NEAR(max_depth, 0.3, 0.002);  // chords between the cylinders' keyframes: 0.0018 mm
+    ASSERT_EQ(offsets.size(), 3u);
+    EXPECT_GT(offsets[1] - offsets[0], 4.0);
+    EXPECT_GT(offsets[2] - offsets[1], 4.0);
+  }
+  const SceneObject can = BuiltInScene("friction_paint_can").objects[0];
+  const auto at = [](double phi_deg, double y) {
+    const double phi = phi_deg * M_PI / 180.0;
+    return Eigen::Vector3d(-40 * std::sin(phi), y, -40 * std::cos(phi));
+  };
+  EXPECT_DOUBLE_EQ(can.FrictionAt(at(0, 0)), 0.65);    // paint: green
+  EXPECT_DOUBLE_EQ(can.FrictionAt(at(0, -8)), 1.0);    // tape: red
+  EXPECT_DOUBLE_EQ(can.FrictionAt(at(15, 5)), 0.35);   // sticker: blue
+  EXPECT_DOUBLE_EQ(can.FrictionAt(at(-10, 5)), 0.65);  // paint the other side of the can
+  const SceneObject block = BuiltInScene("friction_block").objects[0];
+  EXPECT_DOUBLE_EQ(block.FrictionAt({-5, 3, -5}), 1.0);
+  EXPECT_DOUBLE_EQ(block.FrictionAt({5, 3, -5}), 0.4);
+}
+
 }  // namespace
 }  // namespace tac3d

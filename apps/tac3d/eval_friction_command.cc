@@ -1,0 +1,189 @@
+// `tac3d eval friction`: the friction-map scenes simulated by the twin, their images run
+// through the pipeline, mapped and compared with the scenes' truth (issue 11).
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+
+#include "commands.h"
+#include "twin_runs.h"
+#include "tac3d/util/file_io.h"
+#include "friction_command.h"
+#include "tac3d/dataset/twin_dataset.h"
+#include "tac3d/eval/friction_evaluation.h"
+#include "tac3d/scene/scene.h"
+#include "tac3d/util/error.h"
+#include "tac3d/util/progress.h"
+
+namespace tac3d::cli {
+namespace {
+
+double Seconds(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
+// The dataset of a scene in `folder`: reused if it is complete, else simulated there. Returns
+// the simulation's time (the header's, when reused).
+double EnsureDataset(const std::string& scene,
+                     const std::string& folder,
+                     const std::string& cache_dir) {
+  if (std::filesystem::exists(folder + "/dataset.json")) {
+    const TwinDatasetReader reader(folder);
+    const nlohmann::json& h = reader.header();
+    if (!h.contains("summary")) {
+      throw Error(
+          fmt::format("{}: the simulation did not finish (no summary in dataset.json); remove the "
+                      "folder to simulate it again",
+                      folder));
+    }
+    std::fprintf(stderr, "reusing %s\n", folder.c_str());
+    return h.at("summary").at("timings_s").value("total", 0.0);
+  }
+  SimulateArgs args;
+  args.scene = scene;
+  args.out = folder;
+  args.cache_dir = cache_dir;
+  const auto start = std::chrono::steady_clock::now();
+  SimulateToDataset(args);
+  return Seconds(start);
+}
+
+}  // namespace
+
+void RegisterEvalFriction(CLI::App& eval) {
+  struct Args {
+    std::vector<std::string> scenes = {"friction_block", "friction_bottle", "friction_paint_can"};
+    std::string datasets;
+    std::string out = "out/eval_friction";
+    std::string calibration;
+    std::vector<double> gains;
+    std::string cache_dir = DefaultCacheDir();
+    int max_steps = 0;
+    FrictionMapArgs map;
+    FrictionEvaluationOptions evaluation;
+    bool json = false;
+  };
+  auto args = std::make_shared<Args>();
+  CLI::App* cmd = eval.add_subcommand(
+      "friction",
+      "Friction maps of the twin's friction scenes through the whole chain (images -> pipeline -> "
+      "map) against the scenes' truth: mu, bands, boundaries, coverage, surface, slip points");
+  cmd->add_option("--scenes", args->scenes, "built-in scenes or scene files")
+      ->capture_default_str();
+  cmd->add_option(
+      "--datasets",
+      args->datasets,
+      "folder of the scenes' datasets (DIR/<scene>): reused when complete, else simulated "
+      "there (default OUT/datasets)");
+  cmd->add_option("--out",
+                  args->out,
+                  "per scene map.ply, map.png, slip_points.csv, evaluation.json; "
+                  "report.json")
+      ->capture_default_str();
+  cmd->add_option(
+      "--calibration",
+      args->calibration,
+      "force-calibration dataset to fit the gains on (default: DATASETS/force_calibration, "
+      "simulated if missing)");
+  cmd->add_option("--gains", args->gains, "force gains Cx Cy Cz instead of a calibration")
+      ->expected(3);
+  cmd->add_option("--cache", args->cache_dir, "directory of cached models")->capture_default_str();
+  cmd->add_option(
+         "--steps", args->max_steps, "replay only the first N steps of each scene (0: all)")
+      ->capture_default_str();
+  cmd->add_option("--coverage-distance",
+                  args->evaluation.coverage_distance_mm,
+                  "a touched point is covered by a known vertex this near, mm")
+      ->capture_default_str();
+  args->map.Add(cmd);
+  cmd->add_flag("--json", args->json, "print JSON");
+  cmd->callback([args] {
+    const std::string datasets = args->datasets.empty() ? args->out + "/datasets" : args->datasets;
+    MakeDirectory(datasets);
+    MakeDirectory(args->out);
+    ReplayArgs replay;
+    replay.cache_dir = args->cache_dir;
+    replay.max_steps = args->max_steps;
+    replay.show_progress = true;  // on stderr
+    replay.gains = args->gains;
+    nlohmann::json report = {{"datasets", datasets}};
+    if (args->gains.empty()) {
+      replay.calibration =
+          args->calibration.empty() ? datasets + "/force_calibration" : args->calibration;
+      if (args->calibration.empty())
+        EnsureDataset("force_calibration", replay.calibration, args->cache_dir);
+    }
+    std::vector<FrictionEvaluation> results;
+    nlohmann::json scenes = nlohmann::json::array();
+    for (const std::string& name : args->scenes) {
+      const std::string folder = datasets + "/" + std::filesystem::path(name).stem().string();
+      const double simulate_s = EnsureDataset(name, folder, args->cache_dir);
+      const TwinDatasetReader reader(folder);
+      const Scene scene = LoadSceneOrBuiltIn(reader.header().at("scene").get<std::string>());
+      friction::FrictionMapBuilder builder(args->map.Options(scene.sensor));
+      FrictionReplayRecorder recorder(builder);
+      replay.dataset = folder;
+      auto start = std::chrono::steady_clock::now();
+      const ReplayRun run =
+          RunReplay(replay, [&](const TwinStep& s, const TactileFrame& f) { recorder.Add(s, f); });
+      const double replay_s = Seconds(start);
+      if (run.calibration) {  // fitted once, reused for the other scenes
+        replay.calibration.clear();
+        const Eigen::Vector3d& g = run.options.pipeline.force.gains;
+        replay.gains = {g.x(), g.y(), g.z()};
+        report["calibration"] = run.report.at("calibration");
+      }
+      report["gains"] = replay.gains.empty() ? std::vector<double>{1, 1, 1} : replay.gains;
+      start = std::chrono::steady_clock::now();
+      ProgressBar bar(scene.name + " map", 4);
+      const friction::FrictionMapResult map =
+          builder.Build([&](int done, int) { bar.Update(done); });
+      bar.Finish();
+      const double map_s = Seconds(start);
+      const std::vector<Eigen::Vector3d> touched =
+          TouchedTrueSurface(reader, scene, args->evaluation.touched_voxel_mm, args->max_steps);
+      FrictionEvaluation e =
+          EvaluateFrictionMap(scene, map, recorder.truth(), touched, args->evaluation);
+      e.simulate_s = simulate_s;
+      e.replay_s = replay_s;
+      e.map_s = map_s;
+      nlohmann::json j = ToJson(e);
+      j["files"] = WriteFrictionMapFiles(map, args->out + "/" + scene.name, args->map.View(map));
+      j["replay"] = run.report;
+      j["strokes"] = recorder.strokes();
+      j["map_options"] = MapOptionsJson(builder.options());
+      WriteTextFileAtomically(args->out + "/" + scene.name + "/evaluation.json", j.dump(2) + "\n");
+      results.push_back(std::move(e));
+      scenes.push_back(std::move(j));
+    }
+    const FrictionEvaluation overall = PoolFrictionEvaluations(results);
+    report["scenes"] = scenes;
+    report["overall"] = ToJson(overall);
+    bool all_pass = report["overall"]["all_pass"].get<bool>();
+    for (const nlohmann::json& s : scenes) all_pass = all_pass && s.at("all_pass").get<bool>();
+    report["all_pass"] = all_pass;
+    WriteTextFileAtomically(args->out + "/report.json", report.dump(2) + "\n");
+    if (args->json) {
+      std::printf("%s\n", report.dump(2).c_str());
+      return;
+    }
+    for (const FrictionEvaluation& e : results) std::printf("%s\n", e.BriefReport().c_str());
+    std::printf("%s\n", overall.BriefReport().c_str());
+    for (const nlohmann::json& c : report["overall"]["checks"]) {
+      std::printf("%-4s %-18s %s (%s %.4g)\n",
+                  c.at("pass").get<bool>() ? "ok" : "FAIL",
+                  c.at("name").get<std::string>().c_str(),
+                  c.at("value").dump().c_str(),
+                  c.at("bound").get<std::string>() == "max" ? "<=" : ">=",
+                  c.at("tolerance").get<double>());
+    }
+    std::printf(
+        "wrote %s/report.json and %s/<scene>/{map.ply,map.png,slip_points.csv,evaluation.json}\n",
+        args->out.c_str(),
+        args->out.c_str());
+  });
+}
+
+}  // namespace tac3d::cli

@@ -1,0 +1,274 @@
+// `tac3d friction-map`: a friction-coefficient map (paper section IV.B) from a twin dataset's
+// images run through the pipeline, or from a `tac3d run` recording with poses from a CSV.
+#include "friction_command.h"
+
+#include <fmt/format.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+
+#include "commands.h"
+#include "twin_runs.h"
+#include "tac3d/util/file_io.h"
+#include "tac3d/dataset/twin_dataset.h"
+#include "tac3d/eval/friction_evaluation.h"
+#include "tac3d/friction/pose_track.h"
+#include "tac3d/record/recording.h"
+#include "tac3d/util/error.h"
+#include "tac3d/util/progress.h"
+
+namespace tac3d::cli {
+namespace {
+
+double Seconds(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
+Eigen::Vector3d Vector(const std::vector<double>& v, const char* option) {
+  if (v.size() != 3) throw Error(fmt::format("{} takes three numbers: X Y Z", option));
+  const Eigen::Vector3d d(v[0], v[1], v[2]);
+  if (!(d.norm() > 0) || !d.allFinite())
+    throw Error(fmt::format("{} must be a non-zero finite vector", option));
+  return d.normalized();
+}
+
+// Frames from a recording, with poses from the CSV; a frame with no contact marker (the
+// sensor lifted) ends a stroke.
+void AddRecording(const std::string& path,
+                  const friction::PoseTrack& poses,
+                  friction::FrictionMapBuilder& builder,
+                  bool show_progress,
+                  int* frames) {
+  RecordingReader reader(path);
+  std::error_code ec;
+  const auto size = static_cast<long>(std::filesystem::file_size(path, ec));
+  ProgressBar bar("recording", ec ? 1 : std::max(1L, size), show_progress);
+  while (const std::optional<RecordedFrame> recorded = reader.Next()) {
+    const TactileFrame& frame = recorded->frame;
+    builder.AddFrame(frame, poses.At(frame.timestamp_s));
+    bool contact = false;
+    for (size_t i = 0; i < frame.forces_n.size() && !contact; ++i) {
+      contact = frame.valid[i] &&
+                -frame.forces_n[i].dot(frame.normals[i]) > builder.options().contact_threshold_n;
+    }
+    if (!contact) builder.BreakStroke();
+    ++*frames;
+    if (!ec) bar.Update(reader.offset());
+  }
+  bar.Finish();
+  if (reader.status() != RecordingStatus::kComplete) {
+    std::fprintf(stderr, "warning: %s\n", reader.message().c_str());
+  }
+}
+
+}  // namespace
+
+void FrictionMapArgs::Add(CLI::App* cmd) {
+  cmd->add_option("--contact-threshold",
+                  contact_threshold_n,
+                  "contact marker's normal force, N (default 0.02)");
+  cmd->add_option("--slip-contact-threshold",
+                  slip_contact_threshold_n,
+                  "normal force of a marker for slip detection, N (< 0: --contact-threshold)")
+      ->capture_default_str();
+  cmd->add_option("--tangential-motion",
+                  tangential_motion,
+                  "slip by the motion in the tangent plane (false: the paper's 3D motion)")
+      ->capture_default_str();
+  cmd->add_option("--slip-sigmas", slip_sigmas, "k of the slip threshold (default 4)");
+  cmd->add_option(
+      "--marker-noise", marker_noise_mm, "per-axis marker position noise, mm (default 0.002)");
+  cmd->add_option("--radius", radius_mm, "r of equations 5 and 6, mm (default 1.5)");
+  cmd->add_option("--voxel", voxel_size_mm, "resampling voxel, mm (default 0.25)");
+  cmd->add_option("--depth", poisson_depth, "Poisson octree depth (default 8)");
+  cmd->add_option("--beta", beta, "mu_i exponent of the weights (the paper's: 2)")
+      ->capture_default_str();
+  cmd->add_option(
+         "--gamma",
+         gamma,
+         "F_n exponent of the weights (the paper's: 0; 1 with --beta 0: the ratio of the summed "
+         "forces)")
+      ->capture_default_str();
+  cmd->add_option("--min-slip-points",
+                  min_slip_points,
+                  "slip points within r a vertex needs for a mu (the paper's: 1)")
+      ->capture_default_str();
+  cmd->add_option(
+         "--view", view, "PNG view direction X Y Z, world (default: onto the mesh's outer side)")
+      ->expected(3);
+  cmd->add_option("--up", up, "PNG up direction X Y Z, world (default: y)")->expected(3);
+}
+
+friction::FrictionMapOptions FrictionMapArgs::Options(const SensorConfig& sensor) const {
+  friction::FrictionMapOptions o = friction::FrictionMapOptions::FromSensor(sensor);
+  if (contact_threshold_n >= 0) o.contact_threshold_n = contact_threshold_n;
+  if (slip_sigmas >= 0) o.slip_sigmas = slip_sigmas;
+  if (marker_noise_mm >= 0) o.marker_noise_mm = marker_noise_mm;
+  if (radius_mm >= 0) o.radius_mm = radius_mm;
+  if (voxel_size_mm >= 0) o.voxel_size_mm = voxel_size_mm;
+  if (poisson_depth >= 0) o.poisson_depth = poisson_depth;
+  if (beta >= 0) o.beta = beta;
+  if (gamma >= 0) o.normal_force_exponent = gamma;
+  if (min_slip_points >= 0) o.min_slip_points = min_slip_points;
+  if (slip_contact_threshold_n >= 0) o.slip_contact_threshold_n = slip_contact_threshold_n;
+  o.tangential_motion = tangential_motion;
+  o.Validate();
+  return o;
+}
+
+friction::RenderOptions FrictionMapArgs::View(const friction::FrictionMapResult& map) const {
+  friction::RenderOptions r;
+  if (!view.empty()) {
+    r.view_direction = Vector(view, "--view");
+  } else {
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (const Eigen::Vector3d& n : map.vertex_normals) mean += n;
+    if (mean.norm() > 0) r.view_direction = -mean.normalized();
+  }
+  if (!up.empty()) {
+    r.up = Vector(up, "--up");
+  } else if (std::abs(r.view_direction.y()) > 0.9) {
+    r.up = Eigen::Vector3d::UnitX();
+  }
+  r.Validate();
+  return r;
+}
+
+nlohmann::json MapOptionsJson(const friction::FrictionMapOptions& o) {
+  return {{"contact_threshold_n", o.contact_threshold_n},
+          {"slip_contact_threshold_n", o.SlipContactThresholdN()},
+          {"cover_thickness_mm", o.cover_thickness_mm},
+          {"marker_noise_mm", o.marker_noise_mm},
+          {"pose_noise_mm", o.pose_noise_mm},
+          {"slip_sigmas", o.slip_sigmas},
+          {"slip_threshold_mm", o.SlipThresholdMm()},
+          {"tangential_motion", o.tangential_motion},
+          {"voxel_size_mm", o.voxel_size_mm},
+          {"poisson_depth", o.poisson_depth},
+          {"trim_distance_mm", o.trim_distance_mm},
+          {"radius_mm", o.radius_mm},
+          {"alpha", o.alpha},
+          {"beta", o.beta},
+          {"gamma", o.normal_force_exponent},
+          {"min_slip_points", o.min_slip_points}};
+}
+
+nlohmann::json WriteFrictionMapFiles(const friction::FrictionMapResult& map,
+                                     const std::string& folder,
+                                     const friction::RenderOptions& view) {
+  MakeDirectory(folder);
+  nlohmann::json files = {{"slip_points_csv", folder + "/slip_points.csv"}};
+  friction::WriteSlipPointsCsv(map.slip_points, folder + "/slip_points.csv");
+  if (map.triangles.empty()) return files;
+  friction::WriteFrictionMapPly(map, folder + "/map.ply");
+  const friction::RenderSummary r = friction::WriteFrictionMapPng(map, folder + "/map.png", view);
+  files["ply"] = folder + "/map.ply";
+  files["png"] = folder + "/map.png";
+  files["png_view"] = {
+      {"view_direction",
+       {view.view_direction.x(), view.view_direction.y(), view.view_direction.z()}},
+      {"up", {view.up.x(), view.up.y(), view.up.z()}},
+      {"covered_pixels", r.covered_pixels},
+      {"band_pixels",
+       {{"unknown", r.band_pixels[0]},
+        {"low", r.band_pixels[1]},
+        {"medium", r.band_pixels[2]},
+        {"high", r.band_pixels[3]}}}};
+  return files;
+}
+
+void RegisterFrictionMap(CLI::App& app) {
+  struct Args {
+    ReplayArgs replay;
+    std::string recording;
+    std::string poses;
+    std::string out = "friction_map";
+    FrictionMapArgs map;
+    bool json = false;
+  };
+  auto args = std::make_shared<Args>();
+  CLI::App* cmd = app.add_subcommand(
+      "friction-map",
+      "Build an object's friction-coefficient map (paper IV.B) from a twin dataset's images or a "
+      "recording with poses: PLY (mu per vertex), slip points CSV, PNG, JSON summary");
+  ReplayArgs& r = args->replay;
+  CLI::Option* dataset =
+      cmd->add_option("--dataset", r.dataset, "twin dataset folder (tac3d simulate)");
+  CLI::Option* recording =
+      cmd->add_option("--recording", args->recording, "a tac3d run recording (TactileFrames)");
+  CLI::Option* poses = cmd->add_option(
+      "--poses", args->poses, "world_from_sensor CSV (t_s,x_mm,y_mm,z_mm,qw,qx,qy,qz)");
+  dataset->excludes(recording);
+  recording->needs(poses);
+  poses->needs(recording);
+  cmd->add_option("--gains", r.gains, "--dataset: force gains Cx Cy Cz (default 1 1 1)")
+      ->expected(3);
+  cmd->add_option("--calibration", r.calibration, "--dataset: fit the gains on this twin dataset");
+  cmd->add_option("--config",
+                  r.config,
+                  "sensor YAML (default: the dataset's scene's sensor, or the prototype)");
+  cmd->add_option("--cache", r.cache_dir, "directory of cached compliance models")
+      ->capture_default_str();
+  cmd->add_option("--steps", r.max_steps, "--dataset: only the first N steps (0: all)")
+      ->capture_default_str();
+  cmd->add_option("--out", args->out, "folder for map.ply, slip_points.csv, map.png, summary.json")
+      ->capture_default_str();
+  args->map.Add(cmd);
+  cmd->add_flag("--json", args->json, "print the summary as JSON");
+  cmd->callback([args] {
+    if (args->replay.dataset.empty() && args->recording.empty())
+      throw Error("give --dataset or --recording with --poses");
+    const bool progress = !args->json;
+    nlohmann::json summary = {{"out", args->out}};
+    std::optional<friction::FrictionMapBuilder> builder;
+    const auto start = std::chrono::steady_clock::now();
+    int frames = 0;
+    if (!args->replay.dataset.empty()) {
+      const TwinDatasetReader reader(args->replay.dataset);
+      const SensorConfig sensor = args->replay.config.empty()
+                                      ? DatasetSensor(reader)
+                                      : LoadSensorConfig(args->replay.config);
+      builder.emplace(args->map.Options(sensor));
+      FrictionReplayRecorder recorder(*builder);
+      ReplayArgs a = args->replay;
+      a.show_progress = progress;
+      const ReplayRun run = RunReplay(a, [&](const TwinStep& step, const TactileFrame& frame) {
+        recorder.Add(step, frame);
+        ++frames;
+      });
+      summary["dataset"] = a.dataset;
+      summary["gains"] = {run.options.pipeline.force.gains.x(),
+                          run.options.pipeline.force.gains.y(),
+                          run.options.pipeline.force.gains.z()};
+      summary["strokes"] = recorder.strokes();
+    } else {
+      const SensorConfig sensor = LoadSensorOrDefault(args->replay.config);
+      builder.emplace(args->map.Options(sensor));
+      const friction::PoseTrack track = friction::PoseTrack::ReadCsv(args->poses);
+      AddRecording(args->recording, track, *builder, progress, &frames);
+      summary["recording"] = args->recording;
+      summary["poses"] = args->poses;
+    }
+    const double input_s = Seconds(start);
+    ProgressBar bar("friction map", 4, progress);
+    const friction::FrictionMapResult map =
+        builder->Build([&](int done, int) { bar.Update(done); });
+    bar.Finish();
+    summary["frames_in"] = frames;
+    summary["input_s"] = input_s;
+    summary["options"] = MapOptionsJson(builder->options());
+    summary["map"] = friction::ToJson(map.summary);
+    summary["files"] = WriteFrictionMapFiles(map, args->out, args->map.View(map));
+    WriteTextFileAtomically(args->out + "/summary.json", summary.dump(2) + "\n");
+    if (args->json) {
+      std::printf("%s\n", summary.dump(2).c_str());
+      return;
+    }
+    std::printf("%d frames in %.1f s; %s\n", frames, input_s, map.summary.BriefReport().c_str());
+    std::printf("wrote %s/{map.ply,map.png,slip_points.csv,summary.json}\n", args->out.c_str());
+  });
+}
+
+}  // namespace tac3d::cli

@@ -1,0 +1,49 @@
+#pragma once
+
+// Shared by `tac3d friction-map` and `tac3d eval friction`.
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "tac3d/friction/friction_map.h"
+#include "tac3d/friction/friction_output.h"
+
+namespace tac3d::cli {
+
+/// The friction map's options on the command line (FrictionMapOptions' fields), and the
+/// PNG's view.
+struct FrictionMapArgs {
+  // The CLI's defaults differ from FrictionMapOptions' (the paper's equation 6) where the twin
+  // evaluation showed the paper's weighting biased by the force inverse's per-marker noise
+  // (docs/friction.md): beta 0 and gamma 1 (the ratio of the summed forces), 30 slip points a
+  // vertex, slips detected down to 0.005 N, motion in the tangent plane. < 0: the library's.
+  double contact_threshold_n = -1;
+  double slip_sigmas = -1;
+  double marker_noise_mm = -1;
+  double radius_mm = -1;
+  double voxel_size_mm = -1;
+  int poisson_depth = -1;
+  double beta = 0.0;
+  double gamma = 1.0;
+  int min_slip_points = 30;
+  double slip_contact_threshold_n = 0.005;
+  bool tangential_motion = true;
+  std::vector<double> view;  ///< empty: look at the mesh's outer side (minus its mean normal)
+  std::vector<double> up;    ///< empty: world y (x if y is along the view)
+
+  void Add(CLI::App* cmd);
+  /// FromSensor's defaults with the options given.
+  friction::FrictionMapOptions Options(const SensorConfig& sensor) const;
+  friction::RenderOptions View(const friction::FrictionMapResult& map) const;
+};
+
+/// The options a map was built with, for its summary.
+nlohmann::json MapOptionsJson(const friction::FrictionMapOptions& o);
+
+/// Writes map.ply, slip_points.csv, map.png (bands, the view) into `folder` and returns what
+/// was written (files, the render's band pixels) as JSON.
+nlohmann::json WriteFrictionMapFiles(const friction::FrictionMapResult& map,
+                                     const std::string& folder,
+                                     const friction::RenderOptions& view);
+
+}  // namespace tac3d::cli

@@ -1,0 +1,189 @@
+#include "tac3d/eval/friction_evaluation.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <random>
+
+#include "tac3d/dataset/twin_dataset.h"
+#include "tac3d/scene/scene.h"
+#include "tac3d/testing/testing.h"
+#include "tac3d/util/error.h"
+
+namespace tac3d {
+namespace {
+
+// A grid mesh on the friction_block's bottom face (z = 8.5 in the world), x in [-10.1, 10.1]
+// (columns at odd multiples of 0.1 mm), y in [-5, 5], 0.2 mm spacing, `offset_mm` off the
+// face, with mu 1.0 for x < shift and 0.4 beyond: the true boundary is x = 0.
+friction::FrictionMapResult BlockMap(double offset_mm, double shift_mm) {
+  friction::FrictionMapResult map;
+  const int nx = 102, ny = 51;
+  for (int j = 0; j < ny; ++j) {
+    for (int i = 0; i < nx; ++i) {
+      const double x = -10.1 + 0.2 * i, y = -5.0 + 0.2 * j;
+      map.vertices_mm.push_back({x, y, 8.5 - offset_mm});
+      map.vertex_normals.push_back(-Eigen::Vector3d::UnitZ());
+      map.mu.push_back(x < shift_mm ? 1.0 : 0.4);
+      map.confidence.push_back(1.0);
+      map.slip_count.push_back(1);
+    }
+  }
+  for (int j = 0; j + 1 < ny; ++j) {
+    for (int i = 0; i + 1 < nx; ++i) {
+      const int a = j * nx + i;
+      map.triangles.push_back({a, a + 1, a + nx + 1});
+      map.triangles.push_back({a, a + nx + 1, a + nx});
+    }
+  }
+  return map;
+}
+
+TEST(FrictionEvaluation, KnownErrorsOnTheBlock) {
+  const Scene scene = BuiltInScene("friction_block");
+  // Estimated boundary 0.4 mm into the mu = 0.4 half (mu jumps between the columns at x = 0.3
+  // and 0.5, so the 0.7 level is crossed halfway, at x = 0.4), surface 0.05 mm off.
+  const friction::FrictionMapResult map = BlockMap(0.05, 0.4);
+  // Touched: x in [-10, 12] along y = 0, every 0.25 mm: covered up to x = 10.5 (0.5 mm).
+  std::vector<Eigen::Vector3d> touched;
+  for (double x = -10.0; x <= 12.0 + 1e-9; x += 0.25) touched.push_back({x, 0.0, 8.5});
+  // Slips: frame 7 marker 3 truly slipping (found), frame 7 marker 4 not (a false slip point),
+  // frame 8 marker 5 truly slipping (missed), frame 9 marker 6 slipping but first of a stroke.
+  std::map<std::int64_t, FrictionReplayRecorder::FrameTruth> truth;
+  truth[7].marker_slip = std::vector<std::uint8_t>(400, 0);
+  truth[7].marker_slip[3] = 1;
+  truth[7].has_previous = true;
+  truth[8].marker_slip = std::vector<std::uint8_t>(400, 0);
+  truth[8].marker_slip[5] = 1;
+  truth[8].has_previous = true;
+  truth[9].marker_slip = std::vector<std::uint8_t>(400, 0);
+  truth[9].marker_slip[6] = 1;
+  friction::FrictionMapResult with_slips = map;
+  with_slips.slip_points.resize(2);
+  with_slips.slip_points[0].frame_index = 7;
+  with_slips.slip_points[0].marker = 3;
+  with_slips.slip_points[1].frame_index = 7;
+  with_slips.slip_points[1].marker = 4;
+
+  const FrictionEvaluation e = EvaluateFrictionMap(scene, with_slips, truth, touched);
+  // Vertices at x = 0.1 and 0.3 (2 columns of 0.2 mm out of 20.2 mm) are wrong by 0.6.
+  EXPECT_NEAR(e.mu_mae, 0.6 * 0.4 / 20.2, 1e-6);
+  EXPECT_NEAR(e.band_agreement, 1.0 - 0.4 / 20.2, 1e-6);
+  ASSERT_EQ(e.boundary_levels.size(), 1u);
+  EXPECT_DOUBLE_EQ(e.boundary_levels[0], 0.7);
+  EXPECT_NEAR(e.boundary_error_mm, 0.4, 1e-4);
+  EXPECT_NEAR(e.boundary_error_max_mm, 0.4, 1e-4);
+  EXPECT_NEAR(e.surface_rms_mm, 0.05, 1e-9);
+  EXPECT_EQ(e.touched_points, 89);
+  EXPECT_EQ(e.covered_points, 83);  // x <= 10.5
+  EXPECT_DOUBLE_EQ(e.slip_precision, 0.5);
+  EXPECT_DOUBLE_EQ(e.slip_recall, 0.5);
+  EXPECT_EQ(e.true_slips, 2);
+
+  // A perfect map: no error, the contour on the boundary; unknown vertices do not count.
+  friction::FrictionMapResult exact = BlockMap(0.0, 0.0);
+  exact.mu[0] = std::numeric_limits<double>::quiet_NaN();
+  const FrictionEvaluation p = EvaluateFrictionMap(scene, exact, {}, touched);
+  EXPECT_NEAR(p.mu_mae, 0.0, 1e-12);
+  EXPECT_NEAR(p.band_agreement, 1.0, 1e-12);
+  EXPECT_NEAR(p.boundary_error_mm, 0.0, 1e-4);  // the contour at x = 0, between -0.1 and 0.1
+  EXPECT_EQ(p.known_vertices, p.vertices - 1);
+  EXPECT_TRUE(std::isnan(p.slip_precision));
+
+  const FrictionEvaluation all = PoolFrictionEvaluations({e, p});
+  EXPECT_EQ(all.touched_points, 2 * 89);
+  EXPECT_NEAR(all.mu_mae, 0.5 * e.mu_mae, 1e-4);
+  const nlohmann::json j = ToJson(all);
+  EXPECT_FALSE(j.at("all_pass").get<bool>());  // slip precision 0.5
+  EXPECT_EQ(all.boundary_levels, std::vector<double>{0.7});
+  EXPECT_TRUE(j.at("slip_recall").is_number());
+}
+
+TEST(FrictionEvaluation, NearestSurfacePointOfEachShape) {
+  const Scene bottle = BuiltInScene("friction_bottle");
+  const Eigen::Vector3d axis = bottle.objects[0].world_from_object.translation();
+  // 1 mm outside the cylinder, below its axis.
+  SurfacePoint s = NearestSurfacePoint(bottle, axis + Eigen::Vector3d(0, 3, -31));
+  EXPECT_NEAR(s.distance_mm, 1.0, 1e-12);
+  EXPECT_TRUE(s.p_in_world_mm.isApprox(axis + Eigen::Vector3d(0, 3, -30), 1e-12));
+  EXPECT_DOUBLE_EQ(bottle.objects[0].FrictionAt(s.p_in_object_mm), 0.3);
+  // Inside the block, 0.2 mm above its bottom face: the face is nearest.
+  const Scene block = BuiltInScene("friction_block");
+  s = NearestSurfacePoint(block, {3, 2, 8.7});
+  EXPECT_NEAR(s.distance_mm, 0.2, 1e-12);
+  EXPECT_NEAR(s.p_in_world_mm.z(), 8.5, 1e-12);
+  Scene mesh = block;
+  mesh.objects[0].shape = SceneObject::Shape::kMesh;
+  EXPECT_THROW(NearestSurfacePoint(mesh, {0, 0, 0}), Error);
+  FrictionEvaluationOptions bad;
+  bad.coverage_distance_mm = 0;
+  EXPECT_THROW(bad.Validate(), Error);
+}
+
+// The chain after the pipeline on the friction_block scene: its trajectory's poses, frames
+// made from them (markers within 4.5 mm of the sensor's axis pressed flat on the block, every
+// one slipping while the sensor slides, |F_t| = true mu x F_n, noise as the pipeline's), the
+// recorder (strokes broken at the lifts), the map and the evaluation against the scene's
+// truth. Loose bounds: equations 5 and 6 blur the boundary over r = 1.5 mm.
+TEST(FrictionEvaluation, SyntheticFramesAlongTheBlockScene) {
+  const Scene scene = BuiltInScene("friction_block");
+  const SceneObject& block = scene.objects[0];
+  const double face_z = block.world_from_object.translation().z() - 0.5 * block.size_mm.z();
+  std::mt19937_64 rng(testing::kRandomSeed);
+  std::normal_distribution<double> noise(0.0, 0.002), force_noise(0.0, 0.0005);
+  friction::FrictionMapOptions options;
+  options.cover_thickness_mm = 0.5;
+  friction::FrictionMapBuilder builder(options);
+  FrictionReplayRecorder recorder(builder);
+  std::vector<Eigen::Vector3d> touched;
+  const Trajectory& t = scene.trajectory;
+  Rigid3 previous = t.PoseAt(t.StepTime(0));
+  for (int k = 0; k < t.steps; k += 2) {
+    const Rigid3 pose = t.PoseAt(t.StepTime(k));
+    TwinStep step;
+    step.index = k;
+    step.world_from_sensor = pose;
+    step.marker_slip.assign(400, 0);
+    TactileFrame frame = TactileFrame::Sized(20, 20);
+    frame.index = k;
+    frame.timestamp_s = t.StepTime(k);
+    const bool pressed = pose.translation().z() + 8.0 > face_z;
+    const bool moving = (pose.translation() - previous.translation()).norm() > 0.05;
+    previous = pose;
+    for (int i = 0; i < 400; ++i) {
+      const Eigen::Vector2d q((i % 20 - 9.5) * 1.27, (i / 20 - 9.5) * 1.27);
+      frame.normals[i] = Eigen::Vector3d(q.x() / 45.0, q.y() / 45.0, 1.0).normalized();
+      frame.positions_mm[i] = Eigen::Vector3d(q.x(), q.y(), 7.5 - q.squaredNorm() / 90.0);
+      if (!pressed || q.norm() > 4.5) continue;
+      const Eigen::Vector3d world(
+          pose.translation().x() + q.x(), pose.translation().y() + q.y(), face_z - 0.5);
+      frame.positions_mm[i] =
+          pose.inverse() * world + Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+      frame.normals[i] = Eigen::Vector3d::UnitZ();
+      const double mu = block.FrictionAt(block.world_from_object.inverse() *
+                                         (world + Eigen::Vector3d(0, 0, 0.5)));
+      const double fn = 0.1 - 0.015 * q.norm();
+      frame.forces_n[i] = Eigen::Vector3d(moving ? mu * fn : 0.0, 0.0, -fn) +
+                          Eigen::Vector3d(force_noise(rng), force_noise(rng), force_noise(rng));
+      step.marker_slip[i] = moving;
+      touched.push_back(world + Eigen::Vector3d(0, 0, 0.5));
+    }
+    recorder.Add(step, frame);
+  }
+  EXPECT_EQ(recorder.strokes(), 3);
+  const friction::FrictionMapResult map = builder.Build();
+  ASSERT_EQ(map.summary.status, friction::FrictionMapStatus::kOk) << map.summary.message;
+  const FrictionEvaluation e = EvaluateFrictionMap(scene, map, recorder.truth(), touched);
+  std::printf("%s\n", e.BriefReport().c_str());
+  EXPECT_LT(e.mu_mae, 0.05);
+  EXPECT_GT(e.band_agreement, 0.9);
+  EXPECT_LT(e.boundary_error_mm, 1.0);
+  EXPECT_GT(e.coverage, 0.9);
+  EXPECT_LT(e.surface_rms_mm, 0.02);
+  EXPECT_GT(e.slip_precision, 0.99);
+  EXPECT_GT(e.slip_recall, 0.95);
+}
+
+}  // namespace
+}  // namespace tac3d
