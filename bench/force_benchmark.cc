@@ -110,7 +110,8 @@ void BM_ReconstructTenPercentInvalid(benchmark::State& state) {
 }
 BENCHMARK(BM_ReconstructTenPercentInvalid)->Arg(20)->Unit(benchmark::kMicrosecond);
 
-// A different mask every frame: the restricted factor is rebuilt each time (the worst case).
+// A different mask every frame, two independent draws of 10% (about 70 markers differ): the
+// restricted problem is refactored each time.
 void BM_ReconstructNewMaskEveryFrame(benchmark::State& state) {
   const int side = static_cast<int>(state.range(0));
   Fixture fixture(side);
@@ -124,6 +125,29 @@ void BM_ReconstructNewMaskEveryFrame(benchmark::State& state) {
   SetCounters(state, side);
 }
 BENCHMARK(BM_ReconstructNewMaskEveryFrame)->Arg(20)->Unit(benchmark::kMicrosecond);
+
+// Two masks alternating that differ in range(0) markers (half lost, half recovered): markers
+// flickering at a contact's edge.
+void BM_ReconstructMaskChangingBy(benchmark::State& state) {
+  Fixture fixture(20);
+  const int changes = static_cast<int>(state.range(0));
+  std::vector<bool> masks[2] = {fixture.Mask(2), fixture.Mask(2)};
+  std::mt19937_64 rng(4);
+  const int n = fixture.reconstructor->num_markers();
+  for (int k = 0; k < changes;) {
+    const int i = static_cast<int>(rng() % n);
+    // Lose a valid marker on even k, recover a lost one on odd k.
+    if (masks[1][i] == (k % 2 == 0)) masks[1][i] = !masks[1][i], ++k;
+  }
+  ForceFrame frame;
+  int k = 0;
+  for (auto _ : state) {
+    fixture.reconstructor->Reconstruct(fixture.d, masks[k++ % 2], &frame);
+    benchmark::DoNotOptimize(frame.forces_n.data());
+  }
+  SetCounters(state, 20);
+}
+BENCHMARK(BM_ReconstructMaskChangingBy)->Arg(1)->Arg(5)->Arg(20)->Unit(benchmark::kMicrosecond);
 
 // The bare products, to show what single precision buys: K is 3N x 3N, read once a frame.
 template <typename Scalar>
