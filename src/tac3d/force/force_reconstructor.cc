@@ -110,6 +110,8 @@ ForceReconstructor::ForceReconstructor(const Eigen::MatrixXd& h,
   const int max_support = std::min(options_.max_support_markers, num_markers_);
   in_support_.resize(num_markers_);
   support_.reserve(num_markers_);
+  factored_support_.reserve(num_markers_);
+  factored_support_invalid_.reserve(num_markers_);
   support_rows_.reserve(3 * num_markers_);
   support_matrix_.resize(3 * max_support, 3 * max_support);
   support_rhs_.resize(3 * max_support);
@@ -153,6 +155,25 @@ bool ForceReconstructor::RefineOnSupport(ForceFrame* frame) {
     for (int i : support_) support_rows_.push_back(axis * m + i);
   }
   const int n = 3 * s;
+  if (support_ != factored_support_ || invalid_ != factored_support_invalid_) {
+    factored_support_ = support_;
+    factored_support_invalid_ = invalid_;
+    support_factor_ok_ = FactorSupportProblem();
+  }
+  if (!support_factor_ok_) return false;
+  Eigen::Ref<Eigen::VectorXd> x = support_rhs_.head(n);
+  for (int k = 0; k < n; ++k) x(k) = ht_.row(support_rows_[k]).dot(d_valid_);
+  const auto l = support_matrix_.topLeftCorner(n, n).triangularView<Eigen::Lower>();
+  l.solveInPlace(x);
+  l.adjoint().solveInPlace(x);
+  frame->forces_n.setZero();
+  for (int k = 0; k < n; ++k) frame->forces_n(support_rows_[k]) = x(k);
+  frame->num_support_markers = s;
+  return true;
+}
+
+bool ForceReconstructor::FactorSupportProblem() {
+  const int n = static_cast<int>(support_rows_.size());
   // (H_v^T H_v)_SS + w_s I, lower triangle: H^T H less the invalid rows' share.
   Eigen::Ref<Eigen::MatrixXd> a = support_matrix_.topLeftCorner(n, n);
   for (int c = 0; c < n; ++c) {
@@ -168,15 +189,8 @@ bool ForceReconstructor::RefineOnSupport(ForceFrame* frame) {
     a.selfadjointView<Eigen::Lower>().rankUpdate(h_rs, -1.0);
   }
   a.diagonal().array() += options_.support_weight;
-  Eigen::Ref<Eigen::VectorXd> x = support_rhs_.head(n);
-  for (int k = 0; k < n; ++k) x(k) = ht_.row(support_rows_[k]).dot(d_valid_);
-  Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>, Eigen::Lower> factor(a);
-  if (factor.info() != Eigen::Success) return false;
-  factor.solveInPlace(x);
-  frame->forces_n.setZero();
-  for (int k = 0; k < n; ++k) frame->forces_n(support_rows_[k]) = x(k);
-  frame->num_support_markers = s;
-  return true;
+  const Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>, Eigen::Lower> factor(a);
+  return factor.info() == Eigen::Success;
 }
 
 void ForceReconstructor::Reconstruct(const Eigen::VectorXd& d_mm,

@@ -134,8 +134,12 @@ class ForceReconstructor {
   // Factors I - M_RR for this frame's invalid markers into the restricted-problem cache.
   void FactorRestrictedProblem();
   // Re-solves frame->forces_n (no gains yet) on the contact support; returns false (forces
-  // untouched) if the support is empty, too large, or its problem cannot be factored.
+  // untouched) if the support is empty, too large, or its problem cannot be factored. The
+  // support problem's factor is cached while the support and the lost markers stay the same.
   bool RefineOnSupport(ForceFrame* frame);
+  // Factors (H_v^T H_v)_SS + w_s I in place in support_matrix_; false if it is not positive
+  // definite.
+  bool FactorSupportProblem();
 
   int num_markers_;
   std::vector<Eigen::Vector3d> marker_positions_;
@@ -168,7 +172,10 @@ class ForceReconstructor {
   std::vector<char> in_support_;
   std::vector<int> support_;       // marker indices, increasing
   std::vector<int> support_rows_;  // F indices of the support, 3 |S|
-  Eigen::MatrixXd support_matrix_;
+  Eigen::MatrixXd support_matrix_;  // the factor L of the support problem, lower
+  std::vector<int> factored_support_;          // the support and the lost markers L was built
+  std::vector<int> factored_support_invalid_;  // for, and whether its factorisation succeeded
+  bool support_factor_ok_ = false;
   Eigen::VectorXd support_rhs_;
   Eigen::VectorXd support_invalid_storage_;  // H_R,S^T (3|S| x 3r), grow-only
   Eigen::VectorXd d_valid_;
