@@ -1,6 +1,7 @@
 // Per-frame cost of the force inverse F = K D (paper eq. 4) over grid sizes, against the bare
-// double- and single-precision GEMV it is built on, with and without invalid markers; and of
-// F = K D followed by the contact-support re-solve, over the size of the press.
+// double- and single-precision GEMV it is built on, with and without invalid markers (the same
+// mask every frame, a new one, one changing by a few markers); and of F = K D followed by the
+// contact-support re-solve, over the size of the press, held or moving.
 // Run on one core: taskset -c 0 build/bin/bench_force --benchmark_repetitions=20
 //   --benchmark_report_aggregates_only=true
 
@@ -67,25 +68,33 @@ void BM_Reconstruct(benchmark::State& state) {
 }
 BENCHMARK(BM_Reconstruct)->Arg(10)->Arg(20)->Arg(30)->Unit(benchmark::kMicrosecond);
 
-// F = K D, then the re-solve on the contact support of a press of radius range(0) / 10 mm
-// (1.27 mm pitch, 400 markers) with 0.005 mm noise; the support's size is a counter.
-void BM_ReconstructWithSupport(benchmark::State& state) {
-  Fixture fixture(20);
-  const double radius_mm = state.range(0) / 10.0;
-  ForceReconstructor reconstructor(fixture.h, fixture.markers,
-                                   ForceReconstructorOptions{.weight = 1e-3});
+// Displacements of a Hertz-like 5 N press of radius radius_mm centred at (centre_x_mm, 0) on
+// the 20 x 20 grid (1.27 mm pitch), with 0.005 mm noise.
+Eigen::VectorXd PressDisplacements(const Fixture& fixture, double radius_mm, double centre_x_mm) {
   Eigen::VectorXd press = Eigen::VectorXd::Zero(fixture.h.rows());
   const int n = static_cast<int>(fixture.markers.size());
   double total = 0.0;
   for (int i = 0; i < n; ++i) {
-    const double r2 = fixture.markers[i].head<2>().squaredNorm() / (radius_mm * radius_mm);
+    const Eigen::Vector2d offset = fixture.markers[i].head<2>() - Eigen::Vector2d(centre_x_mm, 0.0);
+    const double r2 = offset.squaredNorm() / (radius_mm * radius_mm);
     if (r2 < 1.0) press(2 * n + i) = -std::sqrt(1.0 - r2), total += std::sqrt(1.0 - r2);
   }
-  press *= 5.0 / total;  // 5 N
+  press *= 5.0 / total;
   Eigen::VectorXd d = fixture.h * press;
   std::mt19937_64 rng(3);
   std::normal_distribution<double> normal(0.0, 0.005);
   for (Eigen::Index j = 0; j < d.size(); ++j) d(j) += normal(rng);
+  return d;
+}
+
+// F = K D, then the re-solve on the contact support of a press of radius range(0) / 10 mm
+// (400 markers); the support's size is a counter. The same frame every time: the support does
+// not change, and its factor is reused.
+void BM_ReconstructWithSupport(benchmark::State& state) {
+  Fixture fixture(20);
+  ForceReconstructor reconstructor(fixture.h, fixture.markers,
+                                   ForceReconstructorOptions{.weight = 1e-3});
+  const Eigen::VectorXd d = PressDisplacements(fixture, state.range(0) / 10.0, 0.0);
   ForceFrame frame;
   for (auto _ : state) {
     reconstructor.Reconstruct(d, {}, &frame);
@@ -95,6 +104,25 @@ void BM_ReconstructWithSupport(benchmark::State& state) {
   state.counters["support_markers"] = frame.num_support_markers;
 }
 BENCHMARK(BM_ReconstructWithSupport)->Arg(15)->Arg(30)->Arg(45)->Unit(benchmark::kMicrosecond);
+
+// The same, the press moving by one pitch every frame: a new support, refactored each frame.
+void BM_ReconstructWithMovingSupport(benchmark::State& state) {
+  Fixture fixture(20);
+  ForceReconstructor reconstructor(fixture.h, fixture.markers,
+                                   ForceReconstructorOptions{.weight = 1e-3});
+  const double radius_mm = state.range(0) / 10.0;
+  const Eigen::VectorXd d[2] = {PressDisplacements(fixture, radius_mm, 0.0),
+                                PressDisplacements(fixture, radius_mm, 1.27)};
+  ForceFrame frame;
+  int k = 0;
+  for (auto _ : state) {
+    reconstructor.Reconstruct(d[k++ % 2], {}, &frame);
+    benchmark::DoNotOptimize(frame.forces_n.data());
+  }
+  SetCounters(state, 20);
+  state.counters["support_markers"] = frame.num_support_markers;
+}
+BENCHMARK(BM_ReconstructWithMovingSupport)->Arg(15)->Arg(30)->Arg(45)->Unit(benchmark::kMicrosecond);
 
 // The same mask every frame: the cached restricted factor is reused.
 void BM_ReconstructTenPercentInvalid(benchmark::State& state) {
@@ -110,7 +138,8 @@ void BM_ReconstructTenPercentInvalid(benchmark::State& state) {
 }
 BENCHMARK(BM_ReconstructTenPercentInvalid)->Arg(20)->Unit(benchmark::kMicrosecond);
 
-// A different mask every frame: the restricted factor is rebuilt each time (the worst case).
+// A different mask every frame, two independent draws of 10% (about 70 markers differ): the
+// restricted problem is refactored each time.
 void BM_ReconstructNewMaskEveryFrame(benchmark::State& state) {
   const int side = static_cast<int>(state.range(0));
   Fixture fixture(side);
@@ -124,6 +153,29 @@ void BM_ReconstructNewMaskEveryFrame(benchmark::State& state) {
   SetCounters(state, side);
 }
 BENCHMARK(BM_ReconstructNewMaskEveryFrame)->Arg(20)->Unit(benchmark::kMicrosecond);
+
+// Two masks alternating that differ in range(0) markers (half lost, half recovered): markers
+// flickering at a contact's edge.
+void BM_ReconstructMaskChangingBy(benchmark::State& state) {
+  Fixture fixture(20);
+  const int changes = static_cast<int>(state.range(0));
+  std::vector<bool> masks[2] = {fixture.Mask(2), fixture.Mask(2)};
+  std::mt19937_64 rng(4);
+  const int n = fixture.reconstructor->num_markers();
+  for (int k = 0; k < changes;) {
+    const int i = static_cast<int>(rng() % n);
+    // Lose a valid marker on even k, recover a lost one on odd k.
+    if (masks[1][i] == (k % 2 == 0)) masks[1][i] = !masks[1][i], ++k;
+  }
+  ForceFrame frame;
+  int k = 0;
+  for (auto _ : state) {
+    fixture.reconstructor->Reconstruct(fixture.d, masks[k++ % 2], &frame);
+    benchmark::DoNotOptimize(frame.forces_n.data());
+  }
+  SetCounters(state, 20);
+}
+BENCHMARK(BM_ReconstructMaskChangingBy)->Arg(1)->Arg(5)->Arg(20)->Unit(benchmark::kMicrosecond);
 
 // The bare products, to show what single precision buys: K is 3N x 3N, read once a frame.
 template <typename Scalar>

@@ -4,12 +4,20 @@
 #include <cmath>
 #include <limits>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 
 #include "tac3d/util/error.h"
 
 namespace tac3d {
 namespace {
+
+// A rows x cols matrix on grow-only storage: allocates only when it needs more than ever before.
+Eigen::Map<Eigen::MatrixXd> GrowOnlyMatrix(Eigen::VectorXd* storage, Eigen::Index rows,
+                                           Eigen::Index cols) {
+  if (storage->size() < rows * cols) storage->resize(std::max(rows * cols, 2 * storage->size()));
+  return {storage->data(), rows, cols};
+}
 
 void ValidateGains(const Eigen::Vector3d& gains, const char* where) {
   for (int axis = 0; axis < 3; ++axis) {
@@ -78,9 +86,13 @@ ForceReconstructor::ForceReconstructor(const Eigen::MatrixXd& h,
   }
   k_double_ = factor.solve(h.transpose());
   k_ = k_double_.cast<float>();
+  influence_.noalias() = h * k_double_;
+  influence_ = 0.5 * (influence_ + influence_.transpose()).eval();
   d_work_.resize(n);
   f_work_.resize(n);
+  z_work_.resize(n);
   invalid_.reserve(num_markers_);
+  invalid_rows_.reserve(n);
   cached_invalid_.reserve(num_markers_);
 
   // The support's neighbourhoods, in marker pitches: the pitch is the smallest distance between
@@ -106,6 +118,8 @@ ForceReconstructor::ForceReconstructor(const Eigen::MatrixXd& h,
   const int max_support = std::min(options_.max_support_markers, num_markers_);
   in_support_.resize(num_markers_);
   support_.reserve(num_markers_);
+  factored_support_.reserve(num_markers_);
+  factored_support_invalid_.reserve(num_markers_);
   support_rows_.reserve(3 * num_markers_);
   support_matrix_.resize(3 * max_support, 3 * max_support);
   support_rhs_.resize(3 * max_support);
@@ -117,23 +131,17 @@ void ForceReconstructor::set_gains(const Eigen::Vector3d& gains) {
   options_.gains = gains;
 }
 
-void ForceReconstructor::UpdateInvalidSet() {
-  const int n = 3 * num_markers_;
-  const int r = 3 * static_cast<int>(invalid_.size());
-  h_invalid_.resize(r, n);
-  k_invalid_.resize(n, r);
-  for (int axis = 0; axis < 3; ++axis) {
-    for (size_t k = 0; k < invalid_.size(); ++k) {
-      const int row = axis * num_markers_ + invalid_[k];
-      const int slot = axis * static_cast<int>(invalid_.size()) + static_cast<int>(k);
-      h_invalid_.row(slot) = ht_.col(row).transpose();
-      k_invalid_.col(slot) = k_double_.col(row);
-    }
+void ForceReconstructor::FactorRestrictedProblem() {
+  const int r = static_cast<int>(invalid_rows_.size());
+  Eigen::Map<Eigen::MatrixXd> a = GrowOnlyMatrix(&restricted_storage_, r, r);
+  for (int c = 0; c < r; ++c) {
+    const double* column = influence_.col(invalid_rows_[c]).data();
+    for (int k = c; k < r; ++k) a(k, c) = -column[invalid_rows_[k]];
+    a(c, c) += 1.0;
   }
-  Eigen::MatrixXd restricted = Eigen::MatrixXd::Identity(r, r);
-  restricted.noalias() -= h_invalid_ * k_invalid_;
-  restricted_factor_.compute(restricted);
-  z_work_.resize(r);
+  Eigen::Ref<Eigen::MatrixXd> a_ref(a);
+  const Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>, Eigen::Lower> factor(a_ref);
+  restricted_ok_ = factor.info() == Eigen::Success;
   cached_invalid_ = invalid_;
 }
 
@@ -155,29 +163,42 @@ bool ForceReconstructor::RefineOnSupport(ForceFrame* frame) {
     for (int i : support_) support_rows_.push_back(axis * m + i);
   }
   const int n = 3 * s;
+  if (support_ != factored_support_ || invalid_ != factored_support_invalid_) {
+    factored_support_ = support_;
+    factored_support_invalid_ = invalid_;
+    support_factor_ok_ = FactorSupportProblem();
+  }
+  if (!support_factor_ok_) return false;
+  Eigen::Ref<Eigen::VectorXd> x = support_rhs_.head(n);
+  for (int k = 0; k < n; ++k) x(k) = ht_.row(support_rows_[k]).dot(d_valid_);
+  const auto l = support_matrix_.topLeftCorner(n, n).triangularView<Eigen::Lower>();
+  l.solveInPlace(x);
+  l.adjoint().solveInPlace(x);
+  frame->forces_n.setZero();
+  for (int k = 0; k < n; ++k) frame->forces_n(support_rows_[k]) = x(k);
+  frame->num_support_markers = s;
+  return true;
+}
+
+bool ForceReconstructor::FactorSupportProblem() {
+  const int n = static_cast<int>(support_rows_.size());
   // (H_v^T H_v)_SS + w_s I, lower triangle: H^T H less the invalid rows' share.
   Eigen::Ref<Eigen::MatrixXd> a = support_matrix_.topLeftCorner(n, n);
   for (int c = 0; c < n; ++c) {
     for (int r = c; r < n; ++r) a(r, c) = hth_(support_rows_[r], support_rows_[c]);
   }
-  if (!invalid_.empty()) {
-    for (Eigen::Index q = 0; q < h_invalid_.rows(); ++q) {
-      for (int c = 0; c < n; ++c) {
-        const double hc = h_invalid_(q, support_rows_[c]);
-        for (int r = c; r < n; ++r) a(r, c) -= h_invalid_(q, support_rows_[r]) * hc;
-      }
+  if (!invalid_rows_.empty()) {
+    // Row k of H_R,S^T is row S_k of H^T at the invalid rows' columns.
+    const int r = static_cast<int>(invalid_rows_.size());
+    Eigen::Map<Eigen::MatrixXd> h_rs = GrowOnlyMatrix(&support_invalid_storage_, n, r);
+    for (int q = 0; q < r; ++q) {
+      for (int k = 0; k < n; ++k) h_rs(k, q) = ht_(support_rows_[k], invalid_rows_[q]);
     }
+    a.selfadjointView<Eigen::Lower>().rankUpdate(h_rs, -1.0);
   }
   a.diagonal().array() += options_.support_weight;
-  Eigen::Ref<Eigen::VectorXd> x = support_rhs_.head(n);
-  for (int k = 0; k < n; ++k) x(k) = ht_.row(support_rows_[k]).dot(d_valid_);
-  Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>, Eigen::Lower> factor(a);
-  if (factor.info() != Eigen::Success) return false;
-  factor.solveInPlace(x);
-  frame->forces_n.setZero();
-  for (int k = 0; k < n; ++k) frame->forces_n(support_rows_[k]) = x(k);
-  frame->num_support_markers = s;
-  return true;
+  const Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>, Eigen::Lower> factor(a);
+  return factor.info() == Eigen::Success;
 }
 
 void ForceReconstructor::Reconstruct(const Eigen::VectorXd& d_mm,
@@ -203,6 +224,10 @@ void ForceReconstructor::Reconstruct(const Eigen::VectorXd& d_mm,
       d_work_(axis * m + i) = static_cast<float>(d_valid_(axis * m + i));
     }
   }
+  invalid_rows_.clear();
+  for (int axis = 0; axis < 3; ++axis) {
+    for (int i : invalid_) invalid_rows_.push_back(axis * m + i);
+  }
   frame->num_invalid_markers = static_cast<int>(invalid_.size());
   frame->status = ForceStatus::kOk;
   frame->num_support_markers = 0;
@@ -215,10 +240,25 @@ void ForceReconstructor::Reconstruct(const Eigen::VectorXd& d_mm,
     return;
   }
 
-  // With every marker valid the support needs only the normal forces: K's z rows are a third
-  // of the GEMV, which is memory-bound (K is 5.8 MB); the rest is computed only if the
-  // re-solve does not replace it.
-  if (options_.support_refinement && invalid_.empty()) {
+  // Lost markers: their rows of the data become the model's prediction z, (I - M_RR) z = M_R D0.
+  if (!invalid_.empty()) {
+    if (invalid_ != cached_invalid_) FactorRestrictedProblem();
+    if (restricted_ok_) {
+      const int r = static_cast<int>(invalid_rows_.size());
+      Eigen::Ref<Eigen::VectorXd> z = z_work_.head(r);
+      for (int k = 0; k < r; ++k) z(k) = influence_.col(invalid_rows_[k]).dot(d_valid_);
+      const Eigen::Map<const Eigen::MatrixXd> l(restricted_storage_.data(), r, r);
+      l.triangularView<Eigen::Lower>().solveInPlace(z);
+      l.triangularView<Eigen::Lower>().adjoint().solveInPlace(z);
+      for (int k = 0; k < r; ++k) d_work_(invalid_rows_[k]) = static_cast<float>(z(k));
+    } else {
+      frame->status = ForceStatus::kRestrictedProblemIllConditioned;
+    }
+  }
+
+  // The support needs only the normal forces: K's z rows are a third of the GEMV, which is
+  // memory-bound (K is 5.8 MB); the rest is computed only if the re-solve does not replace it.
+  if (options_.support_refinement && frame->status == ForceStatus::kOk) {
     f_work_.tail(m).noalias() = k_.bottomRows(m) * d_work_;
     frame->forces_n.tail(m) = f_work_.tail(m).cast<double>();
     frame->support_refined = RefineOnSupport(frame);
@@ -226,19 +266,6 @@ void ForceReconstructor::Reconstruct(const Eigen::VectorXd& d_mm,
   if (!frame->support_refined) {
     f_work_.noalias() = k_ * d_work_;
     frame->forces_n = f_work_.cast<double>();
-    if (!invalid_.empty()) {
-      if (invalid_ != cached_invalid_) UpdateInvalidSet();
-      if (restricted_factor_.info() == Eigen::Success) {
-        z_work_.noalias() = h_invalid_ * frame->forces_n;
-        restricted_factor_.solveInPlace(z_work_);
-        frame->forces_n.noalias() += k_invalid_ * z_work_;
-      } else {
-        frame->status = ForceStatus::kRestrictedProblemIllConditioned;
-      }
-      if (options_.support_refinement && frame->status == ForceStatus::kOk) {
-        frame->support_refined = RefineOnSupport(frame);
-      }
-    }
   }
 
   for (int axis = 0; axis < 3; ++axis) frame->forces_n.segment(axis * m, m) *= options_.gains(axis);

@@ -2,7 +2,6 @@
 
 #include <vector>
 
-#include <Eigen/Cholesky>
 #include <Eigen/Core>
 
 namespace tac3d {
@@ -88,13 +87,14 @@ struct ForceUncertainty {
 /// Invalid markers (flagged, or any displacement component NaN/inf) are handled exactly as the
 /// Tikhonov problem restricted to the valid rows, min ||H_v F - D_v||^2 + w ||F||^2, without
 /// refactoring: its solution is the full solution K D~ for data D~ whose invalid rows R hold the
-/// model's own prediction H_R F. With F0 = K D (invalid rows of D zeroed) that is
-///   F = F0 + K_R z,  (I - H_R K_R) z = H_R F0,
-/// where I - H_R K_R = I - H_R (H^T H + w I)^-1 H_R^T is symmetric positive definite (w > 0).
-/// Its Cholesky factor is cached for the last validity mask, so a frame with the same mask costs
-/// one GEMV plus two thin ones of 3 x (invalid markers) columns; a new mask costs one small
-/// factorisation. The forces of invalid markers are then the regularised estimate from their
-/// neighbours, never NaN.
+/// model's own prediction H_R F. With D0 the data with its invalid rows zeroed and M = H K (the
+/// influence matrix, symmetric, precomputed) that prediction z = D~_R solves
+///   (I - M_RR) z = M_R D0,   F = K D~ = K (D0 + z on the rows R),
+/// where I - M_RR = I - H_R (H^T H + w I)^-1 H_R^T is symmetric positive definite (w > 0). A new
+/// validity mask costs a gather of M_RR and one Cholesky factorisation of 3r x 3r (r invalid
+/// markers), cached for the next frames with the same mask; every frame costs r dot products
+/// with rows of M and one GEMV. The forces of invalid markers are then the regularised estimate
+/// from their neighbours, never NaN.
 ///
 /// Not thread-safe (per-frame workspace): one instance per stream.
 class ForceReconstructor {
@@ -136,11 +136,15 @@ class ForceReconstructor {
   }
 
  private:
-  // Rebuilds the restricted-problem factor when the set of invalid markers changes.
-  void UpdateInvalidSet();
+  // Factors I - M_RR for this frame's invalid markers into the restricted-problem cache.
+  void FactorRestrictedProblem();
   // Re-solves frame->forces_n (no gains yet) on the contact support; returns false (forces
-  // untouched) if the support is empty, too large, or its problem cannot be factored.
+  // untouched) if the support is empty, too large, or its problem cannot be factored. The
+  // support problem's factor is cached while the support and the lost markers stay the same.
   bool RefineOnSupport(ForceFrame* frame);
+  // Factors (H_v^T H_v)_SS + w_s I in place in support_matrix_; false if it is not positive
+  // definite.
+  bool FactorSupportProblem();
 
   int num_markers_;
   std::vector<Eigen::Vector3d> marker_positions_;
@@ -148,15 +152,21 @@ class ForceReconstructor {
   Eigen::MatrixXd k_double_;  // K in double, for the uncertainty and the invalid-marker update
   Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> k_;
 
-  // Per-frame workspace and the cache of the last validity mask.
+  // M = H K (3N x 3N), symmetric, in double: column j is row j, the model's prediction of D_j
+  // from all of D.
+  Eigen::MatrixXd influence_;
+
+  // Per-frame workspace and the cache of the last validity mask. The matrices whose size
+  // follows the number of invalid markers live in grow-only storage: a frame allocates only when
+  // it has more invalid markers than every frame before.
   Eigen::VectorXf d_work_;
   Eigen::VectorXf f_work_;
   std::vector<int> invalid_;         // this frame's invalid markers, increasing
-  std::vector<int> cached_invalid_;  // the markers the cache below was built for
-  Eigen::MatrixXd h_invalid_;        // H_R (3r x 3N)
-  Eigen::MatrixXd k_invalid_;        // K_R (3N x 3r)
-  Eigen::LLT<Eigen::MatrixXd> restricted_factor_;  // of I - H_R K_R
-  Eigen::VectorXd z_work_;
+  std::vector<int> invalid_rows_;    // their 3r rows of D, axis-major
+  std::vector<int> cached_invalid_;  // the markers the factor below was built for
+  Eigen::VectorXd restricted_storage_;  // the Cholesky factor L of I - M_RR (3r x 3r, lower)
+  bool restricted_ok_ = false;          // whether that factorisation succeeded
+  Eigen::VectorXd z_work_;              // 3N
 
   // H^T, row-major: row j is column j of H (the support's right-hand side), column r is row r
   // of H (H_R for lost markers). Then, for the contact-support refinement: H^T H, each
@@ -167,8 +177,12 @@ class ForceReconstructor {
   std::vector<char> in_support_;
   std::vector<int> support_;       // marker indices, increasing
   std::vector<int> support_rows_;  // F indices of the support, 3 |S|
-  Eigen::MatrixXd support_matrix_;
+  Eigen::MatrixXd support_matrix_;  // the factor L of the support problem, lower
+  std::vector<int> factored_support_;          // the support and the lost markers L was built
+  std::vector<int> factored_support_invalid_;  // for, and whether its factorisation succeeded
+  bool support_factor_ok_ = false;
   Eigen::VectorXd support_rhs_;
+  Eigen::VectorXd support_invalid_storage_;  // H_R,S^T (3|S| x 3r), grow-only
   Eigen::VectorXd d_valid_;
 };
 

@@ -56,6 +56,19 @@ TEST(ForceReconstructor, PerFrameReconstructAllocatesNothing) {
   // Without invalid markers, too (the cache stays).
   reconstructor.Reconstruct(d, {}, &frame);
   EXPECT_EQ(g_malloc_calls.load(), before);
+  // A different mask every frame (markers flickering at the contact's edge): the restricted
+  // problem is refactored each frame, in storage sized once by the first frames.
+  std::vector<bool> other(36, true);
+  other[3] = other[21] = other[30] = false;
+  reconstructor.Reconstruct(d, other, &frame);
+  before = g_malloc_calls.load();
+  for (int k = 0; k < 10; ++k) {
+    reconstructor.Reconstruct(d, valid, &frame);
+    reconstructor.Reconstruct(d, other, &frame);
+    reconstructor.Reconstruct(d, {}, &frame);
+  }
+  EXPECT_EQ(g_malloc_calls.load(), before);
+  EXPECT_TRUE(frame.support_refined);
 #endif
 }
 
