@@ -190,10 +190,12 @@ TEST(Recording, SurvivesKillNineAtARandomMoment) {
       }
       _exit(1);
     }
-    // Let it write a few frames, then kill it at a random moment.
+    // Let it write three whole frames (after the file header: a kill right after a smaller
+    // size could leave two, which failed under load), then kill it at a random moment.
     const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(30);
     std::error_code ec;
-    while (static_cast<std::int64_t>(fs::file_size(path, ec)) < 3 * record_bytes &&
+    const std::int64_t three_frames = static_cast<std::int64_t>(kFileHeaderBytes) + 3 * record_bytes;
+    while (static_cast<std::int64_t>(fs::file_size(path, ec)) < three_frames &&
            std::chrono::steady_clock::now() < give_up) {
       std::this_thread::sleep_for(std::chrono::microseconds(200));
     }

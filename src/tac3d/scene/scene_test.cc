@@ -205,7 +205,9 @@ TEST(BuiltInScenes, FrictionScenesStrokeInThreeLiftedPasses) {
                                : object.radius_mm - std::hypot(tip.x(), tip.z());
       max_depth = std::max(max_depth, depth);
       if (depth > 0 && !pressed) offsets.push_back(tip.y());
-      if (depth > 0) EXPECT_NEAR(tip.y(), offsets.back(), 1e-9) << k;
+      if (depth > 0) {
+        EXPECT_NEAR(tip.y(), offsets.back(), 1e-9) << k;
+      }
       pressed = depth > 0;
     }
     EXPECT_NEAR(max_depth, 0.3, 0.002);  // chords between the cylinders' keyframes: 0.0018 mm
