@@ -108,7 +108,9 @@ FrameSlip SlipEstimator::Estimate(const TactileFrame& frame) {
     }
   }
   for (int i = 0; i < num_markers_; ++i) {
-    previous_valid_[i] = frame.valid[i] && frame.displacements_mm[i].allFinite();
+    // Only a marker in contact in both frames has an increment that says stick or slip: one
+    // coming into contact moves with the indentation.
+    previous_valid_[i] = frame.valid[i] && frame.contact[i] && frame.displacements_mm[i].allFinite();
     if (previous_valid_[i]) previous_mm_[i] = frame.displacements_mm[i];
   }
   has_previous_ = true;

@@ -110,7 +110,7 @@ class SlipEstimator {
   std::vector<bool> slipping_;
   std::vector<bool> on_plateau_;  // by contact slot
   std::vector<Eigen::Vector3d> previous_mm_;
-  std::vector<bool> previous_valid_;
+  std::vector<bool> previous_valid_;  // valid and in contact in the previous frame
   std::vector<double> axis_[3];
   bool has_previous_ = false;
   double displacement_sigma_mm_;
