@@ -3,7 +3,9 @@
 
 #include "tac3d/slip/slip_estimator.h"
 
+#include <algorithm>
 #include <atomic>
+#include <cstdio>
 #include <cmath>
 #include <random>
 
@@ -54,7 +56,8 @@ double Rho(int i) {
 // radius c_over_a. Displacements: base + step for stuck markers, base + lag * step for
 // slipping ones (they lag the object).
 Contact MakeContact(Load load, double c_over_a, const Eigen::Vector3d& base_mm,
-                    const Eigen::Vector3d& step_mm, double lag, std::mt19937_64& rng) {
+                    const Eigen::Vector3d& step_mm, double lag, std::mt19937_64& rng,
+                    double mu = kMu) {
   std::normal_distribution<double> noise(0.0, kSigmaN);
   Contact c{TactileFrame::Sized(kSide, kSide), std::vector<bool>(kSide * kSide, false)};
   for (int i = 0; i < kSide * kSide; ++i) {
@@ -68,12 +71,12 @@ Contact MakeContact(Load load, double c_over_a, const Eigen::Vector3d& base_mm,
           q = 0.2 / 3 * kPeakN / std::max(s, 0.05);
           break;
         case Load::kGross:
-          q = kMu * p;
+          q = mu * p;
           c.truly_slipping[i] = true;
           break;
         case Load::kPartial:
           c.truly_slipping[i] = rho >= c_over_a;
-          q = kMu * (c.truly_slipping[i]
+          q = mu * (c.truly_slipping[i]
                          ? p
                          : kPeakN * (s - c_over_a * std::sqrt(1 - rho * rho / (c_over_a * c_over_a))));
           break;
@@ -172,6 +175,56 @@ TEST(SlipEstimator, PartialSlipFindsTheAnnulus) {
     EXPECT_NEAR(slip.fraction, true_fraction, 0.1) << c_over_a;
     EXPECT_GE(Agreement(c, estimator.slipping()), 0.9) << c_over_a;
     EXPECT_TRUE(std::isnan(slip.friction));
+  }
+}
+
+// The figures of docs/slip.md: over seeded noise draws, mu's error in gross slip and the slip
+// fraction's error in partial slip, with the state right every time.
+TEST(SlipEstimator, AccuracyOverLoads) {
+  std::mt19937_64 rng(testing::kRandomSeed);
+  constexpr int kDraws = 50;
+  for (const double mu : {0.2, 0.5, 0.8}) {
+    SlipEstimator estimator(kSide * kSide);
+    double max_error = 0, sum_sigma = 0;
+    int wrong_state = 0;
+    for (int k = 0; k < kDraws; ++k) {
+      const Contact c = MakeContact(Load::kGross, 0, kBase, Eigen::Vector3d::Zero(), 0, rng, mu);
+      const FrameSlip slip = estimator.Estimate(c.frame);
+      wrong_state += slip.state != SlipState::kGrossSlip;
+      max_error = std::max(max_error, std::abs(slip.friction - mu));
+      sum_sigma += slip.friction_sigma;
+    }
+    std::printf("gross slip mu %.1f: max |error| %.4f, mean sigma %.4f, wrong state %d/%d\n", mu,
+                max_error, sum_sigma / kDraws, wrong_state, kDraws);
+    EXPECT_EQ(wrong_state, 0) << mu;
+    EXPECT_LT(max_error, 0.02) << mu;
+  }
+  for (const double c_over_a : {0.3, 0.5, 0.7, 0.85}) {
+    double max_error = 0, min_agreement = 1;
+    int wrong_state = 0;
+    for (int k = 0; k < kDraws; ++k) {
+      SlipEstimator estimator(kSide * kSide);
+      estimator.Estimate(
+          MakeContact(Load::kPartial, c_over_a, kBase, Eigen::Vector3d::Zero(), 0.3, rng).frame);
+      const Contact c = MakeContact(Load::kPartial, c_over_a, kBase, kStep, 0.3, rng);
+      const FrameSlip slip = estimator.Estimate(c.frame);
+      int truth = 0, contact = 0;
+      for (int i = 0; i < kSide * kSide; ++i) {
+        contact += c.frame.contact[i];
+        truth += c.frame.contact[i] && c.truly_slipping[i];
+      }
+      const double true_fraction = static_cast<double>(truth) / contact;
+      const SlipState true_state = true_fraction > 0.9   ? SlipState::kGrossSlip
+                                   : true_fraction < 0.1 ? SlipState::kStick
+                                                         : SlipState::kPartialSlip;
+      wrong_state += slip.state != true_state;
+      max_error = std::max(max_error, std::abs(slip.fraction - true_fraction));
+      min_agreement = std::min(min_agreement, Agreement(c, estimator.slipping()));
+    }
+    std::printf("partial slip c/a %.2f: max |fraction error| %.3f, min marker agreement %.3f, "
+                "wrong state %d/%d\n", c_over_a, max_error, min_agreement, wrong_state, kDraws);
+    EXPECT_EQ(wrong_state, 0) << c_over_a;
+    EXPECT_LT(max_error, 0.1) << c_over_a;
   }
 }
 
