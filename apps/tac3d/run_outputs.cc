@@ -42,7 +42,9 @@ nlohmann::json Summary(const TactileFrame& f) {
   }
   const auto v = [](const Eigen::Vector3d& x) { return nlohmann::json{x.x(), x.y(), x.z()}; };
   // NaN (no contact, not in gross slip) as null.
-  const auto number = [](double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(); };
+  const auto number = [](double x) {
+    return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json();
+  };
   return {{"sn", f.sn},
           {"index", f.index},
           {"timestamp_s", f.timestamp_s},

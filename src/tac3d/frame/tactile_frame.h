@@ -47,7 +47,7 @@ const char* SlipStateName(SlipState state);
 struct FrameSlip {
   static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
   SlipState state = SlipState::kUnknown;
-  double fraction = kNaN;        ///< contact markers slipping / contact markers, NaN without contact
+  double fraction = kNaN;        ///< slipping / contact markers, NaN without contact
   double friction = kNaN;        ///< friction coefficient, NaN unless kGrossSlip
   double friction_sigma = kNaN;  ///< its 1-sigma uncertainty, NaN unless kGrossSlip
 

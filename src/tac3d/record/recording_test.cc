@@ -205,10 +205,11 @@ TEST(Recording, SlipEstimateRoundTripsAtItsDocumentedOffset) {
     const auto f = reader.Next();
     ASSERT_TRUE(f) << reader.message();
     EXPECT_EQ(f->frame.slip, expected.slip) << i;
-    EXPECT_EQ(f->frame.slip.state, static_cast<SlipState>(i));  // every state, kUnknown to kGrossSlip
+    EXPECT_EQ(f->frame.slip.state, static_cast<SlipState>(i));  // kUnknown .. kGrossSlip
     // The bytes where docs/recording.md puts them.
     const std::size_t slip = at + 8 + SlipOffsetInPayload(expected);
-    EXPECT_EQ(static_cast<std::uint8_t>(bytes[slip]), static_cast<std::uint8_t>(expected.slip.state));
+    EXPECT_EQ(static_cast<std::uint8_t>(bytes[slip]),
+              static_cast<std::uint8_t>(expected.slip.state));
     double fraction, friction, sigma;
     std::memcpy(&fraction, bytes.data() + slip + 1, 8);
     std::memcpy(&friction, bytes.data() + slip + 9, 8);

@@ -20,24 +20,31 @@ void Require(bool ok, const char* field, const char* bound, double value) {
 
 void SlipOptions::Validate() const {
   Require(min_contact_markers >= 1, "min_contact_markers", ">= 1", min_contact_markers);
-  Require(plateau_quantile > 0 && plateau_quantile <= 1, "plateau_quantile", "in (0, 1]",
+  Require(plateau_quantile > 0 && plateau_quantile <= 1,
+          "plateau_quantile",
+          "in (0, 1]",
           plateau_quantile);
-  Require(plateau_tolerance >= 0 && plateau_tolerance < 1, "plateau_tolerance", "in [0, 1)",
+  Require(plateau_tolerance >= 0 && plateau_tolerance < 1,
+          "plateau_tolerance",
+          "in [0, 1)",
           plateau_tolerance);
   Require(noise_sigmas >= 0, "noise_sigmas", ">= 0", noise_sigmas);
   Require(marker_force_sigma_n >= 0, "marker_force_sigma_n", ">= 0", marker_force_sigma_n);
   Require(displacement_sigma_mm >= 0, "displacement_sigma_mm", ">= 0", displacement_sigma_mm);
   Require(lag_tolerance >= 0, "lag_tolerance", ">= 0", lag_tolerance);
   Require(stick_below >= 0 && stick_below <= 1, "stick_below", "in [0, 1]", stick_below);
-  Require(gross_slip_above >= stick_below && gross_slip_above < 1, "gross_slip_above",
-          "in [stick_below, 1)", gross_slip_above);
+  Require(gross_slip_above >= stick_below && gross_slip_above < 1,
+          "gross_slip_above",
+          "in [stick_below, 1)",
+          gross_slip_above);
 }
 
 SlipEstimator::SlipEstimator(int num_markers, const SlipOptions& options)
     : options_((options.Validate(), options)),
       num_markers_(num_markers),
       displacement_sigma_mm_(options.displacement_sigma_mm) {
-  if (num_markers < 1) throw Error(fmt::format("SlipEstimator: {} markers, need >= 1", num_markers));
+  if (num_markers < 1)
+    throw Error(fmt::format("SlipEstimator: {} markers, need >= 1", num_markers));
   const auto n = static_cast<std::size_t>(num_markers);
   sigma_n_.assign(n, options.marker_force_sigma_n);
   contact_index_.resize(n);
@@ -54,8 +61,8 @@ SlipEstimator::SlipEstimator(int num_markers, const SlipOptions& options)
 
 void SlipEstimator::SetMarkerForceSigma(const Eigen::Matrix3Xd& sigma_n) {
   if (sigma_n.cols() != num_markers_) {
-    throw Error(fmt::format("SlipEstimator: {} force sigmas for {} markers", sigma_n.cols(),
-                            num_markers_));
+    throw Error(
+        fmt::format("SlipEstimator: {} force sigmas for {} markers", sigma_n.cols(), num_markers_));
   }
   if (!sigma_n.allFinite() || (sigma_n.array() < 0).any()) {
     throw Error("SlipEstimator: force sigmas must be finite and >= 0");
@@ -82,8 +89,8 @@ FrameSlip SlipEstimator::Estimate(const TactileFrame& frame) {
   if (frame.num_markers() != num_markers_ ||
       frame.forces_n.size() != static_cast<std::size_t>(num_markers_) ||
       frame.displacements_mm.size() != static_cast<std::size_t>(num_markers_)) {
-    throw Error(fmt::format("SlipEstimator: a frame of {} markers, built for {}",
-                            frame.num_markers(), num_markers_));
+    throw Error(fmt::format(
+        "SlipEstimator: a frame of {} markers, built for {}", frame.num_markers(), num_markers_));
   }
   if (frame.has(FrameFlag::kInitializing) || frame.has(FrameFlag::kZeroed)) Reset();
   std::fill(slipping_.begin(), slipping_.end(), false);
@@ -110,7 +117,8 @@ FrameSlip SlipEstimator::Estimate(const TactileFrame& frame) {
   for (int i = 0; i < num_markers_; ++i) {
     // Only a marker in contact in both frames has an increment that says stick or slip: one
     // coming into contact moves with the indentation.
-    previous_valid_[i] = frame.valid[i] && frame.contact[i] && frame.displacements_mm[i].allFinite();
+    previous_valid_[i] =
+        frame.valid[i] && frame.contact[i] && frame.displacements_mm[i].allFinite();
     if (previous_valid_[i]) previous_mm_[i] = frame.displacements_mm[i];
   }
   has_previous_ = true;

@@ -3,13 +3,13 @@
 
 #include "tac3d/slip/slip_estimator.h"
 
+#include <gtest/gtest.h>
+
 #include <algorithm>
 #include <atomic>
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <random>
-
-#include <gtest/gtest.h>
 
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
@@ -55,8 +55,12 @@ double Rho(int i) {
 // rigid shift (Q / P = 0.2), kGross q = mu p, kPartial Cattaneo-Mindlin with a stick core of
 // radius c_over_a. Displacements: base + step for stuck markers, base + lag * step for
 // slipping ones (they lag the object).
-Contact MakeContact(Load load, double c_over_a, const Eigen::Vector3d& base_mm,
-                    const Eigen::Vector3d& step_mm, double lag, std::mt19937_64& rng,
+Contact MakeContact(Load load,
+                    double c_over_a,
+                    const Eigen::Vector3d& base_mm,
+                    const Eigen::Vector3d& step_mm,
+                    double lag,
+                    std::mt19937_64& rng,
                     double mu = kMu) {
   std::normal_distribution<double> noise(0.0, kSigmaN);
   Contact c{TactileFrame::Sized(kSide, kSide), std::vector<bool>(kSide * kSide, false)};
@@ -76,9 +80,10 @@ Contact MakeContact(Load load, double c_over_a, const Eigen::Vector3d& base_mm,
           break;
         case Load::kPartial:
           c.truly_slipping[i] = rho >= c_over_a;
-          q = mu * (c.truly_slipping[i]
-                         ? p
-                         : kPeakN * (s - c_over_a * std::sqrt(1 - rho * rho / (c_over_a * c_over_a))));
+          q = mu *
+              (c.truly_slipping[i]
+                   ? p
+                   : kPeakN * (s - c_over_a * std::sqrt(1 - rho * rho / (c_over_a * c_over_a))));
           break;
       }
     }
@@ -194,8 +199,12 @@ TEST(SlipEstimator, AccuracyOverLoads) {
       max_error = std::max(max_error, std::abs(slip.friction - mu));
       sum_sigma += slip.friction_sigma;
     }
-    std::printf("gross slip mu %.1f: max |error| %.4f, mean sigma %.4f, wrong state %d/%d\n", mu,
-                max_error, sum_sigma / kDraws, wrong_state, kDraws);
+    std::printf("gross slip mu %.1f: max |error| %.4f, mean sigma %.4f, wrong state %d/%d\n",
+                mu,
+                max_error,
+                sum_sigma / kDraws,
+                wrong_state,
+                kDraws);
     EXPECT_EQ(wrong_state, 0) << mu;
     EXPECT_LT(max_error, 0.02) << mu;
   }
@@ -221,8 +230,14 @@ TEST(SlipEstimator, AccuracyOverLoads) {
       max_error = std::max(max_error, std::abs(slip.fraction - true_fraction));
       min_agreement = std::min(min_agreement, Agreement(c, estimator.slipping()));
     }
-    std::printf("partial slip c/a %.2f: max |fraction error| %.3f, min marker agreement %.3f, "
-                "wrong state %d/%d\n", c_over_a, max_error, min_agreement, wrong_state, kDraws);
+    std::printf(
+        "partial slip c/a %.2f: max |fraction error| %.3f, min marker agreement %.3f, "
+        "wrong state %d/%d\n",
+        c_over_a,
+        max_error,
+        min_agreement,
+        wrong_state,
+        kDraws);
     EXPECT_EQ(wrong_state, 0) << c_over_a;
     EXPECT_LT(max_error, 0.1) << c_over_a;
   }
