@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <nlohmann/json.hpp>
@@ -40,6 +41,10 @@ nlohmann::json Summary(const TactileFrame& f) {
     contact += f.contact[i];
   }
   const auto v = [](const Eigen::Vector3d& x) { return nlohmann::json{x.x(), x.y(), x.z()}; };
+  // NaN (no contact, not in gross slip) as null.
+  const auto number = [](double x) {
+    return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json();
+  };
   return {{"sn", f.sn},
           {"index", f.index},
           {"timestamp_s", f.timestamp_s},
@@ -48,7 +53,11 @@ nlohmann::json Summary(const TactileFrame& f) {
           {"valid_markers", valid},
           {"contact_markers", contact},
           {"resultant_force_n", v(f.resultant_force_n)},
-          {"resultant_moment_nmm", v(f.resultant_moment_nmm)}};
+          {"resultant_moment_nmm", v(f.resultant_moment_nmm)},
+          {"slip_state", SlipStateName(f.slip.state)},
+          {"slip_fraction", number(f.slip.fraction)},
+          {"friction", number(f.slip.friction)},
+          {"friction_sigma", number(f.slip.friction_sigma)}};
 }
 
 }  // namespace

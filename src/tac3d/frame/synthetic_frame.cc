@@ -41,6 +41,15 @@ TactileFrame MakeSyntheticTactileFrame(const std::string& sn,
   const auto lost = static_cast<std::size_t>(index % frame.num_markers());
   frame.valid[lost] = false;
   frame.set(FrameFlag::kMarkersLost);
+  // Every slip state in turn, values distinct in every frame.
+  frame.slip.state = static_cast<SlipState>(index % kNumSlipStates);
+  if (frame.slip.state >= SlipState::kStick) {
+    frame.slip.fraction = 0.01 * static_cast<double>(index % 100);
+  }
+  if (frame.slip.state == SlipState::kGrossSlip) {
+    frame.slip.friction = 0.4 + 1e-3 * static_cast<double>(index % 100);
+    frame.slip.friction_sigma = 0.01 + 1e-5 * static_cast<double>(index % 100);
+  }
   return frame;
 }
 

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <cstring>
 
 #include "tac3d/util/error.h"
 
@@ -24,6 +25,28 @@ const char* FrameFlagName(FrameFlag flag) {
       return "zeroed";
   }
   TAC3D_DEMAND(false);
+}
+
+const char* SlipStateName(SlipState state) {
+  switch (state) {
+    case SlipState::kUnknown:
+      return "unknown";
+    case SlipState::kNone:
+      return "none";
+    case SlipState::kStick:
+      return "stick";
+    case SlipState::kPartialSlip:
+      return "partial_slip";
+    case SlipState::kGrossSlip:
+      return "gross_slip";
+  }
+  return "invalid";
+}
+
+bool FrameSlip::operator==(const FrameSlip& other) const {
+  const auto same = [](double a, double b) { return std::memcmp(&a, &b, sizeof(double)) == 0; };
+  return state == other.state && same(fraction, other.fraction) &&
+         same(friction, other.friction) && same(friction_sigma, other.friction_sigma);
 }
 
 std::string FrameFlagNames(std::uint32_t flags) {
@@ -92,6 +115,10 @@ void TactileFrame::Validate() const {
   if ((flags & ~known) != 0) {
     throw Error(fmt::format(
         "TactileFrame {}: flags 0x{:x} has unknown bits 0x{:x}", index, flags, flags & ~known));
+  }
+  if (static_cast<int>(slip.state) >= kNumSlipStates) {
+    throw Error(fmt::format(
+        "TactileFrame {}: slip state {} is not a SlipState", index, static_cast<int>(slip.state)));
   }
 }
 

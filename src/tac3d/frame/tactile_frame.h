@@ -2,6 +2,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,32 @@ inline constexpr FrameFlag kAllFrameFlags[] = {FrameFlag::kMarkersLost,
 /// snake_case name of a flag ("markers_lost"), as the wire header's msg and logs show it.
 const char* FrameFlagName(FrameFlag flag);
 
+/// The contact's slip state (docs/slip.md): from the fraction of contact markers whose traction
+/// ratio |F_t| / F_n sits on the contact's friction plateau.
+enum class SlipState : std::uint8_t {
+  kUnknown = 0,      ///< not estimated (a version-1 recording, a frame from another sender)
+  kNone = 1,         ///< no contact (fewer contact markers than SlipOptions::min_contact_markers)
+  kStick = 2,        ///< slip fraction below SlipOptions::stick_below
+  kPartialSlip = 3,  ///< between
+  kGrossSlip = 4,    ///< slip fraction above SlipOptions::gross_slip_above
+};
+inline constexpr int kNumSlipStates = 5;
+
+/// snake_case name ("partial_slip"), as the JSON lines show it.
+const char* SlipStateName(SlipState state);
+
+/// The per-frame slip estimate a TactileFrame carries (SlipEstimator, src/tac3d/slip/).
+struct FrameSlip {
+  static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  SlipState state = SlipState::kUnknown;
+  double fraction = kNaN;        ///< slipping / contact markers, NaN without contact
+  double friction = kNaN;        ///< friction coefficient, NaN unless kGrossSlip
+  double friction_sigma = kNaN;  ///< its 1-sigma uncertainty, NaN unless kGrossSlip
+
+  /// Bitwise equal values (NaN equals NaN), so a frame equals its round trip.
+  bool operator==(const FrameSlip& other) const;
+};
+
 /// The pipeline's output for one camera frame: what the Tac3D stream, the recorder and the
 /// viewer consume. Per-marker vectors hold rows * cols entries in row-major grid order
 /// (index row * cols + col), sensor frame, millimetres and newtons.
@@ -48,6 +75,7 @@ struct TactileFrame {
   Eigen::Vector3d resultant_moment_nmm = Eigen::Vector3d::Zero();
   int initialize_progress = 100;  ///< 0..100; consumers drop frames below 100
   std::uint32_t flags = 0;        ///< FrameFlag bits
+  FrameSlip slip;                 ///< the contact's slip state and friction estimate
 
   /// A frame with every per-marker vector sized rows * cols (zero vectors, all valid, no
   /// contact). @throws Error unless rows, cols >= 1.
@@ -59,7 +87,7 @@ struct TactileFrame {
 
   /// @throws Error naming the field when a per-marker vector is not rows * cols long,
   /// rows or cols < 1, initialize_progress is outside 0..100, the timestamp is not finite, or
-  /// flags holds an unknown bit.
+  /// flags holds an unknown bit, or slip's state is not a SlipState.
   void Validate() const;
 
   bool operator==(const TactileFrame&) const = default;

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include <Eigen/Geometry>
 
 #include "tac3d/frame/synthetic_frame.h"
@@ -90,6 +92,26 @@ TEST(SyntheticTactileFrame, ResultantsAreTheMarkerSumsAndTheFrameIsValid) {
   EXPECT_FALSE(frame.valid[17]);
   EXPECT_TRUE(frame.has(FrameFlag::kMarkersLost));
   EXPECT_NE(frame, MakeSyntheticTactileFrame("AD2-0001L", 18));
+}
+
+}  // namespace
+}  // namespace tac3d
+
+namespace tac3d {
+namespace {
+
+TEST(TactileFrame, SlipStartsUnknownComparesNaNsEqualAndRefusesABadState) {
+  TactileFrame frame = TactileFrame::Sized(2, 2);
+  EXPECT_EQ(frame.slip.state, SlipState::kUnknown);
+  EXPECT_TRUE(std::isnan(frame.slip.fraction));
+  EXPECT_EQ(frame, TactileFrame::Sized(2, 2));  // NaN slip values equal their copy
+  TactileFrame other = frame;
+  other.slip.friction = 0.4;
+  EXPECT_FALSE(frame == other);
+  EXPECT_STREQ(SlipStateName(SlipState::kPartialSlip), "partial_slip");
+  EXPECT_STREQ(SlipStateName(SlipState::kNone), "none");
+  frame.slip.state = static_cast<SlipState>(kNumSlipStates);
+  EXPECT_THROW(frame.Validate(), Error);
 }
 
 }  // namespace

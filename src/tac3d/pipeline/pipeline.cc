@@ -28,6 +28,7 @@ void PipelineOptions::Validate() const {
   Require(force_range_n > 0, "force_range_n", "> 0", force_range_n);
   force.Validate();
   contact.Validate();
+  slip.Validate();
   stereo.Validate();
 }
 
@@ -39,7 +40,8 @@ Pipeline::Pipeline(const SensorConfig& config, const Eigen::MatrixXd& h,
       tracker_(config, options.tracking),
       triangulator_(config, options.stereo),
       reconstructor_(h, fem_markers_mm, options.force),
-      surface_(config.markers.rows, config.markers.cols, fem_markers_mm, options.contact) {
+      surface_(config.markers.rows, config.markers.cols, fem_markers_mm, options.contact),
+      slip_(config.markers.rows * config.markers.cols, options.slip) {
   const size_t n = static_cast<size_t>(rows_) * cols_;
   if (fem_markers_mm.size() != n) {
     throw Error(fmt::format("pipeline: the sensor has {} x {} markers, the compliance model {}", rows_, cols_,
@@ -84,6 +86,7 @@ void Pipeline::FillInitializing(int progress, TactileFrame& out) const {
   out.resultant_force_n.setZero();
   out.resultant_moment_nmm.setZero();
   out.set(FrameFlag::kMarkersLost, lost > 0);
+  out.slip = FrameSlip{.state = SlipState::kNone};
 }
 
 void Pipeline::Process(const Frame& frame, TactileFrame& out) {
@@ -138,6 +141,8 @@ void Pipeline::Process(const Frame& frame, TactileFrame& out) {
       static_d.push_back(std::move(d));
     }
     noise_variance_ = EstimateDisplacementNoise(static_d).variance_mm2;
+    slip_.SetDisplacementVariance(*noise_variance_);
+    slip_.SetMarkerForceSigma(reconstructor_.CalcUncertainty(*noise_variance_).marker_sigma_n);
     reference_stack_.clear();
     zeroed_now = zero_requested_;
     zero_requested_ = false;
@@ -170,6 +175,7 @@ void Pipeline::Process(const Frame& frame, TactileFrame& out) {
   out.set(FrameFlag::kMarkersLost, lost > 0);
   out.set(FrameFlag::kDisplacementOutOfRange, max_displacement > options_.displacement_range_mm);
   out.set(FrameFlag::kForceOutOfRange, force_.resultant_force_n.norm() > options_.force_range_n);
+  out.slip = slip_.Estimate(out);
 }
 
 }  // namespace tac3d

@@ -11,6 +11,7 @@
 #include "tac3d/force/marker_surface.h"
 #include "tac3d/frame/tactile_frame.h"
 #include "tac3d/sensor/sensor_config.h"
+#include "tac3d/slip/slip_estimator.h"
 #include "tac3d/source/frame_source.h"
 #include "tac3d/stereo/marker_field.h"
 #include "tac3d/tracking/marker_tracker.h"
@@ -27,6 +28,9 @@ struct PipelineOptions {
   /// (`tac3d calibrate-force`) gives the sensor's own.
   ForceReconstructorOptions force = {.weight = 0.05, .gains = Eigen::Vector3d::Ones()};
   ContactOptions contact;
+  /// The contact's slip state and friction estimate (docs/slip.md); its force and
+  /// displacement noise are replaced by the measured ones after each reference.
+  SlipOptions slip;
   MarkerTrackerOptions tracking;
   MarkerTriangulatorOptions stereo;
   /// A frame is flagged when a valid marker moved farther than this from its reference (mm),
@@ -40,7 +44,8 @@ struct PipelineOptions {
 };
 
 /// The per-frame chain of the paper (section IV): tracking -> 3D markers -> displacement ->
-/// forces (F = K D) -> normals -> contact -> resultants, as one TactileFrame per image.
+/// forces (F = K D) -> normals -> contact -> resultants, as one TactileFrame per image, and
+/// beyond the paper the contact's slip state and friction coefficient (SlipEstimator).
 /// The first `reference_frames` frames (and those after RequestZero) build the reference:
 /// their TactileFrames carry initialize_progress < 100, the kInitializing flag and zero
 /// displacements and forces. One instance per sensor stream; not thread-safe.
@@ -75,6 +80,7 @@ class Pipeline {
   MarkerTriangulator triangulator_;
   ForceReconstructor reconstructor_;
   MarkerSurface surface_;
+  SlipEstimator slip_;
   DisplacementReference reference_;
   std::vector<MarkerField> reference_stack_;
   std::optional<Eigen::Vector3d> noise_variance_;

@@ -197,3 +197,51 @@ TEST(Pipeline, BadInputAndMismatchedModelsAreErrors) {
 
 }  // namespace
 }  // namespace tac3d
+
+namespace tac3d {
+namespace {
+
+// Hertz pressure over radius 4 mm about (1, 0) mm, 3 N in all, with a tangential traction of
+// mu_x times the pressure: Coulomb saturation everywhere, i.e. gross slip along +x.
+Eigen::VectorXd SlidingForces(double mu_x) {
+  const std::vector<Eigen::Vector3d> markers = Sensor().MarkerPositions();
+  const int n = static_cast<int>(markers.size());
+  Eigen::VectorXd p(n);
+  for (int i = 0; i < n; ++i) {
+    const double rho2 = (markers[i].head<2>() - Eigen::Vector2d(1, 0)).squaredNorm() / 16.0;
+    p[i] = rho2 < 1 ? std::sqrt(1 - rho2) : 0.0;
+  }
+  p *= 3.0 / p.sum();
+  Eigen::VectorXd f = Eigen::VectorXd::Zero(3 * n);
+  f.segment(0, n) = mu_x * p;
+  f.segment(2 * n, n) = -p;
+  return f;
+}
+
+TEST(Pipeline, EveryFrameCarriesTheSlipStateAndGrossSlipsMu) {
+  TwinStream run(FiveReferenceFrames());
+  const std::vector<Eigen::Vector3d> rest = Sensor().MarkerPositions();
+  for (int k = 0; k < 5; ++k) {
+    const TactileFrame f = run.Step(rest);
+    EXPECT_EQ(f.slip.state, SlipState::kNone) << k;  // initialising, then no contact
+    EXPECT_TRUE(std::isnan(f.slip.friction));
+  }
+  constexpr double kMu = 0.4;
+  const Eigen::VectorXd d = H() * SlidingForces(kMu);
+  const int n = static_cast<int>(rest.size());
+  std::vector<Eigen::Vector3d> pressed = rest;
+  for (int i = 0; i < n; ++i) pressed[i] += Eigen::Vector3d(d[i], d[n + i], d[2 * n + i]);
+  // Steady sliding: the same deformation frame after frame.
+  for (int k = 0; k < 3; ++k) {
+    const TactileFrame f = run.Step(pressed);
+    std::printf("slip %s fraction %.3f mu %.4f +- %.4f (true %.2f)\n", SlipStateName(f.slip.state),
+                f.slip.fraction, f.slip.friction, f.slip.friction_sigma, kMu);
+    EXPECT_EQ(f.slip.state, SlipState::kGrossSlip) << f.slip.fraction;
+    EXPECT_NEAR(f.slip.friction, kMu, 0.05);
+    EXPECT_GT(f.slip.friction_sigma, 0.0);
+  }
+  EXPECT_EQ(run.Step(rest).slip.state, SlipState::kNone);
+}
+
+}  // namespace
+}  // namespace tac3d

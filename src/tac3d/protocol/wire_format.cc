@@ -156,6 +156,29 @@ void CheckTableShapes(const DecodedFrame& frame) {
   }
 }
 
+// The extra items' slip estimate: each present item must have its type, SlipState a known
+// value; absent ones stay unknown.
+FrameSlip DecodeSlip(const DecodedFrame& frame) {
+  auto fail = [](const std::string& what) { throw DecodeError(DropReason::kBadField, what); };
+  FrameSlip slip;
+  if (const DecodedField* state = frame.Find(kFieldSlipState)) {
+    const double value = state->type == FieldType::kI32 ? state->matrix(0, 0) : -1.0;
+    if (value < 0 || value >= kNumSlipStates) {
+      fail(fmt::format("item '{}' must be an i32 in 0..{}", kFieldSlipState, kNumSlipStates - 1));
+    }
+    slip.state = static_cast<SlipState>(static_cast<int>(value));
+  }
+  for (const auto& [name, value] : {std::pair{kFieldSlipFraction, &slip.fraction},
+                                    std::pair{kFieldFriction, &slip.friction},
+                                    std::pair{kFieldFrictionSigma, &slip.friction_sigma}}) {
+    const DecodedField* field = frame.Find(name);
+    if (field == nullptr) continue;
+    if (field->type != FieldType::kF64) fail(fmt::format("item '{}' must be f64", name));
+    *value = field->matrix(0, 0);
+  }
+  return slip;
+}
+
 DecodedField DecodeItem(const YAML::Node& item, const std::string& name, std::string_view body) {
   auto fail = [&](const std::string& what) {
     throw DecodeError(DropReason::kBadField, fmt::format("item '{}': {}", name, what));
@@ -316,6 +339,15 @@ void EncodeFrame(const TactileFrame& frame,
   const std::int32_t progress = frame.initialize_progress;
   AppendItem(header, kFieldInitializeProgress, "i32", out->body.size(), sizeof(progress));
   out->body.append(reinterpret_cast<const char*>(&progress), sizeof(progress));
+  const std::int32_t slip_state = static_cast<std::int32_t>(frame.slip.state);
+  AppendItem(header, kFieldSlipState, "i32", out->body.size(), sizeof(slip_state));
+  out->body.append(reinterpret_cast<const char*>(&slip_state), sizeof(slip_state));
+  for (const auto& [name, value] : {std::pair{kFieldSlipFraction, &frame.slip.fraction},
+                                    std::pair{kFieldFriction, &frame.slip.friction},
+                                    std::pair{kFieldFrictionSigma, &frame.slip.friction_sigma}}) {
+    AppendItem(header, name, "f64", out->body.size(), sizeof(double));
+    out->body.append(reinterpret_cast<const char*>(value), sizeof(double));
+  }
 
   if (!image.empty()) {
     if (image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3)) {
@@ -386,6 +418,7 @@ DecodedFrame DecodeFrame(std::string_view header, std::string_view body) {
     }
   }
   CheckTableShapes(frame);
+  frame.slip = DecodeSlip(frame);
   return frame;
 }
 

@@ -32,6 +32,13 @@ inline constexpr const char* kFieldResultantForce = "3D_ResultantForce";
 inline constexpr const char* kFieldResultantMoment = "3D_ResultantMoment";
 inline constexpr const char* kFieldInitializeProgress = "InitializeProgress";
 inline constexpr const char* kFieldImage = "img";
+/// tac3d's extra items (docs/protocol.md, "Extra items"): the slip estimate, TactileFrame::slip.
+/// Named items of the format's own types, so vendor clients decode them into their per-frame
+/// dictionary by name and never read them.
+inline constexpr const char* kFieldSlipState = "SlipState";        ///< i32, SlipState's value
+inline constexpr const char* kFieldSlipFraction = "SlipFraction";  ///< f64, NaN without contact
+inline constexpr const char* kFieldFriction = "Friction";          ///< f64, NaN unless gross slip
+inline constexpr const char* kFieldFrictionSigma = "FrictionSigma";  ///< f64, 1-sigma of Friction
 
 /// The 8-byte prefix of every datagram.
 struct DatagramPrefix {
@@ -64,7 +71,8 @@ struct EncodedFrame {
 
 /// Encodes a frame as wire-protocol.md says: the seven fields of the table (per-marker fields
 /// rows*cols x 3 float64 row-major; resultant force N and moment N mm as 1 x 3;
-/// InitializeProgress as i32), then `img` as PNG when `image` is not empty. The header's msg
+/// InitializeProgress as i32), the extra items SlipState (i32), SlipFraction, Friction and
+/// FrictionSigma (f64), then `img` as PNG when `image` is not empty. The header's msg
 /// holds FrameFlagNames(frame.flags).
 /// @param image 8-bit, 1 or 3 channels, or empty for none.
 /// @throws Error if the frame does not Validate(), its SN is not printable ASCII without
@@ -130,6 +138,9 @@ struct DecodedFrame {
   double timestamp_s = 0.0;  ///< the sender's timestamp (vendor clients: sendTimestamp)
   std::string msg;           ///< empty when the header has none (senders before 3.3.0)
   std::map<std::string, DecodedField, std::less<>> fields;
+  /// The extra items' slip estimate; state kUnknown and NaNs when the sender sent none (a
+  /// vendor sensor, an older tac3d).
+  FrameSlip slip;
 
   /// The field called `name`, or nullptr.
   const DecodedField* Find(std::string_view name) const;
@@ -138,7 +149,8 @@ struct DecodedFrame {
 /// Decodes a reassembled frame: the text header and the joined body. Checks every item's
 /// offset and length against the body, a mat's dtype (f64) and height * width * 8 == length,
 /// f64 and i32 lengths, that images decode, and the table's fields' shapes (per-marker
-/// fields N x 3 with one N, resultants 1 x 3, InitializeProgress i32 or f64).
+/// fields N x 3 with one N, resultants 1 x 3, InitializeProgress i32 or f64), and fills `slip`
+/// from the extra items (SlipState an i32 naming a SlipState, the others f64).
 /// @throws DecodeError with kBadHeader, kBadField or kBadImage, saying what was wrong.
 DecodedFrame DecodeFrame(std::string_view header, std::string_view body);
 

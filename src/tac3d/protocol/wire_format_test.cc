@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
+#include <cstdio>
 #include <cstring>
 #include <opencv2/imgcodecs.hpp>
 
@@ -29,6 +30,11 @@ const std::vector<ExpectedItem> kTable = {
     {"3D_ResultantForce", "mat", 1, 3, 24},
     {"3D_ResultantMoment", "mat", 1, 3, 24},
     {"InitializeProgress", "i32", 0, 0, 4},
+    // tac3d's extra items (docs/protocol.md), which vendor clients keep by name and ignore.
+    {"SlipState", "i32", 0, 0, 4},
+    {"SlipFraction", "f64", 0, 0, 8},
+    {"Friction", "f64", 0, 0, 8},
+    {"FrictionSigma", "f64", 0, 0, 8},
 };
 
 EncodedFrame Encode(const TactileFrame& frame, const cv::Mat& image = cv::Mat()) {
@@ -59,7 +65,7 @@ RowMajorMatrixXd AsMatrix(const std::vector<Eigen::Vector3d>& v) {
 TEST(WireFormat, DatagramsFollowTheProtocolByteForByte) {
   const TactileFrame frame = MakeSyntheticTactileFrame("AD2-0065L", 42);
   const auto datagrams = Encode(frame).Datagrams();
-  // 38400 bytes of markers + 48 of resultants + 4 of progress = 38452: 28 chunks.
+  // 38400 bytes of markers + 48 of resultants + 4 of progress + 28 of slip = 38480: 28 chunks.
   ASSERT_EQ(datagrams.size(), 29u);
   std::string body;
   for (std::size_t k = 0; k < datagrams.size(); ++k) {
@@ -73,7 +79,7 @@ TEST(WireFormat, DatagramsFollowTheProtocolByteForByte) {
     }
     if (k >= 1) body += datagrams[k].substr(8);
   }
-  EXPECT_EQ(body.size(), 38452u);
+  EXPECT_EQ(body.size(), 38480u);
 
   const YAML::Node header = YAML::Load(datagrams[0].substr(8));
   EXPECT_EQ(header["SN"].as<std::string>(), "AD2-0065L");
@@ -110,6 +116,7 @@ TEST(WireFormat, DatagramsFollowTheProtocolByteForByte) {
   EXPECT_EQ(f64_at("3D_Normals", 3 * 5), frame.normals[5].x());
   EXPECT_EQ(f64_at("3D_ResultantForce", 2), frame.resultant_force_n.z());
   EXPECT_EQ(f64_at("3D_ResultantMoment", 1), frame.resultant_moment_nmm.y());
+  EXPECT_EQ(f64_at("SlipFraction", 0), frame.slip.fraction);  // frame 42: partial slip, 0.42
 }
 
 TEST(WireFormat, RoundTripThroughTheClientDecoderIsExact) {
@@ -142,7 +149,40 @@ TEST(WireFormat, RoundTripThroughTheClientDecoderIsExact) {
   const DecodedField* progress = decoded.Find("InitializeProgress");
   EXPECT_EQ(progress->type, FieldType::kI32);
   EXPECT_EQ(progress->matrix(0, 0), 63.0);
+  EXPECT_EQ(decoded.slip, frame.slip);
+  EXPECT_EQ(decoded.slip.state, SlipState::kStick);  // frame 7
   EXPECT_EQ(assembler.drops().total(), 0);
+}
+
+TEST(WireFormat, SlipExtraItemsRoundTripInEveryState) {
+  for (int index = 0; index < kNumSlipStates; ++index) {
+    const TactileFrame frame = MakeSyntheticTactileFrame("AD2-0065L", index + 100);
+    FrameAssembler assembler;
+    const auto received = Reassemble(Encode(frame).Datagrams(), &assembler);
+    ASSERT_TRUE(received) << assembler.last_error();
+    EXPECT_EQ(received->frame.slip, frame.slip) << index;
+    EXPECT_EQ(received->frame.slip.state, static_cast<SlipState>(index));
+  }
+  // Gross slip carries a friction coefficient and its sigma, bit for bit.
+  const TactileFrame gross = MakeSyntheticTactileFrame("AD2-0065L", 104);
+  ASSERT_EQ(gross.slip.state, SlipState::kGrossSlip);
+  FrameAssembler assembler;
+  const auto received = Reassemble(Encode(gross).Datagrams(), &assembler);
+  ASSERT_TRUE(received);
+  EXPECT_EQ(received->frame.Find("Friction")->matrix(0, 0), gross.slip.friction);
+  EXPECT_EQ(received->frame.slip.friction_sigma, gross.slip.friction_sigma);
+}
+
+TEST(WireFormat, HeaderWithTheExtraItemsStillFitsWithEveryFlagAndALongSn) {
+  TactileFrame frame = MakeSyntheticTactileFrame(std::string(64, 'S'), 123456789);
+  for (const FrameFlag flag : kAllFrameFlags) frame.set(flag);
+  EncodedFrame out;
+  EncodeFrame(frame, 0, cv::Mat(2, 2, CV_8UC1, cv::Scalar(7)), &out);
+  EXPECT_LE(out.header.size(), kChunkBytes);
+  EncodedFrame plain;
+  EncodeFrame(MakeSyntheticTactileFrame("AD2-0065L", 42), 0, cv::Mat(), &plain);
+  std::printf("header: %zu bytes for docs/protocol.md's example, %zu with a 64-byte SN, every "
+              "flag and an image\n", plain.header.size(), out.header.size());
 }
 
 TEST(WireFormat, ImageTravelsAsLosslessPng) {
@@ -257,6 +297,18 @@ TEST(WireFormat, DecoderRefusesEachKindOfBadHeaderAndField) {
             DropReason::kBadField);
   EXPECT_EQ(ReasonOf(HeaderWith("  - {name: img, type: img, offset: 0, length: 48}"), body),
             DropReason::kBadImage);
+  // The extra items: a header without them (a vendor sensor) decodes with the slip unknown.
+  EXPECT_EQ(DecodeFrame(HeaderWith("  - {name: p, type: f64, offset: 0, length: 8}"), body)
+                .slip.state,
+            SlipState::kUnknown);
+  EXPECT_EQ(ReasonOf(HeaderWith("  - {name: SlipState, type: f64, offset: 0, length: 8}"), body),
+            DropReason::kBadField);
+  std::string state_7 = body;
+  state_7[0] = 7;
+  EXPECT_EQ(ReasonOf(HeaderWith("  - {name: SlipState, type: i32, offset: 0, length: 4}"), state_7),
+            DropReason::kBadField);
+  EXPECT_EQ(ReasonOf(HeaderWith("  - {name: Friction, type: i32, offset: 0, length: 4}"), body),
+            DropReason::kBadField);
 }
 
 TEST(WireFormat, DecoderRefusesAnImageThatClaimsTooManyPixels) {

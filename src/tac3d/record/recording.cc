@@ -162,6 +162,10 @@ void RecordingWriter::Write(const TactileFrame& frame, const cv::Mat& image) {
   PutVectors(&record_, frame.normals);
   PutFlags(&record_, frame.valid);
   PutFlags(&record_, frame.contact);
+  Put(&record_, static_cast<std::uint8_t>(frame.slip.state));
+  Put(&record_, frame.slip.fraction);
+  Put(&record_, frame.slip.friction);
+  Put(&record_, frame.slip.friction_sigma);
   Put(&record_, static_cast<std::uint32_t>(image.rows));
   Put(&record_, static_cast<std::uint32_t>(image.cols));
   for (int r = 0; r < image.rows; ++r) PutBytes(&record_, image.ptr(r), image.cols);
@@ -208,12 +212,14 @@ RecordingReader::RecordingReader(const std::string& path)
   }
   std::uint32_t version;
   std::memcpy(&version, header + sizeof(kRecordingMagic), sizeof(version));
-  if (version != kRecordingVersion) {
-    throw Error(fmt::format("recording '{}' has format version {}; this reader knows {}",
+  if (version < kOldestRecordingVersion || version > kRecordingVersion) {
+    throw Error(fmt::format("recording '{}' has format version {}; this reader knows {} to {}",
                             path,
                             version,
+                            kOldestRecordingVersion,
                             kRecordingVersion));
   }
+  version_ = version;
   offset_ = kFileHeaderBytes;
 }
 
@@ -281,6 +287,13 @@ std::optional<RecordedFrame> RecordingReader::Next() {
     payload.GetVectors(&frame.normals, n, "normals");
     payload.GetFlags(&frame.valid, n, "valid");
     payload.GetFlags(&frame.contact, n, "contact");
+    if (version_ >= 2) {
+      // Range-checked by frame.Validate() below.
+      frame.slip.state = static_cast<SlipState>(payload.Get<std::uint8_t>("slip state"));
+      frame.slip.fraction = payload.Get<double>("slip fraction");
+      frame.slip.friction = payload.Get<double>("friction");
+      frame.slip.friction_sigma = payload.Get<double>("friction sigma");
+    }
     const auto image_rows = payload.Get<std::uint32_t>("image rows");
     const auto image_cols = payload.Get<std::uint32_t>("image cols");
     if (std::uint64_t{image_rows} * image_cols != payload.remaining() ||

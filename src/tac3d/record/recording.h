@@ -20,7 +20,10 @@ namespace tac3d {
 // last one, which the reader detects and reports.
 
 inline constexpr char kRecordingMagic[8] = {'T', 'A', 'C', '3', 'D', 'R', 'E', 'C'};
-inline constexpr std::uint32_t kRecordingVersion = 1;
+/// The version the writer writes. 2 adds the slip estimate (TactileFrame::slip) after the
+/// contact flags; the reader also reads version 1, whose frames carry SlipState::kUnknown.
+inline constexpr std::uint32_t kRecordingVersion = 2;
+inline constexpr std::uint32_t kOldestRecordingVersion = 1;
 /// Records longer than this are refused by the writer and taken as corruption by the reader,
 /// so a damaged length field cannot make the reader allocate without bound.
 inline constexpr std::uint32_t kMaxRecordBytes = 256u << 20;
@@ -90,6 +93,8 @@ class RecordingReader {
   /// At the end: what ended the file, with the byte offset and frame number.
   const std::string& message() const { return message_; }
   std::int64_t frames_read() const { return frames_read_; }
+  /// The file's format version (1 or 2).
+  std::uint32_t version() const { return version_; }
   /// Bytes of the file up to the end of the last complete record read.
   std::int64_t offset() const { return offset_; }
 
@@ -102,6 +107,7 @@ class RecordingReader {
   std::string message_;
   std::int64_t frames_read_ = 0;
   std::int64_t offset_ = 0;
+  std::uint32_t version_ = kRecordingVersion;
   std::vector<std::uint8_t> record_;
 };
 

@@ -5,6 +5,8 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -153,12 +155,94 @@ TEST(Recording, RefusesWhatItCannotWriteOrRead) {
   EXPECT_THROW(RecordingReader(dir + "/missing"), Error);
   EXPECT_THROW(RecordingReader(WriteBytes(dir + "/text", "hello, world")), Error);
   std::string future = Bytes(path);
-  future[8] = 2;
+  future[8] = 3;
   try {
-    RecordingReader reader(WriteBytes(dir + "/v2", future));
-    ADD_FAILURE() << "read version 2";
+    RecordingReader reader(WriteBytes(dir + "/v3", future));
+    ADD_FAILURE() << "read version 3";
   } catch (const Error& e) {
-    EXPECT_THAT(e.what(), HasSubstr("version 2"));
+    EXPECT_THAT(e.what(), HasSubstr("version 3; this reader knows 1 to 2"));
+  }
+}
+
+// The slip estimate's 25 bytes sit right after the contact flags (docs/recording.md).
+constexpr std::size_t kSlipBytes = 1 + 3 * 8;
+std::size_t SlipOffsetInPayload(const TactileFrame& f) {
+  return 4 + 4 + 8 + 8 + 4 + 4 + 2 + f.sn.size() + 24 + 24 + 4 * 24 * f.num_markers() +
+         2 * f.num_markers();
+}
+
+// A version-1 file of the same frames: the header's version 1 and each record without the
+// slip bytes, its length and CRC recomputed, as the version-1 writer made them.
+std::string ToVersion1(const std::string& v2, const std::vector<TactileFrame>& frames) {
+  std::string out = v2.substr(0, kFileHeaderBytes);
+  out[8] = 1;
+  std::size_t at = kFileHeaderBytes;
+  for (const TactileFrame& f : frames) {
+    std::uint32_t length;
+    std::memcpy(&length, v2.data() + at, 4);
+    std::string payload = v2.substr(at + 8, length);
+    payload.erase(SlipOffsetInPayload(f), kSlipBytes);
+    const auto new_length = static_cast<std::uint32_t>(payload.size());
+    const std::uint32_t crc = Crc32(Crc32(0, &new_length, 4), payload.data(), payload.size());
+    out.append(reinterpret_cast<const char*>(&new_length), 4);
+    out.append(reinterpret_cast<const char*>(&crc), 4);
+    out += payload;
+    at += 8 + length;
+  }
+  EXPECT_EQ(at, v2.size());
+  return out;
+}
+
+TEST(Recording, SlipEstimateRoundTripsAtItsDocumentedOffset) {
+  const std::string dir = testing::MakeTempDir("slip");
+  const std::string path = WriteRecording(dir, 5);
+  const std::string bytes = Bytes(path);
+  RecordingReader reader(path);
+  EXPECT_EQ(reader.version(), 2u);
+  std::size_t at = kFileHeaderBytes;
+  for (int i = 0; i < 5; ++i) {
+    const TactileFrame expected = MakeSyntheticTactileFrame("AD2-0065L", i);
+    const auto f = reader.Next();
+    ASSERT_TRUE(f) << reader.message();
+    EXPECT_EQ(f->frame.slip, expected.slip) << i;
+    EXPECT_EQ(f->frame.slip.state, static_cast<SlipState>(i));  // kUnknown .. kGrossSlip
+    // The bytes where docs/recording.md puts them.
+    const std::size_t slip = at + 8 + SlipOffsetInPayload(expected);
+    EXPECT_EQ(static_cast<std::uint8_t>(bytes[slip]),
+              static_cast<std::uint8_t>(expected.slip.state));
+    double fraction, friction, sigma;
+    std::memcpy(&fraction, bytes.data() + slip + 1, 8);
+    std::memcpy(&friction, bytes.data() + slip + 9, 8);
+    std::memcpy(&sigma, bytes.data() + slip + 17, 8);
+    EXPECT_EQ(FrameSlip({expected.slip.state, fraction, friction, sigma}), expected.slip) << i;
+    std::uint32_t length;
+    std::memcpy(&length, bytes.data() + at, 4);
+    at += 8 + length;
+  }
+  // A state byte beyond kGrossSlip is corruption, caught like any other bad value.
+  TactileFrame bad = MakeSyntheticTactileFrame("AD2-0065L", 0);
+  bad.slip.state = static_cast<SlipState>(9);
+  RecordingWriter writer(dir + "/bad.tac3d");
+  EXPECT_THROW(writer.Write(bad), Error);
+}
+
+TEST(Recording, ReadsVersion1FilesWithTheSlipUnknown) {
+  const std::string dir = testing::MakeTempDir("v1");
+  const std::string v2 = Bytes(WriteRecording(dir, 7));
+  std::vector<TactileFrame> frames;
+  for (int i = 0; i < 7; ++i) frames.push_back(MakeSyntheticTactileFrame("AD2-0065L", i));
+  RecordingReader reader(WriteBytes(dir + "/v1.tac3d", ToVersion1(v2, frames)));
+  EXPECT_EQ(reader.version(), 1u);
+  const auto read = ReadAll(&reader);
+  ASSERT_EQ(read.size(), 7u) << reader.message();
+  EXPECT_EQ(reader.status(), RecordingStatus::kComplete);
+  for (int i = 0; i < 7; ++i) {
+    TactileFrame expected = frames[i];
+    expected.slip = FrameSlip{};  // kUnknown, NaN
+    EXPECT_EQ(read[i].frame, expected) << i;
+    EXPECT_EQ(read[i].frame.slip.state, SlipState::kUnknown);
+    EXPECT_TRUE(std::isnan(read[i].frame.slip.fraction));
+    EXPECT_EQ(read[i].image.empty(), i % 3 != 0);
   }
 }
 

@@ -1,0 +1,221 @@
+#include "tac3d/slip/slip_estimator.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "tac3d/util/error.h"
+
+namespace tac3d {
+namespace {
+
+void Require(bool ok, const char* field, const char* bound, double value) {
+  if (!ok || !std::isfinite(value)) {
+    throw Error(fmt::format("SlipOptions.{} = {} must be {}", field, value, bound));
+  }
+}
+
+}  // namespace
+
+void SlipOptions::Validate() const {
+  Require(min_contact_markers >= 1, "min_contact_markers", ">= 1", min_contact_markers);
+  Require(plateau_quantile > 0 && plateau_quantile <= 1,
+          "plateau_quantile",
+          "in (0, 1]",
+          plateau_quantile);
+  Require(plateau_tolerance >= 0 && plateau_tolerance < 1,
+          "plateau_tolerance",
+          "in [0, 1)",
+          plateau_tolerance);
+  Require(noise_sigmas >= 0, "noise_sigmas", ">= 0", noise_sigmas);
+  Require(marker_force_sigma_n >= 0, "marker_force_sigma_n", ">= 0", marker_force_sigma_n);
+  Require(displacement_sigma_mm >= 0, "displacement_sigma_mm", ">= 0", displacement_sigma_mm);
+  Require(lag_tolerance >= 0, "lag_tolerance", ">= 0", lag_tolerance);
+  Require(stick_below >= 0 && stick_below <= 1, "stick_below", "in [0, 1]", stick_below);
+  Require(gross_slip_above >= stick_below && gross_slip_above < 1,
+          "gross_slip_above",
+          "in [stick_below, 1)",
+          gross_slip_above);
+}
+
+SlipEstimator::SlipEstimator(int num_markers, const SlipOptions& options)
+    : options_((options.Validate(), options)),
+      num_markers_(num_markers),
+      displacement_sigma_mm_(options.displacement_sigma_mm) {
+  if (num_markers < 1)
+    throw Error(fmt::format("SlipEstimator: {} markers, need >= 1", num_markers));
+  const auto n = static_cast<std::size_t>(num_markers);
+  sigma_n_.assign(n, options.marker_force_sigma_n);
+  contact_index_.resize(n);
+  ratio_.resize(n);
+  ratio_sigma_.resize(n);
+  sorted_.resize(n);
+  normal_n_.resize(n);
+  slipping_.assign(n, false);
+  on_plateau_.assign(n, false);
+  previous_mm_.assign(n, Eigen::Vector3d::Zero());
+  previous_valid_.assign(n, false);
+  for (auto& a : axis_) a.resize(n);
+}
+
+void SlipEstimator::SetMarkerForceSigma(const Eigen::Matrix3Xd& sigma_n) {
+  if (sigma_n.cols() != num_markers_) {
+    throw Error(
+        fmt::format("SlipEstimator: {} force sigmas for {} markers", sigma_n.cols(), num_markers_));
+  }
+  if (!sigma_n.allFinite() || (sigma_n.array() < 0).any()) {
+    throw Error("SlipEstimator: force sigmas must be finite and >= 0");
+  }
+  // The RMS over the axes: the ratio's noise is isotropic to first order.
+  for (int i = 0; i < num_markers_; ++i) sigma_n_[i] = sigma_n.col(i).norm() / std::sqrt(3.0);
+}
+
+void SlipEstimator::SetDisplacementVariance(const Eigen::Vector3d& variance_mm2) {
+  if (!variance_mm2.allFinite() || (variance_mm2.array() < 0).any()) {
+    throw Error("SlipEstimator: displacement variances must be finite and >= 0");
+  }
+  displacement_sigma_mm_ = std::sqrt(variance_mm2.mean());
+}
+
+// Median of the first `count` entries of `v` (reordered).
+double SlipEstimator::Median(std::vector<double>& v, int count) {
+  const auto mid = v.begin() + count / 2;
+  std::nth_element(v.begin(), mid, v.begin() + count);
+  return *mid;
+}
+
+FrameSlip SlipEstimator::Estimate(const TactileFrame& frame) {
+  if (frame.num_markers() != num_markers_ ||
+      frame.forces_n.size() != static_cast<std::size_t>(num_markers_) ||
+      frame.displacements_mm.size() != static_cast<std::size_t>(num_markers_)) {
+    throw Error(fmt::format(
+        "SlipEstimator: a frame of {} markers, built for {}", frame.num_markers(), num_markers_));
+  }
+  if (frame.has(FrameFlag::kInitializing) || frame.has(FrameFlag::kZeroed)) Reset();
+  std::fill(slipping_.begin(), slipping_.end(), false);
+  num_slipping_ = 0;
+  rigid_increment_mm_.setZero();
+  CollectRatios(frame);
+  FrameSlip out;
+  if (num_contact_ < options_.min_contact_markers) {
+    out.state = SlipState::kNone;
+    num_contact_ = 0;
+  } else {
+    FindPlateau();
+    ApplyMotion(frame);
+    out.fraction = static_cast<double>(num_slipping_) / num_contact_;
+    if (out.fraction < options_.stick_below) {
+      out.state = SlipState::kStick;
+    } else if (out.fraction > options_.gross_slip_above) {
+      out.state = SlipState::kGrossSlip;
+      EstimateFriction(frame, &out);
+    } else {
+      out.state = SlipState::kPartialSlip;
+    }
+  }
+  for (int i = 0; i < num_markers_; ++i) {
+    // Only a marker in contact in both frames has an increment that says stick or slip: one
+    // coming into contact moves with the indentation.
+    previous_valid_[i] =
+        frame.valid[i] && frame.contact[i] && frame.displacements_mm[i].allFinite();
+    if (previous_valid_[i]) previous_mm_[i] = frame.displacements_mm[i];
+  }
+  has_previous_ = true;
+  return out;
+}
+
+void SlipEstimator::CollectRatios(const TactileFrame& frame) {
+  num_contact_ = 0;
+  for (int i = 0; i < num_markers_; ++i) {
+    if (!frame.contact[i] || !frame.valid[i]) continue;
+    const Eigen::Vector3d& f = frame.forces_n[i];
+    const Eigen::Vector3d& n = frame.normals[i];
+    const double fn = -f.dot(n);
+    if (!(fn > 0.0) || !f.allFinite() || !n.allFinite()) continue;
+    const double r = (f + fn * n).norm() / fn;
+    contact_index_[num_contact_] = i;
+    normal_n_[num_contact_] = fn;
+    ratio_[num_contact_] = r;
+    // First-order noise of |F_t| / F_n under an isotropic force noise sigma.
+    ratio_sigma_[num_contact_] = sigma_n_[i] * std::sqrt(1.0 + r * r) / fn;
+    ++num_contact_;
+  }
+}
+
+void SlipEstimator::FindPlateau() {
+  const double k = options_.noise_sigmas;
+  std::copy(ratio_.begin(), ratio_.begin() + num_contact_, sorted_.begin());
+  const auto q = static_cast<int>(std::ceil(options_.plateau_quantile * num_contact_)) - 1;
+  const int qi = std::clamp(q, 0, num_contact_ - 1);
+  std::nth_element(sorted_.begin(), sorted_.begin() + qi, sorted_.begin() + num_contact_);
+  const double floor = (1.0 - options_.plateau_tolerance) * sorted_[qi];
+  for (int c = 0; c < num_contact_; ++c) {
+    const double r = ratio_[c], s = ratio_sigma_[c];
+    on_plateau_[c] = r > k * s && r >= floor - k * s;
+  }
+}
+
+void SlipEstimator::ApplyMotion(const TactileFrame& frame) {
+  const double k = options_.noise_sigmas;
+  // The rigid motion: the median increment of the contact's off-plateau markers (stuck by
+  // their traction), or of all its markers when too few are off it.
+  int count = 0;
+  for (const bool plateau_only : {false, true}) {
+    count = 0;
+    for (int c = 0; c < num_contact_; ++c) {
+      const int i = contact_index_[c];
+      if ((!plateau_only && on_plateau_[c]) || !has_previous_ || !previous_valid_[i]) continue;
+      const Eigen::Vector3d du = frame.displacements_mm[i] - previous_mm_[i];
+      for (int a = 0; a < 3; ++a) axis_[a][count] = du[a];
+      ++count;
+    }
+    if (count >= options_.min_contact_markers) break;
+  }
+  const double step_noise_mm = std::sqrt(2.0) * displacement_sigma_mm_;
+  bool moving = false;
+  if (count >= options_.min_contact_markers) {
+    for (int a = 0; a < 3; ++a) rigid_increment_mm_[a] = Median(axis_[a], count);
+    moving = rigid_increment_mm_.norm() > k * step_noise_mm;
+  }
+  if (!moving) rigid_increment_mm_.setZero();
+  const double lag_mm = k * step_noise_mm + options_.lag_tolerance * rigid_increment_mm_.norm();
+  for (int c = 0; c < num_contact_; ++c) {
+    const int i = contact_index_[c];
+    bool slipping = on_plateau_[c];
+    if (slipping && moving && previous_valid_[i]) {
+      const Eigen::Vector3d du = frame.displacements_mm[i] - previous_mm_[i];
+      slipping = (du - rigid_increment_mm_).norm() > lag_mm;
+    }
+    if (slipping) {
+      slipping_[i] = true;
+      ++num_slipping_;
+    }
+  }
+}
+
+void SlipEstimator::EstimateFriction(const TactileFrame& frame, FrameSlip* out) const {
+  Eigen::Vector3d sum_ft = Eigen::Vector3d::Zero();
+  double sum_fn = 0.0, sum_var = 0.0;
+  for (int c = 0; c < num_contact_; ++c) {
+    const int i = contact_index_[c];
+    sum_ft += frame.forces_n[i] + normal_n_[c] * frame.normals[i];
+    sum_fn += normal_n_[c];
+    sum_var += sigma_n_[i] * sigma_n_[i];
+  }
+  const double mu = sum_ft.norm() / sum_fn;
+  // The force noise of the sums, propagated to the quotient.
+  const double noise_var = sum_var * (1.0 + mu * mu) / (sum_fn * sum_fn);
+  // The spread of the load-weighted per-marker ratios: the standard error of their mean,
+  // sum w^2 * sum w (r - mu)^2 with weights w = F_n / sum F_n.
+  double spread = 0.0, weight2 = 0.0;
+  for (int c = 0; c < num_contact_; ++c) {
+    const double w = normal_n_[c] / sum_fn;
+    spread += w * (ratio_[c] - mu) * (ratio_[c] - mu);
+    weight2 += w * w;
+  }
+  out->friction = mu;
+  out->friction_sigma = std::sqrt(noise_var + spread * weight2);
+}
+
+}  // namespace tac3d

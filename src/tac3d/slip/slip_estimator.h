@@ -1,0 +1,121 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "tac3d/frame/tactile_frame.h"
+
+namespace tac3d {
+
+/// Thresholds of SlipEstimator (docs/slip.md says where each default comes from).
+struct SlipOptions {
+  /// Fewer contact markers than this is no contact (state kNone): a ratio statistic and a
+  /// fraction need a contact patch, not one marker over the threshold.
+  int min_contact_markers = 4;
+  /// The contact's friction plateau is this quantile of its markers' traction ratios: a
+  /// robust maximum that ignores the top (1 - q) of the markers, where edge noise lives.
+  double plateau_quantile = 0.9;
+  /// A marker is on the plateau when its ratio is at least (1 - plateau_tolerance) times the
+  /// plateau, less noise_sigmas of its own ratio noise. 0.1: a Coulomb-saturated patch has one
+  /// ratio; the FEM inverse's smoothing spreads it by a few per cent (docs/slip.md).
+  double plateau_tolerance = 0.1;
+  /// Noise multiplier k: a ratio within k sigma of zero is no tangential load (stick), a ratio
+  /// within k sigma of the plateau is on it. 3: a 0.3 % false call per marker under Gaussian noise.
+  double noise_sigmas = 3.0;
+  /// 1-sigma force noise of a marker along each axis (N), used until SetMarkerForceSigma gives
+  /// the measured one (the pipeline does after each reference, from ForceReconstructor's
+  /// uncertainty). 0.002 N: the twin's at 0.005 mm displacement noise and w = 0.05.
+  double marker_force_sigma_n = 0.002;
+  /// 1-sigma displacement noise of a marker along each axis (mm), used until
+  /// SetDisplacementSigma gives the measured one (the pipeline's reference noise).
+  double displacement_sigma_mm = 0.005;
+  /// A stuck marker follows the contact's rigid motion between frames; one whose increment
+  /// departs from it by more than noise_sigmas * sqrt(2) * sigma + lag_tolerance * |rigid
+  /// increment| lags: it slips. 0.25: the spread of a stuck patch's increments on a curved
+  /// indenter, where the surface is not parallel to the motion everywhere.
+  double lag_tolerance = 0.25;
+  /// Slip fraction below this: stick; above gross_slip_above: gross slip; between: partial.
+  double stick_below = 0.1;
+  double gross_slip_above = 0.9;
+
+  /// @throws tac3d::Error naming the field and the broken bound.
+  void Validate() const;
+};
+
+/// Per-frame slip state of the contact, from the traction ratio r_i = |F_t,i| / F_n,i of each
+/// contact marker (normal and tangential parts of the marker's force along its measured
+/// normal, MarkerSurface's split, paper section IV.B). Coulomb friction bounds r_i <= mu, with
+/// equality exactly where the surface slips (Cattaneo-Mindlin): slipping markers share the
+/// contact's top ratio, stuck ones sit below it. So a marker slips when r_i is on the
+/// plateau (the plateau_quantile of the contact's ratios, within plateau_tolerance and
+/// noise_sigmas of its ratio noise) and its tangential force is above noise; the fraction of
+/// contact markers slipping gives the state; in gross slip mu = |sum F_t| / sum F_n with an
+/// uncertainty from the force noise and the spread of the per-marker ratios.
+/// A traction plateau alone cannot tell a saturated patch from a stuck one whose load happens
+/// to be even, so the frame-to-frame motion decides where it is seen: when the contact moves
+/// (the median increment of its off-plateau markers is above noise), a plateau marker that
+/// follows that rigid motion is stuck and only one that lags slips. In steady gross slip the
+/// markers stand still under the sliding object and the traction decides alone.
+/// Allocates only in the constructor; not thread-safe.
+class SlipEstimator {
+ public:
+  /// @param num_markers markers a frame has (rows * cols).
+  /// @throws tac3d::Error if the options are invalid or num_markers < 1.
+  SlipEstimator(int num_markers, const SlipOptions& options = {});
+
+  /// Uses the measured 1-sigma force noise of each marker (N, one column a marker, x y z).
+  /// @throws tac3d::Error if the size is wrong or a sigma is negative or not finite.
+  void SetMarkerForceSigma(const Eigen::Matrix3Xd& sigma_n);
+
+  /// Uses the measured displacement noise (variance along x, y, z, mm^2).
+  /// @throws tac3d::Error if a variance is negative or not finite.
+  void SetDisplacementVariance(const Eigen::Vector3d& variance_mm2);
+
+  /// Forgets the previous frame (after a new reference: increments across it are meaningless).
+  void Reset() { has_previous_ = false; }
+
+  /// The slip estimate of `frame` from its forces_n, normals, valid, contact and displacements
+  /// (and the previous frame's displacements, kept). Frames flagged kInitializing or kZeroed
+  /// restart the motion history.
+  /// @throws tac3d::Error if the frame has a different number of markers.
+  FrameSlip Estimate(const TactileFrame& frame);
+
+  /// The contact's rigid motion since the previous frame (mm), zero when not seen.
+  const Eigen::Vector3d& rigid_increment_mm() const { return rigid_increment_mm_; }
+  /// Per marker, whether the last Estimate found it slipping (false outside the contact).
+  const std::vector<bool>& slipping() const { return slipping_; }
+  int num_contact() const { return num_contact_; }
+  int num_slipping() const { return num_slipping_; }
+  const SlipOptions& options() const { return options_; }
+
+ private:
+  // The phases of Estimate: each contact marker's ratio and its noise; which ratios are on the
+  // plateau; the frame-to-frame motion that keeps a following marker stuck; mu in gross slip.
+  void CollectRatios(const TactileFrame& frame);
+  void FindPlateau();
+  void ApplyMotion(const TactileFrame& frame);
+  void EstimateFriction(const TactileFrame& frame, FrameSlip* out) const;
+  static double Median(std::vector<double>& v, int count);
+
+  SlipOptions options_;
+  int num_markers_;
+  std::vector<double> sigma_n_;  // isotropic 1-sigma force noise of each marker (N)
+  // Per-frame scratch, sized once.
+  std::vector<int> contact_index_;
+  std::vector<double> ratio_;
+  std::vector<double> ratio_sigma_;
+  std::vector<double> sorted_;
+  std::vector<double> normal_n_;
+  std::vector<bool> slipping_;
+  std::vector<bool> on_plateau_;  // by contact slot
+  std::vector<Eigen::Vector3d> previous_mm_;
+  std::vector<bool> previous_valid_;  // valid and in contact in the previous frame
+  std::vector<double> axis_[3];
+  bool has_previous_ = false;
+  double displacement_sigma_mm_;
+  Eigen::Vector3d rigid_increment_mm_ = Eigen::Vector3d::Zero();
+  int num_contact_ = 0;
+  int num_slipping_ = 0;
+};
+
+}  // namespace tac3d

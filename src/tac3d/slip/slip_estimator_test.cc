@@ -1,0 +1,297 @@
+// SlipEstimator on synthetic contacts with known tractions (Hertz pressure and the
+// Cattaneo-Mindlin tangential tractions) and known frame-to-frame motions.
+
+#include "tac3d/slip/slip_estimator.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <random>
+
+#include "tac3d/testing/testing.h"
+#include "tac3d/util/error.h"
+
+#if defined(__SANITIZE_ADDRESS__)
+#define TAC3D_COUNT_MALLOC 0
+#else
+#define TAC3D_COUNT_MALLOC 1
+namespace {
+std::atomic<long> g_malloc_calls{0};
+}  // namespace
+extern "C" void* __libc_malloc(std::size_t size);
+extern "C" void* malloc(std::size_t size) {
+  g_malloc_calls.fetch_add(1, std::memory_order_relaxed);
+  return __libc_malloc(size);
+}
+#endif
+
+namespace tac3d {
+namespace {
+
+constexpr int kSide = 20;
+constexpr double kRadiusMm = 7.0;   // contact radius a, markers 1 mm apart
+constexpr double kPeakN = 0.15;     // Hertz peak pressure times a marker's 1 mm^2 patch
+constexpr double kSigmaN = 0.002;   // force noise per axis, SlipOptions' default
+constexpr double kContactN = 0.02;  // ContactOptions' default threshold
+constexpr double kMu = 0.5;
+
+enum class Load { kStick, kPartial, kGross };
+
+struct Contact {
+  TactileFrame frame;
+  std::vector<bool> truly_slipping;
+};
+
+// rho = r / a of marker i on a flat 20 x 20 grid (normals +z) centred under the contact.
+double Rho(int i) {
+  const double x = i % kSide - 9.5, y = i / kSide - 9.5;
+  return std::hypot(x, y) / kRadiusMm;
+}
+
+// A Hertz contact loaded along +x: kStick the full-stick traction q0 / sqrt(1 - rho^2) of a
+// rigid shift (Q / P = 0.2), kGross q = mu p, kPartial Cattaneo-Mindlin with a stick core of
+// radius c_over_a. Displacements: base + step for stuck markers, base + lag * step for
+// slipping ones (they lag the object).
+Contact MakeContact(Load load,
+                    double c_over_a,
+                    const Eigen::Vector3d& base_mm,
+                    const Eigen::Vector3d& step_mm,
+                    double lag,
+                    std::mt19937_64& rng,
+                    double mu = kMu) {
+  std::normal_distribution<double> noise(0.0, kSigmaN);
+  Contact c{TactileFrame::Sized(kSide, kSide), std::vector<bool>(kSide * kSide, false)};
+  for (int i = 0; i < kSide * kSide; ++i) {
+    const double rho = Rho(i);
+    const double s = rho < 1 ? std::sqrt(1 - rho * rho) : 0.0;
+    const double p = kPeakN * s;
+    double q = 0.0;
+    if (rho < 1) {
+      switch (load) {
+        case Load::kStick:
+          q = 0.2 / 3 * kPeakN / std::max(s, 0.05);
+          break;
+        case Load::kGross:
+          q = mu * p;
+          c.truly_slipping[i] = true;
+          break;
+        case Load::kPartial:
+          c.truly_slipping[i] = rho >= c_over_a;
+          q = mu *
+              (c.truly_slipping[i]
+                   ? p
+                   : kPeakN * (s - c_over_a * std::sqrt(1 - rho * rho / (c_over_a * c_over_a))));
+          break;
+      }
+    }
+    c.frame.normals[i] = Eigen::Vector3d::UnitZ();
+    c.frame.forces_n[i] = Eigen::Vector3d(q + noise(rng), noise(rng), -p + noise(rng));
+    c.frame.contact[i] = -c.frame.forces_n[i].z() > kContactN;
+    c.frame.displacements_mm[i] = base_mm + (c.truly_slipping[i] ? lag : 1.0) * step_mm;
+  }
+  return c;
+}
+
+// Fraction of contact markers whose slipping call matches the truth.
+double Agreement(const Contact& c, const std::vector<bool>& slipping) {
+  int n = 0, agree = 0;
+  for (int i = 0; i < kSide * kSide; ++i) {
+    if (!c.frame.contact[i]) continue;
+    ++n;
+    agree += slipping[i] == c.truly_slipping[i];
+  }
+  return static_cast<double>(agree) / n;
+}
+
+const Eigen::Vector3d kBase(0.2, 0.0, -0.3);
+const Eigen::Vector3d kStep(0.05, 0.0, 0.0);  // 0.05 mm between frames: 7 sigma of the step noise
+
+TEST(SlipEstimator, NoContactIsNoneWithNaN) {
+  SlipEstimator estimator(kSide * kSide);
+  const FrameSlip slip = estimator.Estimate(TactileFrame::Sized(kSide, kSide));
+  EXPECT_EQ(slip.state, SlipState::kNone);
+  EXPECT_TRUE(std::isnan(slip.fraction));
+  EXPECT_TRUE(std::isnan(slip.friction));
+  EXPECT_TRUE(std::isnan(slip.friction_sigma));
+}
+
+TEST(SlipEstimator, RigidShiftOfTheContactIsStick) {
+  std::mt19937_64 rng(testing::kRandomSeed);
+  SlipEstimator estimator(kSide * kSide);
+  estimator.Estimate(MakeContact(Load::kStick, 0, kBase, Eigen::Vector3d::Zero(), 1, rng).frame);
+  const Contact c = MakeContact(Load::kStick, 0, kBase, kStep, 1, rng);
+  const FrameSlip slip = estimator.Estimate(c.frame);
+  EXPECT_EQ(slip.state, SlipState::kStick) << slip.fraction;
+  EXPECT_LT(slip.fraction, 0.05);
+  EXPECT_TRUE(std::isnan(slip.friction));
+  EXPECT_NEAR(estimator.rigid_increment_mm().x(), 0.05, 1e-9);
+}
+
+TEST(SlipEstimator, GrossSlipRecoversMuWithinItsUncertainty) {
+  std::mt19937_64 rng(testing::kRandomSeed);
+  SlipEstimator estimator(kSide * kSide);
+  // Steady sliding: the markers stand still under the moving object.
+  estimator.Estimate(MakeContact(Load::kGross, 0, kBase, Eigen::Vector3d::Zero(), 0, rng).frame);
+  const Contact c = MakeContact(Load::kGross, 0, kBase, Eigen::Vector3d::Zero(), 0, rng);
+  const FrameSlip slip = estimator.Estimate(c.frame);
+  EXPECT_EQ(slip.state, SlipState::kGrossSlip) << slip.fraction;
+  EXPECT_GT(slip.fraction, 0.9);
+  EXPECT_GT(slip.friction_sigma, 0.0);
+  EXPECT_LT(slip.friction_sigma, 0.02);
+  EXPECT_NEAR(slip.friction, kMu, 3 * slip.friction_sigma);
+}
+
+TEST(SlipEstimator, FrictionUncertaintyIsCalibrated) {
+  // Over many noise draws, |mu - true mu| < 2 sigma about 95 % of the time.
+  std::mt19937_64 rng(testing::kRandomSeed);
+  SlipEstimator estimator(kSide * kSide);
+  int within = 0, gross = 0;
+  constexpr int kDraws = 200;
+  for (int k = 0; k < kDraws; ++k) {
+    const Contact c = MakeContact(Load::kGross, 0, kBase, Eigen::Vector3d::Zero(), 0, rng);
+    const FrameSlip slip = estimator.Estimate(c.frame);
+    if (slip.state != SlipState::kGrossSlip) continue;
+    ++gross;
+    within += std::abs(slip.friction - kMu) < 2 * slip.friction_sigma;
+  }
+  EXPECT_EQ(gross, kDraws);
+  EXPECT_GE(within, 0.85 * kDraws);
+  EXPECT_LE(within, kDraws);
+}
+
+TEST(SlipEstimator, PartialSlipFindsTheAnnulus) {
+  for (const double c_over_a : {0.4, 0.6, 0.8}) {
+    std::mt19937_64 rng(testing::kRandomSeed);
+    SlipEstimator estimator(kSide * kSide);
+    estimator.Estimate(
+        MakeContact(Load::kPartial, c_over_a, kBase, Eigen::Vector3d::Zero(), 0.3, rng).frame);
+    const Contact c = MakeContact(Load::kPartial, c_over_a, kBase, kStep, 0.3, rng);
+    const FrameSlip slip = estimator.Estimate(c.frame);
+    int truth = 0, contact = 0;
+    for (int i = 0; i < kSide * kSide; ++i) {
+      contact += c.frame.contact[i];
+      truth += c.frame.contact[i] && c.truly_slipping[i];
+    }
+    const double true_fraction = static_cast<double>(truth) / contact;
+    EXPECT_EQ(slip.state, SlipState::kPartialSlip) << c_over_a << " " << slip.fraction;
+    EXPECT_NEAR(slip.fraction, true_fraction, 0.1) << c_over_a;
+    EXPECT_GE(Agreement(c, estimator.slipping()), 0.9) << c_over_a;
+    EXPECT_TRUE(std::isnan(slip.friction));
+  }
+}
+
+// The figures of docs/slip.md: over seeded noise draws, mu's error in gross slip and the slip
+// fraction's error in partial slip, with the state right every time.
+TEST(SlipEstimator, AccuracyOverLoads) {
+  std::mt19937_64 rng(testing::kRandomSeed);
+  constexpr int kDraws = 50;
+  for (const double mu : {0.2, 0.5, 0.8}) {
+    SlipEstimator estimator(kSide * kSide);
+    double max_error = 0, sum_sigma = 0;
+    int wrong_state = 0;
+    for (int k = 0; k < kDraws; ++k) {
+      const Contact c = MakeContact(Load::kGross, 0, kBase, Eigen::Vector3d::Zero(), 0, rng, mu);
+      const FrameSlip slip = estimator.Estimate(c.frame);
+      wrong_state += slip.state != SlipState::kGrossSlip;
+      max_error = std::max(max_error, std::abs(slip.friction - mu));
+      sum_sigma += slip.friction_sigma;
+    }
+    std::printf("gross slip mu %.1f: max |error| %.4f, mean sigma %.4f, wrong state %d/%d\n",
+                mu,
+                max_error,
+                sum_sigma / kDraws,
+                wrong_state,
+                kDraws);
+    EXPECT_EQ(wrong_state, 0) << mu;
+    EXPECT_LT(max_error, 0.02) << mu;
+  }
+  for (const double c_over_a : {0.3, 0.5, 0.7, 0.85}) {
+    double max_error = 0, min_agreement = 1;
+    int wrong_state = 0;
+    for (int k = 0; k < kDraws; ++k) {
+      SlipEstimator estimator(kSide * kSide);
+      estimator.Estimate(
+          MakeContact(Load::kPartial, c_over_a, kBase, Eigen::Vector3d::Zero(), 0.3, rng).frame);
+      const Contact c = MakeContact(Load::kPartial, c_over_a, kBase, kStep, 0.3, rng);
+      const FrameSlip slip = estimator.Estimate(c.frame);
+      int truth = 0, contact = 0;
+      for (int i = 0; i < kSide * kSide; ++i) {
+        contact += c.frame.contact[i];
+        truth += c.frame.contact[i] && c.truly_slipping[i];
+      }
+      const double true_fraction = static_cast<double>(truth) / contact;
+      const SlipState true_state = true_fraction > 0.9   ? SlipState::kGrossSlip
+                                   : true_fraction < 0.1 ? SlipState::kStick
+                                                         : SlipState::kPartialSlip;
+      wrong_state += slip.state != true_state;
+      max_error = std::max(max_error, std::abs(slip.fraction - true_fraction));
+      min_agreement = std::min(min_agreement, Agreement(c, estimator.slipping()));
+    }
+    std::printf(
+        "partial slip c/a %.2f: max |fraction error| %.3f, min marker agreement %.3f, "
+        "wrong state %d/%d\n",
+        c_over_a,
+        max_error,
+        min_agreement,
+        wrong_state,
+        kDraws);
+    EXPECT_EQ(wrong_state, 0) << c_over_a;
+    EXPECT_LT(max_error, 0.1) << c_over_a;
+  }
+}
+
+TEST(SlipEstimator, FewContactMarkersIsNone) {
+  SlipEstimator estimator(kSide * kSide, {.min_contact_markers = 4});
+  TactileFrame frame = TactileFrame::Sized(kSide, kSide);
+  for (int i = 0; i < 3; ++i) {
+    frame.contact[i] = true;
+    frame.forces_n[i] = Eigen::Vector3d(0.3, 0, -1);
+  }
+  EXPECT_EQ(estimator.Estimate(frame).state, SlipState::kNone);
+}
+
+TEST(SlipEstimator, SteadyStateAllocatesNothing) {
+  if (!TAC3D_COUNT_MALLOC) GTEST_SKIP() << "malloc is not countable under AddressSanitizer";
+#if TAC3D_COUNT_MALLOC
+  std::mt19937_64 rng(testing::kRandomSeed);
+  SlipEstimator estimator(kSide * kSide);
+  const Contact a = MakeContact(Load::kPartial, 0.6, kBase, Eigen::Vector3d::Zero(), 0.3, rng);
+  const Contact b = MakeContact(Load::kGross, 0.6, kBase, kStep, 0.3, rng);
+  estimator.Estimate(a.frame);
+  const long before = g_malloc_calls.load();
+  for (int k = 0; k < 10; ++k) estimator.Estimate(k % 2 ? a.frame : b.frame);
+  EXPECT_EQ(g_malloc_calls.load() - before, 0);
+#endif
+}
+
+TEST(SlipEstimator, RefusesBadOptionsAndSizes) {
+  const auto throws = [](SlipOptions o, const char* field) {
+    try {
+      SlipEstimator(4, o);
+      ADD_FAILURE() << field << " accepted";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    }
+  };
+  throws({.min_contact_markers = 0}, "min_contact_markers");
+  throws({.plateau_quantile = 0}, "plateau_quantile");
+  throws({.plateau_tolerance = 1}, "plateau_tolerance");
+  throws({.noise_sigmas = -1}, "noise_sigmas");
+  throws({.marker_force_sigma_n = NAN}, "marker_force_sigma_n");
+  throws({.displacement_sigma_mm = -1}, "displacement_sigma_mm");
+  throws({.lag_tolerance = -0.1}, "lag_tolerance");
+  throws({.stick_below = 1.5}, "stick_below");
+  throws({.stick_below = 0.5, .gross_slip_above = 0.4}, "gross_slip_above");
+  EXPECT_THROW(SlipEstimator(0), Error);
+  SlipEstimator estimator(4);
+  EXPECT_THROW(estimator.Estimate(TactileFrame::Sized(3, 3)), Error);
+  EXPECT_THROW(estimator.SetMarkerForceSigma(Eigen::Matrix3Xd::Zero(3, 3)), Error);
+  EXPECT_THROW(estimator.SetMarkerForceSigma(-Eigen::Matrix3Xd::Ones(3, 4)), Error);
+  EXPECT_THROW(estimator.SetDisplacementVariance(Eigen::Vector3d(1, -1, 1)), Error);
+}
+
+}  // namespace
+}  // namespace tac3d
