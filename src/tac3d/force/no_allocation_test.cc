@@ -1,34 +1,17 @@
 // The per-frame path of ForceReconstructor allocates nothing (CONVENTIONS.md, Performance):
-// malloc is counted around Reconstruct by interposing glibc's malloc in this test binary.
-
-#include <atomic>
-#include <cstddef>
+// malloc is counted around Reconstruct (testing/malloc_counter.h interposes glibc's malloc).
 
 #include <gtest/gtest.h>
 
 #include "tac3d/force/force_reconstructor.h"
 #include "tac3d/force/synthetic_compliance.h"
-
-#if defined(__SANITIZE_ADDRESS__)
-#define TAC3D_COUNT_MALLOC 0  // the sanitizer owns malloc
-#else
-#define TAC3D_COUNT_MALLOC 1
-namespace {
-std::atomic<long> g_malloc_calls{0};
-}  // namespace
-extern "C" void* __libc_malloc(std::size_t size);
-extern "C" void* malloc(std::size_t size) {
-  g_malloc_calls.fetch_add(1, std::memory_order_relaxed);
-  return __libc_malloc(size);
-}
-#endif
+#include "tac3d/testing/malloc_counter.h"
 
 namespace tac3d {
 namespace {
 
 TEST(ForceReconstructor, PerFrameReconstructAllocatesNothing) {
-  if (!TAC3D_COUNT_MALLOC) GTEST_SKIP() << "malloc is not countable under AddressSanitizer";
-#if TAC3D_COUNT_MALLOC
+  if (!testing::MallocIsCounted()) GTEST_SKIP() << "malloc is not countable under AddressSanitizer";
   const SyntheticCompliance model = CalcSyntheticCompliance({.rows = 6, .cols = 6});
   ForceReconstructor reconstructor(model.h, model.marker_positions, {.weight = 1e-3});
   // A press of 0.5 N into the body on four markers.
@@ -40,36 +23,35 @@ TEST(ForceReconstructor, PerFrameReconstructAllocatesNothing) {
   ForceFrame frame;
   // The first frames size the frame and build the cache for the mask; the counter must see
   // the malloc they do, or the interposition is not working.
-  long before = g_malloc_calls.load();
+  long before = testing::MallocCalls();
   reconstructor.Reconstruct(d, {}, &frame);
   reconstructor.Reconstruct(d, valid, &frame);
-  ASSERT_GT(g_malloc_calls.load(), before);
-  before = g_malloc_calls.load();
+  ASSERT_GT(testing::MallocCalls(), before);
+  before = testing::MallocCalls();
   for (int k = 0; k < 10; ++k) {
     reconstructor.Reconstruct(d, valid, &frame);
     reconstructor.Reconstruct(d, valid, &frame);
   }
-  EXPECT_EQ(g_malloc_calls.load(), before);
+  EXPECT_EQ(testing::MallocCalls(), before);
   // The press covers the grid: the contact-support re-solve ran too.
   EXPECT_TRUE(frame.support_refined);
   EXPECT_GT(frame.num_support_markers, 0);
   // Without invalid markers, too (the cache stays).
   reconstructor.Reconstruct(d, {}, &frame);
-  EXPECT_EQ(g_malloc_calls.load(), before);
+  EXPECT_EQ(testing::MallocCalls(), before);
   // A different mask every frame (markers flickering at the contact's edge): the restricted
   // problem is refactored each frame, in storage sized once by the first frames.
   std::vector<bool> other(36, true);
   other[3] = other[21] = other[30] = false;
   reconstructor.Reconstruct(d, other, &frame);
-  before = g_malloc_calls.load();
+  before = testing::MallocCalls();
   for (int k = 0; k < 10; ++k) {
     reconstructor.Reconstruct(d, valid, &frame);
     reconstructor.Reconstruct(d, other, &frame);
     reconstructor.Reconstruct(d, {}, &frame);
   }
-  EXPECT_EQ(g_malloc_calls.load(), before);
+  EXPECT_EQ(testing::MallocCalls(), before);
   EXPECT_TRUE(frame.support_refined);
-#endif
 }
 
 }  // namespace

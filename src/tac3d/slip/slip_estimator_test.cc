@@ -6,27 +6,14 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <random>
 
+#include "tac3d/testing/malloc_counter.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
 
-#if defined(__SANITIZE_ADDRESS__)
-#define TAC3D_COUNT_MALLOC 0
-#else
-#define TAC3D_COUNT_MALLOC 1
-namespace {
-std::atomic<long> g_malloc_calls{0};
-}  // namespace
-extern "C" void* __libc_malloc(std::size_t size);
-extern "C" void* malloc(std::size_t size) {
-  g_malloc_calls.fetch_add(1, std::memory_order_relaxed);
-  return __libc_malloc(size);
-}
-#endif
 
 namespace tac3d {
 namespace {
@@ -254,17 +241,15 @@ TEST(SlipEstimator, FewContactMarkersIsNone) {
 }
 
 TEST(SlipEstimator, SteadyStateAllocatesNothing) {
-  if (!TAC3D_COUNT_MALLOC) GTEST_SKIP() << "malloc is not countable under AddressSanitizer";
-#if TAC3D_COUNT_MALLOC
+  if (!testing::MallocIsCounted()) GTEST_SKIP() << "malloc is not countable under AddressSanitizer";
   std::mt19937_64 rng(testing::kRandomSeed);
   SlipEstimator estimator(kSide * kSide);
   const Contact a = MakeContact(Load::kPartial, 0.6, kBase, Eigen::Vector3d::Zero(), 0.3, rng);
   const Contact b = MakeContact(Load::kGross, 0.6, kBase, kStep, 0.3, rng);
   estimator.Estimate(a.frame);
-  const long before = g_malloc_calls.load();
+  const long before = testing::MallocCalls();
   for (int k = 0; k < 10; ++k) estimator.Estimate(k % 2 ? a.frame : b.frame);
-  EXPECT_EQ(g_malloc_calls.load() - before, 0);
-#endif
+  EXPECT_EQ(testing::MallocCalls() - before, 0);
 }
 
 TEST(SlipEstimator, RefusesBadOptionsAndSizes) {
