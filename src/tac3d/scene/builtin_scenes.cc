@@ -133,14 +133,9 @@ Scene TwoMaterialSlide() {
   return s;
 }
 
-// A bottle-like cylinder (radius 30 mm, axis along y, mu = 0.3) with an 8 mm rubber disc
-// (mu = 1.2) 20 deg round from its bottom line; the fingertip presses 0.3 mm and slides
-// round the cylinder from -30 to +50 deg, across the disc (Fig. 1, 9).
-Scene Bottle() {
-  Scene s = Base("bottle");
-  const double top = s.sensor.elastic_body.thickness_mm;
-  const double radius = 30.0;
-  const Eigen::Vector3d axis_point(0, 0, top + kClearanceMm + radius);
+// The bottle of Fig. 9: a cylinder (axis along y through axis_point, mu = 0.3, 120 mm long)
+// with an 8 mm rubber disc (mu = 1.2) 20 deg round from its bottom line.
+SceneObject BottleWithRubberDisc(const Eigen::Vector3d& axis_point, double radius) {
   SceneObject bottle = Object("bottle", SceneObject::Shape::kCylinder, axis_point, 0.3);
   bottle.radius_mm = radius;
   bottle.length_mm = 120.0;
@@ -151,7 +146,18 @@ Scene Bottle() {
   disc.radius_mm = 4.0;
   disc.mu = 1.2;
   bottle.friction.regions.push_back(disc);
-  s.objects.push_back(bottle);
+  return bottle;
+}
+
+// A bottle-like cylinder (radius 30 mm, axis along y, mu = 0.3) with an 8 mm rubber disc
+// (mu = 1.2) 20 deg round from its bottom line; the fingertip presses 0.3 mm and slides
+// round the cylinder from -30 to +50 deg, across the disc (Fig. 1, 9).
+Scene Bottle() {
+  Scene s = Base("bottle");
+  const double top = s.sensor.elastic_body.thickness_mm;
+  const double radius = 30.0;
+  const Eigen::Vector3d axis_point(0, 0, top + kClearanceMm + radius);
+  s.objects.push_back(BottleWithRubberDisc(axis_point, radius));
   // The sensor's z axis points at the cylinder's axis: turned by phi about y round it.
   auto pose = [&](double phi_deg, double depth) -> std::pair<Eigen::Vector3d, Eigen::Vector3d> {
     const double phi = phi_deg * M_PI / 180.0;
@@ -273,17 +279,7 @@ Scene FrictionBottle() {
   const double top = s.sensor.elastic_body.thickness_mm;
   const double radius = 30.0;
   const Eigen::Vector3d axis_point(0, 0, top + kClearanceMm + radius);
-  SceneObject bottle = Object("bottle", SceneObject::Shape::kCylinder, axis_point, 0.3);
-  bottle.radius_mm = radius;
-  bottle.length_mm = 120.0;
-  FrictionRegion disc;
-  disc.kind = FrictionRegion::Kind::kBall;
-  const double disc_angle = 20.0 * M_PI / 180.0;
-  disc.center_mm = {-radius * std::sin(disc_angle), 0, -radius * std::cos(disc_angle)};
-  disc.radius_mm = 4.0;
-  disc.mu = 1.2;
-  bottle.friction.regions.push_back(disc);
-  s.objects.push_back(bottle);
+  s.objects.push_back(BottleWithRubberDisc(axis_point, radius));
   CylinderStrokes(s.trajectory, axis_point, radius, top, 0.0, 40.0, {-5.0, 0.0, 5.0});
   return s;
 }
