@@ -10,11 +10,10 @@
 
 #include <Eigen/Cholesky>
 #include <opencv2/calib3d.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "tac3d/imagefile/image_decode.h"
 #include "tac3d/util/error.h"
-#include "tac3d/util/image_header.h"
 #include "tac3d/util/progress.h"
 
 namespace tac3d {
@@ -388,16 +387,7 @@ std::vector<CalibrationImage> LoadCalibrationImages(const std::string& dir, int 
   for (const fs::path& p : paths) {
     std::ifstream in(p, std::ios::binary);
     const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    const std::optional<ImageDimensions> dims = ReadImageHeaderDimensions(bytes.data(), bytes.size());
-    cv::Mat image;
-    if (!bytes.empty() && (!dims || (dims->width <= max_width && dims->height <= max_height))) {
-      try {
-        image = cv::imdecode(bytes, cv::IMREAD_GRAYSCALE);
-      } catch (const cv::Exception&) {
-        image.release();  // a decoder's refusal is an unreadable file like any other
-      }
-    }
-    images.push_back({p.filename().string(), image});
+    images.push_back({p.filename().string(), DecodeGrayImage(bytes, max_width, max_height).image});
   }
   return images;
 }

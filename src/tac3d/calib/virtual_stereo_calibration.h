@@ -9,6 +9,7 @@
 
 #include "tac3d/calib/calibration_board.h"
 #include "tac3d/calib/dot_grid_detector.h"
+#include "tac3d/imagefile/image_decode.h"
 #include "tac3d/sensor/sensor_config.h"
 
 namespace tac3d {
@@ -103,7 +104,7 @@ VirtualStereoCalibration CalibrateVirtualStereo(const std::vector<CalibrationIma
 /// not from this sensor, and decoding it could allocate gigabytes), come back with an empty
 /// image, so the calibration refuses them with the reason.
 /// @throws Error if `dir` is not a readable directory.
-std::vector<CalibrationImage> LoadCalibrationImages(const std::string& dir, int max_width = 8192,
-                                                    int max_height = 8192);
+std::vector<CalibrationImage> LoadCalibrationImages(const std::string& dir, int max_width = kMaxImageSidePx,
+                                                    int max_height = kMaxImageSidePx);
 
 }  // namespace tac3d

@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "tac3d/geometry/geometry.h"
+#include "tac3d/imagefile/image_decode.h"
 #include "tac3d/optics/camera.h"
 #include "tac3d/optics/optical_layout.h"
 
@@ -13,7 +14,7 @@ namespace tac3d {
 /// fingertip sensor, so a typo (a width of 2e9, 10000 x 10000 markers) is an error instead
 /// of an allocation that never ends (docs/sensor-config.md lists them).
 struct SensorLimits {
-  static constexpr int kMaxImageSidePx = 8192;        ///< camera width and height
+  static constexpr int kMaxImageSidePx = tac3d::kMaxImageSidePx;  ///< camera width and height
   static constexpr int kMaxMarkersPerSide = 100;      ///< markers.rows and cols
   static constexpr double kMaxLengthMm = 1000.0;      ///< every length and |coordinate|
   static constexpr double kMaxFocalLengthPx = 1e6;    ///< fx, fy

@@ -7,13 +7,12 @@
 #include <iterator>
 
 #include <fmt/format.h>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "tac3d/imagefile/image_decode.h"
 #include "tac3d/source/threaded_capture.h"
 #include "tac3d/util/error.h"
-#include "tac3d/util/image_header.h"
 
 namespace tac3d {
 namespace {
@@ -26,22 +25,6 @@ constexpr double kCameraTimeoutS = 2.0;
 std::string Lower(std::string s) {
   std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
   return s;
-}
-
-// A JPEG cut short still decodes (libjpeg warns and fills the missing rows with grey), so
-// the file itself is checked: the main image's data begins at the last start-of-scan
-// marker (FF DA; a thumbnail's and a progressive file's earlier scans come before it, and
-// FF never starts a marker inside entropy-coded data) and must be followed by an
-// end-of-image marker (FF D9).
-bool IsTruncatedJpeg(const std::vector<std::uint8_t>& bytes) {
-  if (bytes.size() < 4 || bytes[0] != 0xFF || bytes[1] != 0xD8) return false;  // not a JPEG
-  std::size_t last_sos = 0, last_eoi = 0;
-  for (std::size_t i = 2; i + 1 < bytes.size(); ++i) {
-    if (bytes[i] != 0xFF) continue;
-    if (bytes[i + 1] == 0xDA) last_sos = i;
-    if (bytes[i + 1] == 0xD9) last_eoi = i;
-  }
-  return last_sos == 0 || last_eoi < last_sos;
 }
 
 bool IsImageFile(const fs::path& path) {
@@ -119,27 +102,12 @@ class ImageFolderSource : public FrameSource {
       last_error_ = fmt::format("'{}' cannot be read", file);
       return ReadStatus::kBadFrame;
     }
-    if (IsTruncatedJpeg(bytes_)) {
-      last_error_ = fmt::format("'{}' is a truncated JPEG (no end of image after its last scan)", file);
+    DecodedImage decoded = DecodeGrayImage(bytes_, max_width_, max_height_);
+    if (decoded.image.empty()) {
+      last_error_ = fmt::format("'{}': {}", file, decoded.refusal);
       return ReadStatus::kBadFrame;
     }
-    // The header's size is checked first: a decoder allocates what a (corrupt) header claims.
-    const std::optional<ImageDimensions> dims = ReadImageHeaderDimensions(bytes_.data(), bytes_.size());
-    if (dims && (dims->width > max_width_ || dims->height > max_height_)) {
-      last_error_ = fmt::format("'{}': its header claims {} x {} pixels, more than the camera's {} x {}",
-                                file, dims->width, dims->height, max_width_, max_height_);
-      return ReadStatus::kBadFrame;
-    }
-    try {
-      frame.image = bytes_.empty() ? cv::Mat() : cv::imdecode(bytes_, cv::IMREAD_GRAYSCALE);
-    } catch (const cv::Exception& e) {
-      last_error_ = fmt::format("'{}': the decoder refused it: {}", file, e.what());
-      return ReadStatus::kBadFrame;
-    }
-    if (frame.image.empty()) {
-      last_error_ = fmt::format("'{}' is not a readable image (corrupt or truncated)", file);
-      return ReadStatus::kBadFrame;
-    }
+    frame.image = std::move(decoded.image);
     last_error_.clear();
     return ReadStatus::kOk;
   }
@@ -161,8 +129,9 @@ class ImageFolderSource : public FrameSource {
 
 void CameraSourceOptions::Validate() const {
   if (device.empty()) throw Error("camera: device must not be empty");
-  if (width < 16 || width > 8192 || height < 16 || height > 8192) {
-    throw Error(fmt::format("camera: width x height = {} x {} must be within 16..8192", width, height));
+  if (width < 16 || width > kMaxImageSidePx || height < 16 || height > kMaxImageSidePx) {
+    throw Error(fmt::format("camera: width x height = {} x {} must be within 16..{}", width, height,
+                            kMaxImageSidePx));
   }
   if (!(fps > 0 && fps <= 1000)) throw Error(fmt::format("camera: fps = {} must be in (0, 1000]", fps));
   if (exposure && !(*exposure > 0)) {

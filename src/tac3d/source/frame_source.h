@@ -8,6 +8,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "tac3d/imagefile/image_decode.h"
+
 namespace tac3d {
 
 /// One camera image as the pipeline receives it.
@@ -70,7 +72,7 @@ std::unique_ptr<FrameSource> OpenVideoFile(const std::string& path);
 /// (the camera's resolution), refused before it is decoded.
 /// @throws Error if the folder is missing or holds no image file.
 std::unique_ptr<FrameSource> OpenImageFolder(const std::string& path, double fps = 30.0,
-                                             int max_width = 8192, int max_height = 8192);
+                                             int max_width = kMaxImageSidePx, int max_height = kMaxImageSidePx);
 
 /// The image files OpenImageFolder would read, sorted.
 std::vector<std::string> ListImageFiles(const std::string& folder);

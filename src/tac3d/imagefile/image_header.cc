@@ -1,4 +1,4 @@
-#include "tac3d/util/image_header.h"
+#include "tac3d/imagefile/image_header.h"
 
 #include <cctype>
 #include <cstdlib>

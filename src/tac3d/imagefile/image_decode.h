@@ -1,0 +1,26 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <opencv2/core/mat.hpp>
+
+namespace tac3d {
+
+/// The largest image side tac3d reads or writes, in pixels (cameras, renders, image files).
+inline constexpr int kMaxImageSidePx = 8192;
+
+/// An image file decoded, or the reason it was refused.
+struct DecodedImage {
+  cv::Mat image;        ///< 8-bit grey; empty when refused
+  std::string refusal;  ///< why it was refused (no file name); empty when decoded
+};
+
+/// Decodes an image file's bytes (PNG, JPEG, BMP, TIFF, PGM) to 8-bit grey. Refused, never
+/// thrown: no bytes, a JPEG cut short (which would decode with grey rows), a header that
+/// claims more than max_width x max_height pixels (checked before decoding, because a decoder
+/// allocates what a corrupt header claims), and whatever the decoder refuses.
+DecodedImage DecodeGrayImage(const std::vector<std::uint8_t>& bytes, int max_width, int max_height);
+
+}  // namespace tac3d
