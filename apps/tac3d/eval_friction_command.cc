@@ -57,10 +57,7 @@ void RegisterEvalFriction(CLI::App& eval) {
     std::vector<std::string> scenes = {"friction_block", "friction_bottle", "friction_paint_can"};
     std::string datasets;
     std::string out = "out/eval_friction";
-    std::string calibration;
-    std::vector<double> gains;
-    std::string cache_dir = DefaultCacheDir();
-    int max_steps = 0;
+    ReplayArgs replay;  ///< the datasets' replay; its calibration defaults to DATASETS/force_calibration
     FrictionMapArgs map;
     FrictionEvaluationOptions evaluation;
     bool json = false;
@@ -69,7 +66,9 @@ void RegisterEvalFriction(CLI::App& eval) {
   CLI::App* cmd = eval.add_subcommand(
       "friction",
       "Friction maps of the twin's friction scenes through the whole chain (images -> pipeline -> "
-      "map) against the scenes' truth: mu, bands, boundaries, coverage, surface, slip points");
+      "map) against the scenes' truth: mu, bands, boundaries, coverage, surface, slip points. Without "
+      "--gains or --calibration the gains are fitted on DATASETS/force_calibration (simulated if "
+      "missing)");
   cmd->add_option("--scenes", args->scenes, "built-in scenes or scene files")
       ->capture_default_str();
   cmd->add_option(
@@ -82,17 +81,7 @@ void RegisterEvalFriction(CLI::App& eval) {
                   "per scene map.ply, map.png, slip_points.csv, evaluation.json; "
                   "report.json")
       ->capture_default_str();
-  cmd->add_option(
-      "--calibration",
-      args->calibration,
-      "force-calibration dataset to fit the gains on (default: DATASETS/force_calibration, "
-      "simulated if missing)");
-  cmd->add_option("--gains", args->gains, "force gains Cx Cy Cz instead of a calibration")
-      ->expected(3);
-  cmd->add_option("--cache", args->cache_dir, "directory of cached models")->capture_default_str();
-  cmd->add_option(
-         "--steps", args->max_steps, "replay only the first N steps of each scene (0: all)")
-      ->capture_default_str();
+  AddReplayOptions(cmd, args->replay);
   cmd->add_option("--coverage-distance",
                   args->evaluation.coverage_distance_mm,
                   "a touched point is covered by a known vertex this near, mm")
@@ -103,23 +92,18 @@ void RegisterEvalFriction(CLI::App& eval) {
     const std::string datasets = args->datasets.empty() ? args->out + "/datasets" : args->datasets;
     MakeDirectory(datasets);
     MakeDirectory(args->out);
-    ReplayArgs replay;
-    replay.cache_dir = args->cache_dir;
-    replay.max_steps = args->max_steps;
+    ReplayArgs replay = args->replay;
     replay.show_progress = true;  // on stderr
-    replay.gains = args->gains;
     nlohmann::json report = {{"datasets", datasets}};
-    if (args->gains.empty()) {
-      replay.calibration =
-          args->calibration.empty() ? datasets + "/force_calibration" : args->calibration;
-      if (args->calibration.empty())
-        EnsureDataset("force_calibration", replay.calibration, args->cache_dir);
+    if (replay.gains.empty() && replay.calibration.empty()) {
+      replay.calibration = datasets + "/force_calibration";
+      EnsureDataset("force_calibration", replay.calibration, replay.cache_dir);
     }
     std::vector<FrictionEvaluation> results;
     nlohmann::json scenes = nlohmann::json::array();
     for (const std::string& name : args->scenes) {
       const std::string folder = datasets + "/" + std::filesystem::path(name).stem().string();
-      const double simulate_s = EnsureDataset(name, folder, args->cache_dir);
+      const double simulate_s = EnsureDataset(name, folder, replay.cache_dir);
       const TwinDatasetReader reader(folder);
       const Scene scene = LoadSceneOrBuiltIn(reader.header().at("scene").get<std::string>());
       friction::FrictionMapBuilder builder(args->map.Options(scene.sensor));
@@ -143,7 +127,7 @@ void RegisterEvalFriction(CLI::App& eval) {
       bar.Finish();
       const double map_s = Seconds(start);
       const std::vector<Eigen::Vector3d> touched =
-          TouchedTrueSurface(reader, scene, args->evaluation.touched_voxel_mm, args->max_steps);
+          TouchedTrueSurface(reader, scene, args->evaluation.touched_voxel_mm, replay.max_steps);
       FrictionEvaluation e =
           EvaluateFrictionMap(scene, map, recorder.truth(), touched, args->evaluation);
       e.simulate_s = simulate_s;

@@ -27,6 +27,16 @@ std::function<void(int, int)> Progress(std::unique_ptr<ProgressBar>& bar, const 
 
 }  // namespace
 
+void AddReplayOptions(CLI::App* cmd, ReplayArgs& replay) {
+  cmd->add_option("--gains", replay.gains, "force gains Cx Cy Cz (default 1 1 1, or fitted on --calibration)")
+      ->expected(3);
+  cmd->add_option("--calibration", replay.calibration,
+                  "fit the gains on this twin dataset replayed with unit gains");
+  cmd->add_option("--config", replay.config, "sensor YAML (default: the dataset's scene's sensor)");
+  cmd->add_option("--cache", replay.cache_dir, "directory of cached compliance models")->capture_default_str();
+  cmd->add_option("--steps", replay.max_steps, "replay only the first N steps (0: all)")->capture_default_str();
+}
+
 ReplayRun RunReplay(const ReplayArgs& a, const std::function<void(const TwinStep&, const TactileFrame&)>& on_frame) {
   if (!a.gains.empty() && !a.calibration.empty()) throw Error("give --gains or --calibration, not both");
   if (!a.gains.empty() && a.gains.size() != 3) throw Error("--gains takes three numbers: Cx Cy Cz");
@@ -83,12 +93,7 @@ void RegisterEvalReplay(CLI::App& eval) {
       "truth: resultant force and moment, markers, contact, flags");
   ReplayArgs& r = args->replay;
   cmd->add_option("--dataset", r.dataset, "twin dataset folder (tac3d simulate)")->required();
-  cmd->add_option("--gains", r.gains, "force gains Cx Cy Cz (default 1 1 1)")->expected(3);
-  cmd->add_option("--calibration", r.calibration,
-                  "fit the gains on this twin dataset replayed with unit gains");
-  cmd->add_option("--config", r.config, "sensor YAML (default: the dataset's scene's sensor)");
-  cmd->add_option("--cache", r.cache_dir, "directory of cached compliance models")->capture_default_str();
-  cmd->add_option("--steps", r.max_steps, "replay only the first N steps (0: all)")->capture_default_str();
+  AddReplayOptions(cmd, r);
   cmd->add_option("--max-support-markers", r.max_support_markers,
                   "the force re-solve's largest contact support, markers (0: the default, 120)")
       ->capture_default_str();

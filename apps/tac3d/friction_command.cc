@@ -203,16 +203,7 @@ void RegisterFrictionMap(CLI::App& app) {
   dataset->excludes(recording);
   recording->needs(poses);
   poses->needs(recording);
-  cmd->add_option("--gains", r.gains, "--dataset: force gains Cx Cy Cz (default 1 1 1)")
-      ->expected(3);
-  cmd->add_option("--calibration", r.calibration, "--dataset: fit the gains on this twin dataset");
-  cmd->add_option("--config",
-                  r.config,
-                  "sensor YAML (default: the dataset's scene's sensor, or the prototype)");
-  cmd->add_option("--cache", r.cache_dir, "directory of cached compliance models")
-      ->capture_default_str();
-  cmd->add_option("--steps", r.max_steps, "--dataset: only the first N steps (0: all)")
-      ->capture_default_str();
+  AddReplayOptions(cmd, r);
   cmd->add_option("--out", args->out, "folder for map.ply, slip_points.csv, map.png, summary.json")
       ->capture_default_str();
   args->map.Add(cmd);

@@ -44,6 +44,10 @@ struct ReplayArgs {
   bool show_progress = true;
 };
 
+/// Adds the options every command that replays twin datasets takes, into `replay`: --gains,
+/// --calibration, --config, --cache, --steps (the dataset is each command's own).
+void AddReplayOptions(CLI::App* cmd, ReplayArgs& replay);
+
 struct ReplayRun {
   ReplayOptions options;  ///< as run, the gains included
   std::optional<ReplayGainCalibration> calibration;
