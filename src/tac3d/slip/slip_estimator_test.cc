@@ -269,7 +269,8 @@ TEST(SlipEstimator, RefusesBadOptionsAndSizes) {
   throws({.displacement_sigma_mm = -1}, "displacement_sigma_mm");
   throws({.lag_tolerance = -0.1}, "lag_tolerance");
   throws({.stick_below = 1.5}, "stick_below");
-  throws({.stick_below = 0.5, .gross_slip_above = 0.4}, "gross_slip_above");
+  throws({.saturation_tolerance = 1}, "saturation_tolerance");
+  throws({.saturation_tolerance = -0.1}, "saturation_tolerance");
   EXPECT_THROW(SlipEstimator(0), Error);
   SlipEstimator estimator(4);
   EXPECT_THROW(estimator.Estimate(TactileFrame::Sized(3, 3)), Error);
