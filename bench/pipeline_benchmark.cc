@@ -72,9 +72,16 @@ void BM_SlipEstimate(benchmark::State& state) {
   for (size_t k = 0; k < frames.size(); ++k) stream.pipeline.Process(stream.frames[k], frames[k]);
   SlipEstimator estimator(stream.config.markers.rows * stream.config.markers.cols);
   size_t k = 0;
+  std::array<std::int64_t, kNumSlipStates> states{};
   for (auto _ : state) {
     FrameSlip slip = estimator.Estimate(frames[k++ % frames.size()]);
+    ++states[static_cast<int>(slip.state)];
     benchmark::DoNotOptimize(slip);
+  }
+  // Which paths ran: the share of frames in each state.
+  for (const SlipState s : {SlipState::kNone, SlipState::kStick, SlipState::kPartialSlip, SlipState::kGrossSlip}) {
+    state.counters[SlipStateName(s)] =
+        static_cast<double>(states[static_cast<int>(s)]) / std::max<std::int64_t>(state.iterations(), 1);
   }
 }
 BENCHMARK(BM_SlipEstimate)->Unit(benchmark::kMicrosecond);
