@@ -14,7 +14,6 @@
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
 
-
 namespace tac3d {
 namespace {
 
@@ -193,7 +192,8 @@ TEST(SlipEstimator, SaturatedButDraggedIsPartialSlip) {
   std::mt19937_64 rng(testing::kRandomSeed);
   SlipEstimator estimator(kSide * kSide);
   estimator.Estimate(MakeContact(Load::kGross, 0, kBase, Eigen::Vector3d::Zero(), 1, rng).frame);
-  const FrameSlip slip = estimator.Estimate(MakeContact(Load::kGross, 0, kBase, kStep, 1, rng).frame);
+  const FrameSlip slip =
+      estimator.Estimate(MakeContact(Load::kGross, 0, kBase, kStep, 1, rng).frame);
   EXPECT_EQ(slip.state, SlipState::kPartialSlip);
   EXPECT_TRUE(std::isnan(slip.friction));
 }
@@ -206,14 +206,16 @@ TEST(SlipEstimator, GrossSlipPersistsWhileItsFrictionHolds) {
   SlipEstimator estimator(kSide * kSide);
   Eigen::Vector3d at = kBase;
   estimator.Estimate(MakeContact(Load::kGross, 0, at, Eigen::Vector3d::Zero(), 0, rng).frame);
-  ASSERT_EQ(estimator.Estimate(MakeContact(Load::kGross, 0, at, Eigen::Vector3d::Zero(), 0, rng).frame).state,
-            SlipState::kGrossSlip);
+  ASSERT_EQ(
+      estimator.Estimate(MakeContact(Load::kGross, 0, at, Eigen::Vector3d::Zero(), 0, rng).frame)
+          .state,
+      SlipState::kGrossSlip);
   double mu = kMu;
   for (int k = 0; k < 5; ++k) {
     mu *= 0.95;
     at -= kStep;  // the markers relax back as the friction drops
-    const FrameSlip slip =
-        estimator.Estimate(MakeContact(Load::kGross, 0, at, Eigen::Vector3d::Zero(), 0, rng, mu).frame);
+    const FrameSlip slip = estimator.Estimate(
+        MakeContact(Load::kGross, 0, at, Eigen::Vector3d::Zero(), 0, rng, mu).frame);
     EXPECT_EQ(slip.state, SlipState::kGrossSlip) << k;
     EXPECT_NEAR(slip.friction, mu, 0.01) << k;
   }
