@@ -79,10 +79,10 @@ void BM_SlipEstimate(benchmark::State& state) {
     benchmark::DoNotOptimize(slip);
   }
   // Which paths ran: the share of frames in each state.
-  const double frames = static_cast<double>(std::max<std::int64_t>(state.iterations(), 1));
+  const double iterations = static_cast<double>(std::max<std::int64_t>(state.iterations(), 1));
   for (const SlipState s :
        {SlipState::kNone, SlipState::kStick, SlipState::kPartialSlip, SlipState::kGrossSlip}) {
-    state.counters[SlipStateName(s)] = static_cast<double>(states[static_cast<int>(s)]) / frames;
+    state.counters[SlipStateName(s)] = static_cast<double>(states[static_cast<int>(s)]) / iterations;
   }
 }
 BENCHMARK(BM_SlipEstimate)->Unit(benchmark::kMicrosecond);
