@@ -13,7 +13,9 @@ struct SlipOptions {
   /// fraction need a contact patch, not one marker over the threshold.
   int min_contact_markers = 4;
   /// The contact's friction plateau is this quantile of its markers' traction ratios: a
-  /// robust maximum that ignores the top (1 - q) of the markers, where edge noise lives.
+  /// robust maximum that ignores the top (1 - q) of the markers, where edge noise lives. The
+  /// contact is dragged when this quantile of its markers' tangential increments is above
+  /// noise: at least the top (1 - q) moved, however small the stuck core.
   double plateau_quantile = 0.9;
   /// A marker is on the plateau when its ratio is at least (1 - plateau_tolerance) times the
   /// plateau, less noise_sigmas of its own ratio noise. 0.1: a Coulomb-saturated patch has one
@@ -39,7 +41,8 @@ struct SlipOptions {
   /// of its median marker ratio; an established gross slip persists while R drops by less than
   /// saturation_tolerance (relative) a frame. 0.1: Cattaneo-Mindlin gives R / median = 1 -
   /// (c/a)^3 once the slip annulus covers half the contact, so a still contact within 0.1 has a
-  /// stuck core of at most 0.46 a; on the twin's slides 0.1 and 0.2 give the same states.
+  /// stuck core of at most 0.46 a; on the twin's slides 0.2 gives nearly the same states, 0.05
+  /// and 0.3 worse ones (docs/slip.md).
   double saturation_tolerance = 0.1;
   /// A loaded contact whose shear is concentrated at the edge (R above its median marker ratio
   /// by more than saturation_tolerance) is in partial slip when at least this fraction of its
@@ -58,7 +61,8 @@ struct SlipOptions {
 ///   (R above the median ratio by more than saturation_tolerance) with fewer than stick_below
 ///   of the markers slipping (below);
 /// - gross slip: the ratio field uniform (R within saturation_tolerance of the median ratio)
-///   and the contact not dragged (its tangential rigid increment within noise): the whole
+///   and the contact not dragged (the plateau_quantile of its markers' tangential increments
+///   since the previous frame within noise: no stuck core moves with the object): the whole
 ///   contact sits on the friction limit while the object slides over it. It persists while R
 ///   holds (drops less than saturation_tolerance a frame), once it has been seen still;
 ///   mu = R, with sigma from the force noise and the ratios' spread;
@@ -113,8 +117,9 @@ class SlipEstimator {
   void ApplyMotion(const TactileFrame& frame);
   // R = |sum F_t| / sum F_n over the contact and its 1-sigma (force noise and ratios' spread).
   void CalcContactRatio(const TactileFrame& frame, double* ratio, double* sigma) const;
-  // Whether the contact's tangential rigid increment since the previous frame is above noise;
-  // *seen is false when too few contact markers have an increment.
+  // Whether the plateau_quantile of the contact markers' tangential increments since the
+  // previous frame is above noise (a stuck core moves); *seen is false when too few contact
+  // markers have an increment.
   bool IsDragged(const TactileFrame& frame, bool* seen);
   SlipState Classify(const TactileFrame& frame, double ratio, double sigma);
   static double Median(std::vector<double>& v, int count);
