@@ -1,5 +1,8 @@
 // Image to TactileFrame per frame (issue: median <= 1 ms on one core): tracking, stereo,
-// displacement, F = K D, normals, contact, resultants, on twin frames of a moving press; and
+// displacement, F = K D, normals, contact, resultants and the live slip estimate, on twin
+// frames of a moving press (/0) and of a press that also shears the surface along x (/1, so
+// the slip estimate sees a tangential load); the slip estimate alone on the sheared press's
+// frames (BM_SlipEstimate); and
 // the throughput with the Tac3D UDP sender on, streaming every frame to a loopback client
 // socket that drains what arrives (issue 6).
 // Run: taskset -c 0 build/bin/bench_pipeline --benchmark_repetitions=10
@@ -25,14 +28,19 @@ struct PressStream {
   Pipeline pipeline;
   std::vector<Frame> frames;
 
-  PressStream() : pipeline(config, CalcSyntheticCompliance({}).h, config.MarkerPositions(), Options()) {
+  explicit PressStream(double shear = 0.0)
+      : pipeline(config, CalcSyntheticCompliance({}).h, config.MarkerPositions(), Options()) {
     // H's values do not change the cost; the synthetic one saves building the FEM here.
     const std::vector<Eigen::Vector3d> rest = config.MarkerPositions();
     const MarkerImageRenderer renderer(config);
     for (int k = 0; k < 16; ++k) {
       std::vector<Eigen::Vector3d> markers = rest;
       const double depth_mm = 0.6 * (0.5 - 0.5 * std::cos(2 * M_PI * k / 16.0));
-      for (auto& p : markers) p.z() -= depth_mm * std::exp(-p.head<2>().squaredNorm() / 18.0);
+      for (auto& p : markers) {
+        const double bump = depth_mm * std::exp(-p.head<2>().squaredNorm() / 18.0);
+        p.z() -= bump;
+        p.x() += shear * bump;  // the surface dragged along x under the press
+      }
       frames.push_back({renderer.Render(markers, k), 0.0, k});
     }
     TactileFrame out;
@@ -46,7 +54,7 @@ struct PressStream {
 };
 
 void BM_ImageToTactileFrame(benchmark::State& state) {
-  PressStream stream;
+  PressStream stream(state.range(0) ? 0.4 : 0.0);
   TactileFrame out;
   size_t k = 0;
   for (auto _ : state) {
@@ -55,7 +63,29 @@ void BM_ImageToTactileFrame(benchmark::State& state) {
   }
   if (out.has(FrameFlag::kInitializing) || out.has(FrameFlag::kMarkersLost)) state.SkipWithError("bad frame");
 }
-BENCHMARK(BM_ImageToTactileFrame)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_ImageToTactileFrame)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+
+// The SlipEstimator's share: its Estimate alone on the sheared press's TactileFrames.
+void BM_SlipEstimate(benchmark::State& state) {
+  PressStream stream(0.4);
+  std::vector<TactileFrame> frames(stream.frames.size());
+  for (size_t k = 0; k < frames.size(); ++k) stream.pipeline.Process(stream.frames[k], frames[k]);
+  SlipEstimator estimator(stream.config.markers.rows * stream.config.markers.cols);
+  size_t k = 0;
+  std::array<std::int64_t, kNumSlipStates> states{};
+  for (auto _ : state) {
+    FrameSlip slip = estimator.Estimate(frames[k++ % frames.size()]);
+    ++states[static_cast<int>(slip.state)];
+    benchmark::DoNotOptimize(slip);
+  }
+  // Which paths ran: the share of frames in each state.
+  const double iterations = static_cast<double>(std::max<std::int64_t>(state.iterations(), 1));
+  for (const SlipState s :
+       {SlipState::kNone, SlipState::kStick, SlipState::kPartialSlip, SlipState::kGrossSlip}) {
+    state.counters[SlipStateName(s)] = static_cast<double>(states[static_cast<int>(s)]) / iterations;
+  }
+}
+BENCHMARK(BM_SlipEstimate)->Unit(benchmark::kMicrosecond);
 
 // Image -> TactileFrame -> Tac3D datagrams to 127.0.0.1, a client socket on the same machine
 // taking them off its queue: frames/s end to end on loopback (no images in the stream).

@@ -29,14 +29,14 @@ inline constexpr FrameFlag kAllFrameFlags[] = {FrameFlag::kMarkersLost,
 /// snake_case name of a flag ("markers_lost"), as the wire header's msg and logs show it.
 const char* FrameFlagName(FrameFlag flag);
 
-/// The contact's slip state (docs/slip.md): from the fraction of contact markers whose traction
-/// ratio |F_t| / F_n sits on the contact's friction plateau.
+/// The contact's slip state (docs/slip.md): from the contact's mean traction ratio
+/// |sum F_t| / sum F_n against its median marker ratio, and its frame-to-frame motion.
 enum class SlipState : std::uint8_t {
   kUnknown = 0,      ///< not estimated (a version-1 recording, a frame from another sender)
   kNone = 1,         ///< no contact (fewer contact markers than SlipOptions::min_contact_markers)
-  kStick = 2,        ///< slip fraction below SlipOptions::stick_below
-  kPartialSlip = 3,  ///< between
-  kGrossSlip = 4,    ///< slip fraction above SlipOptions::gross_slip_above
+  kStick = 2,        ///< the contact moves with the object (no saturated annulus seen)
+  kPartialSlip = 3,  ///< a saturated annulus around a stuck core
+  kGrossSlip = 4,    ///< the whole contact saturated and sliding
 };
 inline constexpr int kNumSlipStates = 5;
 

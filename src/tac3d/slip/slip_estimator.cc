@@ -33,10 +33,10 @@ void SlipOptions::Validate() const {
   Require(displacement_sigma_mm >= 0, "displacement_sigma_mm", ">= 0", displacement_sigma_mm);
   Require(lag_tolerance >= 0, "lag_tolerance", ">= 0", lag_tolerance);
   Require(stick_below >= 0 && stick_below <= 1, "stick_below", "in [0, 1]", stick_below);
-  Require(gross_slip_above >= stick_below && gross_slip_above < 1,
-          "gross_slip_above",
-          "in [stick_below, 1)",
-          gross_slip_above);
+  Require(saturation_tolerance >= 0 && saturation_tolerance < 1,
+          "saturation_tolerance",
+          "in [0, 1)",
+          saturation_tolerance);
 }
 
 SlipEstimator::SlipEstimator(int num_markers, const SlipOptions& options)
@@ -98,22 +98,30 @@ FrameSlip SlipEstimator::Estimate(const TactileFrame& frame) {
   rigid_increment_mm_.setZero();
   CollectRatios(frame);
   FrameSlip out;
+  double ratio = 0.0;
   if (num_contact_ < options_.min_contact_markers) {
     out.state = SlipState::kNone;
     num_contact_ = 0;
+    gross_seen_still_ = false;
   } else {
     FindPlateau();
     ApplyMotion(frame);
-    out.fraction = static_cast<double>(num_slipping_) / num_contact_;
-    if (out.fraction < options_.stick_below) {
-      out.state = SlipState::kStick;
-    } else if (out.fraction > options_.gross_slip_above) {
-      out.state = SlipState::kGrossSlip;
-      EstimateFriction(frame, &out);
-    } else {
-      out.state = SlipState::kPartialSlip;
+    double sigma = 0.0;
+    CalcContactRatio(frame, &ratio, &sigma);
+    out.state = Classify(frame, ratio, sigma);
+    if (out.state == SlipState::kGrossSlip) {
+      // The whole contact slips.
+      for (int c = 0; c < num_contact_; ++c) slipping_[contact_index_[c]] = true;
+      num_slipping_ = num_contact_;
+      out.friction = ratio;
+      out.friction_sigma = sigma;
+    } else if (out.state == SlipState::kStick) {
+      std::fill(slipping_.begin(), slipping_.end(), false);
+      num_slipping_ = 0;
     }
+    out.fraction = static_cast<double>(num_slipping_) / num_contact_;
   }
+  previous_ratio_ = ratio;
   for (int i = 0; i < num_markers_; ++i) {
     // Only a marker in contact in both frames has an increment that says stick or slip: one
     // coming into contact moves with the indentation.
@@ -194,7 +202,57 @@ void SlipEstimator::ApplyMotion(const TactileFrame& frame) {
   }
 }
 
-void SlipEstimator::EstimateFriction(const TactileFrame& frame, FrameSlip* out) const {
+SlipState SlipEstimator::Classify(const TactileFrame& frame, double ratio, double sigma) {
+  const double tol = options_.saturation_tolerance;
+  // The median marker ratio: on a saturated contact every marker sits at mu, so it equals R.
+  std::copy(ratio_.begin(), ratio_.begin() + num_contact_, sorted_.begin());
+  const double median = Median(sorted_, num_contact_);
+  bool seen = false;
+  const bool dragged = IsDragged(frame, &seen);
+  if (gross_seen_still_ && ratio >= (1.0 - tol) * previous_ratio_) {
+    return SlipState::kGrossSlip;  // the friction level holds: still sliding
+  }
+  gross_seen_still_ = false;
+  if (!(ratio > options_.noise_sigmas * sigma)) return SlipState::kStick;  // no tangential load
+  if (std::abs(ratio - median) <= tol * median && !dragged) {
+    gross_seen_still_ = seen;
+    return SlipState::kGrossSlip;
+  }
+  // Below the median marker's ratio: a saturated annulus carries it while the stuck core sits
+  // lower. Near it: a saturated contact still dragged by a stuck core.
+  if (ratio <= (1.0 + tol) * median) return SlipState::kPartialSlip;
+  // Shear concentrated at the edge (Mindlin's full stick, q0 / sqrt(1 - rho^2) over a Hertz
+  // pressure, has R = 1.5 times the median ratio; a thin slip annulus, c/a > 0.8, too): the
+  // markers tell, a thin annulus on the plateau that lags the contact's motion.
+  const double fraction = static_cast<double>(num_slipping_) / num_contact_;
+  return fraction < options_.stick_below ? SlipState::kStick : SlipState::kPartialSlip;
+}
+
+bool SlipEstimator::IsDragged(const TactileFrame& frame, bool* seen) {
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+  for (int c = 0; c < num_contact_; ++c) normal += normal_n_[c] * frame.normals[contact_index_[c]];
+  if (normal.norm() > 0.0) normal.normalize();
+  // The tangential increment of each contact marker (the normal part is indentation).
+  int count = 0;
+  for (int c = 0; c < num_contact_; ++c) {
+    const int i = contact_index_[c];
+    if (!has_previous_ || !previous_valid_[i]) continue;
+    const Eigen::Vector3d du = frame.displacements_mm[i] - previous_mm_[i];
+    axis_[0][count++] = (du - du.dot(normal) * normal).norm();
+  }
+  *seen = count >= options_.min_contact_markers;
+  if (!*seen) return false;
+  // A stuck core moves with the object however small the core: the plateau_quantile of the
+  // increments, not their median, which the lagging annulus sets once it is half the contact.
+  const auto q = static_cast<int>(std::ceil(options_.plateau_quantile * count)) - 1;
+  const auto mid = axis_[0].begin() + std::clamp(q, 0, count - 1);
+  std::nth_element(axis_[0].begin(), mid, axis_[0].begin() + count);
+  return *mid > options_.noise_sigmas * std::sqrt(2.0) * displacement_sigma_mm_;
+}
+
+void SlipEstimator::CalcContactRatio(const TactileFrame& frame,
+                                     double* ratio,
+                                     double* sigma) const {
   Eigen::Vector3d sum_ft = Eigen::Vector3d::Zero();
   double sum_fn = 0.0, sum_var = 0.0;
   for (int c = 0; c < num_contact_; ++c) {
@@ -214,8 +272,8 @@ void SlipEstimator::EstimateFriction(const TactileFrame& frame, FrameSlip* out) 
     spread += w * (ratio_[c] - mu) * (ratio_[c] - mu);
     weight2 += w * w;
   }
-  out->friction = mu;
-  out->friction_sigma = std::sqrt(noise_var + spread * weight2);
+  *ratio = mu;
+  *sigma = std::sqrt(noise_var + spread * weight2);
 }
 
 }  // namespace tac3d

@@ -13,7 +13,9 @@ struct SlipOptions {
   /// fraction need a contact patch, not one marker over the threshold.
   int min_contact_markers = 4;
   /// The contact's friction plateau is this quantile of its markers' traction ratios: a
-  /// robust maximum that ignores the top (1 - q) of the markers, where edge noise lives.
+  /// robust maximum that ignores the top (1 - q) of the markers, where edge noise lives. The
+  /// contact is dragged when this quantile of its markers' tangential increments is above
+  /// noise: at least the top (1 - q) moved, however small the stuck core.
   double plateau_quantile = 0.9;
   /// A marker is on the plateau when its ratio is at least (1 - plateau_tolerance) times the
   /// plateau, less noise_sigmas of its own ratio noise. 0.1: a Coulomb-saturated patch has one
@@ -34,28 +36,44 @@ struct SlipOptions {
   /// increment| lags: it slips. 0.25: the spread of a stuck patch's increments on a curved
   /// indenter, where the surface is not parallel to the motion everywhere.
   double lag_tolerance = 0.25;
-  /// Slip fraction below this: stick; above gross_slip_above: gross slip; between: partial.
+  /// The contact-level saturation test (docs/slip.md): a contact is saturated when its
+  /// load-weighted mean ratio R = |sum F_t| / sum F_n is within saturation_tolerance (relative)
+  /// of its median marker ratio; an established gross slip persists while R drops by less than
+  /// saturation_tolerance (relative) a frame. 0.1: Cattaneo-Mindlin gives R / median = 1 -
+  /// (c/a)^3 once the slip annulus covers half the contact, so a still contact within 0.1 has a
+  /// stuck core of at most 0.46 a; on the twin's slides 0.2 gives nearly the same states, 0.05
+  /// and 0.3 worse ones (docs/slip.md).
+  double saturation_tolerance = 0.1;
+  /// A loaded contact whose shear is concentrated at the edge (R above its median marker ratio
+  /// by more than saturation_tolerance) is in partial slip when at least this fraction of its
+  /// markers slip (on the plateau and lagging), else stick. 0.1: well beyond the noise's 0.3 %
+  /// false calls per marker.
   double stick_below = 0.1;
-  double gross_slip_above = 0.9;
 
   /// @throws tac3d::Error naming the field and the broken bound.
   void Validate() const;
 };
 
-/// Per-frame slip state of the contact, from the traction ratio r_i = |F_t,i| / F_n,i of each
-/// contact marker (normal and tangential parts of the marker's force along its measured
-/// normal, MarkerSurface's split, paper section IV.B). Coulomb friction bounds r_i <= mu, with
-/// equality exactly where the surface slips (Cattaneo-Mindlin): slipping markers share the
-/// contact's top ratio, stuck ones sit below it. So a marker slips when r_i is on the
-/// plateau (the plateau_quantile of the contact's ratios, within plateau_tolerance and
-/// noise_sigmas of its ratio noise) and its tangential force is above noise; the fraction of
-/// contact markers slipping gives the state; in gross slip mu = |sum F_t| / sum F_n with an
-/// uncertainty from the force noise and the spread of the per-marker ratios.
-/// A traction plateau alone cannot tell a saturated patch from a stuck one whose load happens
-/// to be even, so the frame-to-frame motion decides where it is seen: when the contact moves
-/// (the median increment of its off-plateau markers is above noise), a plateau marker that
-/// follows that rigid motion is stuck and only one that lags slips. In steady gross slip the
-/// markers stand still under the sliding object and the traction decides alone.
+/// Per-frame slip state of the contact (docs/slip.md), decided at the contact level from its
+/// load-weighted mean traction ratio R = |sum F_t| / sum F_n, its median marker ratio and its
+/// frame-to-frame motion (Cattaneo-Mindlin, Coulomb's |q| <= mu p):
+/// - stick: no tangential load above R's own uncertainty, or the shear concentrated at the edge
+///   (R above the median ratio by more than saturation_tolerance) with fewer than stick_below
+///   of the markers slipping (below);
+/// - gross slip: the ratio field uniform (R within saturation_tolerance of the median ratio)
+///   and the contact not dragged (the plateau_quantile of its markers' tangential increments
+///   since the previous frame within noise: no stuck core moves with the object): the whole
+///   contact sits on the friction limit while the object slides over it. It persists while R
+///   holds (drops less than saturation_tolerance a frame), once it has been seen still;
+///   mu = R, with sigma from the force noise and the ratios' spread;
+/// - partial slip otherwise: a tangential load with a saturated annulus (R below the median
+///   ratio, or a thin annulus of markers on the plateau that lag), or a saturated contact still
+///   dragged by a stuck core.
+/// The slip fraction in partial slip is per marker: a marker slips when its ratio r_i =
+/// |F_t,i| / F_n,i (normal and tangential parts along the measured normal, paper section IV.B)
+/// is on the contact's plateau (the plateau_quantile of its ratios, within plateau_tolerance
+/// and noise_sigmas of its ratio noise) and, when the contact moves, it lags the contact's
+/// rigid motion; 1 in gross slip, 0 in stick.
 /// Allocates only in the constructor; not thread-safe.
 class SlipEstimator {
  public:
@@ -72,7 +90,10 @@ class SlipEstimator {
   void SetDisplacementVariance(const Eigen::Vector3d& variance_mm2);
 
   /// Forgets the previous frame (after a new reference: increments across it are meaningless).
-  void Reset() { has_previous_ = false; }
+  void Reset() {
+    has_previous_ = false;
+    gross_seen_still_ = false;
+  }
 
   /// The slip estimate of `frame` from its forces_n, normals, valid, contact and displacements
   /// (and the previous frame's displacements, kept). Frames flagged kInitializing or kZeroed
@@ -94,7 +115,13 @@ class SlipEstimator {
   void CollectRatios(const TactileFrame& frame);
   void FindPlateau();
   void ApplyMotion(const TactileFrame& frame);
-  void EstimateFriction(const TactileFrame& frame, FrameSlip* out) const;
+  // R = |sum F_t| / sum F_n over the contact and its 1-sigma (force noise and ratios' spread).
+  void CalcContactRatio(const TactileFrame& frame, double* ratio, double* sigma) const;
+  // Whether the plateau_quantile of the contact markers' tangential increments since the
+  // previous frame is above noise (a stuck core moves); *seen is false when too few contact
+  // markers have an increment.
+  bool IsDragged(const TactileFrame& frame, bool* seen);
+  SlipState Classify(const TactileFrame& frame, double ratio, double sigma);
   static double Median(std::vector<double>& v, int count);
 
   SlipOptions options_;
@@ -112,6 +139,8 @@ class SlipEstimator {
   std::vector<bool> previous_valid_;  // valid and in contact in the previous frame
   std::vector<double> axis_[3];
   bool has_previous_ = false;
+  bool gross_seen_still_ = false;  // the last frame was gross slip, established while still
+  double previous_ratio_ = 0.0;    // the last frame's R
   double displacement_sigma_mm_;
   Eigen::Vector3d rigid_increment_mm_ = Eigen::Vector3d::Zero();
   int num_contact_ = 0;
