@@ -24,6 +24,7 @@ function(tac3d_add_library)
   target_link_libraries(${target} PUBLIC ${ARG_DEPS})
   target_link_libraries(${target} PUBLIC tac3d_eigen_abi)
   target_link_libraries(tac3d INTERFACE ${target})
+  tac3d_reuse_precompiled_headers(${target} library)
   install(TARGETS ${target} EXPORT tac3dTargets ARCHIVE DESTINATION lib)
   set(excluded PATTERN "test_*.h" EXCLUDE)
   foreach(header IN LISTS ARG_INTERNAL_HEADERS)
@@ -32,6 +33,10 @@ function(tac3d_add_library)
   install(DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR}/ DESTINATION include/tac3d/${ARG_NAME}
     FILES_MATCHING PATTERN "*.h" ${excluded})
 endfunction()
+
+# Test programs are compiled for compile speed, not run speed: -Og takes a third of -O3's time on
+# their Eigen and GoogleTest code. The code under test is the libraries', compiled as shipped.
+set(TAC3D_TEST_COMPILE_OPTIONS -Og)
 
 # tac3d_add_test(NAME <module>/<x>_test SRCS ... DEPS ... [LABELS ...]): a GoogleTest
 # program registered with CTest under its module-qualified name.
@@ -43,6 +48,8 @@ function(tac3d_add_test)
   string(REPLACE "/" "_" target ${ARG_NAME})
   add_executable(${target} ${ARG_SRCS})
   target_link_libraries(${target} PRIVATE ${ARG_DEPS} tac3d_testing GTest::gtest GTest::gmock)
+  target_compile_options(${target} PRIVATE ${TAC3D_TEST_COMPILE_OPTIONS})
+  tac3d_reuse_precompiled_headers(${target} test)
   add_test(NAME ${ARG_NAME} COMMAND ${target})
   set_tests_properties(${ARG_NAME} PROPERTIES
     WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR}

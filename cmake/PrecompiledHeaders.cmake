@@ -1,0 +1,40 @@
+# Shared precompiled headers: the standard, Eigen, fmt, JSON and OpenCV headers nearly every
+# translation unit parses, compiled once for the libraries and once for the tests, and reused
+# (REUSE_FROM) by every library and test. A reusing target must compile with the same flags as
+# the one that precompiled, so each kind has its own carrier target of the same kind: static
+# libraries (-fPIC) and executables (-fPIE). GCC falls back to parsing the headers where a
+# translation unit defines a macro they depend on differently (-Winvalid-pch tells).
+option(TAC3D_PRECOMPILED_HEADERS "Precompile the headers every target parses" ON)
+
+set(TAC3D_COMMON_PCH
+  <algorithm> <array> <cmath> <cstdint> <cstdio> <filesystem> <fstream> <functional> <limits>
+  <map> <memory> <numeric> <optional> <random> <string> <utility> <vector>
+  <Eigen/Core> <Eigen/Geometry> <fmt/format.h> <nlohmann/json.hpp> <opencv2/core.hpp>)
+
+if(TAC3D_PRECOMPILED_HEADERS)
+  add_library(tac3d_pch_library STATIC ${PROJECT_SOURCE_DIR}/cmake/pch/anchor.cc)
+  target_link_libraries(tac3d_pch_library PRIVATE
+    tac3d_eigen_abi Eigen3::Eigen fmt::fmt nlohmann_json::nlohmann_json opencv_core)
+  target_precompile_headers(tac3d_pch_library PRIVATE ${TAC3D_COMMON_PCH})
+  if(TAC3D_BUILD_TESTS)
+    add_executable(tac3d_pch_test ${PROJECT_SOURCE_DIR}/cmake/pch/anchor.cc)
+    target_link_libraries(tac3d_pch_test PRIVATE
+      tac3d_eigen_abi Eigen3::Eigen fmt::fmt nlohmann_json::nlohmann_json opencv_core
+      GTest::gtest GTest::gmock)
+    target_compile_options(tac3d_pch_test PRIVATE ${TAC3D_TEST_COMPILE_OPTIONS})
+    target_precompile_headers(tac3d_pch_test PRIVATE ${TAC3D_COMMON_PCH}
+      <gtest/gtest.h> <gmock/gmock.h>)
+  endif()
+endif()
+
+# tac3d_reuse_precompiled_headers(<target> library|test). The headers' include directories come
+# along (privately: nothing is exported), for a translation unit where GCC parses them instead.
+function(tac3d_reuse_precompiled_headers target kind)
+  if(TAC3D_PRECOMPILED_HEADERS)
+    target_precompile_headers(${target} REUSE_FROM tac3d_pch_${kind})
+    foreach(dep Eigen3::Eigen fmt::fmt nlohmann_json::nlohmann_json opencv_core)
+      target_include_directories(${target} SYSTEM PRIVATE
+        $<TARGET_PROPERTY:${dep},INTERFACE_INCLUDE_DIRECTORIES>)
+    endforeach()
+  endif()
+endfunction()
