@@ -219,13 +219,9 @@ class FrictionMapBuilder {
   /// Builds the mesh and the friction map from everything added so far. Problems with the
   /// data (no contact, too few points, no slip) are reported in summary.status, not thrown.
   ///
-  /// Poisson time, depth 8, on a realistic scan (5 overlapping 40 mm strokes at 0.1 mm a
-  /// frame: 2,010 frames, 64k contact points; test FrictionMap.RealisticScanTiming, run as
-  /// `OMP_WAIT_POLICY=PASSIVE build/src/tac3d/friction/friction_friction_map_test
-  /// --gtest_filter='*Timing*'` on 2 cores shared with other builds, load ~7):
-  /// resampled to 5.5k points (0.25 mm voxels, the default) 1.5 s on 1 thread, 1.5 s on 2;
-  /// the whole cloud (53.5k points) 2.8 s on 1 thread, 2.3 s on 2, as DESIGN.md's 2.7 s for
-  /// 50k points. The rest of Build (resampling, trimming, mu) takes 0.6 s and 2.1 s.
+  /// Time: a 3000-frame session (six 40 mm strokes at 0.08 mm a frame, ~96k contact points)
+  /// is added and built in about 1.8 s on one core, Poisson (depth 8, 0.25 mm voxels) 1.0 s of
+  /// it (bench/friction_benchmark.cc, docs/friction.md).
   /// @param progress called after each of the four stages (resample, reconstruct, trim, mu).
   FrictionMapResult Build(const ProgressCallback& progress = {}) const;
 

@@ -556,35 +556,5 @@ TEST(FrictionMapBuilder, RefusesBadFramesAndPoses) {
   EXPECT_THROW(builder.AddFrame(frame, Rigid3::Identity()), Error);
 }
 
-// ---- Timing on a realistic scan (reported, not asserted) ---------------------------------
-
-TEST(FrictionMap, RealisticScanTiming) {
-  // Five overlapping strokes of 40 mm at 0.1 mm a frame: 2,010 frames, ~64k contact points.
-  // Built as Build does by default (0.25 mm voxels) and from the whole cloud (0.02 mm voxels
-  // keep ~all points, DESIGN.md's 50k-point case), on one thread and on every core.
-  ScanSpec spec;
-  spec.strokes_y_mm = {-6, -3, 0, 3, 6};
-  spec.x_begin_mm = -20;
-  spec.x_end_mm = 20;
-  spec.step_mm = 0.1;
-  const Scan scan = ScanMaker(spec).Make();
-  for (const double voxel_mm : {0.25, 0.02}) {
-    for (const int threads : {1, 0}) {
-      FrictionMapOptions options;
-      options.voxel_size_mm = voxel_mm;
-      options.num_threads = threads;
-      const FrictionMapResult m = BuilderFor(scan, options).Build();
-      EXPECT_EQ(m.summary.status, FrictionMapStatus::kOk);
-      std::cout << "voxel " << voxel_mm << " mm, threads " << threads << ": "
-                << m.summary.BriefReport() << "\n";
-      const std::string key = fmt::format("voxel_{}_threads_{}", voxel_mm, threads);
-      ::testing::Test::RecordProperty(key + "_resampled_points",
-                                      std::to_string(m.summary.resampled_points));
-      ::testing::Test::RecordProperty(key + "_poisson_time_s",
-                                      std::to_string(m.summary.poisson_time_s));
-    }
-  }
-}
-
 }  // namespace
 }  // namespace tac3d::friction
