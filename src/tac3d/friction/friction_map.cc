@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <nlohmann/json.hpp>
+#include <unordered_map>
 
 #include "tac3d/util/error.h"
 
@@ -71,8 +72,10 @@ void AssignFriction(const std::vector<SlipPoint>& slips,
   // lower slip_contact_threshold_n count as slips but their forces are too uncertain for mu.
   std::vector<const SlipPoint*> voters;
   for (const SlipPoint& s : slips) {
-    if (s.normal_force_n > options.contact_threshold_n) voters.push_back(&s);
+    if (s.normal_force_n > options.contact_threshold_n && (!options.gross_slip_only || s.gross_slip))
+      voters.push_back(&s);
   }
+  result.summary.voting_slip_points = static_cast<long>(voters.size());
   if (voters.empty()) return;
   open3d::geometry::PointCloud cloud;
   cloud.points_.reserve(voters.size());
@@ -165,6 +168,7 @@ void FrictionMapOptions::Validate() const {
   Require(beta >= 0 && std::isfinite(beta), "beta", ">= 0 and finite", beta);
   Require(slip_contact_threshold_n < 0 || std::isfinite(slip_contact_threshold_n), "slip_contact_threshold_n",
           "finite (< 0: contact_threshold_n)", slip_contact_threshold_n);
+  Require(gross_slip_margin >= 0, "gross_slip_margin", ">= 0", gross_slip_margin);
   Require(min_slip_points >= 1, "min_slip_points", ">= 1", min_slip_points);
   Require(normal_force_exponent >= 0 && std::isfinite(normal_force_exponent), "normal_force_exponent",
           ">= 0 and finite", normal_force_exponent);
@@ -228,6 +232,8 @@ nlohmann::json ToJson(const FrictionMapSummary& s) {
           {"contact_points", s.contact_points},
           {"marker_pairs", s.marker_pairs},
           {"slip_points", s.slip_points},
+          {"gross_slip_frames", s.gross_slip_frames},
+          {"voting_slip_points", s.voting_slip_points},
           {"slip_threshold_mm", s.slip_threshold_mm},
           {"estimated_noise_mm", number(s.estimated_noise_mm)},
           {"resampled_points", s.resampled_points},
@@ -279,6 +285,7 @@ FrictionMapBuilder::FrictionMapBuilder(const FrictionMapOptions& options) : opti
 
 void FrictionMapBuilder::BreakStroke() {
   previous_world_mm_.clear();
+  previous_sensor_mm_.clear();
   previous_contact_.clear();
 }
 
@@ -299,6 +306,12 @@ void FrictionMapBuilder::AddFrame(const TactileFrame& frame, const Rigid3& world
   ++frames_;
   const int n = frame.num_markers();
   const bool has_previous = static_cast<int>(previous_contact_.size()) == n;
+  if (!has_previous) ++stroke_;
+  // Gross slip: every pressed pair slid on the object and the contact's deformation is steady
+  // (its marker positions in the sensor frame did not change beyond the noise).
+  const double steady_threshold =
+      options_.slip_sigmas * std::sqrt(2.0) * options_.marker_noise_mm;
+  int loaded_pairs = 0, loaded_stuck = 0, loaded_unsteady = 0;
   const double threshold = options_.SlipThresholdMm();
   const double slip_contact = options_.SlipContactThresholdN();
   // This frame's markers, in buffers reused from frame to frame.
@@ -329,6 +342,13 @@ void FrictionMapBuilder::AddFrame(const TactileFrame& frame, const Rigid3& world
       moved -= moved.dot(n_world) * n_world;
     }
     const double motion = moved.norm();
+    if (surface_contact) {
+      ++loaded_pairs;
+      if (motion <= threshold) ++loaded_stuck;
+      Eigen::Vector3d deformed = frame.positions_mm[i] - previous_sensor_mm_[i];
+      deformed -= deformed.dot(normal) * normal;
+      if (deformed.norm() > steady_threshold) ++loaded_unsteady;
+    }
     if (motion > threshold) {
       const Eigen::Vector3d tangential = f + normal_force * normal;
       slip_points_.push_back(
@@ -338,8 +358,32 @@ void FrictionMapBuilder::AddFrame(const TactileFrame& frame, const Rigid3& world
       ++stuck_pairs_;
     }
   }
+  if (has_previous)
+    frame_motion_.push_back(
+        {frame.index, stroke_, loaded_pairs > 0 && loaded_stuck == 0 && loaded_unsteady == 0});
+  previous_sensor_mm_ = frame.positions_mm;
   previous_world_mm_.swap(current_world_mm_);
   previous_contact_.swap(current_contact_);
+}
+
+void FrictionMapBuilder::MarkGrossSlip(std::vector<SlipPoint>& slips, int* gross_frames) const {
+  // Per frame: gross slip, with gross_slip_margin frames of its stroke on either side.
+  const int m = options_.gross_slip_margin;
+  const int count = static_cast<int>(frame_motion_.size());
+  std::unordered_map<std::int64_t, bool> steady;
+  *gross_frames = 0;
+  for (int k = 0; k < count; ++k) {
+    const FrameMotion& f = frame_motion_[k];
+    *gross_frames += f.gross_slip ? 1 : 0;
+    bool ok = f.gross_slip && k - m >= 0 && k + m < count;
+    for (int j = k - m; ok && j <= k + m; ++j)
+      ok = frame_motion_[j].stroke == f.stroke && frame_motion_[j].gross_slip;
+    steady[f.index] = ok;
+  }
+  for (SlipPoint& s : slips) {
+    const auto it = steady.find(s.frame_index);
+    s.gross_slip = it != steady.end() && it->second;
+  }
 }
 
 FrictionMapResult FrictionMapBuilder::Build(const ProgressCallback& progress) const {
@@ -358,6 +402,7 @@ FrictionMapResult FrictionMapBuilder::Build(const ProgressCallback& progress) co
   if (stuck_pairs_ > 0)
     s.estimated_noise_mm = std::sqrt(stuck_sum_squared_mm2_ / (6.0 * stuck_pairs_));
   result.slip_points = slip_points_;
+  MarkGrossSlip(result.slip_points, &s.gross_slip_frames);
   const auto finish = [&](FrictionMapStatus status, std::string message) {
     s.status = status;
     s.message = std::move(message);
@@ -408,7 +453,7 @@ FrictionMapResult FrictionMapBuilder::Build(const ProgressCallback& progress) co
   result.vertex_normals = mesh->vertex_normals_;
 
   t = Clock::now();
-  AssignFriction(slip_points_, options_, result);
+  AssignFriction(result.slip_points, options_, result);
   SummariseFriction(result);
   s.mu_time_s = SecondsSince(t);
   report(4);
