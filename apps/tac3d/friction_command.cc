@@ -82,6 +82,11 @@ void FrictionMapArgs::Add(CLI::App* cmd) {
                   "only slip points of frames in steady gross slip vote for mu (false: the "
                   "paper's, every slip point)")
       ->capture_default_str();
+  cmd->add_option("--friction-along-slip",
+                  friction_along_slip,
+                  "mu_i from the tangential force's component against the slip (false: the "
+                  "paper's |F_t| / F_n)")
+      ->capture_default_str();
   cmd->add_option("--gross-slip-margin",
                   gross_slip_margin,
                   "frames on either side that must be in steady gross slip too (default 0)");
@@ -123,6 +128,7 @@ friction::FrictionMapOptions FrictionMapArgs::Options(const SensorConfig& sensor
   if (slip_contact_threshold_n >= 0) o.slip_contact_threshold_n = slip_contact_threshold_n;
   o.tangential_motion = tangential_motion;
   o.gross_slip_only = gross_slip_only;
+  o.friction_along_slip = friction_along_slip;
   if (gross_slip_margin >= 0) o.gross_slip_margin = gross_slip_margin;
   o.Validate();
   return o;
@@ -156,6 +162,7 @@ nlohmann::json MapOptionsJson(const friction::FrictionMapOptions& o) {
           {"slip_threshold_mm", o.SlipThresholdMm()},
           {"tangential_motion", o.tangential_motion},
           {"gross_slip_only", o.gross_slip_only},
+          {"friction_along_slip", o.friction_along_slip},
           {"gross_slip_margin", o.gross_slip_margin},
           {"voxel_size_mm", o.voxel_size_mm},
           {"poisson_depth", o.poisson_depth},

@@ -351,8 +351,17 @@ void FrictionMapBuilder::AddFrame(const TactileFrame& frame, const Rigid3& world
     }
     if (motion > threshold) {
       const Eigen::Vector3d tangential = f + normal_force * normal;
+      double friction_n = tangential.norm();
+      if (options_.friction_along_slip) {
+        // The slip's direction: the marker's motion on the object, in the sensor frame and
+        // the tangent plane.
+        Eigen::Vector3d slip = r.transpose() * moved;
+        slip -= slip.dot(normal) * normal;
+        const double length = slip.norm();
+        friction_n = length > 0 ? std::max(0.0, -tangential.dot(slip) / length) : 0.0;
+      }
       slip_points_.push_back(
-          {surface, tangential.norm() / normal_force, normal_force, motion, frame.index, i});
+          {surface, friction_n / normal_force, normal_force, motion, frame.index, i});
     } else {
       stuck_sum_squared_mm2_ += motion * motion;
       ++stuck_pairs_;

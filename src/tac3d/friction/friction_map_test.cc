@@ -504,6 +504,40 @@ TEST_F(FrictionMapTwoRegions, WritesPlyAndPngOfTheMap) {
   EXPECT_EQ(lines, m.summary.slip_points + 1);
 }
 
+// ---- The friction force along the slip ---------------------------------------------------
+
+TEST(FrictionMapBuilder, FrictionAlongTheSlipIsNotBiasedByForceNoise) {
+  // 10 mN of force noise per axis against |F_t| = 0.3 F_n = 9-30 mN on the mu 0.3 half: the
+  // noise across the slip adds to |F_t| in quadrature (the paper's mu_i, biased up), the
+  // component against the slip only averages it out.
+  ScanSpec spec;
+  spec.strokes_y_mm = {0.0};
+  spec.stick_fraction = 0.0;
+  spec.force_noise_n = 0.01;
+  const Scan scan = ScanMaker(spec).Make();
+  FrictionMapOptions along;
+  along.friction_along_slip = true;
+  const auto mean_low_mu = [&](const FrictionMapOptions& options) {
+    double sum = 0;
+    int count = 0;
+    const FrictionMapBuilder builder = BuilderFor(scan, options);
+    for (const SlipPoint& s : builder.slip_points()) {
+      if (s.p_in_world_mm.x() > -1.0 || s.normal_force_n < 0.06) continue;
+      EXPECT_GE(s.mu, 0.0);
+      sum += s.mu;
+      ++count;
+    }
+    EXPECT_GT(count, 500);
+    return sum / count;
+  };
+  const double paper = mean_low_mu(FrictionMapOptions{});
+  const double projected = mean_low_mu(along);
+  EXPECT_GT(paper - 0.3, 0.01);
+  EXPECT_NEAR(projected, 0.3, 0.005);
+  std::cout << "mean mu_i on mu 0.3: |F_t| / F_n " << paper << ", along the slip " << projected
+            << "\n";
+}
+
 // ---- Gross slip -------------------------------------------------------------------------
 
 TEST(FrictionMapBuilder, OnlyGrossSlipVotesSoPartialSlipDoesNotBiasMu) {
