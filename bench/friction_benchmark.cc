@@ -47,15 +47,16 @@ Session MakeSession(int frames) {
   std::vector<Eigen::Vector3d> previous;
   for (int k = 0; static_cast<int>(s.frames.size()) < frames; ++k) {
     const int stroke = k / (per_stroke + 1), step = k % (per_stroke + 1) - 1;
-    const Rigid3 pose = SensorPose(-0.5 * kStrokeMm + std::max(step, 0) * kStepMm,
-                                   -7.5 + 3.0 * (stroke % 6));
+    const Rigid3 pose =
+        SensorPose(-0.5 * kStrokeMm + std::max(step, 0) * kStepMm, -7.5 + 3.0 * (stroke % 6));
     TactileFrame frame = TactileFrame::Sized(20, 20);
     frame.index = static_cast<std::int64_t>(s.frames.size());
     frame.timestamp_s = frame.index / 30.0;
     std::vector<Eigen::Vector3d> world(400, Eigen::Vector3d::Constant(std::nan("")));
     for (int i = 0; i < 400; ++i) {
       const Eigen::Vector2d q(((i % 20) - 9.5) * 1.27, ((i / 20) - 9.5) * 1.27);
-      frame.positions_mm[i] = Eigen::Vector3d(q.x(), q.y(), kTopMm - kCoverMm - q.squaredNorm() / 90);
+      frame.positions_mm[i] =
+          Eigen::Vector3d(q.x(), q.y(), kTopMm - kCoverMm - q.squaredNorm() / 90);
       frame.normals[i] = Eigen::Vector3d(q.x() / 45, q.y() / 45, 1).normalized();
       if (step < 0 || q.norm() >= kContactRadiusMm) continue;  // lifted, or out of contact
       const bool had = !previous.empty() && !std::isnan(previous[i].x());

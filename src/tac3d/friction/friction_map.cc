@@ -72,7 +72,8 @@ void AssignFriction(const std::vector<SlipPoint>& slips,
   // lower slip_contact_threshold_n count as slips but their forces are too uncertain for mu.
   std::vector<const SlipPoint*> voters;
   for (const SlipPoint& s : slips) {
-    if (s.normal_force_n > options.contact_threshold_n && (!options.gross_slip_only || s.gross_slip))
+    if (s.normal_force_n > options.contact_threshold_n &&
+        (!options.gross_slip_only || s.gross_slip))
       voters.push_back(&s);
   }
   result.summary.voting_slip_points = static_cast<long>(voters.size());
@@ -166,12 +167,16 @@ void FrictionMapOptions::Validate() const {
   Require(radius_mm > 0 && std::isfinite(radius_mm), "radius_mm", "> 0 and finite", radius_mm);
   Require(alpha >= 0 && std::isfinite(alpha), "alpha", ">= 0 and finite", alpha);
   Require(beta >= 0 && std::isfinite(beta), "beta", ">= 0 and finite", beta);
-  Require(slip_contact_threshold_n < 0 || std::isfinite(slip_contact_threshold_n), "slip_contact_threshold_n",
-          "finite (< 0: contact_threshold_n)", slip_contact_threshold_n);
+  Require(slip_contact_threshold_n < 0 || std::isfinite(slip_contact_threshold_n),
+          "slip_contact_threshold_n",
+          "finite (< 0: contact_threshold_n)",
+          slip_contact_threshold_n);
   Require(gross_slip_margin >= 0, "gross_slip_margin", ">= 0", gross_slip_margin);
   Require(min_slip_points >= 1, "min_slip_points", ">= 1", min_slip_points);
-  Require(normal_force_exponent >= 0 && std::isfinite(normal_force_exponent), "normal_force_exponent",
-          ">= 0 and finite", normal_force_exponent);
+  Require(normal_force_exponent >= 0 && std::isfinite(normal_force_exponent),
+          "normal_force_exponent",
+          ">= 0 and finite",
+          normal_force_exponent);
 }
 
 // ---- Summary -----------------------------------------------------------------------------
@@ -266,7 +271,8 @@ double WeightedFriction(const std::vector<double>& mu_i,
   for (size_t i = 0; i < mu_i.size(); ++i) {
     double w = std::pow(std::max(options.radius_mm - distance_mm[i], 0.0), options.alpha) *
                std::pow(mu_i[i], options.beta);
-    if (force_weights) w *= std::pow(std::max(normal_force_n[i], 0.0), options.normal_force_exponent);
+    if (force_weights)
+      w *= std::pow(std::max(normal_force_n[i], 0.0), options.normal_force_exponent);
     sum_w += w;
     sum_w_mu += w * mu_i[i];
     sum_mu += mu_i[i];
@@ -309,8 +315,7 @@ void FrictionMapBuilder::AddFrame(const TactileFrame& frame, const Rigid3& world
   if (!has_previous) ++stroke_;
   // Gross slip: every pressed pair slid on the object and the contact's deformation is steady
   // (its marker positions in the sensor frame did not change beyond the noise).
-  const double steady_threshold =
-      options_.slip_sigmas * std::sqrt(2.0) * options_.marker_noise_mm;
+  const double steady_threshold = options_.slip_sigmas * std::sqrt(2.0) * options_.marker_noise_mm;
   int loaded_pairs = 0, loaded_stuck = 0, loaded_unsteady = 0;
   const double threshold = options_.SlipThresholdMm();
   const double slip_contact = options_.SlipContactThresholdN();

@@ -63,7 +63,7 @@ struct Scan {
   std::vector<Rigid3> poses;
   std::set<std::pair<std::int64_t, int>> true_slips;  // (frame index, marker)
   long true_pairs = 0;                                // markers in contact in adjacent frames
-  std::set<std::int64_t> partial_slip_frames;          // frame indices
+  std::set<std::int64_t> partial_slip_frames;         // frame indices
 };
 
 Rigid3 SensorPose(double x_mm, double y_mm) {
@@ -126,7 +126,8 @@ class ScanMaker {
     std::uniform_real_distribution<double> uniform(0.0, 1.0);
     std::vector<Eigen::Vector3d> world(400, Eigen::Vector3d::Constant(std::nan("")));
     const Eigen::Vector3d n(0, 0, 1);
-    const bool partial = sliding && stroke_frame_ >= 1 && stroke_frame_ <= spec_.partial_slip_frames;
+    const bool partial =
+        sliding && stroke_frame_ >= 1 && stroke_frame_ <= spec_.partial_slip_frames;
     const double stick_fraction = partial ? spec_.partial_stick_fraction : spec_.stick_fraction;
     if (partial) scan_.partial_slip_frames.insert(frame.index);
     ++stroke_frame_;
@@ -137,7 +138,7 @@ class ScanMaker {
       const bool stick = had_contact && (!sliding || uniform(rng_) < stick_fraction);
       const Eigen::Vector3d p_nominal(nominal_[i].x(), nominal_[i].y(), kTopMm - kCoverMm);
       const Eigen::Vector3d slid = pose * p_nominal;
-      world[i] = !stick ? slid
+      world[i] = !stick    ? slid
                  : partial ? Eigen::Vector3d(previous_world_[i] +
                                              spec_.partial_creep * (slid - previous_world_[i]))
                            : previous_world_[i];
@@ -303,8 +304,10 @@ TEST(WeightedFriction, NormalForceWeightsGiveTheRatioOfSummedForces) {
   options.normal_force_exponent = 1;
   const std::vector<double> fn = {0.1, 0.01}, ft = {0.05, 0.02};
   double weight_sum = -1;
-  EXPECT_NEAR(WeightedFriction({ft[0] / fn[0], ft[1] / fn[1]}, {0.2, 0.4}, options, &weight_sum, fn),
-              (ft[0] + ft[1]) / (fn[0] + fn[1]), 1e-12);
+  EXPECT_NEAR(
+      WeightedFriction({ft[0] / fn[0], ft[1] / fn[1]}, {0.2, 0.4}, options, &weight_sum, fn),
+      (ft[0] + ft[1]) / (fn[0] + fn[1]),
+      1e-12);
   EXPECT_NEAR(weight_sum, 0.11, 1e-12);
   // Without forces the exponent is ignored: the plain mean.
   EXPECT_NEAR(WeightedFriction({0.5, 2.0}, {0.2, 0.4}, options, nullptr), 1.25, 1e-12);
