@@ -77,6 +77,19 @@ void FrictionMapArgs::Add(CLI::App* cmd) {
                   tangential_motion,
                   "slip by the motion in the tangent plane (false: the paper's 3D motion)")
       ->capture_default_str();
+  cmd->add_option("--gross-slip-only",
+                  gross_slip_only,
+                  "only slip points of frames in steady gross slip vote for mu (false: the "
+                  "paper's, every slip point)")
+      ->capture_default_str();
+  cmd->add_option("--friction-along-slip",
+                  friction_along_slip,
+                  "mu_i from the tangential force's component against the slip (false: the "
+                  "paper's |F_t| / F_n)")
+      ->capture_default_str();
+  cmd->add_option("--gross-slip-margin",
+                  gross_slip_margin,
+                  "frames on either side that must be in steady gross slip too (default 0)");
   cmd->add_option("--slip-sigmas", slip_sigmas, "k of the slip threshold (default 4)");
   cmd->add_option(
       "--marker-noise", marker_noise_mm, "per-axis marker position noise, mm (default 0.002)");
@@ -114,6 +127,9 @@ friction::FrictionMapOptions FrictionMapArgs::Options(const SensorConfig& sensor
   if (min_slip_points >= 0) o.min_slip_points = min_slip_points;
   if (slip_contact_threshold_n >= 0) o.slip_contact_threshold_n = slip_contact_threshold_n;
   o.tangential_motion = tangential_motion;
+  o.gross_slip_only = gross_slip_only;
+  o.friction_along_slip = friction_along_slip;
+  if (gross_slip_margin >= 0) o.gross_slip_margin = gross_slip_margin;
   o.Validate();
   return o;
 }
@@ -145,6 +161,9 @@ nlohmann::json MapOptionsJson(const friction::FrictionMapOptions& o) {
           {"slip_sigmas", o.slip_sigmas},
           {"slip_threshold_mm", o.SlipThresholdMm()},
           {"tangential_motion", o.tangential_motion},
+          {"gross_slip_only", o.gross_slip_only},
+          {"friction_along_slip", o.friction_along_slip},
+          {"gross_slip_margin", o.gross_slip_margin},
           {"voxel_size_mm", o.voxel_size_mm},
           {"poisson_depth", o.poisson_depth},
           {"trim_distance_mm", o.trim_distance_mm},

@@ -16,7 +16,8 @@ struct FrictionMapArgs {
   // The CLI's defaults differ from FrictionMapOptions' (the paper's equation 6) where the twin
   // evaluation showed the paper's weighting biased by the force inverse's per-marker noise
   // (docs/friction.md): beta 0 and gamma 1 (the ratio of the summed forces), 30 slip points a
-  // vertex, slips detected down to 0.005 N, motion in the tangent plane. < 0: the library's.
+  // vertex, slips detected down to 0.005 N, motion in the tangent plane, only steady gross
+  // slip votes, mu_i from the force against the slip. < 0: the library's.
   double contact_threshold_n = -1;
   double slip_sigmas = -1;
   double marker_noise_mm = -1;
@@ -28,6 +29,9 @@ struct FrictionMapArgs {
   int min_slip_points = 30;
   double slip_contact_threshold_n = 0.005;
   bool tangential_motion = true;
+  bool gross_slip_only = true;
+  bool friction_along_slip = true;
+  int gross_slip_margin = -1;
   std::vector<double> view;  ///< empty: look at the mesh's outer side (minus its mean normal)
   std::vector<double> up;    ///< empty: world y (x if y is along the view)
 

@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <nlohmann/json.hpp>
+#include <unordered_map>
 
 #include "tac3d/util/error.h"
 
@@ -71,8 +72,11 @@ void AssignFriction(const std::vector<SlipPoint>& slips,
   // lower slip_contact_threshold_n count as slips but their forces are too uncertain for mu.
   std::vector<const SlipPoint*> voters;
   for (const SlipPoint& s : slips) {
-    if (s.normal_force_n > options.contact_threshold_n) voters.push_back(&s);
+    if (s.normal_force_n > options.contact_threshold_n &&
+        (!options.gross_slip_only || s.gross_slip))
+      voters.push_back(&s);
   }
+  result.summary.voting_slip_points = static_cast<long>(voters.size());
   if (voters.empty()) return;
   open3d::geometry::PointCloud cloud;
   cloud.points_.reserve(voters.size());
@@ -163,11 +167,16 @@ void FrictionMapOptions::Validate() const {
   Require(radius_mm > 0 && std::isfinite(radius_mm), "radius_mm", "> 0 and finite", radius_mm);
   Require(alpha >= 0 && std::isfinite(alpha), "alpha", ">= 0 and finite", alpha);
   Require(beta >= 0 && std::isfinite(beta), "beta", ">= 0 and finite", beta);
-  Require(slip_contact_threshold_n < 0 || std::isfinite(slip_contact_threshold_n), "slip_contact_threshold_n",
-          "finite (< 0: contact_threshold_n)", slip_contact_threshold_n);
+  Require(slip_contact_threshold_n < 0 || std::isfinite(slip_contact_threshold_n),
+          "slip_contact_threshold_n",
+          "finite (< 0: contact_threshold_n)",
+          slip_contact_threshold_n);
+  Require(gross_slip_margin >= 0, "gross_slip_margin", ">= 0", gross_slip_margin);
   Require(min_slip_points >= 1, "min_slip_points", ">= 1", min_slip_points);
-  Require(normal_force_exponent >= 0 && std::isfinite(normal_force_exponent), "normal_force_exponent",
-          ">= 0 and finite", normal_force_exponent);
+  Require(normal_force_exponent >= 0 && std::isfinite(normal_force_exponent),
+          "normal_force_exponent",
+          ">= 0 and finite",
+          normal_force_exponent);
 }
 
 // ---- Summary -----------------------------------------------------------------------------
@@ -228,6 +237,8 @@ nlohmann::json ToJson(const FrictionMapSummary& s) {
           {"contact_points", s.contact_points},
           {"marker_pairs", s.marker_pairs},
           {"slip_points", s.slip_points},
+          {"gross_slip_frames", s.gross_slip_frames},
+          {"voting_slip_points", s.voting_slip_points},
           {"slip_threshold_mm", s.slip_threshold_mm},
           {"estimated_noise_mm", number(s.estimated_noise_mm)},
           {"resampled_points", s.resampled_points},
@@ -260,7 +271,8 @@ double WeightedFriction(const std::vector<double>& mu_i,
   for (size_t i = 0; i < mu_i.size(); ++i) {
     double w = std::pow(std::max(options.radius_mm - distance_mm[i], 0.0), options.alpha) *
                std::pow(mu_i[i], options.beta);
-    if (force_weights) w *= std::pow(std::max(normal_force_n[i], 0.0), options.normal_force_exponent);
+    if (force_weights)
+      w *= std::pow(std::max(normal_force_n[i], 0.0), options.normal_force_exponent);
     sum_w += w;
     sum_w_mu += w * mu_i[i];
     sum_mu += mu_i[i];
@@ -279,6 +291,7 @@ FrictionMapBuilder::FrictionMapBuilder(const FrictionMapOptions& options) : opti
 
 void FrictionMapBuilder::BreakStroke() {
   previous_world_mm_.clear();
+  previous_sensor_mm_.clear();
   previous_contact_.clear();
 }
 
@@ -299,6 +312,11 @@ void FrictionMapBuilder::AddFrame(const TactileFrame& frame, const Rigid3& world
   ++frames_;
   const int n = frame.num_markers();
   const bool has_previous = static_cast<int>(previous_contact_.size()) == n;
+  if (!has_previous) ++stroke_;
+  // Gross slip: every pressed pair slid on the object and the contact's deformation is steady
+  // (its marker positions in the sensor frame did not change beyond the noise).
+  const double steady_threshold = options_.slip_sigmas * std::sqrt(2.0) * options_.marker_noise_mm;
+  int loaded_pairs = 0, loaded_stuck = 0, loaded_unsteady = 0;
   const double threshold = options_.SlipThresholdMm();
   const double slip_contact = options_.SlipContactThresholdN();
   // This frame's markers, in buffers reused from frame to frame.
@@ -329,17 +347,57 @@ void FrictionMapBuilder::AddFrame(const TactileFrame& frame, const Rigid3& world
       moved -= moved.dot(n_world) * n_world;
     }
     const double motion = moved.norm();
+    if (surface_contact) {
+      ++loaded_pairs;
+      if (motion <= threshold) ++loaded_stuck;
+      Eigen::Vector3d deformed = frame.positions_mm[i] - previous_sensor_mm_[i];
+      deformed -= deformed.dot(normal) * normal;
+      if (deformed.norm() > steady_threshold) ++loaded_unsteady;
+    }
     if (motion > threshold) {
       const Eigen::Vector3d tangential = f + normal_force * normal;
+      double friction_n = tangential.norm();
+      if (options_.friction_along_slip) {
+        // The slip's direction: the marker's motion on the object, in the sensor frame and
+        // the tangent plane.
+        Eigen::Vector3d slip = r.transpose() * moved;
+        slip -= slip.dot(normal) * normal;
+        const double length = slip.norm();
+        friction_n = length > 0 ? std::max(0.0, -tangential.dot(slip) / length) : 0.0;
+      }
       slip_points_.push_back(
-          {surface, tangential.norm() / normal_force, normal_force, motion, frame.index, i});
+          {surface, friction_n / normal_force, normal_force, motion, frame.index, i});
     } else {
       stuck_sum_squared_mm2_ += motion * motion;
       ++stuck_pairs_;
     }
   }
+  if (has_previous)
+    frame_motion_.push_back(
+        {frame.index, stroke_, loaded_pairs > 0 && loaded_stuck == 0 && loaded_unsteady == 0});
+  previous_sensor_mm_ = frame.positions_mm;
   previous_world_mm_.swap(current_world_mm_);
   previous_contact_.swap(current_contact_);
+}
+
+void FrictionMapBuilder::MarkGrossSlip(std::vector<SlipPoint>& slips, int* gross_frames) const {
+  // Per frame: gross slip, with gross_slip_margin frames of its stroke on either side.
+  const int m = options_.gross_slip_margin;
+  const int count = static_cast<int>(frame_motion_.size());
+  std::unordered_map<std::int64_t, bool> steady;
+  *gross_frames = 0;
+  for (int k = 0; k < count; ++k) {
+    const FrameMotion& f = frame_motion_[k];
+    *gross_frames += f.gross_slip ? 1 : 0;
+    bool ok = f.gross_slip && k - m >= 0 && k + m < count;
+    for (int j = k - m; ok && j <= k + m; ++j)
+      ok = frame_motion_[j].stroke == f.stroke && frame_motion_[j].gross_slip;
+    steady[f.index] = ok;
+  }
+  for (SlipPoint& s : slips) {
+    const auto it = steady.find(s.frame_index);
+    s.gross_slip = it != steady.end() && it->second;
+  }
 }
 
 FrictionMapResult FrictionMapBuilder::Build(const ProgressCallback& progress) const {
@@ -358,6 +416,7 @@ FrictionMapResult FrictionMapBuilder::Build(const ProgressCallback& progress) co
   if (stuck_pairs_ > 0)
     s.estimated_noise_mm = std::sqrt(stuck_sum_squared_mm2_ / (6.0 * stuck_pairs_));
   result.slip_points = slip_points_;
+  MarkGrossSlip(result.slip_points, &s.gross_slip_frames);
   const auto finish = [&](FrictionMapStatus status, std::string message) {
     s.status = status;
     s.message = std::move(message);
@@ -408,7 +467,7 @@ FrictionMapResult FrictionMapBuilder::Build(const ProgressCallback& progress) co
   result.vertex_normals = mesh->vertex_normals_;
 
   t = Clock::now();
-  AssignFriction(slip_points_, options_, result);
+  AssignFriction(result.slip_points, options_, result);
   SummariseFriction(result);
   s.mu_time_s = SecondsSince(t);
   report(4);

@@ -56,6 +56,32 @@ struct FrictionMapOptions {
   /// for two components).
   bool tangential_motion = false;
 
+  /// mu_i = the tangential force's component against the marker's slip, max(0, -F_t . s) /
+  /// F_n with s the unit direction of its motion on the object, instead of |F_t| / F_n (the
+  /// paper's). Coulomb friction on a slipping point is antiparallel to its slip, so the
+  /// component across the slip is measurement error; |F_t| adds that error in quadrature and
+  /// is biased up where F_t is small (low mu), the projection is not. The motion's direction
+  /// is known to about the position noise over the motion (0.003 / 0.08 mm = 0.04 rad on the
+  /// twin scenes: cos 0.04 = 0.999).
+  bool friction_along_slip = false;
+
+  // ---- Gross slip ----
+  /// Only slip points of frames in steady gross slip vote for mu (equations 5 and 6). A frame
+  /// is in steady gross slip when every marker pressed over contact_threshold_n in it and in
+  /// the previous frame (a) moved on the object by more than SlipThresholdMm() and (b) kept
+  /// its position in the sensor frame, tangentially, within slip_sigmas sqrt(2)
+  /// marker_noise_mm: the whole contact slides and its deformation no longer changes, so
+  /// every contact point is on its friction cone and |F_t| / F_n is mu. While a stroke starts
+  /// (the cover's shear still builds up, part of the contact sticks: partial slip), when it
+  /// stops and during a lift, (b) fails: the markers move in the sensor frame by 0.02-0.15 mm
+  /// a frame on the twin scenes against 0.002-0.005 mm in steady sliding (docs/friction.md).
+  /// false (the paper): every slip point votes.
+  bool gross_slip_only = false;
+  /// With gross_slip_only, the frames before and after a slip point's frame, in its stroke,
+  /// that must be in steady gross slip too (>= 0). 0: the frame alone (criterion (b) already
+  /// sees the onset and the stop); more trims the steady runs' ends.
+  int gross_slip_margin = 0;
+
   // ---- Resampling and reconstruction ----
   /// Edge of the voxels the cloud is averaged in (mm, > 0): resampling makes it uniform and
   /// smooths the markers' noise.
@@ -120,6 +146,9 @@ struct SlipPoint {
   double motion_mm = 0.0;        ///< world motion of the marker since the previous frame
   std::int64_t frame_index = 0;  ///< TactileFrame::index of the later frame
   int marker = 0;                ///< marker index (row * cols + col)
+  /// Set by Build: the frame and gross_slip_margin frames on either side, in its stroke, were
+  /// in steady gross slip (FrictionMapOptions::gross_slip_only).
+  bool gross_slip = false;
 };
 
 enum class FrictionMapStatus {
@@ -145,6 +174,11 @@ struct FrictionMapSummary {
   long contact_points = 0;  ///< surface points collected (contact markers over all frames)
   long marker_pairs = 0;    ///< markers valid and in contact in two adjacent frames
   long slip_points = 0;
+  /// Frames in steady gross slip (FrictionMapOptions::gross_slip_only), and the slip points
+  /// that voted for mu (over contact_threshold_n; with gross_slip_only, in steady gross slip
+  /// with its margin).
+  int gross_slip_frames = 0;
+  long voting_slip_points = 0;
   double slip_threshold_mm = 0.0;
   /// Per-axis noise of one position estimated from the pairs judged stuck:
   /// sqrt(sum |d|^2 / (6 n)). Compare with marker_noise_mm (NaN: no stuck pair).
@@ -219,13 +253,9 @@ class FrictionMapBuilder {
   /// Builds the mesh and the friction map from everything added so far. Problems with the
   /// data (no contact, too few points, no slip) are reported in summary.status, not thrown.
   ///
-  /// Poisson time, depth 8, on a realistic scan (5 overlapping 40 mm strokes at 0.1 mm a
-  /// frame: 2,010 frames, 64k contact points; test FrictionMap.RealisticScanTiming, run as
-  /// `OMP_WAIT_POLICY=PASSIVE build/src/tac3d/friction/friction_friction_map_test
-  /// --gtest_filter='*Timing*'` on 2 cores shared with other builds, load ~7):
-  /// resampled to 5.5k points (0.25 mm voxels, the default) 1.5 s on 1 thread, 1.5 s on 2;
-  /// the whole cloud (53.5k points) 2.8 s on 1 thread, 2.3 s on 2, as DESIGN.md's 2.7 s for
-  /// 50k points. The rest of Build (resampling, trimming, mu) takes 0.6 s and 2.1 s.
+  /// Time: a 3000-frame session (six 40 mm strokes at 0.08 mm a frame, ~96k contact points)
+  /// is added and built in about 1.8 s on one core, Poisson (depth 8, 0.25 mm voxels) 1.0 s of
+  /// it (bench/friction_benchmark.cc, docs/friction.md).
   /// @param progress called after each of the four stages (resample, reconstruct, trim, mu).
   FrictionMapResult Build(const ProgressCallback& progress = {}) const;
 
@@ -239,15 +269,28 @@ class FrictionMapBuilder {
   static constexpr long kMinReconstructionPoints = 20;
 
  private:
+  /// Sets each slip point's gross_slip from the frames' motion; counts the gross-slip frames.
+  void MarkGrossSlip(std::vector<SlipPoint>& slips, int* gross_frames) const;
+
   FrictionMapOptions options_;
   std::vector<Eigen::Vector3d> surface_points_;
   std::vector<Eigen::Vector3d> surface_normals_;
   std::vector<SlipPoint> slip_points_;
   // The previous frame's markers in the world, and whether each was valid and in contact.
   std::vector<Eigen::Vector3d> previous_world_mm_;
+  std::vector<Eigen::Vector3d> previous_sensor_mm_;  // the previous frame's positions_mm
   std::vector<bool> previous_contact_;
   std::vector<Eigen::Vector3d> current_world_mm_;
   std::vector<bool> current_contact_;
+  // Per frame added with a previous one: its index, stroke and whether it was in steady gross
+  // slip.
+  struct FrameMotion {
+    std::int64_t index = 0;
+    int stroke = 0;
+    bool gross_slip = false;
+  };
+  std::vector<FrameMotion> frame_motion_;
+  int stroke_ = 0;
   int frames_ = 0;
   int frames_skipped_ = 0;
   long marker_pairs_ = 0;
