@@ -77,7 +77,8 @@ SMALL_TWIN = {"margin_mm": 0.8, "quadrature_points_per_side": 2}
 
 @pytest.fixture
 def small_scene(tmp_path, small_sensor_yaml):
-    """A 5 mm sphere (mu 0.3) pressed 0.05 -> 0.1 mm into the small fingertip and slid."""
+    """A 5 mm sphere (mu 0.3): from 0.05 mm clear, pressed 0.1 mm into the small fingertip by
+    t = 1 s, then slid 0.5 mm along x by t = 2 s; 11 steps (simulation_test's press and slide)."""
     text = f"""
 name: small_press
 sensor: {small_sensor_yaml}
@@ -89,10 +90,11 @@ objects:
     position_mm: [0, 0, 8.0]
     friction: {{default: 0.3}}
 trajectory:
-  steps: 6
+  steps: 11
   keyframes:
-    - {{t_s: 0, position_mm: [0, 0, -0.2]}}
-    - {{t_s: 1, position_mm: [0.1, 0, 0.1]}}
+    - {{t_s: 0, position_mm: [0, 0, -0.05]}}
+    - {{t_s: 1, position_mm: [0, 0, 0.1]}}
+    - {{t_s: 2, position_mm: [0.5, 0, 0.1]}}
 """
     path = tmp_path / "small_scene.yaml"
     path.write_text(text)
