@@ -95,11 +95,10 @@ std::unique_ptr<PyPipeline> MakePipeline(const std::string& config_path, const s
   return p;
 }
 
-py::object Process(PyPipeline& p, const py::array& image, double timestamp_s, std::int64_t index) {
+py::object Process(PyPipeline& p, const py::array& image, double timestamp_s) {
   Frame frame;
   frame.image = ImageFromArray(image, "image");
   frame.timestamp_s = timestamp_s;
-  frame.index = index;
   TactileFrame out;
   {
     py::gil_scoped_release release;
@@ -156,8 +155,9 @@ minute for the default sensor), with the GIL released.
            py::arg("gains") = py::make_tuple(1.0, 1.0, 1.0),
            "config: a sensor YAML ('' : the built-in prototype); cache_dir: '' for\n"
            "$TAC3D_CACHE_DIR, $XDG_CACHE_HOME/tac3d or ~/.cache/tac3d. Raises tac3d.Error.")
-      .def("process", &Process, py::arg("image"), py::arg("timestamp") = 0.0, py::arg("index") = 0,
-           "One grey image (uint8 H x W, the camera's size) to a TactileFrame.")
+      .def("process", &Process, py::arg("image"), py::arg("timestamp") = 0.0,
+           "One grey image (uint8 H x W, the camera's size) taken at `timestamp` (s) to a\n"
+           "TactileFrame (its index counts the frames this pipeline processed).")
       .def("zero", [](PyPipeline& p) { p.pipeline->RequestZero(); },
            "Takes the next reference_frames frames as the new reference (as `$C`).")
       .def_property_readonly("initializing", [](const PyPipeline& p) { return p.pipeline->initializing(); })

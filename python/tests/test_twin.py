@@ -128,3 +128,40 @@ def test_friction_map_reports_no_contact_and_checks_its_input():
         tac3d.friction_map(frames, poses, {"radius": 1.0})
     with pytest.raises(tac3d.Error, match="radius_mm"):
         tac3d.friction_map(frames, poses, {"radius_mm": -1.0})
+
+
+def test_pipeline_in_process_on_the_twin_images(simulated, small_sensor_yaml, cache_dir):
+    out, _, _ = simulated
+    truth = tac3d.Dataset(str(out)).truth()
+    pipeline = tac3d.Pipeline(config=str(small_sensor_yaml), cache_dir=cache_dir,
+                              reference_frames=3, sn="PY-PIPE")
+    frames = list(pipeline.frames(tac3d.open_source(f"dataset:{out}")))
+    assert len(frames) == 11
+    assert [f.initializing for f in frames[:3]] == [True, True, False]
+    assert frames[0].has("initializing") and frames[0].sn == "PY-PIPE"
+    last = frames[-1]
+    assert last.positions.shape == (9, 3) and last.valid.all()
+    # Pressed 0.1 mm: the measured normal force has the truth's sign and size (the inverse on
+    # 9 markers is coarse: within a factor of 2).
+    fz_true = truth["total_force"][10, 2]
+    assert fz_true < -0.05
+    assert 0.5 * fz_true > last.resultant_force[2] > 2.0 * fz_true
+    np.testing.assert_allclose(last.positions, truth["marker_positions"][10], atol=0.05)
+
+    # zero(): the next frames build a new reference; process() takes images directly.
+    image = tac3d.Dataset(str(out)).step(0)["image"]
+    pipeline.zero()
+    again = [pipeline.process(image, timestamp=2.0 + 0.1 * k) for k in range(3)]
+    assert [f.initializing for f in again] == [True, True, False]
+    assert again[2].index == 13 and again[2].timestamp == pytest.approx(2.2)
+    assert abs(again[2].resultant_force[2]) < 0.01  # the step-0 image, unloaded
+    assert not pipeline.initializing
+
+    with pytest.raises(tac3d.Error, match="2D uint8"):
+        pipeline.process(image.astype(np.float32))
+    with pytest.raises(tac3d.Error):
+        pipeline.process(np.zeros((10, 10), np.uint8))  # not the camera's size
+    with pytest.raises(tac3d.Error, match="weight"):
+        tac3d.Pipeline(config=str(small_sensor_yaml), cache_dir=cache_dir, weight=-1)
+    with pytest.raises(tac3d.Error, match="no_such.yaml"):
+        tac3d.Pipeline(config="no_such.yaml", cache_dir=cache_dir)
