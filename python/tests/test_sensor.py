@@ -237,3 +237,19 @@ trajectory:
     np.testing.assert_allclose(last["3D_ResultantForce"][0],
                                by_index[last["index"]]["resultant_force_n"], rtol=1e-9, atol=1e-12)
     assert last["3D_ResultantForce"][0, 2] < -0.05  # pressed at the end
+
+
+def test_blocking_calls_release_the_gil():
+    """While one thread waits in waitForFrame, another runs Python code."""
+    import threading
+
+    with tac3d.Sensor(port=0) as sensor:
+        waiter = threading.Thread(target=sensor.waitForFrame, kwargs={"timeout": 0.5})
+        spins = 0
+        waiter.start()
+        t0 = time.time()
+        while waiter.is_alive():
+            spins += 1
+        assert time.time() - t0 > 0.4
+        # Held GIL: the loop would be starved to a few switch intervals (5 ms each).
+        assert spins > 10_000, spins
