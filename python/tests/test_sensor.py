@@ -253,3 +253,22 @@ def test_blocking_calls_release_the_gil():
         assert time.time() - t0 > 0.4
         # Held GIL: the loop would be starved to a few switch intervals (5 ms each).
         assert spins > 10_000, spins
+
+
+def test_a_script_exits_cleanly_without_closing_while_frames_arrive(tmp_path, tac3d_cli):
+    rec = write_recording(tmp_path / "r.tac3drec", 1000, dt_s=0.002)
+    script = (
+        "import sys, time, tac3d\n"
+        "s = tac3d.Sensor(recvCallback=lambda f, p: None, port=0)\n"
+        "print(s.port, flush=True)\n"
+        "s.waitForFrame(timeout=20)\n"
+        "time.sleep(0.2)\n"  # exit with the thread busy and frames queued, no close()
+    )
+    py = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True)
+    port = int(py.stdout.readline())
+    sender = stream(tac3d_cli, rec, port)
+    try:
+        assert py.wait(timeout=20) == 0
+    finally:
+        sender.kill()
+        sender.wait()
