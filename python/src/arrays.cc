@@ -27,7 +27,8 @@ py::array_t<double> Vector3View(const std::vector<Eigen::Vector3d>& v, py::handl
   if (v.empty()) return py::array_t<double>(std::vector<py::ssize_t>{0, 3});
   return py::array_t<double>({static_cast<py::ssize_t>(v.size()), py::ssize_t{3}},
                              {kRowStride, static_cast<py::ssize_t>(sizeof(double))},
-                             v.front().data(), base);
+                             v.front().data(),
+                             base);
 }
 
 py::array_t<double> Vector3Owned(std::vector<Eigen::Vector3d>&& v) {
@@ -37,8 +38,8 @@ py::array_t<double> Vector3Owned(std::vector<Eigen::Vector3d>&& v) {
 }
 
 py::array_t<double> Vector3dView(const Eigen::Vector3d& v, py::handle base) {
-  return py::array_t<double>({py::ssize_t{3}}, {static_cast<py::ssize_t>(sizeof(double))}, v.data(),
-                             base);
+  return py::array_t<double>(
+      {py::ssize_t{3}}, {static_cast<py::ssize_t>(sizeof(double))}, v.data(), base);
 }
 
 py::array_t<bool> BoolArray(const std::vector<bool>& v) {
@@ -66,13 +67,17 @@ py::object ImageArray(const cv::Mat& image) {
 
 cv::Mat ImageFromArray(const py::array& a, const char* what) {
   if (!py::isinstance<py::array_t<std::uint8_t>>(a) || a.ndim() != 2) {
-    throw Error(fmt::format("{}: expected a 2D uint8 array (a grey image), got {} {}", what,
-                            std::string(py::str(a.dtype())), ShapeOf(a)));
+    throw Error(fmt::format("{}: expected a 2D uint8 array (a grey image), got {} {}",
+                            what,
+                            std::string(py::str(a.dtype())),
+                            ShapeOf(a)));
   }
   if (!(a.flags() & py::array::c_style)) {
     throw Error(fmt::format("{}: the image must be C-contiguous (numpy.ascontiguousarray)", what));
   }
-  return cv::Mat(static_cast<int>(a.shape(0)), static_cast<int>(a.shape(1)), CV_8UC1,
+  return cv::Mat(static_cast<int>(a.shape(0)),
+                 static_cast<int>(a.shape(1)),
+                 CV_8UC1,
                  const_cast<void*>(a.data()));
 }
 
@@ -84,8 +89,8 @@ std::vector<Eigen::Vector3d> ToVector3(const py::handle& h, int n, const char* w
     throw Error(fmt::format("{}: expected an array of numbers", what));
   }
   if (a.ndim() != 2 || a.shape(1) != 3 || (n >= 0 && a.shape(0) != n)) {
-    throw Error(fmt::format("{}: expected shape ({}, 3), got {}", what,
-                            n >= 0 ? std::to_string(n) : "N", ShapeOf(a)));
+    throw Error(fmt::format(
+        "{}: expected shape ({}, 3), got {}", what, n >= 0 ? std::to_string(n) : "N", ShapeOf(a)));
   }
   std::vector<Eigen::Vector3d> out(static_cast<size_t>(a.shape(0)));
   if (!out.empty()) std::memcpy(out.front().data(), a.data(), out.size() * kRowStride);
@@ -99,7 +104,8 @@ Eigen::Vector3d ToVector3d(const py::handle& h, const char* what) {
   } catch (const py::cast_error&) {
     throw Error(fmt::format("{}: expected three numbers", what));
   }
-  if (a.size() != 3) throw Error(fmt::format("{}: expected three numbers, got shape {}", what, ShapeOf(a)));
+  if (a.size() != 3)
+    throw Error(fmt::format("{}: expected three numbers, got shape {}", what, ShapeOf(a)));
   return Eigen::Vector3d(a.data()[0], a.data()[1], a.data()[2]);
 }
 

@@ -9,12 +9,11 @@
 
 #include <Eigen/Core>
 #include <memory>
+#include <nlohmann/json_fwd.hpp>
 #include <opencv2/core.hpp>
 #include <string>
 #include <utility>
 #include <vector>
-
-#include <nlohmann/json_fwd.hpp>
 
 #include "tac3d/util/error.h"  // tac3d::Error, fmt
 

@@ -55,13 +55,19 @@ bool Initializing(const DecodedFrame& frame) {
 /// client's mutex, which the thread holds only inside Receive (at most kReceiveSliceS).
 class Sensor {
  public:
-  Sensor(py::object callback, int port, int max_queue, py::object param,
-         const std::string& bind_address, double frame_timeout_s, bool drop_initializing)
+  Sensor(py::object callback,
+         int port,
+         int max_queue,
+         py::object param,
+         const std::string& bind_address,
+         double frame_timeout_s,
+         bool drop_initializing)
       : callback_(std::move(callback)),
         param_(std::move(param)),
         max_queue_(max_queue),
         drop_initializing_(drop_initializing) {
-    if (port < 0 || port > 65535) throw Error(fmt::format("Sensor: port = {} must be 0-65535", port));
+    if (port < 0 || port > 65535)
+      throw Error(fmt::format("Sensor: port = {} must be 0-65535", port));
     if (max_queue < 1) throw Error(fmt::format("Sensor: maxQSize = {} must be >= 1", max_queue));
     if (!callback_.is_none() && !PyCallable_Check(callback_.ptr())) {
       throw Error("Sensor: recvCallback must be callable (frame, param) or None");
@@ -166,7 +172,8 @@ class Sensor {
         continue;
       }
       // std::mutex is not fair: let a waiting Send have the client before the next Receive.
-      while (waiting_senders_ > 0 && !stop_) std::this_thread::sleep_for(std::chrono::microseconds(200));
+      while (waiting_senders_ > 0 && !stop_)
+        std::this_thread::sleep_for(std::chrono::microseconds(200));
       if (!received) continue;
       {
         std::lock_guard lock(state_mutex_);
@@ -191,7 +198,8 @@ class Sensor {
       frame["sendTimestamp"] = received.frame.timestamp_s;
       frame["recvTimestamp"] = received.receive_time_s;
       frame["message"] = received.frame.msg;
-      for (auto& [name, field] : received.frame.fields) frame[py::str(name)] = FieldToPython(std::move(field));
+      for (auto& [name, field] : received.frame.fields)
+        frame[py::str(name)] = FieldToPython(std::move(field));
       Push(sn, frame);
       Push(kAny, frame);
       ++frames_;
@@ -251,38 +259,51 @@ GIL held, for every frame; getFrame() pops from a queue of at most maxQSize fram
 one for 'any'), dropping the oldest.
 )doc")
       .def(py::init<py::object, int, int, py::object, std::string, double, bool>(),
-           py::arg("recvCallback") = py::none(), py::arg("port") = 9988,
-           py::arg("maxQSize") = 5, py::arg("callbackParam") = py::none(), py::kw_only(),
-           py::arg("bind_address") = "0.0.0.0", py::arg("frame_timeout") = 1.0,
+           py::arg("recvCallback") = py::none(),
+           py::arg("port") = 9988,
+           py::arg("maxQSize") = 5,
+           py::arg("callbackParam") = py::none(),
+           py::kw_only(),
+           py::arg("bind_address") = "0.0.0.0",
+           py::arg("frame_timeout") = 1.0,
            py::arg("drop_initializing") = true,
            "Binds `port` (0: an ephemeral port, see .port) and starts receiving.\n"
            "frame_timeout: seconds after which an incomplete frame is dropped.\n"
            "Raises tac3d.Error if the port cannot be bound or an argument is out of range.")
-      .def("getFrame", &Sensor::GetFrame, py::arg("SN") = kAny,
+      .def("getFrame",
+           &Sensor::GetFrame,
+           py::arg("SN") = kAny,
            "The oldest queued frame of sensor SN ('any': of any sensor), or None.")
-      .def("waitForFrame", &Sensor::WaitForFrame, py::arg("SN") = kAny, py::arg("timeout") = py::none(),
+      .def("waitForFrame",
+           &Sensor::WaitForFrame,
+           py::arg("SN") = kAny,
+           py::arg("timeout") = py::none(),
            "Blocks (GIL released) until a frame of SN ('any': any) has been received; returns\n"
            "at once if one was. True, or False when `timeout` seconds passed first.")
-      .def("calibrate",
-           [](Sensor& s, const std::string& sn) {
-             const bool sent = s.Send(sn, SensorCommand::kZero);
-             py::print(sent ? fmt::format("Calibrate signal send to {}.", sn)
-                            : fmt::format("Calibration failed! (sensor {} is not connected)", sn));
-             return sent;
-           },
-           py::arg("SN"),
-           "Sends `$C` (zero: take the present state as undeformed) to the address SN's frames\n"
-           "come from. False (and a message) if no frame of SN was received yet.")
-      .def("quitSensor",
-           [](Sensor& s, const std::string& sn) {
-             const bool sent = s.Send(sn, SensorCommand::kStop);
-             py::print(sent ? fmt::format("Quit signal send to {}.", sn)
-                            : fmt::format("Quit failed! (sensor {} is not connected)", sn));
-             return sent;
-           },
-           py::arg("SN"), "Sends `$Q` (stop the sensor process) to SN. False if SN is unknown.")
+      .def(
+          "calibrate",
+          [](Sensor& s, const std::string& sn) {
+            const bool sent = s.Send(sn, SensorCommand::kZero);
+            py::print(sent ? fmt::format("Calibrate signal send to {}.", sn)
+                           : fmt::format("Calibration failed! (sensor {} is not connected)", sn));
+            return sent;
+          },
+          py::arg("SN"),
+          "Sends `$C` (zero: take the present state as undeformed) to the address SN's frames\n"
+          "come from. False (and a message) if no frame of SN was received yet.")
+      .def(
+          "quitSensor",
+          [](Sensor& s, const std::string& sn) {
+            const bool sent = s.Send(sn, SensorCommand::kStop);
+            py::print(sent ? fmt::format("Quit signal send to {}.", sn)
+                           : fmt::format("Quit failed! (sensor {} is not connected)", sn));
+            return sent;
+          },
+          py::arg("SN"),
+          "Sends `$Q` (stop the sensor process) to SN. False if SN is unknown.")
       .def_property_readonly("port", &Sensor::port, "The bound UDP port.")
-      .def("stats", &Sensor::Stats,
+      .def("stats",
+           &Sensor::Stats,
            "{'frames': delivered, 'initializing_dropped': n, 'drops': {reason: count}}: what the\n"
            "C++ client dropped (incomplete frames timed out, malformed datagrams...).")
       .def("close", &Sensor::Close, "Stops receiving and releases the port (also on exit).")

@@ -105,11 +105,17 @@ simulation::TwinBodyOptions TwinOptions(const py::dict& d) {
   simulation::TwinBodyOptions o;
   for (auto [key, value] : d) {
     const std::string k = py::str(key);
-    if (k == "cells_per_pitch") o.cells_per_pitch = value.cast<int>();
-    else if (k == "margin_mm") o.margin_mm = value.cast<double>();
-    else if (k == "quadrature_points_per_side") o.quadrature_points_per_side = value.cast<int>();
-    else throw Error(fmt::format("twin_options: unknown key '{}' (cells_per_pitch, margin_mm, "
-                                 "quadrature_points_per_side)", k));
+    if (k == "cells_per_pitch")
+      o.cells_per_pitch = value.cast<int>();
+    else if (k == "margin_mm")
+      o.margin_mm = value.cast<double>();
+    else if (k == "quadrature_points_per_side")
+      o.quadrature_points_per_side = value.cast<int>();
+    else
+      throw Error(
+          fmt::format("twin_options: unknown key '{}' (cells_per_pitch, margin_mm, "
+                      "quadrature_points_per_side)",
+                      k));
   }
   o.Validate();
   return o;
@@ -117,21 +123,28 @@ simulation::TwinBodyOptions TwinOptions(const py::dict& d) {
 
 struct PythonAbort {};  // the progress callback raised: its Python error is set
 
-py::object Simulate(const py::object& scene_arg, const std::string& out, const std::string& cache_dir,
-                    int steps, bool images, const py::object& progress, const py::dict& twin_options) {
+py::object Simulate(const py::object& scene_arg,
+                    const std::string& out,
+                    const std::string& cache_dir,
+                    int steps,
+                    bool images,
+                    const py::object& progress,
+                    const py::dict& twin_options) {
   if (steps < 0) throw Error(fmt::format("steps must be >= 0, got {}", steps));
   const Scene scene = SceneArg(scene_arg);
-  const std::string scene_ref = py::isinstance<Scene>(scene_arg) ? scene.name : std::string(py::str(scene_arg));
+  const std::string scene_ref =
+      py::isinstance<Scene>(scene_arg) ? scene.name : std::string(py::str(scene_arg));
   const simulation::TwinBodyOptions twin = TwinOptions(twin_options);
   std::optional<py::error_already_set> error;
   simulation::SimulationSummary summary;
   nlohmann::json model_json;
   {
     py::gil_scoped_release release;
-    const fem::BodyModelOptions body = simulation::TwinBodyModelOptions(scene.sensor, scene.deviation);
+    const fem::BodyModelOptions body =
+        simulation::TwinBodyModelOptions(scene.sensor, scene.deviation);
     TwinDatasetWriter writer(out, {{"name", scene.name}, {"scene", scene_ref}});
-    simulation::TwinBodyCacheResult cached =
-        simulation::LoadOrBuildTwinBodyModel(body, twin, ResolveCacheDir(cache_dir), /*show_progress=*/false);
+    simulation::TwinBodyCacheResult cached = simulation::LoadOrBuildTwinBodyModel(
+        body, twin, ResolveCacheDir(cache_dir), /*show_progress=*/false);
     model_json = {{"cache_file", cached.path}, {"load_or_build_s", cached.elapsed_s}};
     const auto model = std::make_shared<const simulation::TwinBodyModel>(std::move(cached.model));
     simulation::SimulationOptions options;
@@ -178,7 +191,8 @@ py::dict StepDict(TwinStep&& s, bool with_image) {
   d["marker_forces"] = Vector3Owned(std::move(s.marker_forces_n));
   py::array_t<bool> contact(static_cast<py::ssize_t>(s.marker_contact.size()));
   py::array_t<bool> slip(static_cast<py::ssize_t>(s.marker_slip.size()));
-  for (size_t i = 0; i < s.marker_contact.size(); ++i) contact.mutable_at(i) = s.marker_contact[i] != 0;
+  for (size_t i = 0; i < s.marker_contact.size(); ++i)
+    contact.mutable_at(i) = s.marker_contact[i] != 0;
   for (size_t i = 0; i < s.marker_slip.size(); ++i) slip.mutable_at(i) = s.marker_slip[i] != 0;
   d["marker_contact"] = contact;
   d["marker_slip"] = slip;
@@ -193,7 +207,8 @@ py::dict StepDict(TwinStep&& s, bool with_image) {
     d["surface_positions"] = Vector3Owned(std::move(s.surface.positions_mm));
     d["surface_tractions"] = Vector3Owned(std::move(s.surface.tractions_mpa));
     std::vector<std::uint8_t> states(s.surface.states.size());
-    for (size_t i = 0; i < states.size(); ++i) states[i] = static_cast<std::uint8_t>(s.surface.states[i]);
+    for (size_t i = 0; i < states.size(); ++i)
+      states[i] = static_cast<std::uint8_t>(s.surface.states[i]);
     d["surface_states"] = VectorOwned(std::move(states));
   }
   if (with_image) d["image"] = ImageArray(s.image);
@@ -208,9 +223,11 @@ py::dict Truth(const Dataset& ds) {
     for (size_t k = 0; k < steps.size(); ++k) read[k] = ds.reader->Read(steps[k]);
   }
   const auto t = static_cast<py::ssize_t>(read.size());
-  const py::ssize_t n = read.empty() ? 0 : static_cast<py::ssize_t>(read.front().marker_positions_mm.size());
-  py::array_t<double> time(t), poses({t, py::ssize_t{4}, py::ssize_t{4}}), positions({t, n, py::ssize_t{3}}),
-      forces({t, n, py::ssize_t{3}}), total_force({t, py::ssize_t{3}}), total_moment({t, py::ssize_t{3}});
+  const py::ssize_t n =
+      read.empty() ? 0 : static_cast<py::ssize_t>(read.front().marker_positions_mm.size());
+  py::array_t<double> time(t), poses({t, py::ssize_t{4}, py::ssize_t{4}}),
+      positions({t, n, py::ssize_t{3}}), forces({t, n, py::ssize_t{3}}),
+      total_force({t, py::ssize_t{3}}), total_moment({t, py::ssize_t{3}});
   py::array_t<bool> contact({t, n}), slip({t, n});
   py::array_t<std::int32_t> index(t);
   auto P = poses.mutable_unchecked<3>();
@@ -221,8 +238,11 @@ py::dict Truth(const Dataset& ds) {
   for (py::ssize_t k = 0; k < t; ++k) {
     const TwinStep& s = read[k];
     if (static_cast<py::ssize_t>(s.marker_positions_mm.size()) != n) {
-      throw Error(fmt::format("step {} has {} markers, step {} has {}", s.index,
-                              s.marker_positions_mm.size(), read.front().index, n));
+      throw Error(fmt::format("step {} has {} markers, step {} has {}",
+                              s.index,
+                              s.marker_positions_mm.size(),
+                              read.front().index,
+                              n));
     }
     time.mutable_at(k) = s.t_s;
     index.mutable_at(k) = s.index;
@@ -262,9 +282,12 @@ py::dict DesignDict(const LightPathDesign& design) {
     d["unknowns"] = py::make_tuple(r.unknowns[0], r.unknowns[1], r.unknowns[2], r.unknowns[3]);
     d["camera"] = Vec2(r.camera);
     d["center"] = Vec2(r.center);
-    d["a0"] = Vec2(r.a0); d["b0"] = Vec2(r.b0);
-    d["a1"] = Vec2(r.a1); d["b1"] = Vec2(r.b1);
-    d["a2"] = Vec2(r.a2); d["b2"] = Vec2(r.b2);
+    d["a0"] = Vec2(r.a0);
+    d["b0"] = Vec2(r.b0);
+    d["a1"] = Vec2(r.a1);
+    d["b1"] = Vec2(r.b1);
+    d["a2"] = Vec2(r.a2);
+    d["b2"] = Vec2(r.b2);
     d["virtual_camera"] = Vec2(r.virtual_camera);
     d["max_residual"] = r.max_residual();
     d["parallax_deg"] = r.parallax_deg;
@@ -275,8 +298,10 @@ py::dict DesignDict(const LightPathDesign& design) {
   py::dict out;
   out["roots"] = roots;
   out["chosen"] = design.chosen ? py::object(py::int_(*design.chosen)) : py::object(py::none());
-  out["sensor_yaml"] = design.config ? py::object(py::str(SensorConfigToYaml(*design.config))) : py::object(py::none());
-  out["summary"] = py::dict(py::arg("starts") = design.summary.starts, py::arg("converged") = design.summary.converged,
+  out["sensor_yaml"] = design.config ? py::object(py::str(SensorConfigToYaml(*design.config)))
+                                     : py::object(py::none());
+  out["summary"] = py::dict(py::arg("starts") = design.summary.starts,
+                            py::arg("converged") = design.summary.converged,
                             py::arg("distinct_roots") = design.summary.distinct_roots,
                             py::arg("valid_roots") = design.summary.valid_roots,
                             py::arg("seconds") = design.summary.seconds);
@@ -302,24 +327,42 @@ friction::FrictionMapOptions FrictionOptions(const py::dict& d) {
   friction::FrictionMapOptions o = friction::FrictionMapOptions::FromSensor(DefaultSensorConfig());
   for (auto [key, value] : d) {
     const std::string k = py::str(key);
-    if (k == "contact_threshold_n") o.contact_threshold_n = value.cast<double>();
-    else if (k == "cover_thickness_mm") o.cover_thickness_mm = value.cast<double>();
-    else if (k == "slip_contact_threshold_n") o.slip_contact_threshold_n = value.cast<double>();
-    else if (k == "marker_noise_mm") o.marker_noise_mm = value.cast<double>();
-    else if (k == "pose_noise_mm") o.pose_noise_mm = value.cast<double>();
-    else if (k == "slip_sigmas") o.slip_sigmas = value.cast<double>();
-    else if (k == "tangential_motion") o.tangential_motion = value.cast<bool>();
-    else if (k == "voxel_size_mm") o.voxel_size_mm = value.cast<double>();
-    else if (k == "poisson_depth") o.poisson_depth = value.cast<int>();
-    else if (k == "poisson_scale") o.poisson_scale = value.cast<double>();
-    else if (k == "num_threads") o.num_threads = value.cast<int>();
-    else if (k == "trim_distance_mm") o.trim_distance_mm = value.cast<double>();
-    else if (k == "radius_mm") o.radius_mm = value.cast<double>();
-    else if (k == "alpha") o.alpha = value.cast<double>();
-    else if (k == "beta") o.beta = value.cast<double>();
-    else if (k == "normal_force_exponent") o.normal_force_exponent = value.cast<double>();
-    else if (k == "min_slip_points") o.min_slip_points = value.cast<int>();
-    else throw Error(fmt::format("friction_map: unknown option '{}'", k));
+    if (k == "contact_threshold_n")
+      o.contact_threshold_n = value.cast<double>();
+    else if (k == "cover_thickness_mm")
+      o.cover_thickness_mm = value.cast<double>();
+    else if (k == "slip_contact_threshold_n")
+      o.slip_contact_threshold_n = value.cast<double>();
+    else if (k == "marker_noise_mm")
+      o.marker_noise_mm = value.cast<double>();
+    else if (k == "pose_noise_mm")
+      o.pose_noise_mm = value.cast<double>();
+    else if (k == "slip_sigmas")
+      o.slip_sigmas = value.cast<double>();
+    else if (k == "tangential_motion")
+      o.tangential_motion = value.cast<bool>();
+    else if (k == "voxel_size_mm")
+      o.voxel_size_mm = value.cast<double>();
+    else if (k == "poisson_depth")
+      o.poisson_depth = value.cast<int>();
+    else if (k == "poisson_scale")
+      o.poisson_scale = value.cast<double>();
+    else if (k == "num_threads")
+      o.num_threads = value.cast<int>();
+    else if (k == "trim_distance_mm")
+      o.trim_distance_mm = value.cast<double>();
+    else if (k == "radius_mm")
+      o.radius_mm = value.cast<double>();
+    else if (k == "alpha")
+      o.alpha = value.cast<double>();
+    else if (k == "beta")
+      o.beta = value.cast<double>();
+    else if (k == "normal_force_exponent")
+      o.normal_force_exponent = value.cast<double>();
+    else if (k == "min_slip_points")
+      o.min_slip_points = value.cast<int>();
+    else
+      throw Error(fmt::format("friction_map: unknown option '{}'", k));
   }
   o.Validate();
   return o;
@@ -333,12 +376,15 @@ py::dict FrictionMap(const py::iterable& frames, const py::object& poses, const 
   }
   py::ssize_t k = 0;
   for (py::handle h : frames) {
-    if (k >= pose_array.shape(0)) throw Error(fmt::format("friction_map: more frames than the {} poses", pose_array.shape(0)));
+    if (k >= pose_array.shape(0))
+      throw Error(fmt::format("friction_map: more frames than the {} poses", pose_array.shape(0)));
     const TactileFrame& frame = h.cast<const TactileFrame&>();
-    builder.AddFrame(frame, PoseFromArray(pose_array[py::make_tuple(k, py::ellipsis())], "poses[k]"));
+    builder.AddFrame(frame,
+                     PoseFromArray(pose_array[py::make_tuple(k, py::ellipsis())], "poses[k]"));
     ++k;
   }
-  if (k != pose_array.shape(0)) throw Error(fmt::format("friction_map: {} frames but {} poses", k, pose_array.shape(0)));
+  if (k != pose_array.shape(0))
+    throw Error(fmt::format("friction_map: {} frames but {} poses", k, pose_array.shape(0)));
   friction::FrictionMapResult map;
   {
     py::gil_scoped_release release;
@@ -346,7 +392,8 @@ py::dict FrictionMap(const py::iterable& frames, const py::object& poses, const 
   }
   py::dict d;
   std::vector<std::int32_t> triangles;
-  for (const Eigen::Vector3i& t : map.triangles) triangles.insert(triangles.end(), {t[0], t[1], t[2]});
+  for (const Eigen::Vector3i& t : map.triangles)
+    triangles.insert(triangles.end(), {t[0], t[1], t[2]});
   py::array_t<std::int32_t> tri = VectorOwned(std::move(triangles));
   d["vertices"] = Vector3Owned(std::move(map.vertices_mm));
   d["triangles"] = tri.attr("reshape")(-1, 3);
@@ -371,26 +418,46 @@ py::dict FrictionMap(const py::iterable& frames, const py::object& poses, const 
 }  // namespace
 
 void RegisterTwin(py::module_& m) {
-  py::class_<Scene>(m, "Scene", "A twin scene (tac3d.load_scene): the fingertip, objects and trajectory.")
+  py::class_<Scene>(
+      m, "Scene", "A twin scene (tac3d.load_scene): the fingertip, objects and trajectory.")
       .def_readonly("name", &Scene::name)
       .def_property_readonly("steps", [](const Scene& s) { return s.trajectory.steps; })
-      .def("info", &SceneInfo, "Plain data: name, steps, duration_s, marker grid, objects, deviation.")
+      .def("info",
+           &SceneInfo,
+           "Plain data: name, steps, duration_s, marker grid, objects, deviation.")
       .def("__repr__", [](const Scene& s) {
-        return fmt::format("<tac3d.Scene '{}' {} steps, {} objects>", s.name, s.trajectory.steps, s.objects.size());
+        return fmt::format("<tac3d.Scene '{}' {} steps, {} objects>",
+                           s.name,
+                           s.trajectory.steps,
+                           s.objects.size());
       });
   m.def("builtin_scenes", &BuiltInSceneNames, "Names of the built-in scenes.");
-  m.def("load_scene", [](const std::string& s) {
+  m.def(
+      "load_scene",
+      [](const std::string& s) {
         py::gil_scoped_release release;
         return LoadSceneOrBuiltIn(s);
-      }, py::arg("name_or_path"),
+      },
+      py::arg("name_or_path"),
       "A built-in scene by name or a scene YAML file (docs/scenes.md). Raises tac3d.Error\n"
       "naming the file, the key and what is wrong.");
-  m.def("parse_scene", [](const std::string& text, const std::string& base_dir) {
+  m.def(
+      "parse_scene",
+      [](const std::string& text, const std::string& base_dir) {
         return ParseScene(text, "<python>", base_dir);
-      }, py::arg("yaml_text"), py::arg("base_dir") = ".",
+      },
+      py::arg("yaml_text"),
+      py::arg("base_dir") = ".",
       "A scene from YAML text; relative paths in it are resolved against base_dir.");
-  m.def("simulate", &Simulate, py::arg("scene"), py::arg("out"), py::kw_only(), py::arg("cache_dir") = "",
-        py::arg("steps") = 0, py::arg("images") = true, py::arg("progress") = py::none(),
+  m.def("simulate",
+        &Simulate,
+        py::arg("scene"),
+        py::arg("out"),
+        py::kw_only(),
+        py::arg("cache_dir") = "",
+        py::arg("steps") = 0,
+        py::arg("images") = true,
+        py::arg("progress") = py::none(),
         py::arg("twin_options") = py::dict(),
         "Simulates a scene (a Scene, a built-in name or a YAML path) into the new dataset folder\n"
         "`out` (GIL released). The twin body model is loaded from cache_dir or built (the\n"
@@ -407,34 +474,54 @@ truth one at a time (step) or all at once as arrays (truth), and the rendered im
              py::gil_scoped_release release;
              return Dataset{std::make_unique<TwinDatasetReader>(folder)};
            }),
-           py::arg("folder"), "Raises tac3d.Error if the folder holds no readable dataset.json.")
-      .def_property_readonly("header", [](const Dataset& d) { return JsonToPython(d.reader->header()); })
+           py::arg("folder"),
+           "Raises tac3d.Error if the folder holds no readable dataset.json.")
+      .def_property_readonly("header",
+                             [](const Dataset& d) { return JsonToPython(d.reader->header()); })
       .def_property_readonly("steps", [](const Dataset& d) { return d.reader->steps(); })
       .def("__len__", [](const Dataset& d) { return d.reader->steps().size(); })
-      .def("step", [](const Dataset& d, int step, bool surface, bool image) {
+      .def(
+          "step",
+          [](const Dataset& d, int step, bool surface, bool image) {
             TwinStep s;
             {
               py::gil_scoped_release release;
               s = d.reader->Read(step, surface);
             }
             return StepDict(std::move(s), image);
-          }, py::arg("step"), py::arg("surface") = false, py::arg("image") = true,
-          "One step's truth: t, world_from_sensor (4 x 4), marker_positions, marker_forces (N x 3),\n"
+          },
+          py::arg("step"),
+          py::arg("surface") = false,
+          py::arg("image") = true,
+          "One step's truth: t, world_from_sensor (4 x 4), marker_positions, marker_forces (N x "
+          "3),\n"
           "marker_contact, marker_slip (N,), total_force (N), total_moment (N mm), image; with\n"
           "surface=True the surface nodes' positions, tractions (MPa) and states.")
-      .def("truth", &Truth,
+      .def("truth",
+           &Truth,
            "Every step's truth as arrays: index, t (T,), world_from_sensor (T x 4 x 4),\n"
            "marker_positions, marker_forces (T x N x 3), marker_contact, marker_slip (T x N),\n"
            "total_force, total_moment (T x 3).");
 
-  m.def("design_light_path", &DesignLight, py::arg("h_mm") = 40.0, py::arg("l_mm") = 40.0, py::arg("d_mm") = 8.0,
-        py::arg("fov_deg") = 48.0, py::arg("starts_per_axis") = 8,
+  m.def("design_light_path",
+        &DesignLight,
+        py::arg("h_mm") = 40.0,
+        py::arg("l_mm") = 40.0,
+        py::arg("d_mm") = 8.0,
+        py::arg("fov_deg") = 48.0,
+        py::arg("starts_per_axis") = 8,
         "Solves the mirror layout (paper section III.B) for camera distance h, fingertip length\n"
         "l, thickness d and field of view. Returns {roots: [...], chosen: index or None,\n"
         "sensor_yaml: the designed sensor or None, summary}. Raises tac3d.Error on bad options.");
-  m.def("default_sensor_yaml", [] { return SensorConfigToYaml(DefaultSensorConfig()); },
-        "The built-in prototype sensor as YAML.");
-  m.def("friction_map", &FrictionMap, py::arg("frames"), py::arg("poses"), py::arg("options") = py::dict(),
+  m.def(
+      "default_sensor_yaml",
+      [] { return SensorConfigToYaml(DefaultSensorConfig()); },
+      "The built-in prototype sensor as YAML.");
+  m.def("friction_map",
+        &FrictionMap,
+        py::arg("frames"),
+        py::arg("poses"),
+        py::arg("options") = py::dict(),
         "The friction map (paper section IV.B) of a fixed object from TactileFrames and the\n"
         "sensor's poses (T x 4 x 4 world_from_sensor, one per frame). options: fields of\n"
         "FrictionMapOptions (docs/friction.md). Returns vertices (V x 3, mm, world), triangles\n"
