@@ -92,7 +92,11 @@ class Sensor {
       py::gil_scoped_release release;
       thread_.join();
     }
-    client_.reset();
+    {
+      py::gil_scoped_release release;  // a Send in another thread may hold the client
+      std::lock_guard lock(client_mutex_);
+      client_.reset();
+    }
     queues_.clear();
   }
 

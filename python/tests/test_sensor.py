@@ -64,6 +64,8 @@ def test_receives_every_frame_with_the_vendor_keys_shapes_and_values(tmp_path, t
     assert [sensor.getFrame("PY-TEST")["index"] for _ in range(5)] == list(range(n - 5, n))
     assert sensor.getFrame("PY-TEST") is None and sensor.getFrame("OTHER") is None
     sensor.close()
+    with pytest.raises(tac3d.Error, match="closed"):
+        sensor.calibrate("PY-TEST")
 
 
 def test_calibrate_sends_zero_and_quit_stops_the_sender(tmp_path, tac3d_cli, capsys):
