@@ -26,7 +26,8 @@ def stream(cli, recording, port, speed=1.0, sn=None):
 
 def test_receives_every_frame_with_the_vendor_keys_shapes_and_values(tmp_path, tac3d_cli):
     n = 300
-    rec = write_recording(tmp_path / "s.tac3drec", n, dt_s=0.002)
+    # 200 frames/s: within what the client decodes on a loaded 2-core machine (~380/s).
+    rec = write_recording(tmp_path / "s.tac3drec", n, dt_s=0.005)
     frames = []
     params = []
 
@@ -45,7 +46,7 @@ def test_receives_every_frame_with_the_vendor_keys_shapes_and_values(tmp_path, t
     for k, f in enumerate(frames):
         assert VENDOR_KEYS <= set(f)
         assert f["SN"] == "PY-TEST" and f["index"] == k
-        assert isinstance(f["sendTimestamp"], float) and f["sendTimestamp"] == pytest.approx(0.002 * k)
+        assert isinstance(f["sendTimestamp"], float) and f["sendTimestamp"] == pytest.approx(0.005 * k)
         assert isinstance(f["recvTimestamp"], float) and f["recvTimestamp"] > 0
         for key in ("3D_Positions", "3D_Displacements", "3D_Forces", "3D_Normals"):
             assert f[key].dtype == np.float64 and f[key].shape == (400, 3), key
