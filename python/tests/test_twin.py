@@ -165,3 +165,32 @@ def test_pipeline_in_process_on_the_twin_images(simulated, small_sensor_yaml, ca
         tac3d.Pipeline(config=str(small_sensor_yaml), cache_dir=cache_dir, weight=-1)
     with pytest.raises(tac3d.Error, match="no_such.yaml"):
         tac3d.Pipeline(config="no_such.yaml", cache_dir=cache_dir)
+
+
+def test_friction_map_of_a_flat_slide_recovers_mu():
+    """Oracle: a 20 x 20 grid pressed flat (F_n 0.05 N, F_t 0.02 N each: mu 0.4) on a plane,
+    sliding 0.1 mm a frame along x for 12 frames: every marker slips in each of the 11 pairs,
+    the mesh is the plane 0.5 mm (the cover) above the markers, and mu is 0.4 everywhere."""
+    g = (np.arange(20) - 9.5) * 1.27
+    x, y = np.meshgrid(g, g)
+    frames, poses = [], []
+    for k in range(12):
+        f = tac3d.TactileFrame(20, 20)
+        f.positions = np.stack([x.ravel(), y.ravel(), np.full(400, 7.5)], axis=1)
+        f.normals = np.tile([0.0, 0.0, 1.0], (400, 1))
+        f.forces = np.tile([0.02, 0.0, -0.05], (400, 1))
+        f.index, f.timestamp = k, 0.1 * k
+        frames.append(f)
+        pose = np.eye(4)
+        pose[0, 3] = 0.1 * k
+        poses.append(pose)
+    m = tac3d.friction_map(frames, np.array(poses))
+    assert m["summary"]["status"] == "ok" and m["summary"]["slip_points"] == 11 * 400
+    assert m["slip_points"].shape == (4400, 3)
+    np.testing.assert_allclose(m["slip_mu"], 0.4, rtol=1e-12)
+    assert m["vertices"].shape[0] > 100 and m["triangles"].shape[1] == 3
+    assert m["triangles"].max() < m["vertices"].shape[0]
+    np.testing.assert_allclose(m["vertices"][:, 2], 8.0, atol=0.05)
+    known = ~np.isnan(m["mu"])
+    assert known.mean() > 0.9
+    np.testing.assert_allclose(m["mu"][known], 0.4, rtol=1e-9)
