@@ -28,4 +28,13 @@ if(NOT TAC3D_FIND_FOR_CONSUMER)
   if(TAC3D_BUILD_BENCHMARKS)
     find_package(benchmark REQUIRED)
   endif()
+  if(TAC3D_BUILD_PYTHON)
+    # The Python module is built for Debian's interpreter (python3-dev, pybind11-dev,
+    # python3-numpy), not for whichever python3 comes first on PATH (pyenv, conda, a venv):
+    # its ABI, its numpy and its dist-packages are the ones the module must match.
+    set(Python_EXECUTABLE /usr/bin/python3 CACHE FILEPATH "The Python the tac3d module is built for")
+    set(PYTHON_EXECUTABLE ${Python_EXECUTABLE} CACHE FILEPATH "pybind11's name for Python_EXECUTABLE")
+    find_package(Python 3 REQUIRED COMPONENTS Interpreter Development.Module)
+    find_package(pybind11 CONFIG REQUIRED)
+  endif()
 endif()

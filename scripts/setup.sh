@@ -11,6 +11,8 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libopen3d-dev
   python3-numpy  # io/recording_export_test loads the exported .npy files with numpy
+  python3-dev pybind11-dev python3-pybind11  # the Python module (python/)
+  python3-pytest python3-yaml python3-matplotlib  # its tests (python/tests), examples/python
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -1,0 +1,13 @@
+#pragma once
+
+#include <pybind11/pybind11.h>
+
+namespace tac3d::python {
+
+// Each file adds its part of the module `tac3d._core`.
+void RegisterSensor(pybind11::module_& m);
+void RegisterFrames(pybind11::module_& m);    // TactileFrame, recordings
+void RegisterPipeline(pybind11::module_& m);  // frame sources, the in-process pipeline
+void RegisterTwin(pybind11::module_& m);      // scenes, simulation, datasets, design, friction
+
+}  // namespace tac3d::python

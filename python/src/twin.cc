@@ -1,0 +1,532 @@
+// The twin (scenes, simulation into datasets, datasets' truth), the light-path design solver
+// and the friction map, as functions returning plain data (dicts of numpy arrays).
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+
+#include "arrays.h"
+#include "bindings.h"
+#include "tac3d/dataset/twin_dataset.h"
+#include "tac3d/design/light_path_design.h"
+#include "tac3d/friction/friction_map.h"
+#include "tac3d/scene/scene.h"
+#include "tac3d/sensor/sensor_config.h"
+#include "tac3d/simulation/simulation.h"
+#include "tac3d/simulation/twin_body.h"
+#include "twin_common.h"
+
+namespace tac3d::python {
+
+std::string ResolveCacheDir(const std::string& dir) {
+  std::string out = dir;
+  const auto env = [](const char* name) -> std::string {
+    const char* v = std::getenv(name);
+    return v && *v ? v : "";
+  };
+  if (out.empty()) out = env("TAC3D_CACHE_DIR");
+  if (out.empty() && !env("XDG_CACHE_HOME").empty()) out = env("XDG_CACHE_HOME") + "/tac3d";
+  if (out.empty() && !env("HOME").empty()) out = env("HOME") + "/.cache/tac3d";
+  if (out.empty()) out = ".tac3d-cache";
+  std::error_code ec;
+  std::filesystem::create_directories(out, ec);
+  if (ec) throw Error(fmt::format("cannot create the cache directory '{}': {}", out, ec.message()));
+  return out;
+}
+
+namespace {
+
+py::array_t<double> Matrix4(const Rigid3& pose) {
+  py::array_t<double> out({4, 4});
+  auto r = out.mutable_unchecked<2>();
+  const Eigen::Matrix4d m = pose.matrix();
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j) r(i, j) = m(i, j);
+  return out;
+}
+
+Rigid3 PoseFromArray(const py::handle& h, const char* what) {
+  DoubleArray a = py::cast<DoubleArray>(h);
+  if (a.ndim() != 2 || a.shape(0) != 4 || a.shape(1) != 4) {
+    throw Error(fmt::format("{}: expected a 4 x 4 matrix", what));
+  }
+  Eigen::Matrix4d m;
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j) m(i, j) = a.at(i, j);
+  Rigid3 pose;
+  pose.matrix() = m;
+  return pose;
+}
+
+py::array_t<double> Vec2(const Eigen::Vector2d& v) {
+  py::array_t<double> out(2);
+  out.mutable_at(0) = v.x();
+  out.mutable_at(1) = v.y();
+  return out;
+}
+
+py::dict SceneInfo(const Scene& s) {
+  py::dict d;
+  d["name"] = s.name;
+  d["steps"] = s.trajectory.steps;
+  d["duration_s"] = s.trajectory.keyframes.empty() ? 0.0 : s.trajectory.duration_s();
+  d["marker_rows"] = s.sensor.markers.rows;
+  d["marker_cols"] = s.sensor.markers.cols;
+  py::list objects;
+  for (const SceneObject& o : s.objects) {
+    py::dict od;
+    od["name"] = o.name;
+    od["shape"] = std::string(ToString(o.shape));
+    od["default_mu"] = o.friction.default_mu;
+    od["world_from_object"] = Matrix4(o.world_from_object);
+    objects.append(od);
+  }
+  d["objects"] = objects;
+  d["deviation"] = py::dict(py::arg("mesh_refinement") = s.deviation.mesh_refinement,
+                            py::arg("youngs_modulus_factor") = s.deviation.youngs_modulus_factor,
+                            py::arg("poisson_ratio_factor") = s.deviation.poisson_ratio_factor);
+  return d;
+}
+
+// A scene argument: a Scene, or a built-in name or YAML path.
+Scene SceneArg(const py::object& scene) {
+  if (py::isinstance<Scene>(scene)) return scene.cast<Scene>();
+  const std::string name = py::str(scene);
+  py::gil_scoped_release release;
+  return LoadSceneOrBuiltIn(name);
+}
+
+simulation::TwinBodyOptions TwinOptions(const py::dict& d) {
+  simulation::TwinBodyOptions o;
+  for (auto [key, value] : d) {
+    const std::string k = py::str(key);
+    if (k == "cells_per_pitch")
+      o.cells_per_pitch = value.cast<int>();
+    else if (k == "margin_mm")
+      o.margin_mm = value.cast<double>();
+    else if (k == "quadrature_points_per_side")
+      o.quadrature_points_per_side = value.cast<int>();
+    else
+      throw Error(
+          fmt::format("twin_options: unknown key '{}' (cells_per_pitch, margin_mm, "
+                      "quadrature_points_per_side)",
+                      k));
+  }
+  o.Validate();
+  return o;
+}
+
+struct PythonAbort {};  // the progress callback raised: its Python error is set
+
+py::object Simulate(const py::object& scene_arg,
+                    const std::string& out,
+                    const std::string& cache_dir,
+                    int steps,
+                    bool images,
+                    const py::object& progress,
+                    const py::dict& twin_options) {
+  if (steps < 0) throw Error(fmt::format("steps must be >= 0, got {}", steps));
+  const Scene scene = SceneArg(scene_arg);
+  const std::string scene_ref =
+      py::isinstance<Scene>(scene_arg) ? scene.name : std::string(py::str(scene_arg));
+  const simulation::TwinBodyOptions twin = TwinOptions(twin_options);
+  std::optional<py::error_already_set> error;
+  simulation::SimulationSummary summary;
+  nlohmann::json model_json;
+  {
+    py::gil_scoped_release release;
+    const fem::BodyModelOptions body =
+        simulation::TwinBodyModelOptions(scene.sensor, scene.deviation);
+    TwinDatasetWriter writer(out, {{"name", scene.name}, {"scene", scene_ref}});
+    simulation::TwinBodyCacheResult cached = simulation::LoadOrBuildTwinBodyModel(
+        body, twin, ResolveCacheDir(cache_dir), /*show_progress=*/false);
+    model_json = {{"cache_file", cached.path}, {"load_or_build_s", cached.elapsed_s}};
+    const auto model = std::make_shared<const simulation::TwinBodyModel>(std::move(cached.model));
+    simulation::SimulationOptions options;
+    options.render_images = images;
+    options.max_steps = steps;
+    simulation::TwinSimulation sim(scene, model, options);
+    writer.UpdateHeader({{"steps", sim.num_steps()}, {"twin_body", model_json}});
+    const int total = sim.num_steps();
+    int done = 0;
+    try {
+      summary = sim.Run([&](const TwinStep& step) {
+        writer.Write(step);
+        ++done;
+        if (progress.is_none()) return;
+        py::gil_scoped_acquire gil;
+        try {
+          progress(done, total);
+        } catch (py::error_already_set& e) {
+          error.emplace(std::move(e));
+          throw PythonAbort{};
+        }
+      });
+    } catch (const PythonAbort&) {
+    }
+    if (!error) writer.UpdateHeader({{"summary", simulation::ToJson(summary)}});
+  }
+  if (error) throw std::move(*error);
+  nlohmann::json result = simulation::ToJson(summary);
+  result["dataset"] = out;
+  result["twin_body"] = model_json;
+  return JsonToPython(result);
+}
+
+struct Dataset {
+  std::unique_ptr<TwinDatasetReader> reader;
+};
+
+py::dict StepDict(TwinStep&& s, bool with_image) {
+  py::dict d;
+  d["index"] = s.index;
+  d["t"] = s.t_s;
+  d["world_from_sensor"] = Matrix4(s.world_from_sensor);
+  d["marker_positions"] = Vector3Owned(std::move(s.marker_positions_mm));
+  d["marker_forces"] = Vector3Owned(std::move(s.marker_forces_n));
+  py::array_t<bool> contact(static_cast<py::ssize_t>(s.marker_contact.size()));
+  py::array_t<bool> slip(static_cast<py::ssize_t>(s.marker_slip.size()));
+  for (size_t i = 0; i < s.marker_contact.size(); ++i)
+    contact.mutable_at(i) = s.marker_contact[i] != 0;
+  for (size_t i = 0; i < s.marker_slip.size(); ++i) slip.mutable_at(i) = s.marker_slip[i] != 0;
+  d["marker_contact"] = contact;
+  d["marker_slip"] = slip;
+  py::array_t<double> f(3), mo(3);
+  for (int c = 0; c < 3; ++c) {
+    f.mutable_at(c) = s.total_force_n[c];
+    mo.mutable_at(c) = s.total_moment_nmm[c];
+  }
+  d["total_force"] = f;
+  d["total_moment"] = mo;
+  if (!s.surface.positions_mm.empty()) {
+    d["surface_positions"] = Vector3Owned(std::move(s.surface.positions_mm));
+    d["surface_tractions"] = Vector3Owned(std::move(s.surface.tractions_mpa));
+    std::vector<std::uint8_t> states(s.surface.states.size());
+    for (size_t i = 0; i < states.size(); ++i)
+      states[i] = static_cast<std::uint8_t>(s.surface.states[i]);
+    d["surface_states"] = VectorOwned(std::move(states));
+  }
+  if (with_image) d["image"] = ImageArray(s.image);
+  return d;
+}
+
+py::dict Truth(const Dataset& ds) {
+  const std::vector<int>& steps = ds.reader->steps();
+  std::vector<TwinStep> read(steps.size());
+  {
+    py::gil_scoped_release release;
+    for (size_t k = 0; k < steps.size(); ++k) read[k] = ds.reader->Read(steps[k]);
+  }
+  const auto t = static_cast<py::ssize_t>(read.size());
+  const py::ssize_t n =
+      read.empty() ? 0 : static_cast<py::ssize_t>(read.front().marker_positions_mm.size());
+  py::array_t<double> time(t), poses({t, py::ssize_t{4}, py::ssize_t{4}}),
+      positions({t, n, py::ssize_t{3}}), forces({t, n, py::ssize_t{3}}),
+      total_force({t, py::ssize_t{3}}), total_moment({t, py::ssize_t{3}});
+  py::array_t<bool> contact({t, n}), slip({t, n});
+  py::array_t<std::int32_t> index(t);
+  auto P = poses.mutable_unchecked<3>();
+  auto X = positions.mutable_unchecked<3>();
+  auto F = forces.mutable_unchecked<3>();
+  auto C = contact.mutable_unchecked<2>();
+  auto S = slip.mutable_unchecked<2>();
+  for (py::ssize_t k = 0; k < t; ++k) {
+    const TwinStep& s = read[k];
+    if (static_cast<py::ssize_t>(s.marker_positions_mm.size()) != n) {
+      throw Error(fmt::format("step {} has {} markers, step {} has {}",
+                              s.index,
+                              s.marker_positions_mm.size(),
+                              read.front().index,
+                              n));
+    }
+    time.mutable_at(k) = s.t_s;
+    index.mutable_at(k) = s.index;
+    const Eigen::Matrix4d m = s.world_from_sensor.matrix();
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j) P(k, i, j) = m(i, j);
+    for (py::ssize_t i = 0; i < n; ++i) {
+      for (int c = 0; c < 3; ++c) {
+        X(k, i, c) = s.marker_positions_mm[i][c];
+        F(k, i, c) = s.marker_forces_n[i][c];
+      }
+      C(k, i) = s.marker_contact[i] != 0;
+      S(k, i) = s.marker_slip[i] != 0;
+    }
+    for (int c = 0; c < 3; ++c) {
+      total_force.mutable_at(k, c) = s.total_force_n[c];
+      total_moment.mutable_at(k, c) = s.total_moment_nmm[c];
+    }
+  }
+  py::dict d;
+  d["index"] = index;
+  d["t"] = time;
+  d["world_from_sensor"] = poses;
+  d["marker_positions"] = positions;
+  d["marker_forces"] = forces;
+  d["marker_contact"] = contact;
+  d["marker_slip"] = slip;
+  d["total_force"] = total_force;
+  d["total_moment"] = total_moment;
+  return d;
+}
+
+py::dict DesignDict(const LightPathDesign& design) {
+  py::list roots;
+  for (const LightPathRoot& r : design.roots) {
+    py::dict d;
+    d["unknowns"] = py::make_tuple(r.unknowns[0], r.unknowns[1], r.unknowns[2], r.unknowns[3]);
+    d["camera"] = Vec2(r.camera);
+    d["center"] = Vec2(r.center);
+    d["a0"] = Vec2(r.a0);
+    d["b0"] = Vec2(r.b0);
+    d["a1"] = Vec2(r.a1);
+    d["b1"] = Vec2(r.b1);
+    d["a2"] = Vec2(r.a2);
+    d["b2"] = Vec2(r.b2);
+    d["virtual_camera"] = Vec2(r.virtual_camera);
+    d["max_residual"] = r.max_residual();
+    d["parallax_deg"] = r.parallax_deg;
+    d["valid"] = r.valid();
+    d["rejections"] = r.rejections;
+    roots.append(d);
+  }
+  py::dict out;
+  out["roots"] = roots;
+  out["chosen"] = design.chosen ? py::object(py::int_(*design.chosen)) : py::object(py::none());
+  out["sensor_yaml"] = design.config ? py::object(py::str(SensorConfigToYaml(*design.config)))
+                                     : py::object(py::none());
+  out["summary"] = py::dict(py::arg("starts") = design.summary.starts,
+                            py::arg("converged") = design.summary.converged,
+                            py::arg("distinct_roots") = design.summary.distinct_roots,
+                            py::arg("valid_roots") = design.summary.valid_roots,
+                            py::arg("seconds") = design.summary.seconds);
+  return out;
+}
+
+py::dict DesignLight(double h, double l, double d, double fov, int starts) {
+  LightPathDesignOptions o;
+  o.h_mm = h;
+  o.l_mm = l;
+  o.d_mm = d;
+  o.fov_deg = fov;
+  o.starts_per_axis = starts;
+  LightPathDesign design;
+  {
+    py::gil_scoped_release release;
+    design = DesignLightPath(o);
+  }
+  return DesignDict(design);
+}
+
+friction::FrictionMapOptions FrictionOptions(const py::dict& d) {
+  friction::FrictionMapOptions o = friction::FrictionMapOptions::FromSensor(DefaultSensorConfig());
+  for (auto [key, value] : d) {
+    const std::string k = py::str(key);
+    if (k == "contact_threshold_n")
+      o.contact_threshold_n = value.cast<double>();
+    else if (k == "cover_thickness_mm")
+      o.cover_thickness_mm = value.cast<double>();
+    else if (k == "slip_contact_threshold_n")
+      o.slip_contact_threshold_n = value.cast<double>();
+    else if (k == "marker_noise_mm")
+      o.marker_noise_mm = value.cast<double>();
+    else if (k == "pose_noise_mm")
+      o.pose_noise_mm = value.cast<double>();
+    else if (k == "slip_sigmas")
+      o.slip_sigmas = value.cast<double>();
+    else if (k == "tangential_motion")
+      o.tangential_motion = value.cast<bool>();
+    else if (k == "voxel_size_mm")
+      o.voxel_size_mm = value.cast<double>();
+    else if (k == "poisson_depth")
+      o.poisson_depth = value.cast<int>();
+    else if (k == "poisson_scale")
+      o.poisson_scale = value.cast<double>();
+    else if (k == "num_threads")
+      o.num_threads = value.cast<int>();
+    else if (k == "trim_distance_mm")
+      o.trim_distance_mm = value.cast<double>();
+    else if (k == "radius_mm")
+      o.radius_mm = value.cast<double>();
+    else if (k == "alpha")
+      o.alpha = value.cast<double>();
+    else if (k == "beta")
+      o.beta = value.cast<double>();
+    else if (k == "normal_force_exponent")
+      o.normal_force_exponent = value.cast<double>();
+    else if (k == "min_slip_points")
+      o.min_slip_points = value.cast<int>();
+    else
+      throw Error(fmt::format("friction_map: unknown option '{}'", k));
+  }
+  o.Validate();
+  return o;
+}
+
+py::dict FrictionMap(const py::iterable& frames, const py::object& poses, const py::dict& options) {
+  friction::FrictionMapBuilder builder(FrictionOptions(options));
+  DoubleArray pose_array = py::cast<DoubleArray>(poses);
+  if (pose_array.ndim() != 3 || pose_array.shape(1) != 4 || pose_array.shape(2) != 4) {
+    throw Error("friction_map: poses must be T x 4 x 4 (world_from_sensor per frame)");
+  }
+  py::ssize_t k = 0;
+  for (py::handle h : frames) {
+    if (k >= pose_array.shape(0))
+      throw Error(fmt::format("friction_map: more frames than the {} poses", pose_array.shape(0)));
+    const TactileFrame& frame = h.cast<const TactileFrame&>();
+    builder.AddFrame(frame,
+                     PoseFromArray(pose_array[py::make_tuple(k, py::ellipsis())], "poses[k]"));
+    ++k;
+  }
+  if (k != pose_array.shape(0))
+    throw Error(fmt::format("friction_map: {} frames but {} poses", k, pose_array.shape(0)));
+  friction::FrictionMapResult map;
+  {
+    py::gil_scoped_release release;
+    map = builder.Build();
+  }
+  py::dict d;
+  std::vector<std::int32_t> triangles;
+  for (const Eigen::Vector3i& t : map.triangles)
+    triangles.insert(triangles.end(), {t[0], t[1], t[2]});
+  py::array_t<std::int32_t> tri = VectorOwned(std::move(triangles));
+  d["vertices"] = Vector3Owned(std::move(map.vertices_mm));
+  d["triangles"] = tri.attr("reshape")(-1, 3);
+  d["vertex_normals"] = Vector3Owned(std::move(map.vertex_normals));
+  d["mu"] = VectorOwned(std::move(map.mu));
+  d["confidence"] = VectorOwned(std::move(map.confidence));
+  d["slip_count"] = VectorOwned(std::move(map.slip_count));
+  std::vector<Eigen::Vector3d> sp;
+  std::vector<double> smu, sfn;
+  for (const friction::SlipPoint& p : map.slip_points) {
+    sp.push_back(p.p_in_world_mm);
+    smu.push_back(p.mu);
+    sfn.push_back(p.normal_force_n);
+  }
+  d["slip_points"] = Vector3Owned(std::move(sp));
+  d["slip_mu"] = VectorOwned(std::move(smu));
+  d["slip_normal_force"] = VectorOwned(std::move(sfn));
+  d["summary"] = JsonToPython(friction::ToJson(map.summary));
+  return d;
+}
+
+}  // namespace
+
+void RegisterTwin(py::module_& m) {
+  py::class_<Scene>(
+      m, "Scene", "A twin scene (tac3d.load_scene): the fingertip, objects and trajectory.")
+      .def_readonly("name", &Scene::name)
+      .def_property_readonly("steps", [](const Scene& s) { return s.trajectory.steps; })
+      .def("info",
+           &SceneInfo,
+           "Plain data: name, steps, duration_s, marker grid, objects, deviation.")
+      .def("__repr__", [](const Scene& s) {
+        return fmt::format("<tac3d.Scene '{}' {} steps, {} objects>",
+                           s.name,
+                           s.trajectory.steps,
+                           s.objects.size());
+      });
+  m.def("builtin_scenes", &BuiltInSceneNames, "Names of the built-in scenes.");
+  m.def(
+      "load_scene",
+      [](const std::string& s) {
+        py::gil_scoped_release release;
+        return LoadSceneOrBuiltIn(s);
+      },
+      py::arg("name_or_path"),
+      "A built-in scene by name or a scene YAML file (docs/scenes.md). Raises tac3d.Error\n"
+      "naming the file, the key and what is wrong.");
+  m.def(
+      "parse_scene",
+      [](const std::string& text, const std::string& base_dir) {
+        return ParseScene(text, "<python>", base_dir);
+      },
+      py::arg("yaml_text"),
+      py::arg("base_dir") = ".",
+      "A scene from YAML text; relative paths in it are resolved against base_dir.");
+  m.def("simulate",
+        &Simulate,
+        py::arg("scene"),
+        py::arg("out"),
+        py::kw_only(),
+        py::arg("cache_dir") = "",
+        py::arg("steps") = 0,
+        py::arg("images") = true,
+        py::arg("progress") = py::none(),
+        py::arg("twin_options") = py::dict(),
+        "Simulates a scene (a Scene, a built-in name or a YAML path) into the new dataset folder\n"
+        "`out` (GIL released). The twin body model is loaded from cache_dir or built (the\n"
+        "default sensor's: ~15 min, 7 GB, once). progress(done, total) is called after each\n"
+        "step; an exception it raises stops the simulation and is re-raised. steps > 0:\n"
+        "only the first steps. twin_options: cells_per_pitch, margin_mm,\n"
+        "quadrature_points_per_side. Returns the summary (dict). Raises tac3d.Error.");
+
+  py::class_<Dataset>(m, "Dataset", R"doc(
+A twin dataset folder (written by tac3d.simulate or `tac3d simulate`): its header, its steps'
+truth one at a time (step) or all at once as arrays (truth), and the rendered images.
+)doc")
+      .def(py::init([](const std::string& folder) {
+             py::gil_scoped_release release;
+             return Dataset{std::make_unique<TwinDatasetReader>(folder)};
+           }),
+           py::arg("folder"),
+           "Raises tac3d.Error if the folder holds no readable dataset.json.")
+      .def_property_readonly("header",
+                             [](const Dataset& d) { return JsonToPython(d.reader->header()); })
+      .def_property_readonly("steps", [](const Dataset& d) { return d.reader->steps(); })
+      .def("__len__", [](const Dataset& d) { return d.reader->steps().size(); })
+      .def(
+          "step",
+          [](const Dataset& d, int step, bool surface, bool image) {
+            TwinStep s;
+            {
+              py::gil_scoped_release release;
+              s = d.reader->Read(step, surface);
+            }
+            return StepDict(std::move(s), image);
+          },
+          py::arg("step"),
+          py::arg("surface") = false,
+          py::arg("image") = true,
+          "One step's truth: t, world_from_sensor (4 x 4), marker_positions, marker_forces (N x "
+          "3),\n"
+          "marker_contact, marker_slip (N,), total_force (N), total_moment (N mm), image; with\n"
+          "surface=True the surface nodes' positions, tractions (MPa) and states.")
+      .def("truth",
+           &Truth,
+           "Every step's truth as arrays: index, t (T,), world_from_sensor (T x 4 x 4),\n"
+           "marker_positions, marker_forces (T x N x 3), marker_contact, marker_slip (T x N),\n"
+           "total_force, total_moment (T x 3).");
+
+  m.def("design_light_path",
+        &DesignLight,
+        py::arg("h_mm") = 40.0,
+        py::arg("l_mm") = 40.0,
+        py::arg("d_mm") = 8.0,
+        py::arg("fov_deg") = 48.0,
+        py::arg("starts_per_axis") = 8,
+        "Solves the mirror layout (paper section III.B) for camera distance h, fingertip length\n"
+        "l, thickness d and field of view. Returns {roots: [...], chosen: index or None,\n"
+        "sensor_yaml: the designed sensor or None, summary}. Raises tac3d.Error on bad options.");
+  m.def(
+      "default_sensor_yaml",
+      [] { return SensorConfigToYaml(DefaultSensorConfig()); },
+      "The built-in prototype sensor as YAML.");
+  m.def("friction_map",
+        &FrictionMap,
+        py::arg("frames"),
+        py::arg("poses"),
+        py::arg("options") = py::dict(),
+        "The friction map (paper section IV.B) of a fixed object from TactileFrames and the\n"
+        "sensor's poses (T x 4 x 4 world_from_sensor, one per frame). options: fields of\n"
+        "FrictionMapOptions (docs/friction.md). Returns vertices (V x 3, mm, world), triangles\n"
+        "(F x 3), vertex_normals, mu (NaN: unknown), confidence, slip_count, slip_points,\n"
+        "slip_mu, slip_normal_force and summary (status: ok, no_contact...).");
+}
+
+}  // namespace tac3d::python

@@ -1,0 +1,43 @@
+"""tac3d: the Tac3D vision-based tactile sensor stack from Python (docs/python.md).
+
+- ``tac3d.Sensor``: the vendor PyTac3D client's interface over the C++ Tac3D UDP client
+  (change ``import PyTac3D`` to ``import tac3d as PyTac3D``).
+- ``tac3d.open_source`` and ``tac3d.Pipeline``: the in-process pipeline, TactileFrames out.
+- ``tac3d.open_recording``, ``RecordingReader``, ``RecordingWriter``: recordings.
+- ``tac3d.load_scene``, ``tac3d.simulate``, ``tac3d.Dataset``: the digital twin.
+- ``tac3d.design_light_path``, ``tac3d.friction_map``: the design solver and friction map.
+
+Errors from C++ (bad files, arguments, sockets) are raised as ``tac3d.Error``.
+"""
+
+from ._core import (  # noqa: F401
+    Dataset,
+    Error,
+    FrameSource,
+    Pipeline,
+    Recording,
+    RecordingReader,
+    RecordingWriter,
+    Scene,
+    Sensor,
+    TactileFrame,
+    builtin_scenes,
+    default_sensor_yaml,
+    design_light_path,
+    friction_map,
+    load_scene,
+    open_recording,
+    open_source,
+    parse_scene,
+    simulate,
+)
+
+# The vendor module's version constant, for scripts that print it.
+PYTAC3D_VERSION = "3.3.0 (tac3d)"
+
+__all__ = [
+    "Dataset", "Error", "FrameSource", "Pipeline", "Recording", "RecordingReader",
+    "RecordingWriter", "Scene", "Sensor", "TactileFrame", "builtin_scenes",
+    "default_sensor_yaml", "design_light_path", "friction_map", "load_scene",
+    "open_recording", "open_source", "parse_scene", "simulate", "PYTAC3D_VERSION",
+]

@@ -1,0 +1,145 @@
+"""TactileFrame's numpy fields and recordings: write, read (streamed, whole), errors."""
+import os
+import resource
+
+import numpy as np
+import pytest
+
+import tac3d
+from conftest import synthetic_frame, write_recording
+
+
+def test_frame_fields_are_float64_views_of_the_frame():
+    f = tac3d.TactileFrame(4, 5)
+    assert f.num_markers == 20
+    for name in ("positions", "displacements", "forces", "normals"):
+        a = getattr(f, name)
+        assert a.dtype == np.float64 and a.shape == (20, 3)
+    p = f.positions
+    p[3] = (1.0, 2.0, 3.0)  # a view: writes reach the C++ frame
+    np.testing.assert_array_equal(f.positions[3], [1.0, 2.0, 3.0])
+    del f  # the array keeps the frame alive
+    np.testing.assert_array_equal(p[3], [1.0, 2.0, 3.0])
+
+
+def test_frame_assignment_checks_shapes():
+    f = tac3d.TactileFrame(2, 2)
+    with pytest.raises(tac3d.Error, match=r"positions: expected shape \(4, 3\), got \(3, 3\)"):
+        f.positions = np.zeros((3, 3))
+    with pytest.raises(tac3d.Error, match=r"valid: expected shape \(4,\)"):
+        f.valid = [True, False]
+    with pytest.raises(tac3d.Error, match="three numbers"):
+        f.resultant_force = [1.0, 2.0]
+    with pytest.raises(tac3d.Error, match="grid 0 x 3 must be at least 1 x 1"):
+        tac3d.TactileFrame(0, 3)
+    with pytest.raises(tac3d.Error, match="'bogus' is not a frame flag"):
+        f.has("bogus")
+
+
+def test_frame_flags_slip_and_vendor_dict():
+    f = synthetic_frame(3)
+    assert f.flag_names == [] and not f.initializing
+    f.flags = 1 | 16
+    assert f.flag_names == ["markers_lost", "initializing"]
+    assert f.has("markers_lost") and not f.has("zeroed")
+    assert f.slip_state == "unknown" and np.isnan(f.slip_fraction)
+    d = f.to_dict()
+    assert d["SN"] == "PY-TEST" and d["index"] == 3
+    assert d["3D_Positions"].shape == (400, 3) and d["3D_ResultantForce"].shape == (1, 3)
+    np.testing.assert_array_equal(d["3D_Forces"], f.forces)
+    assert f == f.copy()
+
+
+def test_recording_round_trip_streamed_and_whole(tmp_path):
+    path = write_recording(tmp_path / "r.tac3drec", 30)
+    reader = tac3d.RecordingReader(path)
+    frames = list(reader)
+    assert len(frames) == 30 and reader.status == "complete" and reader.version == 2
+    for k, f in enumerate(frames):
+        expected = synthetic_frame(k)
+        np.testing.assert_array_equal(f.positions, expected.positions)
+        np.testing.assert_array_equal(f.forces, expected.forces)
+        assert f.index == k and f.sn == "PY-TEST"
+
+    rec = tac3d.open_recording(path)
+    assert len(rec) == 30 and rec.status == "complete"
+    assert rec.positions.shape == (30, 400, 3) and rec.positions.dtype == np.float64
+    np.testing.assert_array_equal(rec.forces[7], synthetic_frame(7).forces)
+    np.testing.assert_array_equal(rec.displacements[-1], synthetic_frame(29).displacements)
+    np.testing.assert_allclose(rec.resultant_forces[5], synthetic_frame(5).forces.sum(axis=0))
+    np.testing.assert_allclose(rec.timestamps, 0.001 * np.arange(30))
+    np.testing.assert_array_equal(rec.indices, np.arange(30))
+    assert rec[-1].index == 29 and rec.image(0) is None
+    with pytest.raises(IndexError):
+        rec[30]
+    assert [f.index for f in rec] == list(range(30))
+
+
+def test_recording_with_images(tmp_path):
+    path = str(tmp_path / "img.tac3drec")
+    image = (np.arange(48 * 64) % 251).astype(np.uint8).reshape(48, 64)
+    with tac3d.RecordingWriter(path) as w:
+        w.write(synthetic_frame(0), image)
+        with pytest.raises(tac3d.Error, match="2D uint8"):
+            w.write(synthetic_frame(1), image.astype(np.float32))
+    frame, img = tac3d.RecordingReader(path).read()
+    np.testing.assert_array_equal(img, image)
+    np.testing.assert_array_equal(tac3d.open_recording(path).image(0), image)
+
+
+def test_truncated_and_bad_recordings(tmp_path):
+    path = write_recording(tmp_path / "cut.tac3drec", 5)
+    size = os.path.getsize(path)
+    with open(path, "r+b") as f:
+        f.truncate(size - 100)
+    rec = tac3d.open_recording(path)
+    assert len(rec) == 4 and rec.status == "truncated" and "frame" in rec.message
+    bad = tmp_path / "not.tac3drec"
+    bad.write_bytes(b"hello world, not a recording")
+    with pytest.raises(tac3d.Error, match="not.tac3drec"):
+        tac3d.open_recording(str(bad))
+    with pytest.raises(tac3d.Error):
+        tac3d.RecordingReader(str(tmp_path / "missing.tac3drec"))
+    with pytest.raises(tac3d.Error, match="exists"):
+        tac3d.RecordingWriter(path)
+    w = tac3d.RecordingWriter(path, overwrite=True)
+    f = synthetic_frame(0)
+    f.initialize_progress = 101
+    with pytest.raises(tac3d.Error, match="initialize_progress"):
+        w.write(f)
+    w.close()
+    with pytest.raises(tac3d.Error, match="closed"):
+        w.write(synthetic_frame(0))
+
+
+def rss_kb():
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1])
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+
+
+def test_no_memory_growth_over_10000_frames(tmp_path):
+    path = str(tmp_path / "long.tac3drec")
+    f = synthetic_frame(0)
+    with tac3d.RecordingWriter(path) as w:
+        for k in range(10_000):
+            f.index = k
+            w.write(f)
+
+    def touch_all():
+        total = 0.0
+        for frame in tac3d.RecordingReader(path):
+            total += frame.positions[0, 0] + frame.forces.sum() + frame.resultant_force[2]
+            d = frame.to_dict()
+            total += d["3D_Normals"][0, 2]
+        return total
+
+    touch_all()  # warm up allocator pools
+    before = rss_kb()
+    touch_all()
+    grown = rss_kb() - before
+    # A frame's four arrays are 38 kB: leaking one a frame would be 380 MB here, one Python
+    # object a frame (~100 B) 1 MB.
+    assert grown < 1_000, f"RSS grew by {grown} kB over 10,000 frames"
