@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <string_view>
 
 #include <Eigen/LU>
 
@@ -104,7 +105,7 @@ struct Geometry {
 
   // The ways a root can be physically impossible.
   void Judge(LightPathRoot& r) const {
-    auto reject = [&r](std::string why) { r.rejections.push_back(std::move(why)); };
+    auto reject = [&r](std::string_view why) { r.rejections.emplace_back(why); };
     const double zb = r.b2.y();
     if (!(zb > -o.h_mm && zb < 0.0)) {
       reject(zb <= -o.h_mm ? "mirror 2 is behind the camera" : "mirror 2 is above the elastic body's face");
