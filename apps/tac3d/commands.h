@@ -1,5 +1,6 @@
 #pragma once
 
+#include <chrono>
 #include <nlohmann/json_fwd.hpp>
 #include <string>
 
@@ -42,6 +43,9 @@ SensorConfig LoadSensorOrDefault(const std::string& path);
 /// Where compliance models are cached unless --cache says otherwise: $TAC3D_CACHE_DIR, else
 /// $XDG_CACHE_HOME/tac3d, else $HOME/.cache/tac3d, else .tac3d-cache.
 std::string DefaultCacheDir();
+
+/// Seconds from `since` to now on the steady clock, for the timings commands report.
+double SecondsSince(std::chrono::steady_clock::time_point since);
 
 /// Creates a directory (and its parents). @throws Error if it cannot.
 void MakeDirectory(const std::string& path);

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <optional>
 
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -13,9 +14,11 @@
 #include <CLI/CLI.hpp>
 
 #include "commands.h"
+#include "friction_command.h"
 #include "twin_runs.h"
 #include "tac3d/design/light_path_design.h"
 #include "tac3d/design/light_path_drawing.h"
+#include "tac3d/eval/friction_evaluation.h"
 #include "tac3d/eval/marker_evaluation.h"
 #include "tac3d/io/marker_csv.h"
 #include "tac3d/twin/camera_renderer.h"
@@ -26,10 +29,6 @@ namespace {
 
 void WritePng(const cv::Mat& image, const std::string& path) {
   if (!cv::imwrite(path, image)) throw Error(fmt::format("cannot write '{}'", path));
-}
-
-double Milliseconds(std::chrono::steady_clock::time_point since) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - since).count();
 }
 
 // A prescribed smooth dent (not a contact simulation): markers under a round pad pushed
@@ -97,157 +96,203 @@ cv::Mat ForceFieldFigure(const std::vector<cv::Mat>& panels, double max_normal_n
   return figure;
 }
 
-void Run(const std::string& out, int steps) {
-  MakeDirectory(out);
-  nlohmann::json report;
-  const auto t0 = std::chrono::steady_clock::now();
+// The demo's phases in order; each prints its step and adds its figures to the report.
+class Demo {
+ public:
+  Demo(std::string out, int steps) : out_(std::move(out)), steps_(steps) {}
 
-  std::printf("[1/8] designing the light path of the built-in sensor (paper Fig. 4)\n");
-  const SensorConfig prototype;
-  LightPathDesignOptions options;
-  options.h_mm = prototype.light_path.h_mm;
-  options.l_mm = prototype.light_path.l_mm;
-  options.d_mm = prototype.light_path.d_mm;
-  options.fov_deg = prototype.light_path.fov_deg;
-  const LightPathDesign design = DesignLightPath(options, prototype);
-  if (!design.config) throw Error("the built-in sensor has no valid mirror layout");
-  const SensorConfig& config = *design.config;
-  const LightPathRoot& root = design.roots[*design.chosen];
-  SaveSensorConfig(config, out + "/sensor.yaml");
-  const LightPathDrawing drawing(root, config);
-  drawing.WriteSvg(out + "/design.svg");
-  drawing.WritePng(out + "/design.png");
-  report["design"] = {{"roots", design.summary.distinct_roots},
-                      {"valid_roots", design.summary.valid_roots},
-                      {"parallax_deg", root.parallax_deg},
-                      {"max_residual", root.max_residual()}};
-  for (const auto& v : config.virtual_cameras) {
-    const Eigen::Vector3d p = v.sensor_from_vcam.translation();
-    report["design"]["virtual_cameras"][v.name] = {p.x(), p.y(), p.z()};
-  }
-  std::printf("      %d roots, %d valid; parallax %.6f deg -> %s/sensor.yaml, design.svg, design.png\n",
-              design.summary.distinct_roots, design.summary.valid_roots, root.parallax_deg,
-              out.c_str());
-
-  std::printf("[2/8] rendering the marker layer through mirrors, glass and silicone\n");
-  auto t = std::chrono::steady_clock::now();
-  const MarkerImageRenderer renderer(config);
-  const double setup_ms = Milliseconds(t);
-  const auto undeformed = config.MarkerPositions();
-  t = std::chrono::steady_clock::now();
-  WritePng(renderer.Render(undeformed, 0), out + "/markers_undeformed.png");
-  const double frame_ms = Milliseconds(t);
-  const auto dented = Dent(undeformed, 0.8, 4.0);
-  WriteMarkerPositionsCsv(dented, out + "/markers_dent.csv");
-  WritePng(renderer.Render(dented, 1), out + "/markers_dent.png");
-  report["render"] = {{"setup_ms", setup_ms}, {"frame_ms", frame_ms}};
-  std::printf("      markers_undeformed.png, markers_dent.png (%.0f ms set-up, %.1f ms a frame)\n",
-              setup_ms, frame_ms);
-
-  std::printf("[3/8] rendering a dot calibration board before the elastic body is mounted\n");
-  const BoardImageRenderer board_renderer(config);
-  DotBoard board;
-  WritePng(board_renderer.Render(board, board.SensorFromBoard({0, 0, 0}, {8, -5, 0})),
-           out + "/calibration_board.png");
-  std::printf("      calibration_board.png\n");
-
-  std::printf("[4/8] measuring the markers: the twin's perturbed sensor calibrated from 21 rendered\n"
-              "      board views, then its marker layer under shear, dent and twist tracked,\n"
-              "      triangulated and corrected for refraction\n");
-  const nlohmann::json markers = EvaluateMarkers({});
-  report["markers"] = markers;
-  for (const char* model : {"polynomial", "exact", "none"}) {
-    const nlohmann::json& m = markers.at("by_model").at(model);
-    std::printf("      refraction %-10s position RMSE %.4f mm, displacement RMSE %.4f mm\n", model,
-                m.at("position_rmse_mm").get<double>(), m.at("displacement_rmse_mm").get<double>());
+  void Run() {
+    MakeDirectory(out_);
+    const auto t0 = std::chrono::steady_clock::now();
+    const SensorConfig config = Design();
+    Render(config);
+    MeasureMarkers();
+    Simulate();
+    ReplayAndMap();
+    DrawForceField();
+    WriteFrictionMap();
+    report_["total_seconds"] = SecondsSince(t0);
+    std::ofstream(out_ + "/report.json") << report_.dump(2) << "\n";
+    std::printf("done in %.1f s: %s/report.json\n", SecondsSince(t0), out_.c_str());
   }
 
-  std::printf("[5/8] simulating the built-in scene force_calibration (a sphere pressed and slid, Fig. 5)\n");
-  // A previous demo's datasets are replaced (the simulation writes only into a new folder).
-  for (const char* name : {"force_calibration", "two_material_slide"}) {
-    if (std::filesystem::exists(out + "/" + name + "/dataset.json")) std::filesystem::remove_all(out + "/" + name);
-  }
-  SimulateArgs sim;
-  sim.steps = steps;
-  sim.scene = "force_calibration";
-  sim.out = out + "/force_calibration";
-  t = std::chrono::steady_clock::now();
-  const SimulateRun calibration_sim = SimulateToDataset(sim);
-  report["simulate"]["force_calibration"] = {{"summary", simulation::ToJson(calibration_sim.summary)},
-                                             {"seconds", Milliseconds(t) / 1000.0}};
-  std::printf("      %d steps (%d in contact) -> %s\n", calibration_sim.summary.steps,
-              calibration_sim.summary.contact_steps, sim.out.c_str());
-  std::printf("[6/8] simulating two_material_slide (a block, mu 1.0 then 0.4, slid 16 mm, Fig. 8)\n");
-  sim.scene = "two_material_slide";
-  sim.out = out + "/two_material_slide";
-  t = std::chrono::steady_clock::now();
-  const SimulateRun slide_sim = SimulateToDataset(sim);
-  report["simulate"]["two_material_slide"] = {{"summary", simulation::ToJson(slide_sim.summary)},
-                                              {"seconds", Milliseconds(t) / 1000.0}};
-  std::printf("      %d steps (%d in contact) -> %s\n", slide_sim.summary.steps, slide_sim.summary.contact_steps,
-              sim.out.c_str());
+ private:
+  static constexpr int kSteps = 9;
 
-  std::printf("[7/8] replaying both through the pipeline: gains fitted on force_calibration, the slide\n"
-              "      judged frame by frame against the twin's truth\n");
-  ReplayArgs replay;
-  replay.dataset = out + "/two_material_slide";
-  replay.calibration = out + "/force_calibration";
-  std::vector<std::pair<TwinStep, TactileFrame>> kept;
-  std::vector<int> picks;
-  {
-    const TwinDatasetReader slide(replay.dataset);
-    // Four frames spread over the slide's loaded part (steps where the truth carries force).
-    std::vector<int> loaded;
+  void Step(int k, const char* what) const { std::printf("[%d/%d] %s\n", k, kSteps, what); }
+
+  SensorConfig Design() {
+    Step(1, "designing the light path of the built-in sensor (paper Fig. 4)");
+    const SensorConfig prototype;
+    LightPathDesignOptions options;
+    options.h_mm = prototype.light_path.h_mm;
+    options.l_mm = prototype.light_path.l_mm;
+    options.d_mm = prototype.light_path.d_mm;
+    options.fov_deg = prototype.light_path.fov_deg;
+    const LightPathDesign design = DesignLightPath(options, prototype);
+    if (!design.config) throw Error("the built-in sensor has no valid mirror layout");
+    const SensorConfig& config = *design.config;
+    const LightPathRoot& root = design.roots[*design.chosen];
+    SaveSensorConfig(config, out_ + "/sensor.yaml");
+    const LightPathDrawing drawing(root, config);
+    drawing.WriteSvg(out_ + "/design.svg");
+    drawing.WritePng(out_ + "/design.png");
+    report_["design"] = {{"roots", design.summary.distinct_roots},
+                         {"valid_roots", design.summary.valid_roots},
+                         {"parallax_deg", root.parallax_deg},
+                         {"max_residual", root.max_residual()}};
+    for (const auto& v : config.virtual_cameras) {
+      const Eigen::Vector3d p = v.sensor_from_vcam.translation();
+      report_["design"]["virtual_cameras"][v.name] = {p.x(), p.y(), p.z()};
+    }
+    std::printf("      %d roots, %d valid; parallax %.6f deg -> %s/sensor.yaml, design.svg, design.png\n",
+                design.summary.distinct_roots, design.summary.valid_roots, root.parallax_deg, out_.c_str());
+    return config;
+  }
+
+  void Render(const SensorConfig& config) {
+    Step(2, "rendering the marker layer through mirrors, glass and silicone");
+    auto t = std::chrono::steady_clock::now();
+    const MarkerImageRenderer renderer(config);
+    const double setup_ms = 1e3 * SecondsSince(t);
+    const auto undeformed = config.MarkerPositions();
+    t = std::chrono::steady_clock::now();
+    WritePng(renderer.Render(undeformed, 0), out_ + "/markers_undeformed.png");
+    const double frame_ms = 1e3 * SecondsSince(t);
+    const auto dented = Dent(undeformed, 0.8, 4.0);
+    WriteMarkerPositionsCsv(dented, out_ + "/markers_dent.csv");
+    WritePng(renderer.Render(dented, 1), out_ + "/markers_dent.png");
+    report_["render"] = {{"setup_ms", setup_ms}, {"frame_ms", frame_ms}};
+    std::printf("      markers_undeformed.png, markers_dent.png (%.0f ms set-up, %.1f ms a frame)\n",
+                setup_ms, frame_ms);
+
+    Step(3, "rendering a dot calibration board before the elastic body is mounted");
+    const BoardImageRenderer board_renderer(config);
+    DotBoard board;
+    WritePng(board_renderer.Render(board, board.SensorFromBoard({0, 0, 0}, {8, -5, 0})),
+             out_ + "/calibration_board.png");
+    std::printf("      calibration_board.png\n");
+  }
+
+  void MeasureMarkers() {
+    Step(4, "measuring the markers: the twin's perturbed sensor calibrated from 21 rendered\n"
+            "      board views, then its marker layer under shear, dent and twist tracked,\n"
+            "      triangulated and corrected for refraction");
+    const nlohmann::json markers = EvaluateMarkers({});
+    report_["markers"] = markers;
+    for (const char* model : {"polynomial", "exact", "none"}) {
+      const nlohmann::json& m = markers.at("by_model").at(model);
+      std::printf("      refraction %-10s position RMSE %.4f mm, displacement RMSE %.4f mm\n", model,
+                  m.at("position_rmse_mm").get<double>(), m.at("displacement_rmse_mm").get<double>());
+    }
+  }
+
+  void Simulate() {
+    // A previous demo's datasets are replaced (the simulation writes only into a new folder).
+    for (const char* name : {"force_calibration", "two_material_slide"}) {
+      if (std::filesystem::exists(out_ + "/" + name + "/dataset.json")) std::filesystem::remove_all(out_ + "/" + name);
+    }
+    Step(5, "simulating the built-in scene force_calibration (a sphere pressed and slid, Fig. 5)");
+    SimulateScene("force_calibration");
+    Step(6, "simulating two_material_slide (a block, mu 1.0 then 0.4, slid 16 mm, Fig. 8)");
+    SimulateScene("two_material_slide");
+  }
+
+  void SimulateScene(const std::string& scene) {
+    SimulateArgs sim;
+    sim.steps = steps_;
+    sim.scene = scene;
+    sim.out = out_ + "/" + scene;
+    const auto t = std::chrono::steady_clock::now();
+    const SimulateRun run = SimulateToDataset(sim);
+    report_["simulate"][scene] = {{"summary", simulation::ToJson(run.summary)}, {"seconds", SecondsSince(t)}};
+    std::printf("      %d steps (%d in contact) -> %s\n", run.summary.steps, run.summary.contact_steps,
+                sim.out.c_str());
+  }
+
+  // Four frames spread over the slide's loaded part (steps where the truth carries force).
+  static std::vector<int> ForceFieldSteps(const TwinDatasetReader& slide) {
+    std::vector<int> loaded, picks;
     for (int step : slide.steps()) {
       if (slide.Read(step).total_force_n.norm() > ReplayOptions{}.loaded_force_n) loaded.push_back(step);
     }
     for (int k = 1; k <= 4 && !loaded.empty(); ++k) picks.push_back(loaded[(loaded.size() - 1) * k / 5]);
+    return picks;
   }
-  t = std::chrono::steady_clock::now();
-  const ReplayRun run = RunReplay(replay, [&](const TwinStep& truth, const TactileFrame& frame) {
-    if (std::find(picks.begin(), picks.end(), truth.index) != picks.end()) kept.emplace_back(truth, frame);
-  });
-  WriteReplayFiles(run, out + "/replay");
-  report["replay"] = run.report;
-  report["replay_seconds"] = Milliseconds(t) / 1000.0;  // both replays and the model load
-  const ForceGainFit& fit = run.calibration->fit;
-  const ReplaySummary& s = run.replay.summary;
-  std::printf("      gains %.4f %.4f %.4f (R^2 %.4f %.4f %.4f over %d loaded calibration frames)\n", fit.gains.x(),
-              fit.gains.y(), fit.gains.z(), fit.r_squared.x(), fit.r_squared.y(), fit.r_squared.z(), fit.num_pairs);
-  std::printf("      slide: %d loaded frames; resultant error %% of full scale (Fx, Fy 5 N; Fz 10 N)\n"
-              "      max %.2f %.2f %.2f, RMS %.2f %.2f %.2f (worst step %d); %d frames flagged\n",
-              s.loaded_frames, s.force_error_max_pct_fs.x(), s.force_error_max_pct_fs.y(),
-              s.force_error_max_pct_fs.z(), s.force_error_rms_pct_fs.x(), s.force_error_rms_pct_fs.y(),
-              s.force_error_rms_pct_fs.z(), s.worst_force_step, s.flagged_frames);
-  std::printf("      markers: position RMSE %.4f mm, displacement RMSE %.4f mm; contact IoU %.3f\n",
-              s.position_rmse_mm, s.displacement_rmse_mm, s.contact_iou);
-  std::printf("      %s/replay/{frames.csv, force_pairs.csv, report.json}\n", out.c_str());
 
-  std::printf("[8/8] drawing the force field of %zu slide frames\n", kept.size());
-  if (!kept.empty()) {
-    const SensorConfig sensor = DatasetSensor(TwinDatasetReader(replay.dataset));
-    const std::vector<Eigen::Vector3d> rest = sensor.MarkerPositions();
+  void ReplayAndMap() {
+    Step(7, "replaying both through the pipeline: gains fitted on force_calibration, the slide\n"
+            "      judged frame by frame against the twin's truth and its friction mapped");
+    ReplayArgs replay;
+    replay.dataset = out_ + "/two_material_slide";
+    replay.calibration = out_ + "/force_calibration";
+    const TwinDatasetReader slide(replay.dataset);
+    const std::vector<int> picks = ForceFieldSteps(slide);
+    sensor_ = DatasetSensor(slide);
+    friction_map_.emplace(FrictionMapArgs{}.Options(sensor_));
+    FrictionReplayRecorder recorder(*friction_map_);
+    const auto t = std::chrono::steady_clock::now();
+    const ReplayRun run = RunReplay(replay, [&](const TwinStep& truth, const TactileFrame& frame) {
+      recorder.Add(truth, frame);
+      if (std::find(picks.begin(), picks.end(), truth.index) != picks.end()) kept_.emplace_back(truth, frame);
+    });
+    WriteReplayFiles(run, out_ + "/replay");
+    report_["replay"] = run.report;
+    report_["replay_seconds"] = SecondsSince(t);  // both replays and the model load
+    const ForceGainFit& fit = run.calibration->fit;
+    const ReplaySummary& s = run.replay.summary;
+    std::printf("      gains %.4f %.4f %.4f (R^2 %.4f %.4f %.4f over %d loaded calibration frames)\n", fit.gains.x(),
+                fit.gains.y(), fit.gains.z(), fit.r_squared.x(), fit.r_squared.y(), fit.r_squared.z(), fit.num_pairs);
+    std::printf("      slide: %d loaded frames; resultant error %% of full scale (Fx, Fy 5 N; Fz 10 N)\n"
+                "      max %.2f %.2f %.2f, RMS %.2f %.2f %.2f (worst step %d); %d frames flagged\n",
+                s.loaded_frames, s.force_error_max_pct_fs.x(), s.force_error_max_pct_fs.y(),
+                s.force_error_max_pct_fs.z(), s.force_error_rms_pct_fs.x(), s.force_error_rms_pct_fs.y(),
+                s.force_error_rms_pct_fs.z(), s.worst_force_step, s.flagged_frames);
+    std::printf("      markers: position RMSE %.4f mm, displacement RMSE %.4f mm; contact IoU %.3f\n",
+                s.position_rmse_mm, s.displacement_rmse_mm, s.contact_iou);
+    std::printf("      %s/replay/{frames.csv, force_pairs.csv, report.json}\n", out_.c_str());
+  }
+
+  void DrawForceField() {
+    Step(8, fmt::format("drawing the force field of {} slide frames", kept_.size()).c_str());
+    if (kept_.empty()) return;
+    const std::vector<Eigen::Vector3d> rest = sensor_.MarkerPositions();
     double max_normal = 1e-9, max_tangential = 1e-9;
-    for (const auto& [truth, frame] : kept) {
+    for (const auto& [truth, frame] : kept_) {
       for (const Eigen::Vector3d& f : frame.forces_n) {
         max_normal = std::max(max_normal, -f.z());
         max_tangential = std::max(max_tangential, f.head<2>().norm());
       }
     }
-    const double pitch = sensor.markers.pitch_mm;
+    const double pitch = sensor_.markers.pitch_mm;
     const double arrow_mm_per_n = 1.5 * pitch / max_tangential;  // the largest arrow 1.5 pitches
     std::vector<cv::Mat> panels;
-    for (const auto& [truth, frame] : kept) {
+    for (const auto& [truth, frame] : kept_) {
       panels.push_back(ForcePanel(frame, truth, rest, pitch, max_normal, arrow_mm_per_n));
     }
-    WritePng(ForceFieldFigure(panels, max_normal, arrow_mm_per_n, pitch), out + "/force_field.png");
-    std::printf("      %s/force_field.png\n", out.c_str());
+    WritePng(ForceFieldFigure(panels, max_normal, arrow_mm_per_n, pitch), out_ + "/force_field.png");
+    std::printf("      %s/force_field.png\n", out_.c_str());
   }
 
-  report["total_seconds"] = Milliseconds(t0) / 1000.0;
-  std::ofstream(out + "/report.json") << report.dump(2) << "\n";
-  std::printf("done in %.1f s: %s/report.json\n", Milliseconds(t0) / 1000.0, out.c_str());
-}
+  void WriteFrictionMap() {
+    Step(9, "the slide's friction map: the block's surface with mu on it (paper IV.B, Fig. 8)");
+    const auto t = std::chrono::steady_clock::now();
+    const friction::FrictionMapResult map = friction_map_->Build();
+    const std::string folder = out_ + "/friction_map";
+    const nlohmann::json files = WriteFrictionMapFiles(map, folder, FrictionMapArgs{}.View(map));
+    report_["friction_map"] = {{"summary", friction::ToJson(map.summary)}, {"files", files},
+                               {"seconds", SecondsSince(t)}};
+    std::printf("      %s\n      %s/{map.png, map.ply, slip_points.csv}\n", map.summary.BriefReport().c_str(),
+                folder.c_str());
+  }
+
+  std::string out_;
+  int steps_;
+  nlohmann::json report_;
+  SensorConfig sensor_;
+  std::optional<friction::FrictionMapBuilder> friction_map_;
+  std::vector<std::pair<TwinStep, TactileFrame>> kept_;
+};
 
 }  // namespace
 
@@ -259,7 +304,7 @@ void RegisterDemo(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--steps", *steps, "simulate only the first N steps of each scene (0: all)")
       ->capture_default_str();
-  cmd->callback([out, steps] { Run(*out, *steps); });
+  cmd->callback([out, steps] { Demo(*out, *steps).Run(); });
 }
 
 }  // namespace tac3d::cli

@@ -20,10 +20,6 @@
 namespace tac3d::cli {
 namespace {
 
-double Seconds(std::chrono::steady_clock::time_point since) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
-}
-
 // The dataset of a scene in `folder`: reused if it is complete, else simulated there. Returns
 // the simulation's time (the header's, when reused).
 double EnsureDataset(const std::string& scene,
@@ -47,7 +43,7 @@ double EnsureDataset(const std::string& scene,
   args.cache_dir = cache_dir;
   const auto start = std::chrono::steady_clock::now();
   SimulateToDataset(args);
-  return Seconds(start);
+  return SecondsSince(start);
 }
 
 }  // namespace
@@ -112,7 +108,7 @@ void RegisterEvalFriction(CLI::App& eval) {
       auto start = std::chrono::steady_clock::now();
       const ReplayRun run =
           RunReplay(replay, [&](const TwinStep& s, const TactileFrame& f) { recorder.Add(s, f); });
-      const double replay_s = Seconds(start);
+      const double replay_s = SecondsSince(start);
       if (run.calibration) {  // fitted once, reused for the other scenes
         replay.calibration.clear();
         const Eigen::Vector3d& g = run.options.pipeline.force.gains;
@@ -125,7 +121,7 @@ void RegisterEvalFriction(CLI::App& eval) {
       const friction::FrictionMapResult map =
           builder.Build([&](int done, int) { bar.Update(done); });
       bar.Finish();
-      const double map_s = Seconds(start);
+      const double map_s = SecondsSince(start);
       const std::vector<Eigen::Vector3d> touched =
           TouchedTrueSurface(reader, scene, args->evaluation.touched_voxel_mm, replay.max_steps);
       FrictionEvaluation e =

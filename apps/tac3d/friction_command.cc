@@ -22,10 +22,6 @@
 namespace tac3d::cli {
 namespace {
 
-double Seconds(std::chrono::steady_clock::time_point since) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
-}
-
 Eigen::Vector3d Vector(const std::vector<double>& v, const char* option) {
   if (v.size() != 3) throw Error(fmt::format("{} takes three numbers: X Y Z", option));
   const Eigen::Vector3d d(v[0], v[1], v[2]);
@@ -261,7 +257,7 @@ void RegisterFrictionMap(CLI::App& app) {
       summary["recording"] = args->recording;
       summary["poses"] = args->poses;
     }
-    const double input_s = Seconds(start);
+    const double input_s = SecondsSince(start);
     ProgressBar bar("friction map", 4, progress);
     const friction::FrictionMapResult map =
         builder->Build([&](int done, int) { bar.Update(done); });
