@@ -1,4 +1,4 @@
-#include "tac3d/eval/friction_evaluation.h"
+#include "tac3d/friction_eval/friction_evaluation.h"
 
 #include <fmt/format.h>
 
