@@ -18,7 +18,7 @@ namespace {
 // The evaluation's geometry: R = 10 mm, P = 1 N, silicone E = 1 MPa, nu = 0.48, mu = 0.5.
 struct Fixture {
   explicit Fixture(int cells_per_radius) {
-    const fem::ElasticMaterial material{1.0, 0.48};
+    const ElasticMaterial material{1.0, 0.48};
     const double a = std::cbrt(3.0 * 1.0 * 10.0 * (1.0 - 0.48 * 0.48) / 4.0);
     const double h = a / cells_per_radius;
     const int half = static_cast<int>(std::ceil(1.3 * a / h));

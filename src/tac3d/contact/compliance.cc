@@ -108,7 +108,7 @@ double CalcHalfSpaceInfluence(int out,
                               double y_mm,
                               double dx_mm,
                               double dy_mm,
-                              const fem::ElasticMaterial& material) {
+                              const ElasticMaterial& material) {
   TAC3D_DEMAND(out >= 0 && out < 3 && in >= 0 && in < 3);
   const double nu = material.poisson_ratio;
   const double a = (1.0 + nu) / (std::numbers::pi * material.youngs_modulus_mpa);
@@ -334,7 +334,7 @@ Eigen::MatrixXd ConvolutionCompliance::CalcDenseMatrix() const {
 
 namespace {
 
-SampledKernel HalfSpaceKernel(const SurfaceGrid& grid, const fem::ElasticMaterial& material) {
+SampledKernel HalfSpaceKernel(const SurfaceGrid& grid, const ElasticMaterial& material) {
   grid.Validate();
   material.Validate();
   SampledKernel kernel = SampledKernel::Zero(grid);
@@ -354,7 +354,7 @@ SampledKernel HalfSpaceKernel(const SurfaceGrid& grid, const fem::ElasticMateria
 }  // namespace
 
 HalfSpaceCompliance::HalfSpaceCompliance(const SurfaceGrid& grid,
-                                         const fem::ElasticMaterial& material)
+                                         const ElasticMaterial& material)
     : convolution_(grid, HalfSpaceKernel(grid, material)) {}
 
 }  // namespace tac3d::contact

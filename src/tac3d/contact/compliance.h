@@ -3,7 +3,7 @@
 #include <Eigen/Core>
 #include <memory>
 
-#include "tac3d/fem/hex8.h"
+#include "tac3d/material/elastic_material.h"
 
 namespace tac3d::contact {
 
@@ -81,7 +81,7 @@ double CalcHalfSpaceInfluence(int out,
                               double y_mm,
                               double dx_mm,
                               double dy_mm,
-                              const fem::ElasticMaterial& material);
+                              const ElasticMaterial& material);
 
 /// A translation-invariant kernel sampled at every offset between two nodes of a grid:
 /// k[out][in] is (2 ny - 1) x (2 nx - 1), entry (dj + ny - 1, di + nx - 1) the displacement
@@ -148,7 +148,7 @@ class ConvolutionCompliance final : public ComplianceOperator {
 class HalfSpaceCompliance final : public ComplianceOperator {
  public:
   /// @throws tac3d::Error if the grid or the material is invalid.
-  HalfSpaceCompliance(const SurfaceGrid& grid, const fem::ElasticMaterial& material);
+  HalfSpaceCompliance(const SurfaceGrid& grid, const ElasticMaterial& material);
   const SurfaceGrid& grid() const override { return convolution_.grid(); }
   Eigen::MatrixXd Apply(Components out,
                         Components in,

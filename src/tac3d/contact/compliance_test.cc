@@ -14,7 +14,7 @@
 namespace tac3d::contact {
 namespace {
 
-fem::ElasticMaterial Silicone() { return {1.0, 0.48}; }
+ElasticMaterial Silicone() { return {1.0, 0.48}; }
 
 Eigen::MatrixXd RandomTraction(int rows, int cols, std::mt19937_64& rng) {
   std::uniform_real_distribution<double> u(-1.0, 1.0);
@@ -39,7 +39,7 @@ TEST(SurfaceGrid, IsCentredAndRejectsTooSmallGrids) {
 // The displacement at the centre of a uniformly loaded square of side s:
 // (1 - nu^2) / (pi E) 4 s ln(1 + sqrt 2) (Love 1929; Johnson, Contact Mechanics, ch. 3).
 TEST(HalfSpaceInfluence, CentreOfASquareIsLovesValue) {
-  const fem::ElasticMaterial m = Silicone();
+  const ElasticMaterial m = Silicone();
   const double s = 0.3;
   const double exact = (1.0 - m.poisson_ratio * m.poisson_ratio) /
                        (std::numbers::pi * m.youngs_modulus_mpa) * 4.0 * s *
@@ -53,7 +53,7 @@ TEST(HalfSpaceInfluence, CentreOfASquareIsLovesValue) {
 // Far from the cell, every coefficient is the point-load solution of the FEM's oracle
 // (fem::CalcHalfSpaceSurfaceDisplacement, z out of the body) for the cell's force.
 TEST(HalfSpaceInfluence, FarFieldIsBoussinesqAndCerruti) {
-  const fem::ElasticMaterial m = Silicone();
+  const ElasticMaterial m = Silicone();
   const double dx = 0.2, dy = 0.15;
   const Eigen::Vector2d offset(12 * dx, -7 * dy);
   for (int in = 0; in < 3; ++in) {
@@ -128,7 +128,7 @@ TEST(DenseCompliance, AppliesItsBlocksAndRejectsBadMatrices) {
 
 TEST(HalfSpaceCompliance, RejectsABadGridOrMaterial) {
   EXPECT_THROW(HalfSpaceCompliance(SurfaceGrid{2, 2, 0.1, 0.1}, Silicone()), Error);
-  EXPECT_THROW(HalfSpaceCompliance(SurfaceGrid{5, 5, 0.1, 0.1}, fem::ElasticMaterial{-1.0, 0.3}),
+  EXPECT_THROW(HalfSpaceCompliance(SurfaceGrid{5, 5, 0.1, 0.1}, ElasticMaterial{-1.0, 0.3}),
                Error);
 }
 

@@ -31,7 +31,7 @@ Eigen::Vector2d OntoDisk(const Eigen::Vector2d& z, double radius) {
 
 // A sphere on a half-space of silicone, a / h = 8.
 struct HalfSpaceCase {
-  fem::ElasticMaterial material{1.0, 0.48};
+  ElasticMaterial material{1.0, 0.48};
   double radius_mm = 10.0;
   double force_n = 1.0;
   double hertz_radius_mm = std::cbrt(3.0 * force_n * radius_mm * (1.0 - 0.48 * 0.48) / 4.0);
@@ -153,7 +153,7 @@ TEST(ContactSolver, DenseAndFftHalfSpacesGiveTheSameSolution) {
 
 // A rigid flat punch of radius a: P = 2 a E* delta (Boussinesq; Johnson, Contact Mechanics, ch. 3).
 TEST(ContactSolver, FlatPunchStiffnessIsBoussinesqs) {
-  const fem::ElasticMaterial material{1.0, 0.48};
+  const ElasticMaterial material{1.0, 0.48};
   const double a = 1.0;
   const SurfaceGrid grid{29, 29, a / 12.0, a / 12.0};
   const ContactSolver solver(std::make_shared<HalfSpaceCompliance>(grid, material));
@@ -174,7 +174,7 @@ TEST(ContactSolver, FlatPunchStiffnessIsBoussinesqs) {
 
 TEST(ContactSolver, RecessedPinTouchesOnlyAfterItsRecess) {
   const SurfaceGrid grid{41, 21, 0.1, 0.1};
-  const ContactSolver solver(std::make_shared<HalfSpaceCompliance>(grid, fem::ElasticMaterial{}));
+  const ContactSolver solver(std::make_shared<HalfSpaceCompliance>(grid, ElasticMaterial{}));
   ContactStep step;
   step.gap_mm = Indenter::Pins({{{-1.27, 0.0}, 0.4, 0.0}, {{1.27, 0.0}, 0.4, 0.05}})
                     .CalcGap(grid, Eigen::Vector2d::Zero());

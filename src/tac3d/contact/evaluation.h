@@ -3,7 +3,7 @@
 #include <nlohmann/json.hpp>
 
 #include "tac3d/contact/contact_solver.h"
-#include "tac3d/fem/hex8.h"
+#include "tac3d/material/elastic_material.h"
 
 namespace tac3d::contact {
 
@@ -12,7 +12,7 @@ namespace tac3d::contact {
 /// slid across a surface of two materials.
 struct EvalContactOptions {
   /// The block's material (default: the fingertip's silicone).
-  fem::ElasticMaterial material;
+  ElasticMaterial material;
   double sphere_radius_mm = 10.0;
   double normal_force_n = 1.0;
   /// mu for the Mindlin and history cases.

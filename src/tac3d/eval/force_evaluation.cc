@@ -164,11 +164,11 @@ void EvalForceOptions::Validate() const {
   }
 }
 
-fem::ElasticMaterial EvalForceOptions::TrueMaterial() const {
+ElasticMaterial EvalForceOptions::TrueMaterial() const {
   const double e = body.material.youngs_modulus_mpa, nu = body.material.poisson_ratio;
   const double shear = truth_shear_modulus_factor * e / (2.0 * (1.0 + nu));
   const double bulk = truth_bulk_modulus_factor * e / (3.0 * (1.0 - 2.0 * nu));
-  fem::ElasticMaterial truth = body.material;
+  ElasticMaterial truth = body.material;
   truth.youngs_modulus_mpa = 9.0 * bulk * shear / (3.0 * bulk + shear);
   truth.poisson_ratio = (3.0 * bulk - 2.0 * shear) / (2.0 * (3.0 * bulk + shear));
   return truth;

@@ -55,7 +55,7 @@ struct EvalForceOptions {
   ///   presses >= 3 each; full scales > 0; and the body, weight and contact options.
   void Validate() const;
   /// The true sensor's material: the nominal one with G and K scaled.
-  fem::ElasticMaterial TrueMaterial() const;
+  ElasticMaterial TrueMaterial() const;
 };
 
 /// Runs the evaluation and returns every figure with its tolerance:

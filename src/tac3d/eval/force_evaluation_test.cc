@@ -9,11 +9,11 @@ namespace {
 
 TEST(EvalForceOptions, TrueMaterialScalesTheShearAndBulkModuli) {
   EvalForceOptions options;
-  const fem::ElasticMaterial nominal = options.body.material;
-  const auto bulk = [](const fem::ElasticMaterial& m) {
+  const ElasticMaterial nominal = options.body.material;
+  const auto bulk = [](const ElasticMaterial& m) {
     return m.youngs_modulus_mpa / (3.0 * (1.0 - 2.0 * m.poisson_ratio));
   };
-  const fem::ElasticMaterial truth = options.TrueMaterial();
+  const ElasticMaterial truth = options.TrueMaterial();
   EXPECT_NEAR(truth.shear_modulus() / nominal.shear_modulus(), 1.1, 1e-12);
   EXPECT_NEAR(bulk(truth) / bulk(nominal), 0.9, 1e-12);
   // nu x 0.9 with E x 1.1 from the nominal 0.48, in these terms (docs/force.md).

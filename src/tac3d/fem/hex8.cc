@@ -70,30 +70,6 @@ Eigen::Matrix<double, 8, 3> MeanShapeGradient(const std::array<GaussData, 8>& da
 
 }  // namespace
 
-void ElasticMaterial::Validate() const {
-  if (!(youngs_modulus_mpa > 0.0)) {
-    throw Error(
-        fmt::format("ElasticMaterial.youngs_modulus_mpa must be > 0, got {}", youngs_modulus_mpa));
-  }
-  if (!(poisson_ratio > -1.0 && poisson_ratio <= 0.4999)) {
-    throw Error(fmt::format("ElasticMaterial.poisson_ratio must be in (-1, 0.4999], got {}",
-                            poisson_ratio));
-  }
-}
-
-double ElasticMaterial::shear_modulus() const {
-  return youngs_modulus_mpa / (2.0 * (1.0 + poisson_ratio));
-}
-
-double ElasticMaterial::bulk_modulus() const {
-  return youngs_modulus_mpa / (3.0 * (1.0 - 2.0 * poisson_ratio));
-}
-
-double ElasticMaterial::constrained_modulus() const {
-  const double nu = poisson_ratio;
-  return youngs_modulus_mpa * (1.0 - nu) / ((1.0 + nu) * (1.0 - 2.0 * nu));
-}
-
 Eigen::Matrix<double, 8, 1> CalcHex8Shape(const Eigen::Vector3d& xi) {
   Eigen::Matrix<double, 8, 1> n;
   for (int a = 0; a < 8; ++a) {

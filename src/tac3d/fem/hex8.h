@@ -2,6 +2,8 @@
 
 #include <Eigen/Core>
 
+#include "tac3d/material/elastic_material.h"
+
 namespace tac3d::fem {
 
 /// Corner coordinates of an 8-node hexahedron, one node a row (mm). Node order is the
@@ -11,24 +13,6 @@ using Hex8Nodes = Eigen::Matrix<double, 8, 3>;
 /// Nodal values of an 8-node hexahedron in DOF order (node a, component c) -> 3 * a + c.
 using Hex8Vector = Eigen::Matrix<double, 24, 1>;
 using Hex8Matrix = Eigen::Matrix<double, 24, 24>;
-
-/// An isotropic linear elastic material.
-struct ElasticMaterial {
-  /// Young's modulus E (MPa = N/mm^2).
-  double youngs_modulus_mpa = 1.0;
-  /// Poisson's ratio nu; up to 0.4999 (the element is locking-free, see CalcHex8Stiffness).
-  double poisson_ratio = 0.48;
-
-  /// @throws tac3d::Error naming the field and its bound: E > 0, -1 < nu <= 0.4999.
-  void Validate() const;
-  /// Shear modulus G = E / (2 (1 + nu)) (MPa).
-  double shear_modulus() const;
-  /// Bulk modulus K = E / (3 (1 - 2 nu)) (MPa).
-  double bulk_modulus() const;
-  /// Constrained (oedometric) modulus E (1 - nu) / ((1 + nu)(1 - 2 nu)) (MPa): stress over
-  /// strain in uniaxial strain, the stiffness of a laterally confined layer.
-  double constrained_modulus() const;
-};
 
 /// Trilinear shape functions N_a at the parametric point xi in [-1, 1]^3.
 Eigen::Matrix<double, 8, 1> CalcHex8Shape(const Eigen::Vector3d& xi);
