@@ -18,7 +18,7 @@
 #include "twin_runs.h"
 #include "tac3d/design/light_path_design.h"
 #include "tac3d/design/light_path_drawing.h"
-#include "tac3d/eval/friction_evaluation.h"
+#include "tac3d/friction_eval/friction_evaluation.h"
 #include "tac3d/eval/marker_evaluation.h"
 #include "tac3d/io/marker_csv.h"
 #include "tac3d/twin/camera_renderer.h"

@@ -12,7 +12,7 @@
 #include "tac3d/util/file_io.h"
 #include "friction_command.h"
 #include "tac3d/dataset/twin_dataset.h"
-#include "tac3d/eval/friction_evaluation.h"
+#include "tac3d/friction_eval/friction_evaluation.h"
 #include "tac3d/scene/scene.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/progress.h"

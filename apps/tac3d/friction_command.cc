@@ -13,7 +13,7 @@
 #include "twin_runs.h"
 #include "tac3d/util/file_io.h"
 #include "tac3d/dataset/twin_dataset.h"
-#include "tac3d/eval/friction_evaluation.h"
+#include "tac3d/friction_eval/friction_evaluation.h"
 #include "tac3d/friction/pose_track.h"
 #include "tac3d/record/recording.h"
 #include "tac3d/util/error.h"
