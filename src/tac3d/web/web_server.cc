@@ -184,6 +184,9 @@ class WebServerImpl {
   std::map<std::string, Slot, std::less<>> slots_;
 
   std::vector<std::shared_ptr<WsSession>> sessions_;  // server thread only
+  // The last message of each key ("frame:SN", "image:SN"), which a new client gets at once
+  // (a source that ended still shows its last frame). Server thread only.
+  std::map<std::string, std::shared_ptr<const std::string>> last_messages_;
   TactileFrame scratch_frame_;                        // server thread only
   cv::Mat scratch_image_;                             // server thread only
 };
@@ -203,8 +206,8 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
         ++self->server_.bad_requests_;
         return;
       }
-      self->server_.Register(self);
       self->open_ = true;
+      self->server_.Register(self);
       self->DoRead();
     });
   }
@@ -392,6 +395,7 @@ void WebServerImpl::Accept() {
 void WebServerImpl::Register(const std::shared_ptr<WsSession>& session) {
   sessions_.push_back(session);
   clients_ = static_cast<int>(sessions_.size());
+  for (const auto& [key, message] : last_messages_) session->Send(key, message);
 }
 
 void WebServerImpl::Unregister(const WsSession* session) {
@@ -474,6 +478,8 @@ void WebServerImpl::Tick() {
                           JsonSafe(sn), image_index, small.cols,
                           small.rows, Base64(jpeg)));
         }
+        if (frame_message) last_messages_["frame:" + sn] = frame_message;
+        if (image_message) last_messages_["image:" + sn] = image_message;
         for (const auto& session : std::vector(sessions_)) {
           if (frame_message) session->Send("frame:" + sn, frame_message);
           if (image_message) session->Send("image:" + sn, image_message);

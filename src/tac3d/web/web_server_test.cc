@@ -247,6 +247,18 @@ TEST(WebServer, StreamsThePublishedFrame) {
   EXPECT_NE(next.find("\"index\":44"), std::string::npos) << next.substr(0, 80);
 }
 
+// A source that ended keeps showing its last frame: a client connecting afterwards gets it.
+TEST(WebServer, LateClientGetsTheLastFrame) {
+  PageDir page;
+  WebServer server(Options(page.root));
+  WsClient first(server.port());
+  ASSERT_TRUE(WaitFor([&] { return server.stats().clients == 1; }));
+  server.Publish(MakeSyntheticTactileFrame("SN-A", 9));
+  EXPECT_NE(first.Read().find("\"index\":9"), std::string::npos);
+  WsClient late(server.port());
+  EXPECT_NE(late.Read().find("\"index\":9"), std::string::npos);
+}
+
 TEST(WebServer, SendsEachSensorsLatestFrameAndImages) {
   PageDir page;
   WebServerOptions options = Options(page.root);

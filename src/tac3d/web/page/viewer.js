@@ -65,6 +65,11 @@ function makePanel(sn, rows, cols) {
   renderer.setClearColor(BACKGROUND);
   renderer.domElement.id = 'canvas3d-' + sn;
   view.appendChild(renderer.domElement);
+  // Where the first sensor's 3D view is, for the headless test's screenshot check.
+  if (!document.body.dataset.canvas) {
+    const r = view.getBoundingClientRect();
+    document.body.dataset.canvas = JSON.stringify([r.left, r.top, r.width, r.height]);
+  }
   const scene = new THREE.Scene();
   const camera = new THREE.PerspectiveCamera(40, view.clientWidth / view.clientHeight, 0.1, 1000);
   const controls = new THREE.OrbitControls(camera, renderer.domElement);
@@ -135,8 +140,8 @@ function onFrame(m) {
     maxTangential = Math.max(maxTangential, Math.hypot(tangential[3 * i], tangential[3 * i + 1], tangential[3 * i + 2]));
   }
   // Scales that grow at once and shrink slowly, so colours do not flicker.
-  panel.maxNormal = Math.max(0.02, maxNormal, 0.995 * panel.maxNormal);
-  panel.maxTangential = Math.max(0.02, maxTangential, 0.995 * panel.maxTangential);
+  panel.maxNormal = Math.max(0.05, maxNormal, 0.995 * panel.maxNormal);
+  panel.maxTangential = Math.max(0.05, maxTangential, 0.995 * panel.maxTangential);
   const arrowScale = 3.0 / panel.maxTangential;  // mm per N: the largest arrow is 3 mm
   arrow.fill(0);
   cpos.fill(0);
