@@ -102,6 +102,18 @@ std::string Base64(const std::vector<uchar>& bytes) {
   return out;
 }
 
+// A browser sends Origin with a WebSocket handshake; a page from another site (which could
+// otherwise read the stream and send "zero" from the user's browser) has an Origin whose
+// host differs from the Host it connected to. Clients that are not browsers send none.
+bool SameOrigin(const http::request<http::string_body>& request) {
+  const auto origin = request.find(http::field::origin);
+  if (origin == request.end()) return true;
+  const std::string value(origin->value());
+  const size_t scheme = value.find("://");
+  if (scheme == std::string::npos) return false;
+  return value.substr(scheme + 3) == std::string(request[http::field::host]);
+}
+
 // An SN as a JSON string's contents: characters that would need escaping become '?'.
 std::string JsonSafe(std::string s) {
   for (char& c : s) {
@@ -304,6 +316,8 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     const std::string target(request.target());
     if (websocket::is_upgrade(request)) {
       if (target != "/ws") return Respond(http::status::not_found, "not found\n", "text/plain", request.version(), false);
+      if (!SameOrigin(request))
+        return Respond(http::status::forbidden, "cross-origin WebSocket refused\n", "text/plain", request.version(), false);
       if (server_.clients_ >= server_.options_.max_clients)
         return Respond(http::status::service_unavailable, "too many clients\n", "text/plain", request.version(), false);
       std::make_shared<WsSession>(std::move(stream_), server_)->Run(std::move(request));

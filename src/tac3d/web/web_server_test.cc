@@ -280,6 +280,29 @@ TEST(WebServer, SendsEachSensorsLatestFrameAndImages) {
   EXPECT_EQ(seen, (std::set<std::string>{"frame:LEFT", "frame:RIGHT", "image:LEFT", "image:RIGHT"}));
 }
 
+// Another site's page in the user's browser must not read the stream or zero the sensor.
+TEST(WebServer, RefusesCrossOriginWebSockets) {
+  PageDir page;
+  WebServer server(Options(page.root));
+  const auto handshake = [&](const std::string& origin) {
+    RawClient client(server.port());
+    client.Send("GET /ws HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(server.port()) +
+                "\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nOrigin: " + origin +
+                "\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n");
+    return Status(client.ReadAll());
+  };
+  EXPECT_EQ(handshake("http://evil.example"), 403);
+  EXPECT_EQ(handshake("http://127.0.0.1:" + std::to_string(server.port() == 1 ? 2 : 1)), 403);
+  EXPECT_EQ(handshake("null"), 403);
+  // The page's own origin is accepted (101, then the read times out with the socket open).
+  RawClient own(server.port());
+  own.Send("GET /ws HTTP/1.1\r\nHost: 127.0.0.1:" + std::to_string(server.port()) +
+           "\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nOrigin: http://127.0.0.1:" +
+           std::to_string(server.port()) +
+           "\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n");
+  EXPECT_TRUE(WaitFor([&] { return server.stats().clients == 1; }));
+}
+
 TEST(WebServer, ZeroRequestReachesTheCaller) {
   PageDir page;
   WebServer server(Options(page.root));
