@@ -102,6 +102,17 @@ int Status(const std::string& response) {
   return std::stoi(response.substr(9, 3));
 }
 
+// Publish copies a frame (~20 us): its 99th percentile must stay under 1 ms and its worst
+// under 100 ms, the latter loose enough for a loaded 2-core machine's scheduling, yet far
+// below what a Publish waiting on a stalled socket would take (until its 1 s timeout).
+void ExpectPublishBounded(std::vector<double> publish_s) {
+  ASSERT_GT(publish_s.size(), 10u);
+  std::sort(publish_s.begin(), publish_s.end());
+  const double p99 = publish_s[publish_s.size() * 99 / 100], worst = publish_s.back();
+  EXPECT_LT(p99, 1e-3) << "99th percentile " << p99 * 1e3 << " ms";
+  EXPECT_LT(worst, 0.1) << "worst " << worst * 1e3 << " ms";
+}
+
 TEST(WebServerOptions, ValidateNamesTheField) {
   WebServerOptions options;
   options.root = "/nonexistent/folder";
@@ -199,7 +210,9 @@ TEST(WebServer, SurvivesFuzzedRequests) {
     client.Send(request);
     ::shutdown(client.fd(), SHUT_WR);
     const std::string response = client.ReadAll();
-    if (!response.empty()) EXPECT_EQ(response.rfind("HTTP/1.1 ", 0), 0u) << "trial " << trial;
+    if (!response.empty()) {
+      EXPECT_EQ(response.rfind("HTTP/1.1 ", 0), 0u) << "trial " << trial;
+    }
   }
   EXPECT_EQ(Status(Get(server.port(), "/")), 200);
   EXPECT_GT(server.stats().bad_requests, 50);
@@ -275,7 +288,9 @@ TEST(WebServer, SendsEachSensorsLatestFrameAndImages) {
     const bool image_message = m.rfind("{\"type\":\"image\"", 0) == 0;
     const bool left = m.find("\"sn\":\"LEFT\"") != std::string::npos;
     seen.insert(std::string(image_message ? "image:" : "frame:") + (left ? "LEFT" : "RIGHT"));
-    if (image_message) EXPECT_NE(m.find("\"w\":320,\"h\":240"), std::string::npos);
+    if (image_message) {
+      EXPECT_NE(m.find("\"w\":320,\"h\":240"), std::string::npos);
+    }
   }
   EXPECT_EQ(seen, (std::set<std::string>{"frame:LEFT", "frame:RIGHT", "image:LEFT", "image:RIGHT"}));
 }
@@ -341,18 +356,17 @@ TEST(WebServer, StalledClientDoesNotBlockPublishing) {
     } catch (...) {
     }
   });
-  double worst_s = 0;
+  std::vector<double> publish_s;
   const Clock::time_point start = Clock::now();
   std::int64_t index = 0;
   while (Clock::now() - start < std::chrono::milliseconds(2500)) {
     const TactileFrame frame = MakeSyntheticTactileFrame("SN", ++index);
     const Clock::time_point t0 = Clock::now();
     server.Publish(frame);
-    worst_s = std::max(worst_s, std::chrono::duration<double>(Clock::now() - t0).count());
+    publish_s.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
-  RecordProperty("worst_publish_us", static_cast<int>(worst_s * 1e6));
-  EXPECT_LT(worst_s, 0.005) << "a Publish took " << worst_s * 1e3 << " ms";
+  ExpectPublishBounded(publish_s);
   EXPECT_GT(received.load(), 100) << "the reading client starved";
   EXPECT_EQ(server.stats().clients_dropped, 1);
   EXPECT_EQ(server.stats().clients, 1);
@@ -386,14 +400,14 @@ TEST(WebServer, FiftyClientsComeAndGoWhilePublishing) {
   PageDir page;
   WebServer server(Options(page.root));
   std::atomic<bool> stop{false};
-  double worst_s = 0;
+  std::vector<double> publish_s;
   std::thread publisher([&] {
     std::int64_t index = 0;
     while (!stop) {
       const TactileFrame frame = MakeSyntheticTactileFrame("SN", ++index);
       const Clock::time_point t0 = Clock::now();
       server.Publish(frame);
-      worst_s = std::max(worst_s, std::chrono::duration<double>(Clock::now() - t0).count());
+      publish_s.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
       std::this_thread::sleep_for(std::chrono::milliseconds(2));
     }
   });
@@ -417,7 +431,7 @@ TEST(WebServer, FiftyClientsComeAndGoWhilePublishing) {
   publisher.join();
   EXPECT_EQ(got_frame.load(), 150);
   EXPECT_TRUE(WaitFor([&] { return server.stats().clients == 0; })) << server.stats().clients;
-  EXPECT_LT(worst_s, 0.005);
+  ExpectPublishBounded(publish_s);
 }
 
 TEST(FrameToJson, CarriesEveryFieldCompactly) {
