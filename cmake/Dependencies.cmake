@@ -5,6 +5,8 @@ find_package(yaml-cpp REQUIRED)
 find_package(nlohmann_json 3 REQUIRED)
 find_package(fmt REQUIRED)
 find_package(Threads REQUIRED)
+# The viewer's HTTP + WebSocket server: Boost.Beast, header-only in Boost 1.74 (libboost-dev).
+find_package(Boost 1.74 REQUIRED)
 # Normals, Poisson reconstruction and kd-trees for the friction map (only tac3d::friction links
 # it). DESIGN.md: Poisson depth 8 on 50k points in 2.7 s; PCL is 480 packages and 2x slower.
 find_package(Open3D REQUIRED)

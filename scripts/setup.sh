@@ -10,6 +10,9 @@ packages=(
   libyaml-cpp-dev nlohmann-json3-dev libfmt-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libopen3d-dev
+  libboost-dev  # Boost.Beast (header-only), the viewer's HTTP + WebSocket server (src/tac3d/web)
+  libjs-three   # three.js r111, copied into the build's page folder (docs/viewer.md)
+  chromium      # web/viewer_page_test loads the page headless
   python3-numpy  # io/recording_export_test loads the exported .npy files with numpy
   python3-dev pybind11-dev python3-pybind11  # the Python module (python/)
   python3-pytest python3-yaml python3-matplotlib  # its tests (python/tests), examples/python

@@ -135,6 +135,7 @@ void RunRecording(const RecordingRunArgs& args) {
                counts.emitted,
                args.path.c_str(),
                outputs.RecordedNote().c_str());
+  outputs.HoldWeb();
   ReportEnd(replay.status(),
             replay.message(),
             fmt::format("the {} frames before it were replayed", counts.emitted));

@@ -1,6 +1,8 @@
+#include <chrono>
 #include <cstdio>
 #include <memory>
 #include <optional>
+#include <thread>
 
 #include <fmt/format.h>
 
@@ -40,7 +42,11 @@ struct RunArgs {
   long max_frames = 0;
   CameraSourceOptions camera = CameraWithSensorResolution();
   double exposure = 0.0;
-  double speed = 1.0;  // a recording's replay only
+  double speed = 1.0;  // a recording's replay, or a dataset's pace when given
+  bool pace = false;   // --speed given with a dataset: source
+  std::string web;
+  std::string web_root;
+  double web_hold_s = 0.0;
 };
 
 std::unique_ptr<FrameSource> OpenSource(const RunArgs& a, const SensorConfig& config) {
@@ -58,7 +64,10 @@ FrameOutputArgs OutputArgs(const RunArgs& a) {
           .record_images = a.record_images,
           .json = a.json,
           .sn = a.sn,
-          .overwrite = a.overwrite};
+          .overwrite = a.overwrite,
+          .web = a.web,
+          .web_root = a.web_root,
+          .web_hold_s = a.web_hold_s};
 }
 
 void Run(const RunArgs& a) {
@@ -82,6 +91,7 @@ void Run(const RunArgs& a) {
   Frame frame;
   TactileFrame out;
   std::string failure;
+  const auto start = std::chrono::steady_clock::now();
   const FrameLoopCounts counts = RunFrameLoop(
       outputs, a.max_frames,
       [&](const std::atomic<bool>&, const TactileFrame*& produced, const cv::Mat*& image) {
@@ -94,6 +104,10 @@ void Run(const RunArgs& a) {
         if (status == ReadStatus::kBadFrame) {
           std::fprintf(stderr, "skipped a bad frame: %s\n", source->last_error().c_str());
           return Produced::kSkipped;
+        }
+        if (a.pace && a.speed > 0) {
+          std::this_thread::sleep_until(start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                    std::chrono::duration<double>(frame.timestamp_s / a.speed)));
         }
         try {
           pipeline.Process(frame, out);
@@ -109,6 +123,7 @@ void Run(const RunArgs& a) {
       [&pipeline] { pipeline.RequestZero(); });
   std::fprintf(stderr, "%ld frames processed, %ld skipped%s\n", counts.emitted, counts.skipped,
                outputs.RecordedNote().c_str());
+  outputs.HoldWeb();
   // The recording is complete up to the last frame; now say why the source ended.
   if (!failure.empty()) throw Error(fmt::format("the frame source failed: {}", failure));
 }
@@ -143,8 +158,14 @@ void RegisterRun(CLI::App& app) {
   cmd->add_option("--fps", a->camera.fps, "camera frame rate")->capture_default_str();
   cmd->add_option("--exposure", a->exposure, "camera exposure (driver units; default automatic)");
   cmd->add_option("--speed", a->speed,
-                  "recording:FILE pace: 1 recorded, 2 twice as fast, 0 as fast as possible")
+                  "recording:FILE pace: 1 recorded, 2 twice as fast, 0 as fast as possible; "
+                  "with dataset:DIR, paces it by its timestamps (default there: as fast as possible)")
       ->capture_default_str();
+  cmd->add_option("--web", a->web,
+                  "serve the live viewer on HOST:PORT, e.g. 127.0.0.1:8080 (docs/viewer.md)");
+  cmd->add_option("--web-root", a->web_root, "the viewer page's folder (default: the built one)");
+  cmd->add_option("--web-hold", a->web_hold_s,
+                  "after the source ends keep the viewer up this many seconds (-1: until Ctrl-C)");
   cmd->callback([a, cmd] {
     if (const std::optional<std::string> path = RecordingSourcePath(a->source)) {
       RefuseOptions(*cmd,
@@ -160,9 +181,16 @@ void RegisterRun(CLI::App& app) {
                                        .record_images = a->record_images,
                                        .json = a->json,
                                        .sn = {},
-                                       .overwrite = a->overwrite}});
+                                       .overwrite = a->overwrite,
+                                       .web = a->web,
+                                       .web_root = a->web_root,
+                                       .web_hold_s = a->web_hold_s}});
     }
-    RefuseOptions(*cmd, {"--speed"}, "applies to --source recording:FILE only");
+    if (a->source.rfind("dataset:", 0) == 0) {
+      a->pace = cmd->count("--speed") > 0;
+    } else {
+      RefuseOptions(*cmd, {"--speed"}, "applies to --source recording:FILE or dataset:DIR only");
+    }
     Run(*a);
   });
 }

@@ -6,31 +6,62 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <chrono>
+#include <filesystem>
 #include <nlohmann/json.hpp>
+#include <thread>
 
 #include "tac3d/util/error.h"
 #include "tac3d/util/file_io.h"
+#include "tac3d/web/web_server.h"
 
 namespace tac3d::cli {
 namespace {
 
 std::atomic<bool> g_stop{false};
 
-UdpSenderOptions ParseUdp(const std::string& host_port) {
+// HOST and PORT of "HOST:PORT"; `flag` and `example` name them in the message.
+std::pair<std::string, std::uint16_t> ParseHostPort(const std::string& host_port,
+                                                    const char* flag,
+                                                    const char* example,
+                                                    int min_port = 1) {
   const size_t colon = host_port.rfind(':');
   if (colon == std::string::npos || colon == 0) {
-    throw Error(fmt::format("--udp '{}': expected HOST:PORT, e.g. 127.0.0.1:9988", host_port));
+    throw Error(fmt::format("{} '{}': expected HOST:PORT, e.g. {}", flag, host_port, example));
   }
-  UdpSenderOptions options;
-  options.host = host_port.substr(0, colon);
-  int port = 0;
+  int port = -1;
   try {
-    port = std::stoi(host_port.substr(colon + 1));
+    size_t used = 0;
+    port = std::stoi(host_port.substr(colon + 1), &used);
+    if (used != host_port.size() - colon - 1) port = -1;
   } catch (const std::exception&) {
   }
-  if (port < 1 || port > 65535)
-    throw Error(fmt::format("--udp '{}': the port must be 1-65535", host_port));
-  options.port = static_cast<std::uint16_t>(port);
+  if (port < min_port || port > 65535)
+    throw Error(fmt::format("{} '{}': the port must be {}-65535", flag, host_port, min_port));
+  return {host_port.substr(0, colon), static_cast<std::uint16_t>(port)};
+}
+
+UdpSenderOptions ParseUdp(const std::string& host_port) {
+  UdpSenderOptions options;
+  std::tie(options.host, options.port) = ParseHostPort(host_port, "--udp", "127.0.0.1:9988");
+  return options;
+}
+
+// The viewer page's folder: --web-root, else $TAC3D_WEB_ROOT, else the build's, else the
+// installed one.
+std::string WebRoot(const std::string& given) {
+  if (!given.empty()) return given;
+  if (const char* env = std::getenv("TAC3D_WEB_ROOT"); env && *env) return env;
+  std::error_code ec;
+  if (std::filesystem::is_directory(TAC3D_BUILD_WEB_ROOT, ec)) return TAC3D_BUILD_WEB_ROOT;
+  return TAC3D_INSTALL_WEB_ROOT;
+}
+
+WebServerOptions ParseWeb(const FrameOutputArgs& args) {
+  WebServerOptions options;
+  // Port 0 (a free one) is allowed: the chosen port is printed.
+  std::tie(options.host, options.port) = ParseHostPort(args.web, "--web", "127.0.0.1:8080", 0);
+  options.root = WebRoot(args.web_root);
   return options;
 }
 
@@ -67,6 +98,9 @@ void FrameOutputArgs::Validate() const {
   if (overwrite && record.empty()) throw Error("--overwrite needs --record FILE");
   if (!udp.empty()) ParseUdp(udp);
   if (!record.empty()) CheckOutputFile(record, "--record");
+  if (!web.empty()) ParseWeb(*this).Validate();
+  if (web.empty() && web_hold_s != 0) throw Error("--web-hold needs --web HOST:PORT");
+  if (web.empty() && !web_root.empty()) throw Error("--web-root needs --web HOST:PORT");
 }
 
 FrameOutputs::FrameOutputs(const FrameOutputArgs& args) : args_(args) {
@@ -80,23 +114,53 @@ FrameOutputs::FrameOutputs(const FrameOutputArgs& args) : args_(args) {
                  sender_->local_endpoint().ToString().c_str());
   }
   if (!args.record.empty()) recorder_.emplace(args.record, RecordingWriterOptions{.overwrite = args.overwrite});
+  if (!args.web.empty()) {
+    const WebServerOptions options = ParseWeb(args);
+    web_ = std::make_unique<WebServer>(options);
+    std::fprintf(stderr, "viewer on http://%s:%u/ (page from %s)\n", options.host.c_str(),
+                 static_cast<unsigned>(web_->port()), options.root.c_str());
+  }
 }
+
+FrameOutputs::~FrameOutputs() = default;
 
 void FrameOutputs::Emit(const TactileFrame& frame, const cv::Mat& image) {
   if (recorder_) recorder_->Write(frame, args_.record_images ? image : cv::Mat());
   if (sender_) sender_->Send(frame);
+  if (web_) web_->Publish(frame, image);
   // Flushed line by line: a reader on a pipe gets each frame at once, and a killed run has
   // printed every frame it recorded.
   if (args_.json) WriteLineFlushed(stdout, Summary(frame).dump());
 }
 
 std::optional<SensorCommand> FrameOutputs::PollCommand() {
+  if (web_ && web_->TakeZeroRequest()) return SensorCommand::kZero;
   return sender_ ? sender_->PollCommand() : std::nullopt;
 }
 
+void FrameOutputs::HoldWeb() {
+  if (!web_ || args_.web_hold_s == 0 || g_stop) return;
+  std::signal(SIGINT, [](int) { g_stop = true; });
+  std::signal(SIGTERM, [](int) { g_stop = true; });
+  std::fprintf(stderr, "the source ended; the viewer stays up %s\n",
+               args_.web_hold_s < 0 ? "until Ctrl-C" : fmt::format("{} s", args_.web_hold_s).c_str());
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(args_.web_hold_s);
+  while (!g_stop && (args_.web_hold_s < 0 || std::chrono::steady_clock::now() < end)) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  std::signal(SIGINT, SIG_DFL);
+  std::signal(SIGTERM, SIG_DFL);
+}
+
 std::string FrameOutputs::RecordedNote() const {
-  return recorder_ ? fmt::format(", {} recorded to {}", recorder_->frames_written(), args_.record)
-                   : "";
+  std::string note =
+      recorder_ ? fmt::format(", {} recorded to {}", recorder_->frames_written(), args_.record) : "";
+  if (web_) {
+    const WebServerStats s = web_->stats();
+    note += fmt::format(", viewer: {} messages sent, {} skipped, {} stalled clients dropped",
+                        s.messages_sent, s.sends_skipped, s.clients_dropped);
+  }
+  return note;
 }
 
 FrameLoopCounts RunFrameLoop(FrameOutputs& outputs,

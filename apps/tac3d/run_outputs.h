@@ -7,6 +7,7 @@
 #include <atomic>
 #include <functional>
 #include <initializer_list>
+#include <memory>
 #include <opencv2/core.hpp>
 #include <optional>
 #include <string>
@@ -19,6 +20,10 @@ namespace CLI {
 class App;
 }
 
+namespace tac3d {
+class WebServer;
+}
+
 namespace tac3d::cli {
 
 /// The frame-level outputs of `tac3d run` (docs/pipeline.md).
@@ -29,9 +34,15 @@ struct FrameOutputArgs {
   bool json = false;           ///< print each frame's summary as a JSON line on stdout
   std::string sn;              ///< the SN the frames carry, for the messages only ("" unknown)
   bool overwrite = false;      ///< replace an existing `record` file
+  std::string web;             ///< serve the live viewer on HOST:PORT (docs/viewer.md), or ""
+  std::string web_root;        ///< the viewer page's folder ("": the built or installed one)
+  /// After the source ends, keep serving the last frames this many seconds (< 0: until
+  /// Ctrl-C); with `web` only.
+  double web_hold_s = 0.0;
 
   /// Checks what can be checked before any work: HOST:PORT's form, --record-images and
-  /// --overwrite only with --record, the record file's folder. @throws Error naming the flag.
+  /// --overwrite only with --record, --web-hold only with --web, the record file's folder.
+  /// @throws Error naming the flag.
   void Validate() const;
 };
 
@@ -42,12 +53,17 @@ class FrameOutputs {
   /// @throws Error on a malformed HOST:PORT, a host that does not resolve, or a recording
   /// file that exists or cannot be created.
   explicit FrameOutputs(const FrameOutputArgs& args);
+  ~FrameOutputs();
 
   /// Records the frame (with `image` if record_images and it is not empty), streams it, and
   /// prints its JSON line. @throws Error as RecordingWriter::Write and UdpSender::Send do.
   void Emit(const TactileFrame& frame, const cv::Mat& image);
-  /// The next command the UDP client sent (`$C`, `$Q`); nullopt when none or no stream.
+  /// The next command the UDP client sent (`$C`, `$Q`), or a zero the viewer asked for
+  /// (`$C`); nullopt when none.
   std::optional<SensorCommand> PollCommand();
+  /// With --web and --web-hold: keeps the viewer up after the source ended, until the hold
+  /// is over or Ctrl-C / SIGTERM.
+  void HoldWeb();
   /// ", N recorded to FILE" when recording, else "".
   std::string RecordedNote() const;
 
@@ -55,6 +71,7 @@ class FrameOutputs {
   FrameOutputArgs args_;
   std::optional<UdpSender> sender_;
   std::optional<RecordingWriter> recorder_;
+  std::unique_ptr<WebServer> web_;
 };
 
 /// What a run's frame producer made of one step.

@@ -1,0 +1,88 @@
+#pragma once
+
+// The live viewer's server (docs/viewer.md): HTTP for the page's static files and a WebSocket
+// endpoint, /ws, streaming the latest frame of each sensor as JSON. Boost.Beast stays in
+// web_server.cc behind a pimpl.
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "tac3d/frame/tactile_frame.h"
+
+namespace tac3d {
+
+/// How the viewer's server listens and streams. Defaults bind loopback only.
+struct WebServerOptions {
+  std::string host = "127.0.0.1";  ///< address to bind; "0.0.0.0" exposes it to the network
+  std::uint16_t port = 8080;       ///< TCP port; 0 picks a free one (see WebServer::port())
+  std::string root;                ///< the one folder static files are served from (must exist)
+  double stream_hz = 30.0;         ///< frames sent to each client per second, (0, 1000]
+  double image_hz = 4.0;           ///< camera images sent per second, [0, 30]; 0 never
+  int image_width = 320;           ///< width the image is downscaled to, [16, 4096] px
+  int max_clients = 64;            ///< WebSocket clients at once, [1, 10000]; more are refused
+  /// A client whose send has not completed for this long is disconnected, (0, 600] s.
+  double stall_timeout_s = 5.0;
+
+  /// @throws Error naming the field and its bound, or a root that is not a folder.
+  void Validate() const;
+};
+
+/// Counters of what the server did (for tests and the run's closing line).
+struct WebServerStats {
+  std::int64_t frames_published = 0;  ///< Publish calls
+  std::int64_t messages_sent = 0;     ///< frame messages whose send completed
+  std::int64_t sends_skipped = 0;     ///< a client still busy with an earlier message
+  std::int64_t clients_dropped = 0;   ///< clients disconnected for stalling
+  std::int64_t http_requests = 0;     ///< HTTP requests answered (any status)
+  std::int64_t bad_requests = 0;      ///< connections closed on malformed input
+  int clients = 0;                    ///< WebSocket clients connected now
+};
+
+namespace internal {
+class WebServerImpl;
+}
+
+/// An HTTP + WebSocket server on its own thread. Publish() only copies the frame into a
+/// latest-frame slot per sensor (SN) under a short lock; the server's thread sends each
+/// client the newest frame at `stream_hz` and skips a client whose previous message is still
+/// in flight, so a slow or stalled browser never holds up the caller.
+class WebServer {
+ public:
+  /// Binds and starts serving. @throws Error on bad options or when the address cannot be bound.
+  explicit WebServer(const WebServerOptions& options);
+  ~WebServer();
+  WebServer(const WebServer&) = delete;
+  WebServer& operator=(const WebServer&) = delete;
+
+  /// The port bound (the one chosen when options.port was 0).
+  std::uint16_t port() const;
+
+  /// Makes `frame` its sensor's latest frame. `image` (CV_8UC1 or empty) is copied only when
+  /// an image is due (image_hz) and a client is connected. Never blocks on the network.
+  void Publish(const TactileFrame& frame, const cv::Mat& image = cv::Mat());
+
+  /// True once for each zero request ("zero" message) a client sent since the last call.
+  bool TakeZeroRequest();
+
+  WebServerStats stats() const;
+
+ private:
+  std::unique_ptr<internal::WebServerImpl> impl_;
+};
+
+/// The frame as the compact JSON message the page reads (docs/viewer.md): {"type":"frame",
+/// "sn", "index", "t", "rows", "cols", "p", "d", "f", "n" (flat x,y,z arrays, 3 decimals,
+/// null for an invalid marker's values), "valid", "contact" (0/1 strings), "F", "M", "flags",
+/// "init", "slip", "slip_fraction", "mu", "mu_sigma", "fps"}.
+std::string FrameToJson(const TactileFrame& frame, double fps);
+
+/// The file under `root` a request target names, or "" when it names none: the path part
+/// (query dropped) percent-decoded, "/" as index.html; "" for "..", a NUL, a backslash, a bad
+/// escape, or a file whose canonical path leaves the canonical root (symlinks too).
+std::string ResolveStaticPath(const std::string& root, const std::string& target);
+
+}  // namespace tac3d
