@@ -187,6 +187,165 @@ Rigid3 FitBoardToRig(const std::array<CameraIntrinsics, 2>& intrinsics,
   return pose;
 }
 
+// The views that passed the image checks, and which of them is the reference view.
+struct GoodViews {
+  std::vector<GoodView> views;
+  int reference = -1;  // index into `views`
+};
+
+// Checks every image (one report each, with its refusal if any) and keeps the good views.
+// @throws Error if the reference view is refused or missing.
+GoodViews DetectGoodViews(const std::vector<CalibrationImage>& images,
+                          const CalibrationBoardFile& board_file,
+                          const SensorConfig& nominal,
+                          const VirtualStereoCalibrationOptions& options,
+                          std::vector<CalibrationViewReport>& reports) {
+  reports.resize(images.size());
+  GoodViews good;
+  {
+    ProgressBar progress("detecting grids", static_cast<long>(images.size()), options.progress);
+    for (size_t i = 0; i < images.size(); ++i) {
+      CalibrationViewReport& report = reports[i];
+      report.name = images[i].name;
+      GoodView view{static_cast<int>(i), {}, {}};
+      report.refusal = CheckImage(images[i], board_file.board, nominal, options, view, report);
+      if (report.refusal.empty()) {
+        if (images[i].name == board_file.reference_image) {
+          good.reference = static_cast<int>(good.views.size());
+        }
+        good.views.push_back(std::move(view));
+      } else if (images[i].name == board_file.reference_image) {
+        throw Error(fmt::format("the reference view '{}' is refused: {}", images[i].name,
+                                report.refusal));
+      }
+      progress.Update(static_cast<long>(i + 1));
+    }
+  }
+  if (good.reference < 0) {
+    throw Error(fmt::format("the reference view '{}' is not among the {} images",
+                            board_file.reference_image, images.size()));
+  }
+  return good;
+}
+
+// @throws Error listing every refusal if fewer than options.min_views views are left.
+void RequireEnoughViews(const std::vector<GoodView>& good,
+                        size_t num_images,
+                        const VirtualStereoCalibrationOptions& options,
+                        const std::vector<CalibrationViewReport>& reports) {
+  if (static_cast<int>(good.size()) >= options.min_views) return;
+  std::string refusals;
+  for (const CalibrationViewReport& r : reports) {
+    if (!r.refusal.empty()) refusals += fmt::format("\n  {}: {}", r.name, r.refusal);
+  }
+  throw Error(fmt::format("too few good views: {} of {} images, at least {} needed{}",
+                          good.size(), num_images, options.min_views, refusals));
+}
+
+std::array<MonoResult, 2> CalibrateHalves(const std::vector<GoodView>& good,
+                                          const std::vector<cv::Point3f>& board_points,
+                                          const std::array<CameraIntrinsics, 2>& intrinsics,
+                                          cv::Size size) {
+  std::array<MonoResult, 2> mono;
+  for (int h = 0; h < kHalves; ++h) mono[h] = CalibrateHalf(good, h, board_points, intrinsics[h], size);
+  return mono;
+}
+
+// A grid found in the wrong order or with a wrong dot does not fit any camera: refuses the
+// views whose mono reprojection RMS exceeds the bound. True if any was refused.
+// @throws Error if the reference view is.
+bool RefuseMisfitViews(const std::array<MonoResult, 2>& mono,
+                       const VirtualStereoCalibrationOptions& options,
+                       GoodViews& good,
+                       std::vector<CalibrationViewReport>& reports) {
+  std::vector<GoodView> kept;
+  int new_reference = -1;
+  for (size_t v = 0; v < good.views.size(); ++v) {
+    const double worst = std::max(mono[0].per_view_rms.at<double>(static_cast<int>(v)),
+                                  mono[1].per_view_rms.at<double>(static_cast<int>(v)));
+    if (worst <= options.max_view_rms_px) {
+      if (static_cast<int>(v) == good.reference) new_reference = static_cast<int>(kept.size());
+      kept.push_back(good.views[v]);
+      continue;
+    }
+    CalibrationViewReport& report = reports[good.views[v].image_index];
+    report.refusal = fmt::format("reprojection RMS {:.3f} px > {:.3f} px (misdetected grid?)",
+                                 worst, options.max_view_rms_px);
+    if (static_cast<int>(v) == good.reference) {
+      throw Error(fmt::format("the reference view '{}' is refused: {}", report.name,
+                              report.refusal));
+    }
+  }
+  if (kept.size() == good.views.size()) return false;
+  good.views = std::move(kept);
+  good.reference = new_reference;
+  return true;
+}
+
+// Stereo calibration from the mono results (refined in place): sets the intrinsics, the rig
+// and the per-view RMS (px, a column a half); returns the overall RMS, px.
+double CalibrateRig(const std::vector<GoodView>& good,
+                    const std::vector<cv::Point3f>& board_points,
+                    cv::Size size,
+                    std::array<MonoResult, 2>& mono,
+                    std::array<CameraIntrinsics, 2>& intrinsics,
+                    Rigid3& right_from_left,
+                    cv::Mat& per_view_rms) {
+  std::vector<std::vector<cv::Point3f>> object(good.size(), board_points);
+  std::array<std::vector<std::vector<cv::Point2f>>, 2> image;
+  for (const GoodView& v : good) {
+    for (int h = 0; h < kHalves; ++h) image[h].push_back(ImagePoints(v, h));
+  }
+  cv::Mat r, t, e, f;
+  const double rms = cv::stereoCalibrate(
+      object, image[0], image[1], mono[0].camera_matrix, mono[0].distortion,
+      mono[1].camera_matrix, mono[1].distortion, size, r, t, e, f, per_view_rms,
+      cv::CALIB_USE_INTRINSIC_GUESS,
+      cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 100, 1e-12));
+  for (int h = 0; h < kHalves; ++h) {
+    intrinsics[h] = ToIntrinsics(mono[h].camera_matrix, mono[h].distortion, size);
+  }
+  right_from_left = ToRigid(r, t);
+  return rms;
+}
+
+// The next round sees the centroids moved by the bias the current rig predicts.
+void UpdateCentroidBias(const std::array<MonoResult, 2>& mono,
+                        const std::array<CameraIntrinsics, 2>& intrinsics,
+                        const std::vector<Eigen::Vector3d>& dots,
+                        const CalibrationBoard& board,
+                        std::vector<GoodView>& good) {
+  for (size_t v = 0; v < good.size(); ++v) {
+    for (int h = 0; h < kHalves; ++h) {
+      const Rigid3 cam_from_board = ToRigid(mono[h].rvecs[v], mono[h].tvecs[v]);
+      for (size_t i = 0; i < dots.size(); ++i) {
+        good[v].bias[h][i] =
+            DotCentroidBias(intrinsics[h], cam_from_board, dots[i], 0.5 * board.dot_diameter_mm);
+      }
+    }
+  }
+}
+
+// Places the rig in the sensor frame by the reference view: sets out.sensor_from_vcam and
+// out.summary.reference_rms_px.
+void PlaceRigInSensor(const GoodView& ref,
+                      const std::vector<cv::Point3f>& board_points,
+                      const std::vector<Eigen::Vector3d>& dots,
+                      const std::array<CameraIntrinsics, 2>& intrinsics,
+                      const CalibrationBoardFile& board_file,
+                      VirtualStereoCalibration& out) {
+  const std::array<std::vector<cv::Point2f>, 2> observed = {ImagePoints(ref, 0), ImagePoints(ref, 1)};
+  cv::Mat rvec, tvec;
+  cv::solvePnP(board_points, observed[0], ToCameraMatrix(intrinsics[0]), ToDistortion(intrinsics[0]),
+               rvec, tvec);
+  const Rigid3 left_from_board =
+      FitBoardToRig(intrinsics, out.right_from_left, dots, observed, ToRigid(rvec, tvec),
+                    out.summary.reference_rms_px);
+  const Rigid3 sensor_from_left = board_file.sensor_from_board * left_from_board.inverse();
+  out.sensor_from_vcam[0] = sensor_from_left;
+  out.sensor_from_vcam[1] = sensor_from_left * out.right_from_left.inverse();
+}
+
 }  // namespace
 
 void VirtualStereoCalibrationOptions::Validate() const {
@@ -230,44 +389,8 @@ VirtualStereoCalibration CalibrateVirtualStereo(const std::vector<CalibrationIma
   const cv::Size size(nominal.camera.intrinsics.width, nominal.camera.intrinsics.height);
 
   VirtualStereoCalibration out;
-  out.views.resize(images.size());
-  std::vector<GoodView> good;
-  int reference = -1;  // index into `good`
-  {
-    ProgressBar progress("detecting grids", static_cast<long>(images.size()), options.progress);
-    for (size_t i = 0; i < images.size(); ++i) {
-      CalibrationViewReport& report = out.views[i];
-      report.name = images[i].name;
-      GoodView view{static_cast<int>(i), {}, {}};
-      report.refusal = CheckImage(images[i], board, nominal, options, view, report);
-      if (report.refusal.empty()) {
-        if (images[i].name == board_file.reference_image) reference = static_cast<int>(good.size());
-        good.push_back(std::move(view));
-      } else if (images[i].name == board_file.reference_image) {
-        throw Error(fmt::format("the reference view '{}' is refused: {}", images[i].name,
-                                report.refusal));
-      }
-      progress.Update(static_cast<long>(i + 1));
-    }
-  }
-  if (reference < 0) {
-    throw Error(fmt::format("the reference view '{}' is not among the {} images",
-                            board_file.reference_image, images.size()));
-  }
-  auto refusals = [&] {
-    std::string text;
-    for (const CalibrationViewReport& r : out.views) {
-      if (!r.refusal.empty()) text += fmt::format("\n  {}: {}", r.name, r.refusal);
-    }
-    return text;
-  };
-  auto require_enough_views = [&] {
-    if (static_cast<int>(good.size()) < options.min_views) {
-      throw Error(fmt::format("too few good views: {} of {} images, at least {} needed{}",
-                              good.size(), images.size(), options.min_views, refusals()));
-    }
-  };
-  require_enough_views();
+  GoodViews good = DetectGoodViews(images, board_file, nominal, options, out.views);
+  RequireEnoughViews(good.views, images.size(), options, out.views);
 
   const std::vector<Eigen::Vector3d> dots = board.DotCenters();
   std::vector<cv::Point3f> board_points;
@@ -281,87 +404,28 @@ VirtualStereoCalibration CalibrateVirtualStereo(const std::vector<CalibrationIma
 
   cv::Mat per_view_rms;
   for (int round = 0; round <= options.bias_correction_rounds; ++round) {
-    std::array<MonoResult, 2> mono;
-    for (int h = 0; h < kHalves; ++h) mono[h] = CalibrateHalf(good, h, board_points, intrinsics[h], size);
-    if (round == 0) {
-      // A grid found in the wrong order or with a wrong dot does not fit any camera.
-      std::vector<GoodView> kept;
-      int new_reference = -1;
-      for (size_t v = 0; v < good.size(); ++v) {
-        const double worst = std::max(mono[0].per_view_rms.at<double>(static_cast<int>(v)),
-                                      mono[1].per_view_rms.at<double>(static_cast<int>(v)));
-        if (worst <= options.max_view_rms_px) {
-          if (static_cast<int>(v) == reference) new_reference = static_cast<int>(kept.size());
-          kept.push_back(good[v]);
-          continue;
-        }
-        CalibrationViewReport& report = out.views[good[v].image_index];
-        report.refusal = fmt::format("reprojection RMS {:.3f} px > {:.3f} px (misdetected grid?)",
-                                     worst, options.max_view_rms_px);
-        if (static_cast<int>(v) == reference) {
-          throw Error(fmt::format("the reference view '{}' is refused: {}", report.name,
-                                  report.refusal));
-        }
-      }
-      if (kept.size() != good.size()) {
-        good = std::move(kept);
-        reference = new_reference;
-        require_enough_views();
-        for (int h = 0; h < kHalves; ++h) mono[h] = CalibrateHalf(good, h, board_points, intrinsics[h], size);
-      }
+    std::array<MonoResult, 2> mono = CalibrateHalves(good.views, board_points, intrinsics, size);
+    if (round == 0 && RefuseMisfitViews(mono, options, good, out.views)) {
+      RequireEnoughViews(good.views, images.size(), options, out.views);
+      mono = CalibrateHalves(good.views, board_points, intrinsics, size);
     }
     for (int h = 0; h < kHalves; ++h) out.summary.mono_rms_px[h] = mono[h].rms;
-
-    std::vector<std::vector<cv::Point3f>> object(good.size(), board_points);
-    std::array<std::vector<std::vector<cv::Point2f>>, 2> image;
-    for (const GoodView& v : good) {
-      for (int h = 0; h < kHalves; ++h) image[h].push_back(ImagePoints(v, h));
-    }
-    cv::Mat r, t, e, f;
-    out.summary.rms_px = cv::stereoCalibrate(
-        object, image[0], image[1], mono[0].camera_matrix, mono[0].distortion,
-        mono[1].camera_matrix, mono[1].distortion, size, r, t, e, f, per_view_rms,
-        cv::CALIB_USE_INTRINSIC_GUESS,
-        cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 100, 1e-12));
-    for (int h = 0; h < kHalves; ++h) {
-      intrinsics[h] = ToIntrinsics(mono[h].camera_matrix, mono[h].distortion, size);
-    }
-    out.right_from_left = ToRigid(r, t);
+    out.summary.rms_px = CalibrateRig(
+        good.views, board_points, size, mono, intrinsics, out.right_from_left, per_view_rms);
     if (round == options.bias_correction_rounds) break;
-    // The next round sees the centroids moved by the bias the current rig predicts.
-    for (size_t v = 0; v < good.size(); ++v) {
-      for (int h = 0; h < kHalves; ++h) {
-        const Rigid3 cam_from_board = ToRigid(mono[h].rvecs[v], mono[h].tvecs[v]);
-        for (size_t i = 0; i < dots.size(); ++i) {
-          good[v].bias[h][i] =
-              DotCentroidBias(intrinsics[h], cam_from_board, dots[i], 0.5 * board.dot_diameter_mm);
-        }
-      }
-    }
+    UpdateCentroidBias(mono, intrinsics, dots, board, good.views);
   }
 
-  for (size_t v = 0; v < good.size(); ++v) {
-    CalibrationViewReport& report = out.views[good[v].image_index];
+  for (size_t v = 0; v < good.views.size(); ++v) {
+    CalibrationViewReport& report = out.views[good.views[v].image_index];
     report.used = true;
     for (int h = 0; h < kHalves; ++h) report.rms_px[h] = per_view_rms.at<double>(static_cast<int>(v), h);
   }
-
-  // Place the rig in the sensor frame by the reference view.
-  const GoodView& ref = good[reference];
-  const std::array<std::vector<cv::Point2f>, 2> observed = {ImagePoints(ref, 0), ImagePoints(ref, 1)};
-  cv::Mat rvec, tvec;
-  cv::solvePnP(board_points, observed[0], ToCameraMatrix(intrinsics[0]), ToDistortion(intrinsics[0]),
-               rvec, tvec);
-  const Rigid3 left_from_board =
-      FitBoardToRig(intrinsics, out.right_from_left, dots, observed, ToRigid(rvec, tvec),
-                    out.summary.reference_rms_px);
-  const Rigid3 sensor_from_left = board_file.sensor_from_board * left_from_board.inverse();
-  out.sensor_from_vcam[0] = sensor_from_left;
-  out.sensor_from_vcam[1] = sensor_from_left * out.right_from_left.inverse();
+  PlaceRigInSensor(good.views[good.reference], board_points, dots, intrinsics, board_file, out);
   out.intrinsics = intrinsics;
 
   out.summary.images = static_cast<int>(images.size());
-  out.summary.views_used = static_cast<int>(good.size());
+  out.summary.views_used = static_cast<int>(good.views.size());
   out.summary.views_refused = out.summary.images - out.summary.views_used;
   out.summary.seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();

@@ -379,6 +379,222 @@ void RequireRows(const char* what, Eigen::Index rows, int n) {
     throw Error(fmt::format("ContactState.{} has {} rows, the grid {} nodes", what, rows, n));
 }
 
+// The previous state must be on the solver's grid and not have slid off.
+void RequirePreviousState(const ContactState& previous, int n) {
+  RequireRows("pressure_mpa", previous.pressure_mpa.size(), n);
+  RequireRows("traction_mpa", previous.traction_mpa.rows(), n);
+  RequireRows("displacement_mm", previous.displacement_mm.rows(), n);
+  if (!previous.shift_mm.allFinite()) {
+    throw Error("ContactState.shift_mm is not finite (the previous step slid off)");
+  }
+}
+
+// The nodes that face the indenter (finite gap); a normal force needs at least one.
+std::vector<char> CandidateNodes(const ContactStep& step) {
+  const int n = static_cast<int>(step.gap_mm.size());
+  std::vector<char> candidate(n);
+  for (int i = 0; i < n; ++i) candidate[i] = std::isfinite(step.gap_mm[i]);
+  if (step.normal_control == NormalControl::kForce && step.normal_force_n > 0.0 &&
+      std::find(candidate.begin(), candidate.end(), 1) == candidate.end()) {
+    throw Error("ContactStep: a normal force but no node faces the indenter (gap all infinite)");
+  }
+  return candidate;
+}
+
+struct CouplingOutcome {
+  bool converged = false;
+  bool gross_sliding = false;
+};
+
+// Alternates the normal and tangential sub-problems on p and q (in place) until the tractions
+// stop changing (at once without coupling); counts iterations and residuals into `summary`.
+CouplingOutcome AlternateSubProblems(const ComplianceOperator& c,
+                                     const ContactStep& step,
+                                     const ContactSolverOptions& options,
+                                     const Eigen::VectorXd& h,
+                                     const std::vector<char>& candidate,
+                                     const Eigen::MatrixX2d& u_t_prev,
+                                     const Eigen::Vector2d& shift_increment,
+                                     Eigen::VectorXd& p,
+                                     Eigen::MatrixX2d& q,
+                                     ContactSummary& summary) {
+  const bool coupled = options.coupling == Coupling::kFull;
+  CouplingOutcome outcome;
+  Eigen::MatrixX2d b(p.size(), 2);
+  double lipschitz = 0.0;
+  for (summary.coupling_iterations = 1;
+       summary.coupling_iterations <= options.max_coupling_iterations;
+       ++summary.coupling_iterations) {
+    const Eigen::VectorXd p_before = p;
+    const Eigen::MatrixX2d q_before = q;
+    // The coupling enters each sub-problem as a fixed displacement from the other's tractions.
+    Eigen::VectorXd h_eff = h;
+    if (coupled) h_eff += c.Apply(Components::kNormal, Components::kTangential, q);
+    NormalProblem normal_pass(c, h_eff, candidate, step, options);
+    const SubSolve ns = normal_pass.Solve(p);
+    summary.normal_iterations += ns.iterations;
+    summary.normal_residual = ns.residual;
+
+    const Eigen::VectorXd bound = step.friction_coefficient.cwiseProduct(p);
+    b = -u_t_prev;
+    b.rowwise() -= shift_increment.transpose();
+    if (coupled) b += c.Apply(Components::kTangential, Components::kNormal, p);
+    TangentialProblem tangential(c, bound, b, step, options);
+    SubSolve ts;
+    outcome.gross_sliding = tangential.GrossSliding(q);
+    if (!outcome.gross_sliding) ts = tangential.Solve(q, lipschitz);
+    summary.tangential_iterations += ts.iterations;
+    summary.tangential_residual = ts.residual;
+
+    summary.coupling_change = RelativeL1Change(p, p_before) + RelativeL1Change(q, q_before);
+    outcome.converged = ns.converged && (outcome.gross_sliding || ts.converged);
+    if (!outcome.converged) {  // alternating further cannot help a sub-problem that is not solved
+      summary.message =
+          !ns.converged ? "normal problem: iteration limit" : "tangential problem: iteration limit";
+      break;
+    }
+    if (!coupled || summary.coupling_change < options.coupling_tolerance) break;
+  }
+  if (outcome.converged && summary.coupling_iterations > options.max_coupling_iterations) {
+    summary.coupling_iterations = options.max_coupling_iterations;
+    outcome.converged = false;
+    summary.message = "normal-tangential coupling: iteration limit";
+  }
+  return outcome;
+}
+
+// The state the tractions imply: tractions, displacements, approach and resultant forces (the
+// shift and slip come later, from the stick nodes).
+void SetImpliedState(const ComplianceOperator& c,
+                     const ContactStep& step,
+                     const Eigen::VectorXd& h,
+                     const std::vector<char>& candidate,
+                     const Eigen::VectorXd& p,
+                     const Eigen::MatrixX2d& q,
+                     bool coupled,
+                     ContactState& state) {
+  const double area = c.grid().cell_area_mm2();
+  state.pressure_mpa = p;
+  state.traction_mpa = q;
+  state.displacement_mm.resize(p.size(), 3);
+  state.displacement_mm.leftCols<2>() =
+      c.Apply(Components::kTangential, Components::kTangential, q);
+  state.displacement_mm.col(2) = c.Apply(Components::kNormal, Components::kNormal, p);
+  if (coupled) {
+    state.displacement_mm.leftCols<2>() += c.Apply(Components::kTangential, Components::kNormal, p);
+    state.displacement_mm.col(2) += c.Apply(Components::kNormal, Components::kTangential, q);
+  }
+  state.approach_mm = CalcApproach(step, p, h, candidate, state.displacement_mm.col(2));
+  state.normal_force_n = p.sum() * area;
+  state.tangential_force_n = q.colwise().sum().transpose() * area;
+}
+
+// Labels each node separated, stick or slip (on the friction cone), counts them into
+// `summary` and returns the sum of the stick nodes' elastic increments.
+Eigen::Vector2d ClassifyNodes(const SurfaceGrid& grid,
+                              const ContactStep& step,
+                              const Eigen::VectorXd& p,
+                              const Eigen::MatrixX2d& q,
+                              const Eigen::MatrixX2d& elastic_increment,
+                              std::vector<NodeState>& node_state,
+                              ContactSummary& summary) {
+  const int n = static_cast<int>(p.size());
+  node_state.assign(n, NodeState::kSeparated);
+  Eigen::Vector2d stick_sum = Eigen::Vector2d::Zero();
+  for (int i = 0; i < n; ++i) {
+    if (!(p[i] > 0.0)) continue;
+    ++summary.num_contact;
+    const bool slip = q.row(i).norm() >= (1.0 - kOnCone) * step.friction_coefficient[i] * p[i];
+    node_state[i] = slip ? NodeState::kSlip : NodeState::kStick;
+    if (slip) {
+      ++summary.num_slip;
+    } else {
+      ++summary.num_stick;
+      stick_sum += elastic_increment.row(i).transpose();
+    }
+    if (grid.is_edge_node(i)) summary.contact_at_grid_edge = true;
+  }
+  return stick_sum;
+}
+
+// Under force control the shift increment is what the stick nodes moved (their slip is 0).
+// Without stick nodes it is undetermined: the indenter slides off under a force (which sets
+// `gross_sliding` and returns NaN), and with no force nothing drives it, so it stays.
+Eigen::Vector2d CalcShiftIncrement(const ContactStep& step,
+                                   const Eigen::Vector2d& shift_increment,
+                                   const Eigen::Vector2d& stick_sum,
+                                   int num_stick,
+                                   bool& gross_sliding) {
+  Eigen::Vector2d increment = shift_increment;
+  if (step.tangential_control == TangentialControl::kForce) {
+    if (num_stick > 0 && !gross_sliding) {
+      increment = stick_sum / num_stick;
+    } else if (step.tangential_force_n.norm() > 0.0) {
+      gross_sliding = true;
+      increment = Eigen::Vector2d::Constant(kNaN);
+    }
+  }
+  return increment;
+}
+
+// The indenter's new shift, and each contact node's slip relative to it.
+void SetShiftAndSlip(const ContactState& previous,
+                     const Eigen::Vector2d& increment,
+                     const Eigen::MatrixX2d& elastic_increment,
+                     ContactResult& result) {
+  ContactState& state = result.state;
+  const int n = static_cast<int>(result.node_state.size());
+  state.shift_mm = previous.shift_mm + increment;
+  state.slip_mm = Eigen::MatrixX2d::Zero(n, 2);
+  for (int i = 0; i < n; ++i) {
+    if (result.node_state[i] != NodeState::kSeparated) {
+      state.slip_mm.row(i) = elastic_increment.row(i) - increment.transpose();
+    }
+  }
+}
+
+// How well the returned state meets the contact conditions (gap, complementarity,
+// penetration, friction cone, stick and slip direction), into the summary.
+void MeasureContactConditions(const ContactStep& step,
+                              const Eigen::VectorXd& h,
+                              const std::vector<char>& candidate,
+                              ContactResult& result) {
+  const ContactState& state = result.state;
+  const Eigen::VectorXd& p = state.pressure_mpa;
+  const Eigen::MatrixX2d& q = state.traction_mpa;
+  ContactSummary& summary = result.summary;
+  const int n = static_cast<int>(p.size());
+  double max_slip = 0.0;
+  for (int i = 0; i < n; ++i) {
+    if (result.node_state[i] == NodeState::kSlip)
+      max_slip = std::max(max_slip, state.slip_mm.row(i).norm());
+  }
+  summary.min_pressure_mpa = n > 0 ? p.minCoeff() : 0.0;
+  for (int i = 0; i < n; ++i) {
+    if (!candidate[i]) continue;
+    const double g = h[i] + state.displacement_mm(i, 2) - state.approach_mm;
+    if (p[i] > 0.0) {
+      summary.max_gap_in_contact_mm = std::max(summary.max_gap_in_contact_mm, std::abs(g));
+      summary.max_complementarity_mpa_mm =
+          std::max(summary.max_complementarity_mpa_mm, p[i] * std::abs(g));
+    }
+    summary.max_penetration_mm = std::max(summary.max_penetration_mm, -g);
+    summary.max_cone_violation_mpa = std::max(
+        summary.max_cone_violation_mpa, q.row(i).norm() - step.friction_coefficient[i] * p[i]);
+    if (result.node_state[i] == NodeState::kStick) {
+      summary.max_stick_slip_mm = std::max(summary.max_stick_slip_mm, state.slip_mm.row(i).norm());
+    } else if (result.node_state[i] == NodeState::kSlip && std::isfinite(max_slip)) {
+      const Eigen::Vector2d slip = state.slip_mm.row(i).transpose();
+      const Eigen::Vector2d qi = q.row(i).transpose();
+      if (slip.norm() > 1e-3 * max_slip && qi.norm() > 0.0) {
+        const double cosine = std::clamp(-slip.dot(qi) / (slip.norm() * qi.norm()), -1.0, 1.0);
+        summary.max_slip_direction_error_rad =
+            std::max(summary.max_slip_direction_error_rad, std::acos(cosine));
+      }
+    }
+  }
+}
+
 }  // namespace
 
 void ContactSolverOptions::Validate() const {
@@ -479,23 +695,10 @@ ContactSolver::ContactSolver(std::shared_ptr<const ComplianceOperator> complianc
 ContactResult ContactSolver::Solve(const ContactStep& step, const ContactState& previous) const {
   const auto start = std::chrono::steady_clock::now();
   const ComplianceOperator& c = *compliance_;
-  const SurfaceGrid& grid = c.grid();
-  const int n = grid.num_nodes();
-  const double area = grid.cell_area_mm2();
+  const int n = c.grid().num_nodes();
   step.Validate(n);
-  RequireRows("pressure_mpa", previous.pressure_mpa.size(), n);
-  RequireRows("traction_mpa", previous.traction_mpa.rows(), n);
-  RequireRows("displacement_mm", previous.displacement_mm.rows(), n);
-  if (!previous.shift_mm.allFinite()) {
-    throw Error("ContactState.shift_mm is not finite (the previous step slid off)");
-  }
-
-  std::vector<char> candidate(n);
-  for (int i = 0; i < n; ++i) candidate[i] = std::isfinite(step.gap_mm[i]);
-  if (step.normal_control == NormalControl::kForce && step.normal_force_n > 0.0 &&
-      std::find(candidate.begin(), candidate.end(), 1) == candidate.end()) {
-    throw Error("ContactStep: a normal force but no node faces the indenter (gap all infinite)");
-  }
+  RequirePreviousState(previous, n);
+  const std::vector<char> candidate = CandidateNodes(step);
   // Infinite gaps become a finite stand-in; those nodes never carry pressure.
   const Eigen::VectorXd h =
       step.gap_mm.unaryExpr([](double v) { return std::isfinite(v) ? v : 0.0; });
@@ -512,132 +715,19 @@ ContactResult ContactSolver::Solve(const ContactStep& step, const ContactState& 
   }
   ContactResult result;
   ContactSummary& summary = result.summary;
-  bool gross_sliding = false, converged = false;
-  Eigen::MatrixX2d b(n, 2);
-  double lipschitz = 0.0;
-  for (summary.coupling_iterations = 1;
-       summary.coupling_iterations <= options_.max_coupling_iterations;
-       ++summary.coupling_iterations) {
-    const Eigen::VectorXd p_before = p;
-    const Eigen::MatrixX2d q_before = q;
-    // The coupling enters each sub-problem as a fixed displacement from the other's tractions.
-    Eigen::VectorXd h_eff = h;
-    if (coupled) h_eff += c.Apply(Components::kNormal, Components::kTangential, q);
-    NormalProblem normal_pass(c, h_eff, candidate, step, options_);
-    const SubSolve ns = normal_pass.Solve(p);
-    summary.normal_iterations += ns.iterations;
-    summary.normal_residual = ns.residual;
+  const CouplingOutcome outcome = AlternateSubProblems(
+      c, step, options_, h, candidate, u_t_prev, shift_increment, p, q, summary);
+  bool gross_sliding = outcome.gross_sliding;
+  SetImpliedState(c, step, h, candidate, p, q, coupled, result.state);
+  const Eigen::MatrixX2d elastic_increment = result.state.displacement_mm.leftCols<2>() - u_t_prev;
+  const Eigen::Vector2d stick_sum =
+      ClassifyNodes(c.grid(), step, p, q, elastic_increment, result.node_state, summary);
+  const Eigen::Vector2d increment =
+      CalcShiftIncrement(step, shift_increment, stick_sum, summary.num_stick, gross_sliding);
+  SetShiftAndSlip(previous, increment, elastic_increment, result);
+  MeasureContactConditions(step, h, candidate, result);
 
-    const Eigen::VectorXd bound = step.friction_coefficient.cwiseProduct(p);
-    b = -u_t_prev;
-    b.rowwise() -= shift_increment.transpose();
-    if (coupled) b += c.Apply(Components::kTangential, Components::kNormal, p);
-    TangentialProblem tangential(c, bound, b, step, options_);
-    SubSolve ts;
-    gross_sliding = tangential.GrossSliding(q);
-    if (!gross_sliding) ts = tangential.Solve(q, lipschitz);
-    summary.tangential_iterations += ts.iterations;
-    summary.tangential_residual = ts.residual;
-
-    summary.coupling_change = RelativeL1Change(p, p_before) + RelativeL1Change(q, q_before);
-    converged = ns.converged && (gross_sliding || ts.converged);
-    if (!converged) {  // alternating further cannot help a sub-problem that is not solved
-      summary.message =
-          !ns.converged ? "normal problem: iteration limit" : "tangential problem: iteration limit";
-      break;
-    }
-    if (!coupled || summary.coupling_change < options_.coupling_tolerance) break;
-  }
-  if (converged && summary.coupling_iterations > options_.max_coupling_iterations) {
-    summary.coupling_iterations = options_.max_coupling_iterations;
-    converged = false;
-    summary.message = "normal-tangential coupling: iteration limit";
-  }
-
-  // The state the tractions imply.
-  ContactState& state = result.state;
-  state.pressure_mpa = p;
-  state.traction_mpa = q;
-  state.displacement_mm.resize(n, 3);
-  state.displacement_mm.leftCols<2>() =
-      c.Apply(Components::kTangential, Components::kTangential, q);
-  state.displacement_mm.col(2) = c.Apply(Components::kNormal, Components::kNormal, p);
-  if (coupled) {
-    state.displacement_mm.leftCols<2>() += c.Apply(Components::kTangential, Components::kNormal, p);
-    state.displacement_mm.col(2) += c.Apply(Components::kNormal, Components::kTangential, q);
-  }
-  state.approach_mm = CalcApproach(step, p, h, candidate, state.displacement_mm.col(2));
-  state.normal_force_n = p.sum() * area;
-  state.tangential_force_n = q.colwise().sum().transpose() * area;
-
-  result.node_state.assign(n, NodeState::kSeparated);
-  const Eigen::MatrixX2d elastic_increment = state.displacement_mm.leftCols<2>() - u_t_prev;
-  Eigen::Vector2d stick_sum = Eigen::Vector2d::Zero();
-  for (int i = 0; i < n; ++i) {
-    if (!(p[i] > 0.0)) continue;
-    ++summary.num_contact;
-    const bool slip = q.row(i).norm() >= (1.0 - kOnCone) * step.friction_coefficient[i] * p[i];
-    result.node_state[i] = slip ? NodeState::kSlip : NodeState::kStick;
-    if (slip) {
-      ++summary.num_slip;
-    } else {
-      ++summary.num_stick;
-      stick_sum += elastic_increment.row(i).transpose();
-    }
-    if (grid.is_edge_node(i)) summary.contact_at_grid_edge = true;
-  }
-  // Under force control the shift increment is what the stick nodes moved (their slip is 0).
-  // Without stick nodes it is undetermined: the indenter slides off under a force, and with no
-  // force nothing drives it, so it stays.
-  Eigen::Vector2d increment = shift_increment;
-  if (step.tangential_control == TangentialControl::kForce) {
-    if (summary.num_stick > 0 && !gross_sliding) {
-      increment = stick_sum / summary.num_stick;
-    } else if (step.tangential_force_n.norm() > 0.0) {
-      gross_sliding = true;
-      increment = Eigen::Vector2d::Constant(kNaN);
-    }
-  }
-  state.shift_mm = previous.shift_mm + increment;
-  state.slip_mm = Eigen::MatrixX2d::Zero(n, 2);
-  for (int i = 0; i < n; ++i) {
-    if (result.node_state[i] != NodeState::kSeparated) {
-      state.slip_mm.row(i) = elastic_increment.row(i) - increment.transpose();
-    }
-  }
-
-  // How well the returned state meets the contact conditions.
-  double max_slip = 0.0;
-  for (int i = 0; i < n; ++i) {
-    if (result.node_state[i] == NodeState::kSlip)
-      max_slip = std::max(max_slip, state.slip_mm.row(i).norm());
-  }
-  summary.min_pressure_mpa = n > 0 ? p.minCoeff() : 0.0;
-  for (int i = 0; i < n; ++i) {
-    if (!candidate[i]) continue;
-    const double g = h[i] + state.displacement_mm(i, 2) - state.approach_mm;
-    if (p[i] > 0.0) {
-      summary.max_gap_in_contact_mm = std::max(summary.max_gap_in_contact_mm, std::abs(g));
-      summary.max_complementarity_mpa_mm =
-          std::max(summary.max_complementarity_mpa_mm, p[i] * std::abs(g));
-    }
-    summary.max_penetration_mm = std::max(summary.max_penetration_mm, -g);
-    summary.max_cone_violation_mpa = std::max(
-        summary.max_cone_violation_mpa, q.row(i).norm() - step.friction_coefficient[i] * p[i]);
-    if (result.node_state[i] == NodeState::kStick) {
-      summary.max_stick_slip_mm = std::max(summary.max_stick_slip_mm, state.slip_mm.row(i).norm());
-    } else if (result.node_state[i] == NodeState::kSlip && std::isfinite(max_slip)) {
-      const Eigen::Vector2d slip = state.slip_mm.row(i).transpose();
-      const Eigen::Vector2d qi = q.row(i).transpose();
-      if (slip.norm() > 1e-3 * max_slip && qi.norm() > 0.0) {
-        const double cosine = std::clamp(-slip.dot(qi) / (slip.norm() * qi.norm()), -1.0, 1.0);
-        summary.max_slip_direction_error_rad =
-            std::max(summary.max_slip_direction_error_rad, std::acos(cosine));
-      }
-    }
-  }
-
-  if (!converged) {
+  if (!outcome.converged) {
     summary.status = ContactStatus::kMaxIterations;
   } else if (gross_sliding) {
     summary.status = ContactStatus::kGrossSliding;

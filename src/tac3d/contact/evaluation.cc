@@ -63,6 +63,270 @@ class Checks {
   bool all_pass_ = true;
 };
 
+// The analytic checks of EvaluateContact, one method a phase: Hertz (frictionless press),
+// Cattaneo-Mindlin (shear and full slide), Mindlin-Deresiewicz (load history), then sliding
+// across two materials. They share one grid, the two solvers, the report and the checks.
+class ContactEvaluation {
+ public:
+  // Sizes the grid for the Hertz contact plus the longest slide.
+  explicit ContactEvaluation(const EvalContactOptions& o)
+      : o_(o),
+        hertz_(CalcHertz(o)),
+        // The sliding case moves the sphere by up to 1.5 full-slide shifts of the stickier
+        // material.
+        max_slide_mm_(1.5 * FullSlideShift(o,
+                                           std::max(o.friction_coefficient_left,
+                                                    o.friction_coefficient_right),
+                                           hertz_.radius_mm)),
+        grid_(MakeGrid(o, hertz_, max_slide_mm_)),
+        n_(grid_.num_nodes()),
+        compliance_(std::make_shared<HalfSpaceCompliance>(grid_, o.material)),
+        coupled_solver_(compliance_, WithCoupling(o.solver, Coupling::kFull)),
+        goodman_solver_(compliance_, WithCoupling(o.solver, Coupling::kNeglect)),
+        sphere_(Indenter::Sphere(o.sphere_radius_mm)) {
+    report_["grid"] = {{"nx", grid_.nx},
+                       {"ny", grid_.ny},
+                       {"spacing_mm", grid_.dx_mm},
+                       {"cells_per_radius", o.cells_per_radius}};
+  }
+
+  // Hertz: frictionless, so the normal-tangential coupling does not act.
+  ContactEvaluation& CheckHertz() {
+    const ContactResult pressed =
+        coupled_solver_.Solve(Press(Eigen::VectorXd::Zero(n_)), ContactState::Unloaded(n_));
+    const Eigen::VectorXd& p = pressed.state.pressure_mpa;
+    const double radius = EquivalentRadius(grid_, n_, [&](int i) { return p[i] > 0.0; });
+    double sq = 0.0;
+    int profile_nodes = 0;
+    for (int i = 0; i < n_; ++i) {
+      const double r = grid_.node_position_mm(i).norm();
+      const double exact =
+          r < hertz_.radius_mm
+              ? hertz_.peak_mpa * std::sqrt(1.0 - (r * r) / (hertz_.radius_mm * hertz_.radius_mm))
+              : 0.0;
+      if (exact > 0.0 || p[i] > 0.0) sq += (p[i] - exact) * (p[i] - exact), ++profile_nodes;
+    }
+    const double profile_rms_pct = 100.0 * std::sqrt(sq / profile_nodes) / hertz_.peak_mpa;
+    report_["hertz"] = {{"contact_radius_mm", radius},
+                        {"exact_contact_radius_mm", hertz_.radius_mm},
+                        {"peak_pressure_mpa", p.maxCoeff()},
+                        {"exact_peak_pressure_mpa", hertz_.peak_mpa},
+                        {"approach_mm", pressed.state.approach_mm},
+                        {"exact_approach_mm", hertz_.approach_mm},
+                        {"profile_nodes", profile_nodes},
+                        {"summary", Record(pressed)}};
+    checks_.Add(
+        "hertz_radius_error_pct", PercentError(radius, hertz_.radius_mm), o_.tolerance_pct, "%");
+    checks_.Add(
+        "hertz_peak_error_pct", PercentError(p.maxCoeff(), hertz_.peak_mpa), o_.tolerance_pct, "%");
+    checks_.Add("hertz_profile_rms_pct", profile_rms_pct, o_.tolerance_pct, "% of p0");
+    return *this;
+  }
+
+  // Cattaneo-Mindlin under Goodman's approximation (its own assumption): Q = 0.5 mu P in one
+  // step from the pressed state, then a shift 1.5 x the full-slide shift. Returns the pressed
+  // state with friction, from which the load history starts.
+  ContactState CheckMindlin() {
+    const double mu = o_.friction_coefficient;
+    const ContactStep press = Press(Eigen::VectorXd::Constant(n_, mu));
+    const ContactResult pressed_mu = goodman_solver_.Solve(press, ContactState::Unloaded(n_));
+    ContactStep shear = press;
+    shear.tangential_force_n = Eigen::Vector2d(0.5 * mu * o_.normal_force_n, 0.0);
+    const ContactResult sheared = goodman_solver_.Solve(shear, pressed_mu.state);
+    const double stick_radius = EquivalentRadius(
+        grid_, n_, [&](int i) { return sheared.node_state[i] == NodeState::kStick; });
+    const double exact_stick = hertz_.radius_mm * std::cbrt(1.0 - 0.5);
+    const double exact_shift = MindlinShift(o_, 0.5, hertz_.radius_mm);
+    ContactStep slide = press;
+    slide.tangential_control = TangentialControl::kShift;
+    slide.shift_mm = Eigen::Vector2d(1.5 * FullSlideShift(o_, mu, hertz_.radius_mm), 0.0);
+    const ContactResult slid = goodman_solver_.Solve(slide, pressed_mu.state);
+    const double slide_ratio =
+        slid.state.tangential_force_n.norm() / (mu * slid.state.normal_force_n);
+    // For information: the same shear with the coupling kept (nu < 0.5 makes the pressure
+    // depend on the shear, which Mindlin's solution ignores).
+    const ContactResult sheared_coupled = coupled_solver_.Solve(
+        shear, coupled_solver_.Solve(press, ContactState::Unloaded(n_)).state);
+    const double coupled_stick_radius = EquivalentRadius(
+        grid_, n_, [&](int i) { return sheared_coupled.node_state[i] == NodeState::kStick; });
+    report_["mindlin"] = {{"stick_radius_mm", stick_radius},
+                          {"coupled_stick_radius_mm", coupled_stick_radius},
+                          {"coupled_shift_mm", sheared_coupled.state.shift_mm.x()},
+                          {"exact_stick_radius_mm", exact_stick},
+                          {"shift_mm", sheared.state.shift_mm.x()},
+                          {"exact_shift_mm", exact_shift},
+                          {"full_slide_shift_mm", slide.shift_mm.x()},
+                          {"full_slide_q_over_mu_p", slide_ratio},
+                          {"full_slide_stick_nodes", slid.summary.num_stick},
+                          {"summary_pressed", Record(pressed_mu)},
+                          {"summary_sheared", Record(sheared)},
+                          {"summary_slid", Record(slid)},
+                          {"summary_coupled", Record(sheared_coupled)}};
+    checks_.Add(
+        "mindlin_stick_error_pct", PercentError(stick_radius, exact_stick), o_.tolerance_pct, "%");
+    checks_.Add("mindlin_shift_error_pct",
+                PercentError(sheared.state.shift_mm.x(), exact_shift),
+                o_.tolerance_pct,
+                "%");
+    checks_.Add("mindlin_full_slide_error_pct",
+                100.0 * std::abs(slide_ratio - 1.0),
+                o_.friction_tolerance_pct,
+                "%");
+    return pressed_mu.state;
+  }
+
+  // Mindlin-Deresiewicz: Q up to 0.6 mu P and back to 0 in steps, each from the last state.
+  // Unloading from Q* the shift is delta(Q*) - 2 delta((Q* - Q) / 2) (Mindlin & Deresiewicz
+  // 1953; Johnson ch. 7).
+  void CheckHistory(const ContactState& pressed_mu) {
+    const double mu = o_.friction_coefficient;
+    const ContactStep press = Press(Eigen::VectorXd::Constant(n_, mu));
+    const double q_max = 0.6;
+    ContactState state = pressed_mu;
+    nlohmann::json path = nlohmann::json::array();
+    double loading_mid = 0.0, unloading_mid = 0.0;
+    for (int k = 1; k <= 2 * kSteps; ++k) {
+      const double level = q_max * (k <= kSteps ? k : 2 * kSteps - k) / kSteps;
+      ContactStep step = press;
+      step.tangential_force_n = Eigen::Vector2d(level * mu * o_.normal_force_n, 0.0);
+      const ContactResult r = goodman_solver_.Solve(step, state);
+      state = r.state;
+      const double exact =
+          k <= kSteps ? MindlinShift(o_, level, hertz_.radius_mm)
+                      : MindlinShift(o_, q_max, hertz_.radius_mm) -
+                            2.0 * MindlinShift(o_, 0.5 * (q_max - level), hertz_.radius_mm);
+      if (k == kSteps / 2) loading_mid = state.shift_mm.x();
+      if (k == 2 * kSteps - kSteps / 2) unloading_mid = state.shift_mm.x();
+      path.push_back({{"q_over_mu_p", level},
+                      {"shift_mm", state.shift_mm.x()},
+                      {"exact_shift_mm", exact},
+                      {"num_stick", r.summary.num_stick},
+                      {"num_slip", r.summary.num_slip},
+                      {"summary", Record(r)}});
+    }
+    const double residual_shift = state.shift_mm.x();
+    const double exact_residual = path.back().at("exact_shift_mm").get<double>();
+    report_["history"] = {
+        {"path", path},
+        {"residual_shift_mm", residual_shift},
+        {"exact_residual_shift_mm", exact_residual},
+        {"residual_traction_max_mpa", state.traction_mpa.rowwise().norm().maxCoeff()},
+        {"hysteresis_at_half_mm", unloading_mid - loading_mid}};
+    checks_.Add("history_residual_shift_error_pct",
+                PercentError(residual_shift, exact_residual),
+                o_.history_tolerance_pct,
+                "%");
+  }
+
+  // Sliding across two materials, fully coupled: the sphere moves along x in steps from the
+  // pressed state; each node's mu is the object's at the point it faces.
+  void CheckTwoMaterial() {
+    ContactStep across = Press(MuMap(Eigen::Vector2d::Zero()));
+    ContactState state = coupled_solver_.Solve(across, ContactState::Unloaded(n_)).state;
+    across.tangential_control = TangentialControl::kShift;
+    double max_ratio_error = 0.0;
+    int slip_left = 0, slip_right = 0;
+    nlohmann::json slide_path = nlohmann::json::array();
+    for (int k = 1; k <= kSteps; ++k) {
+      const Eigen::Vector2d origin(max_slide_mm_ * k / kSteps, 0.0);
+      across.shift_mm = origin;
+      across.gap_mm = sphere_.CalcGap(grid_, origin);
+      across.friction_coefficient = MuMap(origin);
+      const ContactResult r = coupled_solver_.Solve(across, state);
+      // Slip from the kinematics (independent of the solver's stick/slip labels).
+      const Eigen::MatrixX2d slip =
+          (r.state.displacement_mm.leftCols<2>() - state.displacement_mm.leftCols<2>())
+              .rowwise() -
+          (r.state.shift_mm - state.shift_mm).transpose();
+      const double threshold =
+          1e-5 * r.state.displacement_mm.leftCols<2>().rowwise().norm().maxCoeff();
+      for (int i = 0; i < n_; ++i) {
+        const double pi = r.state.pressure_mpa[i];
+        if (!(pi > 0.0) || slip.row(i).norm() <= threshold) continue;
+        const double m = across.friction_coefficient[i];
+        max_ratio_error =
+            std::max(max_ratio_error, PercentError(r.state.traction_mpa.row(i).norm() / pi, m));
+        (m == o_.friction_coefficient_left ? slip_left : slip_right) += 1;
+      }
+      state = r.state;
+      slide_path.push_back({{"shift_mm", origin.x()},
+                            {"tangential_force_n", state.tangential_force_n.x()},
+                            {"normal_force_n", state.normal_force_n},
+                            {"summary", Record(r)}});
+    }
+    report_["two_material"] = {{"path", slide_path},
+                               {"slip_nodes_left", slip_left},
+                               {"slip_nodes_right", slip_right},
+                               {"max_ratio_error_pct", max_ratio_error}};
+    // Both materials must have slipped for the ratio check to mean anything.
+    checks_.Add("slip_mu_error_pct",
+                slip_left > 0 && slip_right > 0 ? max_ratio_error : 100.0,
+                o_.friction_tolerance_pct,
+                "%");
+  }
+
+  // Adds the convergence check over every solve and the verdict.
+  nlohmann::json Finish() {
+    checks_.Add("all_converged", all_converged_ ? 0.0 : 1.0, 0.0, "");
+    report_["checks"] = checks_.json();
+    report_["all_pass"] = checks_.all_pass();
+    return std::move(report_);
+  }
+
+ private:
+  // Load and history steps of the history and slide phases.
+  static constexpr int kSteps = 4;
+
+  static SurfaceGrid MakeGrid(const EvalContactOptions& o, const Hertz& hertz, double max_slide) {
+    const double spacing = hertz.radius_mm / o.cells_per_radius;
+    const int half = static_cast<int>(std::ceil((1.3 * hertz.radius_mm + max_slide) / spacing));
+    return SurfaceGrid{2 * half + 1, 2 * half + 1, spacing, spacing};
+  }
+  static ContactSolverOptions WithCoupling(ContactSolverOptions options, Coupling coupling) {
+    options.coupling = coupling;
+    return options;
+  }
+
+  // The sphere pressed at the origin by the normal force, with friction `mu` at each node.
+  ContactStep Press(const Eigen::VectorXd& mu) const {
+    ContactStep press;
+    press.gap_mm = sphere_.CalcGap(grid_, Eigen::Vector2d::Zero());
+    press.normal_force_n = o_.normal_force_n;
+    press.friction_coefficient = mu;
+    return press;
+  }
+
+  // Each node's mu: the left material's where it faces x < 0 relative to `origin`.
+  Eigen::VectorXd MuMap(const Eigen::Vector2d& origin) const {
+    Eigen::VectorXd m(n_);
+    for (int i = 0; i < n_; ++i) {
+      m[i] = (grid_.node_position_mm(i) - origin).x() < 0.0 ? o_.friction_coefficient_left
+                                                            : o_.friction_coefficient_right;
+    }
+    return m;
+  }
+
+  // Notes whether the solve converged away from the grid's edge; its summary for the report.
+  nlohmann::json Record(const ContactResult& r) {
+    all_converged_ = all_converged_ && r.summary.status != ContactStatus::kMaxIterations &&
+                     !r.summary.contact_at_grid_edge;
+    return ToJson(r.summary);
+  }
+
+  const EvalContactOptions& o_;
+  const Hertz hertz_;
+  const double max_slide_mm_;
+  const SurfaceGrid grid_;
+  const int n_;
+  const std::shared_ptr<const HalfSpaceCompliance> compliance_;
+  const ContactSolver coupled_solver_;
+  const ContactSolver goodman_solver_;
+  const Indenter sphere_;
+  Checks checks_;
+  bool all_converged_ = true;
+  nlohmann::json report_;
+};
+
 }  // namespace
 
 void EvalContactOptions::Validate() const {
@@ -89,212 +353,11 @@ void EvalContactOptions::Validate() const {
 
 nlohmann::json EvaluateContact(const EvalContactOptions& o) {
   o.Validate();
-  const Hertz hertz = CalcHertz(o);
-  const double mu_max = std::max(o.friction_coefficient_left, o.friction_coefficient_right);
-  // The sliding case moves the sphere by up to 1.5 full-slide shifts of the stickier material.
-  const double max_slide_mm = 1.5 * FullSlideShift(o, mu_max, hertz.radius_mm);
-  const double spacing = hertz.radius_mm / o.cells_per_radius;
-  const int half = static_cast<int>(std::ceil((1.3 * hertz.radius_mm + max_slide_mm) / spacing));
-  const SurfaceGrid grid{2 * half + 1, 2 * half + 1, spacing, spacing};
-  const int n = grid.num_nodes();
-  const auto compliance = std::make_shared<HalfSpaceCompliance>(grid, o.material);
-  ContactSolverOptions goodman = o.solver;
-  goodman.coupling = Coupling::kNeglect;
-  ContactSolverOptions full = o.solver;
-  full.coupling = Coupling::kFull;
-  const ContactSolver coupled_solver(compliance, full);
-  const ContactSolver goodman_solver(compliance, goodman);
-  const Indenter sphere = Indenter::Sphere(o.sphere_radius_mm);
-
-  Checks checks;
-  bool all_converged = true;
-  const auto record = [&](const ContactResult& r) {
-    all_converged = all_converged && r.summary.status != ContactStatus::kMaxIterations &&
-                    !r.summary.contact_at_grid_edge;
-    return ToJson(r.summary);
-  };
-  ContactStep press;
-  press.gap_mm = sphere.CalcGap(grid, Eigen::Vector2d::Zero());
-  press.normal_force_n = o.normal_force_n;
-
-  // Hertz: frictionless, so the normal-tangential coupling does not act.
-  press.friction_coefficient = Eigen::VectorXd::Zero(n);
-  const ContactResult pressed = coupled_solver.Solve(press, ContactState::Unloaded(n));
-  const Eigen::VectorXd& p = pressed.state.pressure_mpa;
-  const double radius = EquivalentRadius(grid, n, [&](int i) { return p[i] > 0.0; });
-  double sq = 0.0;
-  int profile_nodes = 0;
-  for (int i = 0; i < n; ++i) {
-    const double r = grid.node_position_mm(i).norm();
-    const double exact =
-        r < hertz.radius_mm
-            ? hertz.peak_mpa * std::sqrt(1.0 - (r * r) / (hertz.radius_mm * hertz.radius_mm))
-            : 0.0;
-    if (exact > 0.0 || p[i] > 0.0) sq += (p[i] - exact) * (p[i] - exact), ++profile_nodes;
-  }
-  const double profile_rms_pct = 100.0 * std::sqrt(sq / profile_nodes) / hertz.peak_mpa;
-  nlohmann::json report;
-  report["grid"] = {{"nx", grid.nx},
-                    {"ny", grid.ny},
-                    {"spacing_mm", spacing},
-                    {"cells_per_radius", o.cells_per_radius}};
-  report["hertz"] = {{"contact_radius_mm", radius},
-                     {"exact_contact_radius_mm", hertz.radius_mm},
-                     {"peak_pressure_mpa", p.maxCoeff()},
-                     {"exact_peak_pressure_mpa", hertz.peak_mpa},
-                     {"approach_mm", pressed.state.approach_mm},
-                     {"exact_approach_mm", hertz.approach_mm},
-                     {"profile_nodes", profile_nodes},
-                     {"summary", record(pressed)}};
-  checks.Add("hertz_radius_error_pct", PercentError(radius, hertz.radius_mm), o.tolerance_pct, "%");
-  checks.Add(
-      "hertz_peak_error_pct", PercentError(p.maxCoeff(), hertz.peak_mpa), o.tolerance_pct, "%");
-  checks.Add("hertz_profile_rms_pct", profile_rms_pct, o.tolerance_pct, "% of p0");
-
-  // Cattaneo-Mindlin under Goodman's approximation (its own assumption): Q = 0.5 mu P in one
-  // step from the pressed state, then a shift 1.5 x the full-slide shift.
-  const double mu = o.friction_coefficient;
-  press.friction_coefficient = Eigen::VectorXd::Constant(n, mu);
-  const ContactResult pressed_mu = goodman_solver.Solve(press, ContactState::Unloaded(n));
-  ContactStep shear = press;
-  shear.tangential_force_n = Eigen::Vector2d(0.5 * mu * o.normal_force_n, 0.0);
-  const ContactResult sheared = goodman_solver.Solve(shear, pressed_mu.state);
-  const double stick_radius =
-      EquivalentRadius(grid, n, [&](int i) { return sheared.node_state[i] == NodeState::kStick; });
-  const double exact_stick = hertz.radius_mm * std::cbrt(1.0 - 0.5);
-  const double exact_shift = MindlinShift(o, 0.5, hertz.radius_mm);
-  ContactStep slide = press;
-  slide.tangential_control = TangentialControl::kShift;
-  slide.shift_mm = Eigen::Vector2d(1.5 * FullSlideShift(o, mu, hertz.radius_mm), 0.0);
-  const ContactResult slid = goodman_solver.Solve(slide, pressed_mu.state);
-  const double slide_ratio =
-      slid.state.tangential_force_n.norm() / (mu * slid.state.normal_force_n);
-  // For information: the same shear with the coupling kept (nu < 0.5 makes the pressure
-  // depend on the shear, which Mindlin's solution ignores).
-  const ContactResult sheared_coupled =
-      coupled_solver.Solve(shear, coupled_solver.Solve(press, ContactState::Unloaded(n)).state);
-  const double coupled_stick_radius = EquivalentRadius(
-      grid, n, [&](int i) { return sheared_coupled.node_state[i] == NodeState::kStick; });
-  report["mindlin"] = {{"stick_radius_mm", stick_radius},
-                       {"coupled_stick_radius_mm", coupled_stick_radius},
-                       {"coupled_shift_mm", sheared_coupled.state.shift_mm.x()},
-                       {"exact_stick_radius_mm", exact_stick},
-                       {"shift_mm", sheared.state.shift_mm.x()},
-                       {"exact_shift_mm", exact_shift},
-                       {"full_slide_shift_mm", slide.shift_mm.x()},
-                       {"full_slide_q_over_mu_p", slide_ratio},
-                       {"full_slide_stick_nodes", slid.summary.num_stick},
-                       {"summary_pressed", record(pressed_mu)},
-                       {"summary_sheared", record(sheared)},
-                       {"summary_slid", record(slid)},
-                       {"summary_coupled", record(sheared_coupled)}};
-  checks.Add(
-      "mindlin_stick_error_pct", PercentError(stick_radius, exact_stick), o.tolerance_pct, "%");
-  checks.Add("mindlin_shift_error_pct",
-             PercentError(sheared.state.shift_mm.x(), exact_shift),
-             o.tolerance_pct,
-             "%");
-  checks.Add("mindlin_full_slide_error_pct",
-             100.0 * std::abs(slide_ratio - 1.0),
-             o.friction_tolerance_pct,
-             "%");
-
-  // Mindlin-Deresiewicz: Q up to 0.6 mu P and back to 0 in steps, each from the last state.
-  // Unloading from Q* the shift is delta(Q*) - 2 delta((Q* - Q) / 2) (Mindlin & Deresiewicz 1953;
-  // Johnson ch. 7).
-  const double q_max = 0.6;
-  const int steps = 4;
-  ContactState state = pressed_mu.state;
-  nlohmann::json path = nlohmann::json::array();
-  double loading_mid = 0.0, unloading_mid = 0.0;
-  for (int k = 1; k <= 2 * steps; ++k) {
-    const double level = q_max * (k <= steps ? k : 2 * steps - k) / steps;
-    ContactStep step = press;
-    step.tangential_force_n = Eigen::Vector2d(level * mu * o.normal_force_n, 0.0);
-    const ContactResult r = goodman_solver.Solve(step, state);
-    state = r.state;
-    const double exact = k <= steps
-                             ? MindlinShift(o, level, hertz.radius_mm)
-                             : MindlinShift(o, q_max, hertz.radius_mm) -
-                                   2.0 * MindlinShift(o, 0.5 * (q_max - level), hertz.radius_mm);
-    if (k == steps / 2) loading_mid = state.shift_mm.x();
-    if (k == 2 * steps - steps / 2) unloading_mid = state.shift_mm.x();
-    path.push_back({{"q_over_mu_p", level},
-                    {"shift_mm", state.shift_mm.x()},
-                    {"exact_shift_mm", exact},
-                    {"num_stick", r.summary.num_stick},
-                    {"num_slip", r.summary.num_slip},
-                    {"summary", record(r)}});
-  }
-  const double residual_shift = state.shift_mm.x();
-  const double exact_residual = path.back().at("exact_shift_mm").get<double>();
-  report["history"] = {
-      {"path", path},
-      {"residual_shift_mm", residual_shift},
-      {"exact_residual_shift_mm", exact_residual},
-      {"residual_traction_max_mpa", state.traction_mpa.rowwise().norm().maxCoeff()},
-      {"hysteresis_at_half_mm", unloading_mid - loading_mid}};
-  checks.Add("history_residual_shift_error_pct",
-             PercentError(residual_shift, exact_residual),
-             o.history_tolerance_pct,
-             "%");
-
-  // Sliding across two materials, fully coupled: the sphere moves along x in steps from the
-  // pressed state; each node's mu is the object's at the point it faces.
-  const auto mu_map = [&](const Eigen::Vector2d& origin) {
-    Eigen::VectorXd m(n);
-    for (int i = 0; i < n; ++i) {
-      m[i] = (grid.node_position_mm(i) - origin).x() < 0.0 ? o.friction_coefficient_left
-                                                           : o.friction_coefficient_right;
-    }
-    return m;
-  };
-  ContactStep across = press;
-  across.friction_coefficient = mu_map(Eigen::Vector2d::Zero());
-  state = coupled_solver.Solve(across, ContactState::Unloaded(n)).state;
-  across.tangential_control = TangentialControl::kShift;
-  double max_ratio_error = 0.0;
-  int slip_left = 0, slip_right = 0;
-  nlohmann::json slide_path = nlohmann::json::array();
-  for (int k = 1; k <= steps; ++k) {
-    const Eigen::Vector2d origin(max_slide_mm * k / steps, 0.0);
-    across.shift_mm = origin;
-    across.gap_mm = sphere.CalcGap(grid, origin);
-    across.friction_coefficient = mu_map(origin);
-    const ContactResult r = coupled_solver.Solve(across, state);
-    // Slip from the kinematics (independent of the solver's stick/slip labels).
-    const Eigen::MatrixX2d slip =
-        (r.state.displacement_mm.leftCols<2>() - state.displacement_mm.leftCols<2>()).rowwise() -
-        (r.state.shift_mm - state.shift_mm).transpose();
-    const double threshold =
-        1e-5 * r.state.displacement_mm.leftCols<2>().rowwise().norm().maxCoeff();
-    for (int i = 0; i < n; ++i) {
-      const double pi = r.state.pressure_mpa[i];
-      if (!(pi > 0.0) || slip.row(i).norm() <= threshold) continue;
-      const double m = across.friction_coefficient[i];
-      max_ratio_error =
-          std::max(max_ratio_error, PercentError(r.state.traction_mpa.row(i).norm() / pi, m));
-      (m == o.friction_coefficient_left ? slip_left : slip_right) += 1;
-    }
-    state = r.state;
-    slide_path.push_back({{"shift_mm", origin.x()},
-                          {"tangential_force_n", state.tangential_force_n.x()},
-                          {"normal_force_n", state.normal_force_n},
-                          {"summary", record(r)}});
-  }
-  report["two_material"] = {{"path", slide_path},
-                            {"slip_nodes_left", slip_left},
-                            {"slip_nodes_right", slip_right},
-                            {"max_ratio_error_pct", max_ratio_error}};
-  // Both materials must have slipped for the ratio check to mean anything.
-  checks.Add("slip_mu_error_pct",
-             slip_left > 0 && slip_right > 0 ? max_ratio_error : 100.0,
-             o.friction_tolerance_pct,
-             "%");
-  checks.Add("all_converged", all_converged ? 0.0 : 1.0, 0.0, "");
-  report["checks"] = checks.json();
-  report["all_pass"] = checks.all_pass();
-  return report;
+  ContactEvaluation evaluation(o);
+  const ContactState pressed_mu = evaluation.CheckHertz().CheckMindlin();
+  evaluation.CheckHistory(pressed_mu);
+  evaluation.CheckTwoMaterial();
+  return evaluation.Finish();
 }
 
 }  // namespace tac3d::contact

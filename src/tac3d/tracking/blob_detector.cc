@@ -120,6 +120,243 @@ int HalfWidth(double r2, int dy) {
   return left < 0 ? -1 : static_cast<int>(std::floor(std::sqrt(left)));
 }
 
+// The blob's seed: the darkest pixel in the search disk (255 and x < 0 if none is darker
+// than white).
+struct Seed {
+  int darkest = 255, x = -1, y = -1;
+};
+
+// The darkest pixel in the disk of radius `s` about `predicted`, inside `roi`: the first, in
+// row-major order, of the disk's minimum.
+Seed FindDarkestPixel(const cv::Mat& image,
+                      const cv::Rect& roi,
+                      const Eigen::Vector2d& predicted,
+                      double s) {
+  const int roi_x1 = roi.x + roi.width - 1, roi_y1 = roi.y + roi.height - 1;
+  const double qx = predicted.x(), qy = predicted.y();
+  Seed seed;
+  const int y0 = std::max(roi.y, static_cast<int>(std::ceil(qy - s)));
+  const int y1 = std::min(roi_y1, static_cast<int>(std::floor(qy + s)));
+  // The rows' spans come first, a block at a time, so their square roots do not sit in the
+  // scanning loop (a separate loop also vectorises).
+  constexpr int kBlockRows = 16;
+  std::array<int, kBlockRows> span_x0, span_x1;
+  for (int block = y0; block <= y1; block += kBlockRows) {
+    const int rows = std::min(kBlockRows, y1 - block + 1);
+    for (int k = 0; k < rows; ++k) {
+      const double dy = block + k - qy;
+      const double half_width = std::sqrt(std::max(0.0, s * s - dy * dy));
+      span_x0[k] = std::max(roi.x, static_cast<int>(std::ceil(qx - half_width)));
+      span_x1[k] = std::min(roi_x1, static_cast<int>(std::floor(qx + half_width)));
+    }
+    for (int k = 0; k < rows; ++k) {
+      const int y = block + k, x0 = span_x0[k], x1 = span_x1[k];
+      const std::uint8_t* row = image.ptr<std::uint8_t>(y);
+      for (int a = x0; a <= x1; a += kLanes) {
+        U8x16 pixels;
+        const int first = VectorStart(image.cols, a);
+        LoadSpan(row, image.cols, first, a, std::min(x1, a + kLanes - 1), pixels);
+        const int span_min = HorizontalMin(pixels);
+        if (span_min >= seed.darkest) continue;
+        seed.darkest = span_min;
+        seed.x = first + FirstLaneEqual(pixels, static_cast<std::uint8_t>(span_min));
+        seed.y = y;
+      }
+    }
+  }
+  return seed;
+}
+
+// Local background: the median of 16 pixels on a circle just outside the blob's disk,
+// robust to a neighbouring dot covering part of it. False if fewer than half the samples
+// lie in the roi.
+bool MeasureRingBackground(const cv::Mat& image,
+                           const cv::Rect& roi,
+                           const Seed& seed,
+                           double blob_radius_px,
+                           double& background) {
+  const int roi_x1 = roi.x + roi.width - 1, roi_y1 = roi.y + roi.height - 1;
+  // Samples outside the roi are white, so they sort after the others: the median of the
+  // ring_size samples in it is still the one at rank ring_size / 2.
+  const double ring_radius = blob_radius_px + 1.25;
+  std::array<int, kRingSamples> ring_x, ring_y;  // first, apart from the reads: vectorised
+  for (int k = 0; k < kRingSamples; ++k) {
+    ring_x[k] = seed.x + Round(ring_radius * kRingDirections.cos[k]);
+    ring_y[k] = seed.y + Round(ring_radius * kRingDirections.sin[k]);
+  }
+  U8x16 ring;
+  int ring_size = 0;
+  for (int k = 0; k < kRingSamples; ++k) {
+    const int x = ring_x[k], y = ring_y[k];
+    const bool inside = x >= roi.x && x <= roi_x1 && y >= roi.y && y <= roi_y1;
+    ring[k] = inside ? image.ptr<std::uint8_t>(y)[x] : 255;
+    ring_size += inside;
+  }
+  if (ring_size < kRingSamples / 2) return false;
+  background = ValueAtRank(ring, ring_size / 2);
+  return true;
+}
+
+// The half widths of the rows of a disk of radius r_px, tabulated once for both moment
+// passes (a square root in each row's loop cost as much as the rest of it); only radii past
+// the table, from full-image detection of a large component, take theirs row by row.
+class DiskHalfWidths {
+ public:
+  explicit DiskHalfWidths(double r_px) : r2_(r_px * r_px), r_(static_cast<int>(std::floor(r_px))) {
+    for (int dy = 0; dy <= std::min(r_, kTabulatedRows - 1); ++dy) table_[dy] = HalfWidth(r2_, dy);
+  }
+  int r() const { return r_; }
+  int operator()(int dy) const {
+    return std::abs(dy) < kTabulatedRows ? table_[std::abs(dy)] : HalfWidth(r2_, dy);
+  }
+
+ private:
+  static constexpr int kTabulatedRows = 64;
+  const double r2_;
+  const int r_;
+  std::array<int, kTabulatedRows> table_;
+};
+
+// Darkness-weighted moments about the integer centre (cx, cy), and how many pixels have
+// weight.
+struct Moments {
+  int cx = 0, cy = 0;
+  double sw = 0, sx = 0, sy = 0, sxx = 0, sxy = 0, syy = 0;
+  std::int64_t count = 0;
+};
+
+// One pass: the moments of weight = level - pixel (clipped at 0) over the disk about
+// (m.cx, m.cy), into m.
+void SumDiskMoments(const cv::Mat& image,
+                    const cv::Rect& roi,
+                    std::uint8_t level,
+                    const DiskHalfWidths& half_width_at,
+                    Moments& m) {
+  const int roi_x1 = roi.x + roi.width - 1, roi_y1 = roi.y + roi.height - 1;
+  const int r = half_width_at.r(), cx = m.cx, cy = m.cy;
+  // Exact integer moments about (cx, cy). The disk's vectors start at the same columns in
+  // every row, so a pixel's dx is its lane plus the vector's offset: lanes accumulate the
+  // 16-bit products w * lane and w * lane^2 (always exact), the offset enters once per
+  // vector and dy once per row. The same integers as summing w * dx * dy pixel by pixel.
+  std::int64_t mw = 0, mwx = 0, mwy = 0, mwxx = 0, mwxy = 0, mwyy = 0;
+  std::int64_t count = 0;
+  const int x_begin = std::max(cx - r, roi.x), x_end = std::min(cx + r, roi_x1);
+  for (int a = x_begin; a <= x_end; a += kLanes) {
+    const int first = VectorStart(image.cols, a), last = std::min(x_end, a + kLanes - 1);
+    const std::int64_t offset = first - cx;
+    // Sums over the vector's rows: of w, w * lane, w * lane^2, and of those times dy.
+    std::int64_t w = 0, wl = 0, wll = 0, wy = 0, wly = 0, wyy = 0;
+    I32x8 lanes_wll{};
+    for (int dy = -r, rows = 0; dy <= r; ++dy) {
+      const int y = cy + dy;
+      if (y < roi.y || y > roi_y1) continue;
+      const int half_width = half_width_at(dy);
+      const int x0 = std::max(a, cx - half_width), x1 = std::min(last, cx + half_width);
+      if (x0 > x1) continue;
+      U8x16 pixels;
+      LoadSpan(image.ptr<std::uint8_t>(y), image.cols, first, x0, x1, pixels);
+      const U8x16 weight = pixels < level ? level - pixels : U8x16{};  // white padding: 0
+      count += CountNonZero(weight);
+      const U16x16 w16 = __builtin_convertvector(weight, U16x16);
+      const U16x16 wl16 = w16 * kLane16, wll16 = wl16 * kLane16;  // <= 255 * 15^2 < 2^16
+      const auto [row_w, row_wl] = Sums(w16, wl16);                 // <= 16 * 255 * 15 < 2^16
+      w += row_w;
+      wl += row_wl;
+      wy += std::int64_t{row_w} * dy;
+      wly += std::int64_t{row_wl} * dy;
+      wyy += std::int64_t{row_w} * dy * dy;
+      lanes_wll += __builtin_convertvector(__builtin_shufflevector(wll16, wll16, 0, 1, 2, 3, 4, 5, 6, 7), I32x8) +
+                   __builtin_convertvector(__builtin_shufflevector(wll16, wll16, 8, 9, 10, 11, 12, 13, 14, 15), I32x8);
+      if (++rows == kRowsPerSum) {  // before a lane of int32 could overflow
+        wll += Sum(lanes_wll);
+        lanes_wll = I32x8{};
+        rows = 0;
+      }
+    }
+    wll += Sum(lanes_wll);
+    // dx = lane + offset.
+    mw += w;
+    mwx += wl + offset * w;
+    mwxx += wll + 2 * offset * wl + offset * offset * w;
+    mwy += wy;
+    mwxy += wly + offset * wy;
+    mwyy += wyy;
+  }
+  m.count = count;
+  m.sw = static_cast<double>(mw);
+  m.sx = static_cast<double>(mwx);
+  m.sy = static_cast<double>(mwy);
+  m.sxx = static_cast<double>(mwxx);
+  m.sxy = static_cast<double>(mwxy);
+  m.syy = static_cast<double>(mwyy);
+}
+
+// Darkness-weighted moments over the blob's disk about the darkest pixel; again about the
+// pixel nearest the centroid if that is far off, so that a darkest pixel at the rim of a
+// flat dark core does not cut the disk off-centre. False if a pass has no weight.
+bool CalcCentredMoments(const cv::Mat& image,
+                        const cv::Rect& roi,
+                        const Seed& seed,
+                        std::uint8_t level,
+                        double blob_radius_px,
+                        Moments& m) {
+  const DiskHalfWidths half_width_at(blob_radius_px);
+  m.cx = seed.x;
+  m.cy = seed.y;
+  for (int pass = 0; pass < 2; ++pass) {
+    if (pass == 1) {
+      const double ox = m.sx / m.sw, oy = m.sy / m.sw;
+      if (ox * ox + oy * oy <= kRecentreDistance2) break;
+      m.cx += Round(ox);
+      m.cy += Round(oy);
+    }
+    SumDiskMoments(image, roi, level, half_width_at, m);
+    if (m.sw <= 0) return false;
+  }
+  return true;
+}
+
+// The blob's centroid and shape from its moments: RMS radius along the long axis,
+// elongation, and fill (pixels with weight over the covariance ellipse's area).
+struct Shape {
+  Eigen::Vector2d center;
+  double spread, elongation, fill;
+};
+Shape CalcShape(const Moments& m) {
+  const double sw = m.sw;
+  const double mx = m.sx / sw, my = m.sy / sw;
+  // A pixel is a unit square: its own variance (1/12 per axis) keeps a one-pixel blob finite.
+  const double cxx = m.sxx / sw - mx * mx + 1.0 / 12, cyy = m.syy / sw - my * my + 1.0 / 12;
+  const double cxy = m.sxy / sw - mx * my;
+  const double mean = 0.5 * (cxx + cyy);
+  const double deviation = std::sqrt(0.25 * (cxx - cyy) * (cxx - cyy) + cxy * cxy);
+  const double major = mean + deviation, minor = std::max(mean - deviation, 1.0 / 12);
+  return {Eigen::Vector2d(m.cx + mx, m.cy + my),
+          std::sqrt(major),
+          std::sqrt(major / minor),
+          m.count / (4.0 * M_PI * std::sqrt(major * minor))};
+}
+
+// Darkness of the 3 x 3 core at `center` (the part inside the roi, `core_count` pixels):
+// the sum of background - pixel.
+double CoreDarkness(const cv::Mat& image,
+                    const cv::Rect& roi,
+                    const Eigen::Vector2d& center,
+                    double background,
+                    int& core_count) {
+  const int roi_x1 = roi.x + roi.width - 1, roi_y1 = roi.y + roi.height - 1;
+  const int ux = Round(center.x()), uy = Round(center.y());
+  int core_sum = 0;  // integers: the same sum as in doubles, without its chain
+  core_count = 0;
+  for (int y = std::max(roi.y, uy - 1); y <= std::min(roi_y1, uy + 1); ++y) {
+    for (int x = std::max(roi.x, ux - 1); x <= std::min(roi_x1, ux + 1); ++x) {
+      core_sum += image.at<std::uint8_t>(y, x);
+      ++core_count;
+    }
+  }
+  return core_count * background - core_sum;
+}
+
 }  // namespace
 
 void BlobOptions::Validate() const {
@@ -172,177 +409,34 @@ BlobStatus MeasureBlob(const cv::Mat& image,
     return BlobStatus::kNoBlob;
   }
 
-  // The darkest pixel in the search disk seeds the blob: the first, in row-major order,
-  // of the disk's minimum.
-  int darkest = 255, bx = -1, by = -1;
-  const int y0 = std::max(roi.y, static_cast<int>(std::ceil(qy - s)));
-  const int y1 = std::min(roi_y1, static_cast<int>(std::floor(qy + s)));
-  // The rows' spans come first, a block at a time, so their square roots do not sit in the
-  // scanning loop (a separate loop also vectorises).
-  constexpr int kBlockRows = 16;
-  std::array<int, kBlockRows> span_x0, span_x1;
-  for (int block = y0; block <= y1; block += kBlockRows) {
-    const int rows = std::min(kBlockRows, y1 - block + 1);
-    for (int k = 0; k < rows; ++k) {
-      const double dy = block + k - qy;
-      const double half_width = std::sqrt(std::max(0.0, s * s - dy * dy));
-      span_x0[k] = std::max(roi.x, static_cast<int>(std::ceil(qx - half_width)));
-      span_x1[k] = std::min(roi_x1, static_cast<int>(std::floor(qx + half_width)));
-    }
-    for (int k = 0; k < rows; ++k) {
-      const int y = block + k, x0 = span_x0[k], x1 = span_x1[k];
-      const std::uint8_t* row = image.ptr<std::uint8_t>(y);
-      for (int a = x0; a <= x1; a += kLanes) {
-        U8x16 pixels;
-        const int first = VectorStart(image.cols, a);
-        LoadSpan(row, image.cols, first, a, std::min(x1, a + kLanes - 1), pixels);
-        const int span_min = HorizontalMin(pixels);
-        if (span_min >= darkest) continue;
-        darkest = span_min;
-        bx = first + FirstLaneEqual(pixels, static_cast<std::uint8_t>(span_min));
-        by = y;
-      }
-    }
-  }
+  const Seed seed = FindDarkestPixel(image, roi, predicted, search_radius_px);
   // No pixel, or none darker than white (padding lanes are white): no contrast either.
-  if (bx < 0) return BlobStatus::kNoBlob;
-
-  // Local background: the median of 16 pixels on a circle just outside the blob's disk,
-  // robust to a neighbouring dot covering part of it.
-  // Samples outside the roi are white, so they sort after the others: the median of the
-  // ring_size samples in it is still the one at rank ring_size / 2.
-  const double ring_radius = blob_radius_px + 1.25;
-  std::array<int, kRingSamples> ring_x, ring_y;  // first, apart from the reads: vectorised
-  for (int k = 0; k < kRingSamples; ++k) {
-    ring_x[k] = bx + Round(ring_radius * kRingDirections.cos[k]);
-    ring_y[k] = by + Round(ring_radius * kRingDirections.sin[k]);
+  if (seed.x < 0) return BlobStatus::kNoBlob;
+  double background = 0;
+  if (!MeasureRingBackground(image, roi, seed, blob_radius_px, background)) {
+    return BlobStatus::kNoBlob;
   }
-  U8x16 ring;
-  int ring_size = 0;
-  for (int k = 0; k < kRingSamples; ++k) {
-    const int x = ring_x[k], y = ring_y[k];
-    const bool inside = x >= roi.x && x <= roi_x1 && y >= roi.y && y <= roi_y1;
-    ring[k] = inside ? image.ptr<std::uint8_t>(y)[x] : 255;
-    ring_size += inside;
-  }
-  if (ring_size < kRingSamples / 2) return BlobStatus::kNoBlob;
-  const double background = ValueAtRank(ring, ring_size / 2);
-  const double contrast = background - darkest;
+  const double contrast = background - seed.darkest;
   if (contrast < std::max(options.min_contrast_dn, options.min_relative_contrast * background)) {
     return BlobStatus::kNoBlob;
   }
 
-  // Darkness-weighted moments over the blob's disk about the darkest pixel; again about
-  // the pixel nearest the centroid if that is far off, so that a darkest pixel at the rim
-  // of a flat dark core does not cut the disk off-centre.
   // level <= background <= 255 and level >= darkest >= 0 (weight_threshold < 1): a byte.
   const auto level = static_cast<std::uint8_t>(Round(background - options.weight_threshold * contrast));
-  const double r2 = blob_radius_px * blob_radius_px;
-  const int r = static_cast<int>(std::floor(blob_radius_px));
-  // The disk's half widths, once for both passes (a square root in each row's loop cost
-  // as much as the rest of it); only radii past the table, from full-image detection of a
-  // large component, take theirs row by row.
-  constexpr int kTabulatedRows = 64;
-  std::array<int, kTabulatedRows> half_widths;
-  for (int dy = 0; dy <= std::min(r, kTabulatedRows - 1); ++dy) half_widths[dy] = HalfWidth(r2, dy);
-  const auto half_width_at = [&](int dy) {
-    return std::abs(dy) < kTabulatedRows ? half_widths[std::abs(dy)] : HalfWidth(r2, dy);
-  };
-  int cx = bx, cy = by;
-  double sw = 0, sx = 0, sy = 0, sxx = 0, sxy = 0, syy = 0;
-  std::int64_t count = 0;
-  for (int pass = 0; pass < 2; ++pass) {
-    if (pass == 1) {
-      const double ox = sx / sw, oy = sy / sw;
-      if (ox * ox + oy * oy <= kRecentreDistance2) break;
-      cx += Round(ox);
-      cy += Round(oy);
-    }
-    // Exact integer moments about (cx, cy). The disk's vectors start at the same columns in
-    // every row, so a pixel's dx is its lane plus the vector's offset: lanes accumulate the
-    // 16-bit products w * lane and w * lane^2 (always exact), the offset enters once per
-    // vector and dy once per row. The same integers as summing w * dx * dy pixel by pixel.
-    std::int64_t mw = 0, mwx = 0, mwy = 0, mwxx = 0, mwxy = 0, mwyy = 0;
-    count = 0;
-    const int x_begin = std::max(cx - r, roi.x), x_end = std::min(cx + r, roi_x1);
-    for (int a = x_begin; a <= x_end; a += kLanes) {
-      const int first = VectorStart(image.cols, a), last = std::min(x_end, a + kLanes - 1);
-      const std::int64_t offset = first - cx;
-      // Sums over the vector's rows: of w, w * lane, w * lane^2, and of those times dy.
-      std::int64_t w = 0, wl = 0, wll = 0, wy = 0, wly = 0, wyy = 0;
-      I32x8 lanes_wll{};
-      for (int dy = -r, rows = 0; dy <= r; ++dy) {
-        const int y = cy + dy;
-        if (y < roi.y || y > roi_y1) continue;
-        const int half_width = half_width_at(dy);
-        const int x0 = std::max(a, cx - half_width), x1 = std::min(last, cx + half_width);
-        if (x0 > x1) continue;
-        U8x16 pixels;
-        LoadSpan(image.ptr<std::uint8_t>(y), image.cols, first, x0, x1, pixels);
-        const U8x16 weight = pixels < level ? level - pixels : U8x16{};  // white padding: 0
-        count += CountNonZero(weight);
-        const U16x16 w16 = __builtin_convertvector(weight, U16x16);
-        const U16x16 wl16 = w16 * kLane16, wll16 = wl16 * kLane16;  // <= 255 * 15^2 < 2^16
-        const auto [row_w, row_wl] = Sums(w16, wl16);                 // <= 16 * 255 * 15 < 2^16
-        w += row_w;
-        wl += row_wl;
-        wy += std::int64_t{row_w} * dy;
-        wly += std::int64_t{row_wl} * dy;
-        wyy += std::int64_t{row_w} * dy * dy;
-        lanes_wll += __builtin_convertvector(__builtin_shufflevector(wll16, wll16, 0, 1, 2, 3, 4, 5, 6, 7), I32x8) +
-                     __builtin_convertvector(__builtin_shufflevector(wll16, wll16, 8, 9, 10, 11, 12, 13, 14, 15), I32x8);
-        if (++rows == kRowsPerSum) {  // before a lane of int32 could overflow
-          wll += Sum(lanes_wll);
-          lanes_wll = I32x8{};
-          rows = 0;
-        }
-      }
-      wll += Sum(lanes_wll);
-      // dx = lane + offset.
-      mw += w;
-      mwx += wl + offset * w;
-      mwxx += wll + 2 * offset * wl + offset * offset * w;
-      mwy += wy;
-      mwxy += wly + offset * wy;
-      mwyy += wyy;
-    }
-    sw = static_cast<double>(mw);
-    sx = static_cast<double>(mwx);
-    sy = static_cast<double>(mwy);
-    sxx = static_cast<double>(mwxx);
-    sxy = static_cast<double>(mwxy);
-    syy = static_cast<double>(mwyy);
-    if (sw <= 0) return BlobStatus::kNoBlob;
-  }
-  const double mx = sx / sw, my = sy / sw;
-  // A pixel is a unit square: its own variance (1/12 per axis) keeps a one-pixel blob finite.
-  const double cxx = sxx / sw - mx * mx + 1.0 / 12, cyy = syy / sw - my * my + 1.0 / 12;
-  const double cxy = sxy / sw - mx * my;
-  const double mean = 0.5 * (cxx + cyy);
-  const double deviation = std::sqrt(0.25 * (cxx - cyy) * (cxx - cyy) + cxy * cxy);
-  const double major = mean + deviation, minor = std::max(mean - deviation, 1.0 / 12);
-  const double spread = std::sqrt(major), elongation = std::sqrt(major / minor);
-  const double fill = count / (4.0 * M_PI * std::sqrt(major * minor));
-  const Eigen::Vector2d center(cx + mx, cy + my);
-  // Mean darkness of the 3 x 3 core at the centroid.
-  const int ux = Round(center.x()), uy = Round(center.y());
-  int core_sum = 0, core_count = 0;  // integers: the same sum as in doubles, without its chain
-  for (int y = std::max(roi.y, uy - 1); y <= std::min(roi_y1, uy + 1); ++y) {
-    for (int x = std::max(roi.x, ux - 1); x <= std::min(roi_x1, ux + 1); ++x) {
-      core_sum += image.at<std::uint8_t>(y, x);
-      ++core_count;
-    }
-  }
-  const double core = core_count * background - core_sum;
-  if (spread < options.min_spread_px || spread > options.max_spread_px ||
-      elongation > options.max_elongation || fill < options.min_fill ||
+  Moments m;
+  if (!CalcCentredMoments(image, roi, seed, level, blob_radius_px, m)) return BlobStatus::kNoBlob;
+  const Shape shape = CalcShape(m);
+  int core_count = 0;
+  const double core = CoreDarkness(image, roi, shape.center, background, core_count);
+  if (shape.spread < options.min_spread_px || shape.spread > options.max_spread_px ||
+      shape.elongation > options.max_elongation || shape.fill < options.min_fill ||
       core < options.min_core_darkness * contrast * core_count) {
     return BlobStatus::kBadShape;
   }
-  blob.center = center;
+  blob.center = shape.center;
   blob.contrast_dn = contrast;
-  blob.spread_px = spread;
-  blob.elongation = elongation;
+  blob.spread_px = shape.spread;
+  blob.elongation = shape.elongation;
   return BlobStatus::kFound;
 }
 
