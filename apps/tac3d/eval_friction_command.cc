@@ -50,7 +50,8 @@ double EnsureDataset(const std::string& scene,
 
 void RegisterEvalFriction(CLI::App& eval) {
   struct Args {
-    std::vector<std::string> scenes = {"friction_block", "friction_bottle", "friction_paint_can"};
+    std::vector<std::string> scenes = {"friction_block", "friction_bottle", "friction_paint_can",
+                                        "friction_tool_handle"};
     std::string datasets;
     std::string out = "out/eval_friction";
     ReplayArgs replay;  ///< the datasets' replay; its calibration defaults to DATASETS/force_calibration

@@ -104,6 +104,10 @@ void FrictionMapArgs::Add(CLI::App* cmd) {
                   min_slip_points,
                   "slip points within r a vertex needs for a mu (the paper's: 1)")
       ->capture_default_str();
+  cmd->add_option("--max-support-offset",
+                  max_support_offset,
+                  "a vertex keeps mu unknown when its slip points' weighted centre lies farther "
+                  "than this fraction of r from it (default 1: no such test)");
   cmd->add_option(
          "--view", view, "PNG view direction X Y Z, world (default: onto the mesh's outer side)")
       ->expected(3);
@@ -121,6 +125,7 @@ friction::FrictionMapOptions FrictionMapArgs::Options(const SensorConfig& sensor
   if (beta >= 0) o.beta = beta;
   if (gamma >= 0) o.normal_force_exponent = gamma;
   if (min_slip_points >= 0) o.min_slip_points = min_slip_points;
+  if (max_support_offset >= 0) o.max_support_offset = max_support_offset;
   if (slip_contact_threshold_n >= 0) o.slip_contact_threshold_n = slip_contact_threshold_n;
   o.tangential_motion = tangential_motion;
   o.gross_slip_only = gross_slip_only;
@@ -167,7 +172,8 @@ nlohmann::json MapOptionsJson(const friction::FrictionMapOptions& o) {
           {"alpha", o.alpha},
           {"beta", o.beta},
           {"gamma", o.normal_force_exponent},
-          {"min_slip_points", o.min_slip_points}};
+          {"min_slip_points", o.min_slip_points},
+          {"max_support_offset", o.max_support_offset}};
 }
 
 nlohmann::json WriteFrictionMapFiles(const friction::FrictionMapResult& map,

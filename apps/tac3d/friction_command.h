@@ -27,6 +27,7 @@ struct FrictionMapArgs {
   double beta = 0.0;
   double gamma = 1.0;
   int min_slip_points = 30;
+  double max_support_offset = -1;
   double slip_contact_threshold_n = 0.005;
   bool tangential_motion = true;
   bool gross_slip_only = true;

@@ -361,6 +361,8 @@ friction::FrictionMapOptions FrictionOptions(const py::dict& d) {
       o.normal_force_exponent = value.cast<double>();
     else if (k == "min_slip_points")
       o.min_slip_points = value.cast<int>();
+    else if (k == "max_support_offset")
+      o.max_support_offset = value.cast<double>();
     else
       throw Error(fmt::format("friction_map: unknown option '{}'", k));
   }

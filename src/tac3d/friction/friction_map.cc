@@ -84,19 +84,30 @@ void AssignFriction(const std::vector<SlipPoint>& slips,
   const open3d::geometry::KDTreeFlann tree(cloud);
   std::vector<int> index;
   std::vector<double> distance2, mu_i, r_i, fn_i;
+  const double max_offset = options.max_support_offset * options.radius_mm;
   for (size_t v = 0; v < n; ++v) {
-    const int found = tree.SearchRadius(result.vertices_mm[v], options.radius_mm, index, distance2);
+    const Eigen::Vector3d& vertex = result.vertices_mm[v];
+    const int found = tree.SearchRadius(vertex, options.radius_mm, index, distance2);
     if (found <= 0) continue;
     result.slip_count[v] = found;
     if (found < options.min_slip_points) continue;
     mu_i.resize(found);
     r_i.resize(found);
     fn_i.resize(found);
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+    double weight = 0.0;
     for (int k = 0; k < found; ++k) {
-      mu_i[k] = voters[index[k]]->mu;
+      const SlipPoint& s = *voters[index[k]];
+      mu_i[k] = s.mu;
       r_i[k] = std::sqrt(distance2[k]);
-      fn_i[k] = voters[index[k]]->normal_force_n;
+      fn_i[k] = s.normal_force_n;
+      const double w = SupportWeight(r_i[k], fn_i[k], options);
+      centre += w * s.p_in_world_mm;
+      weight += w;
     }
+    if (options.max_support_offset < 1.0 && weight > 0 &&
+        (centre / weight - vertex).norm() > max_offset)
+      continue;
     result.mu[v] = WeightedFriction(mu_i, r_i, options, &result.confidence[v], fn_i);
   }
 }
@@ -173,6 +184,10 @@ void FrictionMapOptions::Validate() const {
           slip_contact_threshold_n);
   Require(gross_slip_margin >= 0, "gross_slip_margin", ">= 0", gross_slip_margin);
   Require(min_slip_points >= 1, "min_slip_points", ">= 1", min_slip_points);
+  Require(max_support_offset > 0 && max_support_offset <= 1,
+          "max_support_offset",
+          "in (0, 1]",
+          max_support_offset);
   Require(normal_force_exponent >= 0 && std::isfinite(normal_force_exponent),
           "normal_force_exponent",
           ">= 0 and finite",
@@ -259,6 +274,13 @@ nlohmann::json ToJson(const FrictionMapSummary& s) {
 
 // ---- Equations 5 and 6 -------------------------------------------------------------------
 
+double SupportWeight(double distance_mm, double normal_force_n, const FrictionMapOptions& options) {
+  double w = std::pow(std::max(options.radius_mm - distance_mm, 0.0), options.alpha);
+  if (normal_force_n >= 0 && options.normal_force_exponent != 0.0)
+    w *= std::pow(normal_force_n, options.normal_force_exponent);
+  return w;
+}
+
 double WeightedFriction(const std::vector<double>& mu_i,
                         const std::vector<double>& distance_mm,
                         const FrictionMapOptions& options,
@@ -266,13 +288,11 @@ double WeightedFriction(const std::vector<double>& mu_i,
                         const std::vector<double>& normal_force_n) {
   TAC3D_DEMAND(mu_i.size() == distance_mm.size());
   TAC3D_DEMAND(normal_force_n.empty() || normal_force_n.size() == mu_i.size());
-  const bool force_weights = !normal_force_n.empty() && options.normal_force_exponent != 0.0;
   double sum_w = 0.0, sum_w_mu = 0.0, sum_mu = 0.0;
   for (size_t i = 0; i < mu_i.size(); ++i) {
-    double w = std::pow(std::max(options.radius_mm - distance_mm[i], 0.0), options.alpha) *
-               std::pow(mu_i[i], options.beta);
-    if (force_weights)
-      w *= std::pow(std::max(normal_force_n[i], 0.0), options.normal_force_exponent);
+    // Clamped to 0: a negative F_n must not read as "no force factor".
+    const double fn = normal_force_n.empty() ? -1.0 : std::max(normal_force_n[i], 0.0);
+    const double w = SupportWeight(distance_mm[i], fn, options) * std::pow(mu_i[i], options.beta);
     sum_w += w;
     sum_w_mu += w * mu_i[i];
     sum_mu += mu_i[i];

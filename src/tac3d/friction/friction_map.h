@@ -121,6 +121,14 @@ struct FrictionMapOptions {
   /// rim of the scanned patch a vertex sees only a few markers at the contact's edge, where
   /// F_n is small and the force ratio least reliable. 1 (the paper): any slip point will do.
   int min_slip_points = 1;
+  /// A vertex keeps mu unknown (NaN) when the centre of its slip points, weighted by
+  /// SupportWeight (equation 6 without mu_i^beta: where the data lie, not what they say),
+  /// lies farther than this fraction of r from it (in (0, 1]): its mu would be extrapolated
+  /// from one side. At the rim of the scanned patch every slip point near a vertex
+  /// lies inward of it (on a straight rim of uniform slip points the centre is 4r / (3 pi) =
+  /// 0.42 r inward), and they are the markers at one edge of the contact, whose force ratio
+  /// the force inverse biases one way. 1 (the paper): no such test.
+  double max_support_offset = 1.0;
 
   /// The defaults with cover_thickness_mm = sensor.markers.depth_mm.
   static FrictionMapOptions FromSensor(const SensorConfig& sensor);
@@ -305,6 +313,11 @@ class FrictionMapBuilder {
 /// @param mu_i, distance_mm the slip points' estimates and distances (r_i <= r).
 /// @param weight_sum set to sum w_i.
 /// @param normal_force_n the slip points' F_n for the F_n^gamma factor (empty: gamma ignored).
+/// The part of a slip point's weight in equation 5 that does not depend on its mu_i:
+/// (r - r_i)^alpha F_n,i^gamma (the F_n factor with normal_force_n >= 0 only; < 0: none).
+/// w_i = SupportWeight mu_i^beta.
+double SupportWeight(double distance_mm, double normal_force_n, const FrictionMapOptions& options);
+
 double WeightedFriction(const std::vector<double>& mu_i,
                         const std::vector<double>& distance_mm,
                         const FrictionMapOptions& options,

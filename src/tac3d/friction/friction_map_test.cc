@@ -247,6 +247,8 @@ TEST(FrictionMapOptions, DefaultsAreValidAndEveryBoundThrows) {
       {[](auto& o) { o.normal_force_exponent = -1; },
        "normal_force_exponent = -1 is out of range: must be >= 0 and finite"},
       {[](auto& o) { o.min_slip_points = 0; }, "min_slip_points = 0 is out of range: must be >= 1"},
+      {[](auto& o) { o.max_support_offset = 0; },
+       "max_support_offset = 0 is out of range: must be in (0, 1]"},
       {[](auto& o) { o.gross_slip_margin = -1; },
        "gross_slip_margin = -1 is out of range: must be >= 0"},
       {[&](auto& o) { o.slip_contact_threshold_n = inf; }, "slip_contact_threshold_n = inf"},
@@ -452,6 +454,43 @@ TEST_F(FrictionMapTwoRegions, UnknownWhereThereIsNoSlipPoint) {
       EXPECT_GT(m.confidence[v], 0.0);
     }
   }
+}
+
+// The support test leaves the rim's vertices unknown, whose slip points all lie inward, and
+// changes nothing inside.
+TEST_F(FrictionMapTwoRegions, SupportOffsetTrimsTheRimOnly) {
+  FrictionMapOptions options;
+  options.max_support_offset = 0.25;
+  const FrictionMapResult trimmed = BuilderFor(*scan_, options).Build();
+  const FrictionMapResult& all = *result_;
+  ASSERT_EQ(trimmed.vertices_mm.size(), all.vertices_mm.size());
+  double all_min_x = 1e9, trimmed_min_x = 1e9;
+  int interior = 0, dropped = 0;
+  for (size_t v = 0; v < all.vertices_mm.size(); ++v) {
+    const Eigen::Vector3d& p = all.vertices_mm[v];
+    if (std::isnan(all.mu[v])) {
+      EXPECT_TRUE(std::isnan(trimmed.mu[v]));
+      continue;
+    }
+    all_min_x = std::min(all_min_x, p.x());
+    if (std::isnan(trimmed.mu[v])) {
+      ++dropped;
+      continue;
+    }
+    trimmed_min_x = std::min(trimmed_min_x, p.x());
+    EXPECT_DOUBLE_EQ(trimmed.mu[v], all.mu[v]);
+    // Inside the scanned patch (strokes at y = -3..3 from x = -10 to 10, 4 mm contacts).
+    if (std::abs(p.x()) < 8.0 && std::abs(p.y()) < 3.0) ++interior;
+  }
+  for (size_t v = 0; v < all.vertices_mm.size(); ++v) {
+    const Eigen::Vector3d& p = all.vertices_mm[v];
+    if (std::abs(p.x()) < 8.0 && std::abs(p.y()) < 3.0 && !std::isnan(all.mu[v])) {
+      EXPECT_FALSE(std::isnan(trimmed.mu[v])) << "interior vertex " << v << " dropped";
+    }
+  }
+  EXPECT_GT(interior, 200);
+  EXPECT_GT(dropped, 20);
+  EXPECT_GT(trimmed_min_x, all_min_x + 0.3);  // the stroke starts' rim went
 }
 
 TEST_F(FrictionMapTwoRegions, MeshLiesOnTheObjectsPlaneAfterTheCoverOffset) {

@@ -120,9 +120,10 @@ void Finish(FrictionEvaluation& e) {
   e.band_agreement = ratio(e.band_agree_area, e.known_area_mm2);
   e.surface_rms_mm = std::sqrt(ratio(e.surface_sq_area, e.area_mm2));
   e.coverage = ratio(e.covered_points, e.touched_points);
-  e.slip_precision = ratio(e.slip_true_positives, e.slip_points);
+  e.slip_precision = ratio(e.slip_true_positives, e.slip_points - e.slip_points_at_light_slips);
   e.slip_recall = ratio(e.true_slips_found, e.true_slips);
-  e.slip_recall_loaded = ratio(e.true_loaded_slips_found, e.true_loaded_slips);
+  e.slip_recall_any_cell =
+      ratio(e.true_slips_found + e.light_slips_found, e.true_slips + e.light_slips);
   const std::vector<double>& b = e.boundary_distances_mm;
   e.boundary_error_mm = b.empty() ? kNaN : std::accumulate(b.begin(), b.end(), 0.0) / b.size();
   e.boundary_error_median_mm = Percentile(b, 0.5);
@@ -203,9 +204,9 @@ void FrictionEvaluationOptions::Validate() const {
     throw Error(fmt::format("FrictionEvaluationOptions::coverage_distance_mm = {} must be > 0",
                             coverage_distance_mm));
   }
-  if (!(loaded_marker_n >= 0) || !std::isfinite(loaded_marker_n)) {
-    throw Error(fmt::format("FrictionEvaluationOptions::loaded_marker_n = {} must be >= 0",
-                            loaded_marker_n));
+  if (!(slip_truth_min_force_n >= 0) || !std::isfinite(slip_truth_min_force_n)) {
+    throw Error(fmt::format("FrictionEvaluationOptions::slip_truth_min_force_n = {} must be >= 0",
+                            slip_truth_min_force_n));
   }
   if (!(touched_voxel_mm > 0) || !std::isfinite(touched_voxel_mm)) {
     throw Error(fmt::format("FrictionEvaluationOptions::touched_voxel_mm = {} must be > 0",
@@ -291,7 +292,7 @@ FrictionEvaluation EvaluateFrictionMap(
   FrictionEvaluation e;
   e.scene = scene.name;
   e.map = map.summary;
-  e.loaded_marker_n = options.loaded_marker_n;
+  e.slip_truth_min_force_n = options.slip_truth_min_force_n;
   const size_t n = map.vertices_mm.size();
   const std::vector<double> area = VertexAreas(map);
   std::vector<double> true_mu(n, kNaN);
@@ -319,15 +320,22 @@ FrictionEvaluation EvaluateFrictionMap(
     if (known.Nearest(p, options.coverage_distance_mm) >= 0) ++e.covered_points;
   }
 
+  // A slipping marker is a true slip when pressed over the force floor, else a light slip.
+  enum class Truth { kNoSlip, kSlip, kLightSlip };
+  const auto truth_of = [&options](const FrictionReplayRecorder::FrameTruth& t, size_t i) {
+    if (i >= t.marker_slip.size() || !t.marker_slip[i]) return Truth::kNoSlip;
+    const bool pressed = i < t.true_normal_force_n.size() &&
+                         t.true_normal_force_n[i] > options.slip_truth_min_force_n;
+    return pressed ? Truth::kSlip : Truth::kLightSlip;
+  };
   std::set<std::pair<std::int64_t, int>> detected;
   for (const friction::SlipPoint& s : map.slip_points) {
     ++e.slip_points;
     detected.insert({s.frame_index, s.marker});
     const auto it = truth.find(s.frame_index);
-    if (it != truth.end() && s.marker < static_cast<int>(it->second.marker_slip.size()) &&
-        it->second.marker_slip[s.marker]) {
-      ++e.slip_true_positives;
-    }
+    const Truth state = it == truth.end() ? Truth::kNoSlip : truth_of(it->second, s.marker);
+    if (state == Truth::kSlip) ++e.slip_true_positives;
+    if (state == Truth::kLightSlip) ++e.slip_points_at_light_slips;
   }
   const FrictionReplayRecorder::FrameTruth* previous = nullptr;
   for (const auto& [frame, t] : truth) {
@@ -335,13 +343,15 @@ FrictionEvaluation EvaluateFrictionMap(
     previous = &t;
     if (!t.has_previous) continue;
     for (size_t i = 0; i < t.marker_slip.size(); ++i) {
-      if (!t.marker_slip[i]) continue;
-      ++e.true_slips;
+      const Truth state = truth_of(t, i);
+      if (state == Truth::kNoSlip) continue;
       const bool found = detected.count({frame, static_cast<int>(i)}) > 0;
-      if (i < t.true_normal_force_n.size() && t.true_normal_force_n[i] > options.loaded_marker_n) {
-        ++e.true_loaded_slips;
-        if (found) ++e.true_loaded_slips_found;
+      if (state == Truth::kLightSlip) {
+        ++e.light_slips;
+        if (found) ++e.light_slips_found;
+        continue;
       }
+      ++e.true_slips;
       if (found) {
         ++e.true_slips_found;
       } else {
@@ -360,7 +370,7 @@ FrictionEvaluation EvaluateFrictionMap(
 FrictionEvaluation PoolFrictionEvaluations(const std::vector<FrictionEvaluation>& scenes) {
   FrictionEvaluation all;
   all.scene = "overall";
-  if (!scenes.empty()) all.loaded_marker_n = scenes.front().loaded_marker_n;
+  if (!scenes.empty()) all.slip_truth_min_force_n = scenes.front().slip_truth_min_force_n;
   for (const FrictionEvaluation& e : scenes) {
     all.vertices += e.vertices;
     all.known_vertices += e.known_vertices;
@@ -384,12 +394,13 @@ FrictionEvaluation PoolFrictionEvaluations(const std::vector<FrictionEvaluation>
     all.touched_points += e.touched_points;
     all.covered_points += e.covered_points;
     all.slip_points += e.slip_points;
+    all.slip_points_at_light_slips += e.slip_points_at_light_slips;
     all.slip_true_positives += e.slip_true_positives;
     all.true_slips += e.true_slips;
     all.true_slips_found += e.true_slips_found;
     all.true_slips_missed_no_contact += e.true_slips_missed_no_contact;
-    all.true_loaded_slips += e.true_loaded_slips;
-    all.true_loaded_slips_found += e.true_loaded_slips_found;
+    all.light_slips += e.light_slips;
+    all.light_slips_found += e.light_slips_found;
     all.simulate_s += e.simulate_s;
     all.replay_s += e.replay_s;
     all.map_s += e.map_s;
@@ -403,8 +414,8 @@ std::string FrictionEvaluation::BriefReport() const {
   return fmt::format(
       "{}: mu_mae {:.4f}, band_agreement {:.4f}, boundary_error {:.3f} mm (p90 {:.3f}), coverage "
       "{:.4f}, "
-      "surface_rms {:.4f} mm, slip precision {:.4f} recall {:.4f} ({} slip points, {} true slips, "
-      "{} missed without measured contact; recall {:.4f} where the true F_n > {} N)",
+      "surface_rms {:.4f} mm, slip precision {:.4f} recall {:.4f} ({} slip points, {} true slips "
+      "over {} N, {} missed without measured contact; recall {:.4f} counting {} lighter slips)",
       scene,
       mu_mae,
       band_agreement,
@@ -416,9 +427,10 @@ std::string FrictionEvaluation::BriefReport() const {
       slip_recall,
       slip_points,
       true_slips,
+      slip_truth_min_force_n,
       true_slips_missed_no_contact,
-      slip_recall_loaded,
-      loaded_marker_n);
+      slip_recall_any_cell,
+      light_slips);
 }
 
 nlohmann::json ToJson(const FrictionEvaluation& e, const FrictionTargets& targets) {
@@ -464,6 +476,8 @@ nlohmann::json ToJson(const FrictionEvaluation& e, const FrictionTargets& target
       {"surface_max_mm", num(e.surface_max_mm)},
       {"slip_precision", num(e.slip_precision)},
       {"slip_recall", num(e.slip_recall)},
+      {"slip_recall_any_cell", num(e.slip_recall_any_cell)},
+      {"slip_truth_min_force_n", e.slip_truth_min_force_n},
       {"vertices", e.vertices},
       {"known_vertices", e.known_vertices},
       {"area_mm2", e.area_mm2},
@@ -471,13 +485,13 @@ nlohmann::json ToJson(const FrictionEvaluation& e, const FrictionTargets& target
       {"touched_points", e.touched_points},
       {"covered_points", e.covered_points},
       {"slip_points", e.slip_points},
+      {"slip_points_at_light_slips", e.slip_points_at_light_slips},
       {"slip_true_positives", e.slip_true_positives},
       {"true_slips", e.true_slips},
       {"true_slips_found", e.true_slips_found},
       {"true_slips_missed_no_contact", e.true_slips_missed_no_contact},
-      {"slip_recall_loaded", num(e.slip_recall_loaded)},
-      {"true_loaded_slips", e.true_loaded_slips},
-      {"true_loaded_slips_found", e.true_loaded_slips_found},
+      {"light_slips", e.light_slips},
+      {"light_slips_found", e.light_slips_found},
       {"map", e.scene == "overall" ? nlohmann::json() : friction::ToJson(e.map)},
       {"seconds",
        {{"simulate", e.simulate_s},

@@ -48,23 +48,29 @@ TEST(FrictionEvaluation, KnownErrorsOnTheBlock) {
   // Touched: x in [-10, 12] along y = 0, every 0.25 mm: covered up to x = 10.5 (0.5 mm).
   std::vector<Eigen::Vector3d> touched;
   for (double x = -10.0; x <= 12.0 + 1e-9; x += 0.25) touched.push_back({x, 0.0, 8.5});
-  // Slips: frame 7 marker 3 truly slipping (found), frame 7 marker 4 not (a false slip point),
-  // frame 8 marker 5 truly slipping (missed), frame 9 marker 6 slipping but first of a stroke.
+  // Slips, every marker pressed with 0.1 N: frame 7 marker 3 truly slipping (found), frame 7
+  // marker 4 not (a false slip point), frame 8 marker 5 truly slipping (missed), frame 9
+  // marker 6 slipping but first of a stroke. Light slips (0.01 N, under the 0.02 N floor):
+  // frame 7 marker 10 found, frame 8 marker 11 missed; neither counts in precision or recall.
   std::map<std::int64_t, FrictionReplayRecorder::FrameTruth> truth;
-  truth[7].marker_slip = std::vector<std::uint8_t>(400, 0);
+  for (const std::int64_t frame : {7, 8, 9}) {
+    truth[frame].marker_slip = std::vector<std::uint8_t>(400, 0);
+    truth[frame].true_normal_force_n = std::vector<double>(400, 0.1);
+    truth[frame].has_previous = frame != 9;
+  }
   truth[7].marker_slip[3] = 1;
-  truth[7].has_previous = true;
-  truth[8].marker_slip = std::vector<std::uint8_t>(400, 0);
   truth[8].marker_slip[5] = 1;
-  truth[8].has_previous = true;
-  truth[9].marker_slip = std::vector<std::uint8_t>(400, 0);
   truth[9].marker_slip[6] = 1;
+  truth[7].marker_slip[10] = truth[8].marker_slip[11] = 1;
+  truth[7].true_normal_force_n[10] = truth[8].true_normal_force_n[11] = 0.01;
   friction::FrictionMapResult with_slips = map;
-  with_slips.slip_points.resize(2);
+  with_slips.slip_points.resize(3);
   with_slips.slip_points[0].frame_index = 7;
   with_slips.slip_points[0].marker = 3;
   with_slips.slip_points[1].frame_index = 7;
   with_slips.slip_points[1].marker = 4;
+  with_slips.slip_points[2].frame_index = 7;
+  with_slips.slip_points[2].marker = 10;
 
   const FrictionEvaluation e = EvaluateFrictionMap(scene, with_slips, truth, touched);
   // Vertices at x = 0.1 and 0.3 (2 columns of 0.2 mm out of 20.2 mm) are wrong by 0.6.
@@ -80,6 +86,9 @@ TEST(FrictionEvaluation, KnownErrorsOnTheBlock) {
   EXPECT_DOUBLE_EQ(e.slip_precision, 0.5);
   EXPECT_DOUBLE_EQ(e.slip_recall, 0.5);
   EXPECT_EQ(e.true_slips, 2);
+  EXPECT_EQ(e.light_slips, 2);
+  EXPECT_EQ(e.slip_points_at_light_slips, 1);
+  EXPECT_DOUBLE_EQ(e.slip_recall_any_cell, 0.5);  // 2 of 4
 
   // A perfect map: no error, the contour on the boundary; unknown vertices do not count.
   friction::FrictionMapResult exact = BlockMap(0.0, 0.0);
@@ -145,6 +154,7 @@ TEST(FrictionEvaluation, SyntheticFramesAlongTheBlockScene) {
     step.index = k;
     step.world_from_sensor = pose;
     step.marker_slip.assign(400, 0);
+    step.marker_forces_n.assign(400, Eigen::Vector3d::Zero());
     TactileFrame frame = TactileFrame::Sized(20, 20);
     frame.index = k;
     frame.timestamp_s = t.StepTime(k);
@@ -164,7 +174,8 @@ TEST(FrictionEvaluation, SyntheticFramesAlongTheBlockScene) {
       const double mu = block.FrictionAt(block.world_from_object.inverse() *
                                          (world + Eigen::Vector3d(0, 0, 0.5)));
       const double fn = 0.1 - 0.015 * q.norm();
-      frame.forces_n[i] = Eigen::Vector3d(moving ? mu * fn : 0.0, 0.0, -fn) +
+      step.marker_forces_n[i] = Eigen::Vector3d(moving ? mu * fn : 0.0, 0.0, -fn);
+      frame.forces_n[i] = step.marker_forces_n[i] +
                           Eigen::Vector3d(force_noise(rng), force_noise(rng), force_noise(rng));
       step.marker_slip[i] = moving;
       touched.push_back(world + Eigen::Vector3d(0, 0, 0.5));

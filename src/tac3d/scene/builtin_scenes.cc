@@ -312,6 +312,35 @@ Scene FrictionPaintCan() {
   return s;
 }
 
+// A tool handle, held out of the friction map's tuning (its settings were chosen on the three
+// scenes above before this one was simulated): a cylinder of radius 16 mm, much more curved
+// than the bottle and the can, of plastic (mu 0.45, blue) with a rubber grip for y < -3 mm
+// (mu 1.1, red) and a printed label at phi in [0, 18] deg, y in [3, 15] mm (mu 0.7, green).
+// Stroked round from -20 to +30 deg at y = -6, 0, +6 mm.
+Scene FrictionToolHandle() {
+  Scene s = Base("friction_tool_handle");
+  const double top = s.sensor.elastic_body.thickness_mm;
+  const double radius = 16.0;
+  const Eigen::Vector3d axis_point(0, 0, top + kClearanceMm + radius);
+  SceneObject handle = Object("handle", SceneObject::Shape::kCylinder, axis_point, 0.45);
+  handle.radius_mm = radius;
+  handle.length_mm = 100.0;
+  FrictionRegion grip;
+  grip.kind = FrictionRegion::Kind::kBox;
+  grip.min_mm = {-radius - 1, -51, -radius - 1};
+  grip.max_mm = {radius + 1, -3, radius + 1};
+  grip.mu = 1.1;
+  FrictionRegion label;  // the bottom half's points with phi in [0, 18] deg: x = -r sin(phi)
+  label.kind = FrictionRegion::Kind::kBox;
+  label.min_mm = {-radius * std::sin(18.0 * M_PI / 180.0), 3, -radius - 1};
+  label.max_mm = {0, 15, 0};
+  label.mu = 0.7;
+  handle.friction.regions = {grip, label};
+  s.objects.push_back(handle);
+  CylinderStrokes(s.trajectory, axis_point, radius, top, -20.0, 30.0, {-6.0, 0.0, 6.0});
+  return s;
+}
+
 // Holds the first pose for kLeadInSteps more steps at the trajectory's step spacing: the
 // keyframes move later by that time and the step count grows by kLeadInSteps.
 void AddLeadIn(Trajectory& t) {
@@ -326,7 +355,7 @@ void AddLeadIn(Trajectory& t) {
 
 std::vector<std::string> BuiltInSceneNames() {
   return {"force_calibration", "probe", "pins", "two_material_slide", "bottle",
-          "friction_block", "friction_bottle", "friction_paint_can"};
+          "friction_block", "friction_bottle", "friction_paint_can", "friction_tool_handle"};
 }
 
 Scene BuiltInScene(const std::string& name) {
@@ -339,6 +368,7 @@ Scene BuiltInScene(const std::string& name) {
   else if (name == "friction_block") scene = FrictionBlock();
   else if (name == "friction_bottle") scene = FrictionBottle();
   else if (name == "friction_paint_can") scene = FrictionPaintCan();
+  else if (name == "friction_tool_handle") scene = FrictionToolHandle();
   else throw Error(fmt::format("no built-in scene '{}' (there are: {})", name, fmt::join(BuiltInSceneNames(), ", ")));
   AddLeadIn(scene.trajectory);
   scene.Validate();

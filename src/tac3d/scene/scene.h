@@ -144,7 +144,8 @@ std::vector<Trajectory::Keyframe> ReadTrajectoryCsv(const std::string& path);
 Rigid3 PoseFromRpy(const Eigen::Vector3d& position_mm, const Eigen::Vector3d& rpy_deg);
 
 /// The built-in scenes: "force_calibration", "probe", "pins", "two_material_slide", "bottle",
-/// and the friction-map scenes "friction_block", "friction_bottle", "friction_paint_can".
+/// and the friction-map scenes "friction_block", "friction_bottle", "friction_paint_can",
+/// "friction_tool_handle".
 std::vector<std::string> BuiltInSceneNames();
 /// @throws Error listing the names if `name` is not one.
 Scene BuiltInScene(const std::string& name);

@@ -189,7 +189,8 @@ TEST(BuiltInScenes, AreValidAndTouchTheirObjects) {
 // the object), lifted clear in between, each at its own offset along the strokes' normal, so
 // no stroke drags across another; the materials in the paper's bands.
 TEST(BuiltInScenes, FrictionScenesStrokeInThreeLiftedPasses) {
-  for (const std::string name : {"friction_block", "friction_bottle", "friction_paint_can"}) {
+  for (const std::string name :
+       {"friction_block", "friction_bottle", "friction_paint_can", "friction_tool_handle"}) {
     SCOPED_TRACE(name);
     const Scene scene = BuiltInScene(name);
     const SceneObject& object = scene.objects[0];
@@ -224,6 +225,16 @@ TEST(BuiltInScenes, FrictionScenesStrokeInThreeLiftedPasses) {
   EXPECT_DOUBLE_EQ(can.FrictionAt(at(0, -8)), 1.0);    // tape: red
   EXPECT_DOUBLE_EQ(can.FrictionAt(at(15, 5)), 0.35);   // sticker: blue
   EXPECT_DOUBLE_EQ(can.FrictionAt(at(-10, 5)), 0.65);  // paint the other side of the can
+  const SceneObject handle = BuiltInScene("friction_tool_handle").objects[0];
+  const auto on_handle = [](double phi_deg, double y) {
+    const double phi = phi_deg * M_PI / 180.0;
+    return Eigen::Vector3d(-16 * std::sin(phi), y, -16 * std::cos(phi));
+  };
+  EXPECT_DOUBLE_EQ(handle.FrictionAt(on_handle(0, 0)), 0.45);   // plastic: blue
+  EXPECT_DOUBLE_EQ(handle.FrictionAt(on_handle(10, -6)), 1.1);  // rubber grip: red
+  EXPECT_DOUBLE_EQ(handle.FrictionAt(on_handle(10, 6)), 0.7);   // label: green
+  EXPECT_DOUBLE_EQ(handle.FrictionAt(on_handle(-5, 6)), 0.45);  // plastic beside the label
+  EXPECT_DOUBLE_EQ(handle.FrictionAt(on_handle(25, 6)), 0.45);
   const SceneObject block = BuiltInScene("friction_block").objects[0];
   EXPECT_DOUBLE_EQ(block.FrictionAt({-5, 3, -5}), 1.0);
   EXPECT_DOUBLE_EQ(block.FrictionAt({5, 3, -5}), 0.4);
