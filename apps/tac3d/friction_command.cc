@@ -107,7 +107,8 @@ void FrictionMapArgs::Add(CLI::App* cmd) {
   cmd->add_option("--max-support-offset",
                   max_support_offset,
                   "a vertex keeps mu unknown when its slip points' weighted centre lies farther "
-                  "than this fraction of r from it (default 1: no such test)");
+                  "than this fraction of r from it (the paper's: 1, no such test)")
+      ->capture_default_str();
   cmd->add_option(
          "--view", view, "PNG view direction X Y Z, world (default: onto the mesh's outer side)")
       ->expected(3);

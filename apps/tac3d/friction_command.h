@@ -16,8 +16,9 @@ struct FrictionMapArgs {
   // The CLI's defaults differ from FrictionMapOptions' (the paper's equation 6) where the twin
   // evaluation showed the paper's weighting biased by the force inverse's per-marker noise
   // (docs/friction.md): beta 0 and gamma 1 (the ratio of the summed forces), 30 slip points a
-  // vertex, slips detected down to 0.005 N, motion in the tangent plane, only steady gross
-  // slip votes, mu_i from the force against the slip. < 0: the library's.
+  // vertex and no vertex whose slip points lie to one side (0.3 r), slips detected down to
+  // 0.005 N, motion in the tangent plane, only steady gross slip votes, mu_i from the force
+  // against the slip. < 0: the library's.
   double contact_threshold_n = -1;
   double slip_sigmas = -1;
   double marker_noise_mm = -1;
@@ -27,7 +28,7 @@ struct FrictionMapArgs {
   double beta = 0.0;
   double gamma = 1.0;
   int min_slip_points = 30;
-  double max_support_offset = -1;
+  double max_support_offset = 0.3;
   double slip_contact_threshold_n = 0.005;
   bool tangential_motion = true;
   bool gross_slip_only = true;
