@@ -8,7 +8,7 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 cmake --install "$build_dir" --prefix "$work/prefix" > "$work/install.log"
 # Only the public headers are installed: no test helpers, no internal readers.
-for internal in force/test_loads.h sensor/yaml_reader.h testing/testing.h; do
+for internal in force/test_loads.h sensor/yaml_reader.h testing/testing.h protocol/udp_socket.h; do
   if [ -e "$work/prefix/include/tac3d/$internal" ]; then
     echo "an internal header was installed: include/tac3d/$internal" >&2
     exit 1

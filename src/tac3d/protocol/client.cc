@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include "tac3d/protocol/udp_socket.h"
+
 namespace tac3d {
 namespace {
 
@@ -28,10 +30,16 @@ void ClientOptions::Validate() const {
 }
 
 Client::Client(const ClientOptions& options)
-    : socket_(ResolveEndpoint(Validated(options).bind_address, options.port),
-              options.receive_buffer_bytes),
+    : socket_(std::make_unique<internal::UdpSocket>(
+          ResolveEndpoint(Validated(options).bind_address, options.port),
+          options.receive_buffer_bytes)),
       assembler_(options.assembler),
       buffer_(kReceiveBufferBytes) {}
+
+Client::Client(Client&&) noexcept = default;
+Client::~Client() = default;
+
+Endpoint Client::local_endpoint() const { return socket_->local_endpoint(); }
 
 double Client::Now() const {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
@@ -42,7 +50,7 @@ std::optional<ReceivedFrame> Client::Receive(double wait_s) {
   int late_datagrams = 0;
   for (;;) {
     Endpoint from;
-    const auto size = socket_.Receive(buffer_, deadline - Now(), &from);
+    const auto size = socket_->Receive(buffer_, deadline - Now(), &from);
     const double now = Now();
     if (!size) {
       if (now < deadline) continue;  // interrupted: wait out the rest
@@ -57,7 +65,7 @@ std::optional<ReceivedFrame> Client::Receive(double wait_s) {
 }
 
 void Client::SendCommand(const Endpoint& sensor, SensorCommand command) {
-  socket_.SendTo(sensor, {CommandBytes(command)});
+  socket_->SendTo(sensor, {CommandBytes(command)});
 }
 
 }  // namespace tac3d

@@ -2,12 +2,12 @@
 
 #include <chrono>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "tac3d/protocol/frame_assembler.h"
-#include "tac3d/protocol/udp_socket.h"
 #include "tac3d/protocol/wire_format.h"
 
 namespace tac3d {
@@ -30,6 +30,8 @@ class Client {
  public:
   /// @throws Error when the address does not resolve or the port cannot be bound.
   explicit Client(const ClientOptions& options);
+  Client(Client&&) noexcept;
+  ~Client();
 
   /// The next complete, decoded frame, waiting up to `wait_s` seconds for it; nullopt when
   /// none completed in that time and nothing more is queued. Receive(0) processes the
@@ -40,14 +42,14 @@ class Client {
   /// Sends `$C` or `$Q` to a sensor (ReceivedFrame::sender) from the bound socket.
   void SendCommand(const Endpoint& sensor, SensorCommand command);
 
-  Endpoint local_endpoint() const { return socket_.local_endpoint(); }
+  Endpoint local_endpoint() const;
   const DropCounts& drops() const { return assembler_.drops(); }
   const std::string& last_error() const { return assembler_.last_error(); }
 
  private:
   double Now() const;
 
-  internal::UdpSocket socket_;
+  std::unique_ptr<internal::UdpSocket> socket_;  // behind a pointer: its header is internal
   FrameAssembler assembler_;
   std::vector<std::uint8_t> buffer_;
   std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();

@@ -21,6 +21,14 @@ struct Endpoint {
   bool operator==(const Endpoint&) const = default;
 };
 
+/// Resolves an IPv4 host (dotted quad or a name) and a port.
+/// @throws Error naming the host when it does not resolve to an IPv4 address.
+Endpoint ResolveEndpoint(const std::string& host, std::uint16_t port);
+
+namespace internal {
+class UdpSocket;  // udp_socket.h, not installed
+}  // namespace internal
+
 struct FrameAssemblerOptions {
   double timeout_s = 1.0;    ///< an incomplete frame older than this is dropped
   int max_in_progress = 30;  ///< more incomplete frames than this: the oldest is dropped

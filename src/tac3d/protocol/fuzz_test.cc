@@ -10,6 +10,7 @@
 #include "tac3d/frame/synthetic_frame.h"
 #include "tac3d/protocol/client.h"
 #include "tac3d/protocol/udp_sender.h"
+#include "tac3d/protocol/udp_socket.h"
 #include "tac3d/testing/testing.h"
 
 namespace tac3d {

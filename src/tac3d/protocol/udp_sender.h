@@ -1,12 +1,13 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 
 #include "tac3d/frame/tactile_frame.h"
-#include "tac3d/protocol/udp_socket.h"
+#include "tac3d/protocol/frame_assembler.h"
 #include "tac3d/protocol/wire_format.h"
 
 namespace tac3d {
@@ -28,6 +29,8 @@ class UdpSender {
  public:
   /// @throws Error when the host does not resolve or the socket cannot be bound.
   explicit UdpSender(const UdpSenderOptions& options);
+  UdpSender(UdpSender&&) noexcept;
+  ~UdpSender();
 
   /// Encodes (EncodeFrame) and sends one frame, with `image` as PNG when it is not empty.
   /// @throws Error as EncodeFrame does, or when the system refuses a datagram.
@@ -38,12 +41,12 @@ class UdpSender {
   /// address, are discarded and counted in ignored_datagrams().
   std::optional<SensorCommand> PollCommand();
 
-  Endpoint local_endpoint() const { return socket_.local_endpoint(); }
+  Endpoint local_endpoint() const;
   const Endpoint& destination() const { return destination_; }
   std::int64_t ignored_datagrams() const { return ignored_datagrams_; }
 
  private:
-  internal::UdpSocket socket_;
+  std::unique_ptr<internal::UdpSocket> socket_;  // behind a pointer: its header is internal
   Endpoint destination_;
   std::uint32_t next_frame_id_;
   EncodedFrame encoded_;

@@ -11,10 +11,6 @@
 
 namespace tac3d {
 
-/// Resolves an IPv4 host (dotted quad or a name) and a port.
-/// @throws Error naming the host when it does not resolve to an IPv4 address.
-Endpoint ResolveEndpoint(const std::string& host, std::uint16_t port);
-
 namespace internal {
 
 /// A bound IPv4 UDP socket (RAII, move-only). Errors throw tac3d::Error with the call and
