@@ -2,7 +2,7 @@
 #include <cstdio>
 #include <memory>
 #include <optional>
-#include <thread>
+#include <vector>
 
 #include <fmt/format.h>
 

@@ -49,7 +49,21 @@ SensorRunSpec ReadSensor(YamlReader r, const std::string& base_dir) {
   s.outputs.udp = r.String("udp", "");
   s.outputs.record = FromBase(base_dir, r.String("record", ""));
   s.outputs.record_images = r.Bool("record_images", false);
+  s.outputs.overwrite = r.Bool("overwrite", false);
   s.outputs.sn = s.sn;
+  // The outputs' own checks (HOST:PORT's form, the record file's folder), named by the line.
+  const auto check = [&r](const char* key, const FrameOutputArgs& args) {
+    try {
+      args.Validate();
+    } catch (const Error& e) {
+      r.FailAt(r.Required(key), r.Join(key), e.what());
+    }
+  };
+  FrameOutputArgs udp, record;
+  udp.udp = s.outputs.udp;
+  record.record = s.outputs.record;
+  check("udp", udp);
+  check("record", record);
   return s;
 }
 

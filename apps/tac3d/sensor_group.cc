@@ -17,7 +17,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// A sensor ready to run, or the reason it is not.
+// A sensor ready to run (both null when it could not be opened).
 struct OpenSensor {
   std::unique_ptr<FrameOutputs> outputs;
   std::unique_ptr<SensorStream> stream;

@@ -39,8 +39,8 @@ const SensorConfig& Sensor() {
   return config;
 }
 
-// A twin dataset of `steps` undeformed frames `dt_s` apart (three rendered noise seeds, reused).
-std::string MakeDataset(const std::string& dir, int steps, double dt_s) {
+// A twin dataset of undeformed frames at `times_s` (three rendered noise seeds, reused).
+std::string MakeDataset(const std::string& dir, const std::vector<double>& times_s) {
   static const std::vector<cv::Mat> images = [] {
     MarkerImageRenderer renderer(Sensor());
     std::vector<cv::Mat> out;
@@ -48,10 +48,10 @@ std::string MakeDataset(const std::string& dir, int steps, double dt_s) {
     return out;
   }();
   TwinDatasetWriter writer(dir, {{"name", "sensor_group_test"}});
-  for (int k = 0; k < steps; ++k) {
+  for (int k = 0; k < static_cast<int>(times_s.size()); ++k) {
     TwinStep step;
     step.index = k;
-    step.t_s = k * dt_s;
+    step.t_s = times_s[k];
     step.image = images[k % images.size()];
     writer.Write(step);
   }
@@ -61,7 +61,11 @@ std::string MakeDataset(const std::string& dir, int steps, double dt_s) {
 // kSteps frames at kFps, made once; the sensors read it each on its own (a copy where the test
 // deletes it).
 const std::string& Dataset() {
-  static const std::string dir = MakeDataset(testing::MakeTempDir("dataset") + "/ds", kSteps, 1.0 / kFps);
+  static const std::string dir = [] {
+    std::vector<double> times_s;
+    for (int k = 0; k < kSteps; ++k) times_s.push_back(k / kFps);
+    return MakeDataset(testing::MakeTempDir("dataset") + "/ds", times_s);
+  }();
   return dir;
 }
 
@@ -127,9 +131,10 @@ std::pair<double, double> Lateness(const std::map<std::int64_t, double>& frames)
   return {latest, earliest};
 }
 
-// Generous for a loaded 2-core machine, yet a sensor waiting on another's 30 frames (1 s), as
-// one thread for all would, is far past it.
-constexpr double kMaxLatenessS = 0.25;
+// Generous for a loaded 2-core machine (up to 0.33 s seen while the project compiled beside
+// it), yet a sensor held up by HAND-E's 1 s wait, as one thread serving all in turn would be,
+// is past it.
+constexpr double kMaxLatenessS = 0.5;
 
 TEST(SensorGroup, ThreeTwinSensorsDeliverEveryFrameOnOneClock) {
   Receiver receiver;
@@ -157,7 +162,7 @@ TEST(SensorGroup, ThreeTwinSensorsDeliverEveryFrameOnOneClock) {
   }
 }
 
-// HAND-C's dataset disappears mid-run, HAND-D's does not exist, HAND-E waits 0.5 s for each
+// HAND-C's dataset disappears mid-run, HAND-D's does not exist, HAND-E waits 1 s for its third
 // frame (a slow source): HAND-A and HAND-B must stream every frame on time all the same.
 TEST(SensorGroup, ASensorThatFailsOrWaitsHoldsUpNoOther) {
   const std::string dir = testing::MakeTempDir("failing");
@@ -167,7 +172,7 @@ TEST(SensorGroup, ASensorThatFailsOrWaitsHoldsUpNoOther) {
   for (const char* sn : {"HAND-A", "HAND-B"}) sensors.push_back(TwinSensor(sn, Dataset(), receiver.port()));
   sensors.push_back(TwinSensor("HAND-C", dir + "/HAND-C", receiver.port()));
   sensors.push_back(TwinSensor("HAND-D", dir + "/missing", receiver.port()));
-  sensors.push_back(TwinSensor("HAND-E", MakeDataset(dir + "/slow", 3, 0.5), receiver.port()));
+  sensors.push_back(TwinSensor("HAND-E", MakeDataset(dir + "/slow", {0.0, 0.02, 1.0}), receiver.port()));
   sensors.back().reference_frames = 2;
   const std::atomic<bool> stop{false};
   std::vector<SensorReport> reports;
@@ -209,12 +214,13 @@ TEST(SensorGroup, ASensorThatFailsOrWaitsHoldsUpNoOther) {
   std::printf("%s\n", slow.BriefReport().c_str());
   EXPECT_EQ(slow.frames, 3);
   EXPECT_EQ(receiver.Frames("HAND-E").size(), 3u);
+  EXPECT_GT(slow.max_gap_s, 0.9);
 }
 
-// Parses `text` as a run file in `dir` and returns the error, or "" if it was accepted.
+// Parses `text` as a run file in /tmp and returns the error, or "" if it was accepted.
 std::string RunFileError(const std::string& text) {
   try {
-    ParseRunFile(text, "hand.yaml", "/base");
+    ParseRunFile(text, "hand.yaml", "/tmp");
   } catch (const Error& e) {
     return e.what();
   }
@@ -232,20 +238,23 @@ TEST(RunFile, ReadsEachSensorWithPathsFromItsFolder) {
       "    udp: 127.0.0.1:9988\n"
       "    record: thumb.rec\n"
       "    record_images: true\n"
+      "    overwrite: true\n"
       "  - sn: INDEX\n"
       "    source: camera:2\n"
       "    weight: 0.1\n"
       "    reference_frames: 10\n",
-      "hand.yaml", "/base");
+      "hand.yaml", "/tmp");
   ASSERT_EQ(sensors.size(), 2u);
   EXPECT_EQ(sensors[0].sn, "THUMB");
-  EXPECT_EQ(sensors[0].source, "dataset:/base/twin/thumb");
-  EXPECT_EQ(sensors[0].config, "/base/thumb.yaml");
+  EXPECT_EQ(sensors[0].source, "dataset:/tmp/twin/thumb");
+  EXPECT_EQ(sensors[0].config, "/tmp/thumb.yaml");
   EXPECT_THAT(sensors[0].gains, EigenNear(Eigen::Vector3d(1.1, 1.2, 0.9), 0.0));
   EXPECT_EQ(sensors[0].speed, 1.0);
   EXPECT_EQ(sensors[0].outputs.udp, "127.0.0.1:9988");
-  EXPECT_EQ(sensors[0].outputs.record, "/base/thumb.rec");
+  EXPECT_EQ(sensors[0].outputs.record, "/tmp/thumb.rec");
   EXPECT_TRUE(sensors[0].outputs.record_images);
+  EXPECT_TRUE(sensors[0].outputs.overwrite);
+  EXPECT_FALSE(sensors[1].outputs.overwrite);
   EXPECT_EQ(sensors[0].outputs.sn, "THUMB");
   EXPECT_EQ(sensors[1].source, "camera:2");
   EXPECT_EQ(sensors[1].config, "");
@@ -267,11 +276,15 @@ TEST(RunFile, RefusesMistakesNamingTheLine) {
               HasSubstr("hand.yaml: line 4: sensors[0].speed: applies to recording:FILE or dataset:DIR only"));
   EXPECT_THAT(RunFileError(a + "    gains: [1, 2]\n"), HasSubstr("line 4: sensors[0].gains: must be a list of 3"));
   EXPECT_THAT(RunFileError(a + "    record_images: maybe\n"), HasSubstr("line 4: sensors[0].record_images: must be true or false"));
+  EXPECT_THAT(RunFileError(a + "    udp: nowhere\n"),
+              HasSubstr("hand.yaml: line 4: sensors[0].udp: --udp 'nowhere': expected HOST:PORT"));
+  EXPECT_THAT(RunFileError(a + "    record: missing/r.rec\n"),
+              HasSubstr("hand.yaml: line 4: sensors[0].record: "));
   EXPECT_THAT(RunFileError("sensors: []\n"), HasSubstr("hand.yaml: line 1: sensors: lists no sensor"));
   EXPECT_THAT(RunFileError("sensor:\n  - sn: A\n"), HasSubstr("hand.yaml: line 1: sensors: missing"));
   EXPECT_THAT(RunFileError(a + "  - sn: B\n    source: x.avi\n    record: r.rec\n  - sn: C\n    source: y.avi\n"
                                "    record: ./r.rec\n"),
-              HasSubstr("line 7: sensors[2]: record file '/base/r.rec' is used twice (first at line 4)"));
+              HasSubstr("line 7: sensors[2]: record file '/tmp/r.rec' is used twice (first at line 4)"));
 }
 
 }  // namespace

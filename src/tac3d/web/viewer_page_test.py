@@ -24,6 +24,7 @@ import urllib.request
 import zlib
 
 WINDOW = (1120, 900)
+VIEW_WINDOW = (1120, 1400)  # `tac3d view`: the friction map's panel below the sensor's
 BACKGROUND_3D = (0x10, 0x12, 0x14)  # viewer.js BACKGROUND, the WebGL clear colour
 
 
@@ -95,12 +96,12 @@ def drawn_share(path, left, top, width, height):
     return drawn / max(total, 1)
 
 
-def chromium(args, timeout):
+def chromium(args, timeout, window=WINDOW):
     binary = shutil.which("chromium")
     if binary is None:
         fail("chromium is not installed (scripts/setup.sh installs it)")
     command = [binary, "--headless=new", "--no-sandbox", "--disable-gpu", "--use-angle=swiftshader",
-               "--enable-unsafe-swiftshader", "--window-size=%d,%d" % WINDOW, "--hide-scrollbars",
+               "--enable-unsafe-swiftshader", "--window-size=%d,%d" % window, "--hide-scrollbars",
                "--virtual-time-budget=4000"] + args
     return subprocess.run(command, capture_output=True, text=True, timeout=timeout)
 
@@ -121,7 +122,7 @@ def wait_for_page(url, process):
 def dump_dom_until(url, pattern, what):
     """The DOM of the first of 5 loads in which `pattern` matches (virtual time can run out)."""
     for attempt in range(5):
-        dom = chromium(["--dump-dom", url], timeout=60).stdout
+        dom = chromium(["--dump-dom", url], timeout=60, window=VIEW_WINDOW).stdout
         if re.search(pattern, dom):
             return dom
         print("load %d: %s not yet" % (attempt + 1, what))
@@ -160,7 +161,7 @@ def check_view(tac3d, work, recording):
         left, top, width, height = json.loads(rect.group(1).replace("&quot;", '"'))
         shot = os.path.join(work, "view.png")
         for attempt in range(5):
-            chromium(["--screenshot=" + shot, url], timeout=60)
+            chromium(["--screenshot=" + shot, url], timeout=60, window=VIEW_WINDOW)
             share = drawn_share(shot, left, top, width, height)
             if share >= 0.02:
                 break

@@ -295,6 +295,31 @@ async function startReplay() {
   showFrame();
 }
 
+// Each triangle split into its three corners' regions (corner, edge midpoints, centroid), each
+// region flat in its corner's band colour: every point shows its nearest vertex's band, as the
+// map's PNG does, and colours of different bands are never blended.
+function bandRegions(map) {
+  const v = map.vertices, c = map.colors, t = map.triangles;
+  const position = [], color = [], at = i => [v[3 * i], v[3 * i + 1], v[3 * i + 2]];
+  const mid = (p, q) => p.map((x, k) => (x + q[k]) / 2);
+  for (let f = 0; f < t.length; f += 3) {
+    const p = [at(t[f]), at(t[f + 1]), at(t[f + 2])];
+    const g = p[0].map((x, k) => (x + p[1][k] + p[2][k]) / 3);
+    for (let j = 0; j < 3; ++j) {
+      const a = p[j], ab = mid(a, p[(j + 1) % 3]), ca = mid(a, p[(j + 2) % 3]);
+      position.push(...a, ...ab, ...g, ...a, ...g, ...ca);
+      const rgb = [0, 1, 2].map(k => c[3 * t[f + j] + k] / 255);
+      for (let n = 0; n < 6; ++n) color.push(...rgb);
+    }
+  }
+  const geometry = new THREE.BufferGeometry();
+  geometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(position), 3));
+  geometry.setAttribute('color', new THREE.BufferAttribute(new Float32Array(color), 3));
+  geometry.computeVertexNormals();
+  geometry.computeBoundingSphere();
+  return geometry;
+}
+
 // `tac3d view --friction-map`: the mesh in the paper's bands (the server's colours).
 async function showFrictionMap() {
   const r = await fetch('api/friction-map');
@@ -304,12 +329,7 @@ async function showFrictionMap() {
   section.hidden = false;
   document.getElementById('friction-path').textContent = map.path;
   const panel = makeView(document.getElementById('friction-view'), 'canvas3d-friction');
-  const geometry = new THREE.BufferGeometry();
-  geometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(map.vertices), 3));
-  geometry.setAttribute('color', new THREE.BufferAttribute(new Float32Array(map.colors.map(c => c / 255)), 3));
-  geometry.setIndex(map.triangles);
-  geometry.computeVertexNormals();
-  geometry.computeBoundingSphere();
+  const geometry = bandRegions(map);
   panel.scene.add(new THREE.Mesh(geometry, new THREE.MeshLambertMaterial({ vertexColors: THREE.VertexColors, side: THREE.DoubleSide })));
   panel.scene.add(new THREE.AmbientLight(0xffffff, 0.45));
   const light = new THREE.DirectionalLight(0xffffff, 0.6);
@@ -322,14 +342,19 @@ async function showFrictionMap() {
     swatch('40,200,60', '0.5 < \u03bc \u2264 0.8: ' + map.bands.medium) +
     swatch('230,40,40', '\u03bc > 0.8: ' + map.bands.high) +
     swatch('150,150,150', 'unknown: ' + map.bands.unknown);
-  document.body.dataset.frictionCanvas = JSON.stringify(
-    (r => [r.left, r.top, r.width, r.height])(panel.renderer.domElement.getBoundingClientRect()));
   views.push(panel);
 }
 
 document.getElementById('zero').onclick = () => { if (socket && socket.readyState === 1) socket.send('zero'); };
 function animate() {
   requestAnimationFrame(animate);
+  // Where the friction map's view is now (the sensors' panels above it come later), for the
+  // headless test's screenshot check.
+  const friction = document.getElementById('canvas3d-friction');
+  if (friction) {
+    const r = friction.getBoundingClientRect();
+    document.body.dataset.frictionCanvas = JSON.stringify([r.left, r.top, r.width, r.height]);
+  }
   [...sensors.values(), ...views].forEach(p => { p.controls.update(); p.renderer.render(p.scene, p.camera); });
 }
 connect();
