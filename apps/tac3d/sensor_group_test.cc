@@ -8,6 +8,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -131,10 +132,10 @@ std::pair<double, double> Lateness(const std::map<std::int64_t, double>& frames)
   return {latest, earliest};
 }
 
-// Generous for a loaded 2-core machine (up to 0.33 s seen while the project compiled beside
-// it), yet a sensor held up by HAND-E's 1 s wait, as one thread serving all in turn would be,
-// is past it.
-constexpr double kMaxLatenessS = 0.5;
+// A sanity bound on keeping pace, loose for a shared 2-core machine: up to 0.7 s was seen with
+// ctest -j2 and other builds beside it (load 10). Waiting on another sensor is tested apart,
+// without a clock bound (ASensorThatFailsOrWaitsHoldsUpNoOther).
+constexpr double kMaxLatenessS = 1.5;
 
 TEST(SensorGroup, ThreeTwinSensorsDeliverEveryFrameOnOneClock) {
   Receiver receiver;
@@ -189,6 +190,11 @@ TEST(SensorGroup, ASensorThatFailsOrWaitsHoldsUpNoOther) {
   receiver.Stop();
 
   ASSERT_EQ(reports.size(), 5u);
+  // HAND-E's third frame came 1 s after its second; one thread serving the sensors in turn
+  // would have sent nothing else in between.
+  const std::map<std::int64_t, double> slow_frames = receiver.Frames("HAND-E");
+  ASSERT_EQ(slow_frames.size(), 3u);
+  const double wait_from_s = slow_frames.at(1), wait_to_s = slow_frames.at(2);
   for (int i : {0, 1}) {
     SCOPED_TRACE(reports[i].BriefReport());
     EXPECT_EQ(reports[i].frames, kSteps);
@@ -196,7 +202,12 @@ TEST(SensorGroup, ASensorThatFailsOrWaitsHoldsUpNoOther) {
     const std::map<std::int64_t, double> frames = receiver.Frames(reports[i].sn);
     EXPECT_EQ(frames.size(), static_cast<size_t>(kSteps));
     EXPECT_LE(Lateness(frames).first, kMaxLatenessS);
-    std::printf("%s\n", reports[i].BriefReport().c_str());
+    const long during_wait = std::count_if(frames.begin(), frames.end(), [&](const auto& f) {
+      return f.second > wait_from_s && f.second < wait_to_s;
+    });
+    EXPECT_GE(during_wait, 10) << "frames sent while HAND-E waited";
+    std::printf("%s; %ld frames sent while HAND-E waited %.2f-%.2f s\n", reports[i].BriefReport().c_str(),
+                during_wait, wait_from_s, wait_to_s);
   }
   const SensorReport& killed = reports[2];
   std::printf("%s\n", killed.BriefReport().c_str());
@@ -213,8 +224,7 @@ TEST(SensorGroup, ASensorThatFailsOrWaitsHoldsUpNoOther) {
   const SensorReport& slow = reports[4];
   std::printf("%s\n", slow.BriefReport().c_str());
   EXPECT_EQ(slow.frames, 3);
-  EXPECT_EQ(receiver.Frames("HAND-E").size(), 3u);
-  EXPECT_GT(slow.max_gap_s, 0.9);
+  EXPECT_GT(wait_to_s - wait_from_s, 0.9);
 }
 
 // Parses `text` as a run file in /tmp and returns the error, or "" if it was accepted.
