@@ -89,7 +89,6 @@ std::vector<SensorReport> RunSensorGroup(const std::vector<SensorRunSpec>& senso
   std::vector<OpenSensor> open(sensors.size());
   for (size_t i = 0; i < sensors.size(); ++i) {
     reports[i].sn = sensors[i].sn;
-    reports[i].source = sensors[i].source;
     FrameOutputArgs outputs = sensors[i].outputs;
     outputs.sn = sensors[i].sn;
     outputs.json = options.json;

@@ -23,7 +23,6 @@ struct SensorGroupOptions {
 /// How one sensor's run went.
 struct SensorReport {
   std::string sn;
-  std::string source;
   long frames = 0;   ///< frames emitted
   long skipped = 0;  ///< bad frames skipped
   /// Why the sensor stopped before its source ended: it could not start (a camera missing),

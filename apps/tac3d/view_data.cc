@@ -1,5 +1,7 @@
 #include "view_data.h"
 
+#include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <filesystem>
