@@ -98,5 +98,35 @@ TEST(Cli, RunRefusesContradictoryFlagsAndNamesWhatASourceIs) {
                                                                    << o.output;
 }
 
+TEST(Cli, RunFileMistakesAreRefusedBeforeAnyWork) {
+  const std::string dir = testing::MakeTempDir("run_file");
+  std::ofstream(dir + "/hand.yaml") << "sensors:\n  - sn: A\n    source: camera:0\n    colour: red\n";
+  Outcome o = RunCli(fmt::format("run --run-file {}/hand.yaml", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr(dir + "/hand.yaml: line 4: sensors[0].colour: unknown key"));
+  o = RunCli(fmt::format("run --run-file {}/hand.yaml --sn B", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("--sn is given per sensor in the run file"));
+  o = RunCli("run");
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("--source or --run-file is required"));
+  std::ofstream(dir + "/hand.yaml") << "sensors:\n  - sn: A\n    source: camera:0\n    udp: nowhere\n";
+  o = RunCli(fmt::format("run --run-file {}/hand.yaml", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr(dir + "/hand.yaml: line 4: sensors[0].udp: --udp 'nowhere': expected HOST:PORT"));
+}
+
+TEST(Cli, ViewNeedsSomethingToShow) {
+  Outcome o = RunCli("view");
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("give --recording FILE or --dataset DIR, and/or --friction-map"));
+  o = RunCli("view --recording a.rec --dataset b");
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("--recording and --dataset exclude each other"));
+  o = RunCli("view --recording a.rec --config s.yaml");
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("--config applies to --dataset only"));
+}
+
 }  // namespace
 }  // namespace tac3d

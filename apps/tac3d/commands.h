@@ -24,6 +24,7 @@ void RegisterSimulate(CLI::App& app);
 void RegisterCalibrateForce(CLI::App& app);
 void RegisterRecording(CLI::App& app);  // recording_command.cc: `tac3d recording info|export`
 void RegisterFrictionMap(CLI::App& app);
+void RegisterView(CLI::App& app);  // view_command.cc: `tac3d view`
 
 /// `tac3d eval <what>`: accuracy evaluations against the twin's truth or analytic oracles,
 /// each printing its figures (JSON with --json). Each adds itself to the `eval` group.

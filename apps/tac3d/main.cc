@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
   tac3d::cli::RegisterFrictionMap(app);
   tac3d::cli::RegisterEval(app);
   tac3d::cli::RegisterRecording(app);
+  tac3d::cli::RegisterView(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

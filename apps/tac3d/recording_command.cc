@@ -11,9 +11,9 @@
 
 #include "commands.h"
 #include "run_outputs.h"
+#include "sensor_stream.h"
 #include "tac3d/io/recording_export.h"
 #include "tac3d/record/recording_info.h"
-#include "tac3d/record/recording_replay.h"
 #include "tac3d/util/error.h"
 
 namespace tac3d::cli {
@@ -104,41 +104,30 @@ void Export(const ExportArgs& a) {
 }  // namespace
 
 void RunRecording(const RecordingRunArgs& args) {
-  RecordingReplay replay(args.path, {.speed = args.speed});
-  std::fprintf(stderr, "source: %s\n", replay.Describe().c_str());
+  SensorRunSpec spec;
+  spec.speed = args.speed;
+  if (args.sn) spec.sn = *args.sn;
+  const std::unique_ptr<SensorStream> stream = OpenRecordingStream(args.path, spec, args.sn.has_value());
   FrameOutputArgs output_args = args.outputs;
   if (args.sn) output_args.sn = *args.sn;
   FrameOutputs outputs(output_args);
-  std::optional<RecordedFrame> current;
-  bool zero_noted = false;
+  stream->Start({.epoch = std::chrono::steady_clock::now(), .common = false});
   const FrameLoopCounts counts = RunFrameLoop(
       outputs,
       args.max_frames,
       [&](const std::atomic<bool>& stop, const TactileFrame*& frame, const cv::Mat*& image) {
-        current = replay.Next(&stop);
-        if (!current) return Produced::kEnd;
-        if (args.sn) current->frame.sn = *args.sn;
-        frame = &current->frame;
-        image = &current->image;
-        return Produced::kFrame;
+        return stream->Next(stop, frame, image);
       },
-      [&zero_noted] {
-        if (!zero_noted) {
-          std::fprintf(
-              stderr,
-              "ignored $C (zero): a recording's frames were computed when it was recorded\n");
-        }
-        zero_noted = true;
-      });
+      [&] { stream->Zero(); });
   std::fprintf(stderr,
                "%ld frames replayed from %s%s\n",
                counts.emitted,
                args.path.c_str(),
                outputs.RecordedNote().c_str());
   outputs.HoldWeb();
-  ReportEnd(replay.status(),
-            replay.message(),
-            fmt::format("the {} frames before it were replayed", counts.emitted));
+  const StreamEnd end = stream->End(counts.emitted);
+  if (!end.warning.empty()) std::fprintf(stderr, "tac3d: warning: %s\n", end.warning.c_str());
+  if (!end.failure.empty()) throw Error(end.failure);
 }
 
 void RegisterRecording(CLI::App& app) {

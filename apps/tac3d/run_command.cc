@@ -2,192 +2,154 @@
 #include <cstdio>
 #include <memory>
 #include <optional>
-#include <thread>
+#include <vector>
 
 #include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
 
 #include "commands.h"
+#include "run_file.h"
 #include "run_outputs.h"
-#include "tac3d/dataset/twin_dataset.h"
-#include "tac3d/fem/compliance.h"
-#include "tac3d/pipeline/pipeline.h"
+#include "sensor_group.h"
+#include "sensor_stream.h"
 #include "tac3d/util/error.h"
 
 namespace tac3d::cli {
 namespace {
 
-// Camera options whose width and height (0) are taken from the sensor config.
-CameraSourceOptions CameraWithSensorResolution() {
-  CameraSourceOptions camera;
-  camera.width = 0;
-  camera.height = 0;
-  return camera;
-}
-
 struct RunArgs {
-  std::string source;
-  std::string config;
+  SensorRunSpec sensor;  // the one-sensor flags
+  std::string run_file;
   std::string cache_dir = DefaultCacheDir();
-  std::string sn = PipelineOptions{}.sn;
-  std::string udp;
-  std::string record;
-  bool record_images = false;
-  bool overwrite = false;
-  bool json = false;
-  int reference_frames = PipelineOptions{}.reference_frames;
-  double weight = PipelineOptions{}.force.weight;
   std::vector<double> gains = {1.0, 1.0, 1.0};
   long max_frames = 0;
-  CameraSourceOptions camera = CameraWithSensorResolution();
-  double exposure = 0.0;
-  double speed = 1.0;  // a recording's replay, or a dataset's pace when given
-  bool pace = false;   // --speed given with a dataset: source
-  std::string web;
-  std::string web_root;
-  double web_hold_s = 0.0;
+  double speed = 1.0;
+  bool json = false;
+  FrameOutputArgs viewer;  // web, web_root, web_hold_s
 };
 
-std::unique_ptr<FrameSource> OpenSource(const RunArgs& a, const SensorConfig& config) {
-  if (a.source.rfind("dataset:", 0) == 0) return OpenTwinDataset(a.source.substr(8));
-  CameraSourceOptions camera = a.camera;
-  if (camera.width == 0) camera.width = config.camera.intrinsics.width;
-  if (camera.height == 0) camera.height = config.camera.intrinsics.height;
-  if (a.exposure > 0) camera.exposure = a.exposure;
-  return OpenFrameSource(a.source, camera);
-}
-
+// The one-sensor flags' outputs: the sensor's and the viewer's.
 FrameOutputArgs OutputArgs(const RunArgs& a) {
-  return {.udp = a.udp,
-          .record = a.record,
-          .record_images = a.record_images,
-          .json = a.json,
-          .sn = a.sn,
-          .overwrite = a.overwrite,
-          .web = a.web,
-          .web_root = a.web_root,
-          .web_hold_s = a.web_hold_s};
+  FrameOutputArgs args = a.sensor.outputs;
+  args.sn = a.sensor.sn;
+  args.json = a.json;
+  args.web = a.viewer.web;
+  args.web_root = a.viewer.web_root;
+  args.web_hold_s = a.viewer.web_hold_s;
+  return args;
 }
 
 void Run(const RunArgs& a) {
   // Checked before the compliance model is loaded (or built, ~1 min).
   OutputArgs(a).Validate();
-  const SensorConfig config = LoadSensorOrDefault(a.config);
-  std::unique_ptr<FrameSource> source = OpenSource(a, config);
-  std::fprintf(stderr, "source: %s\n", source->Describe().c_str());
-  MakeDirectory(a.cache_dir);
-  const fem::ComplianceCacheResult model =
-      fem::LoadOrBuildComplianceModel(fem::BodyModelOptionsFromSensor(config), a.cache_dir, /*show_progress=*/true);
-  PipelineOptions options;
-  options.sn = a.sn;
-  options.reference_frames = a.reference_frames;
-  options.force.weight = a.weight;
   if (a.gains.size() != 3) throw Error("--gains takes three numbers: Cx Cy Cz");
-  options.force.gains = Eigen::Vector3d(a.gains[0], a.gains[1], a.gains[2]);
-  Pipeline pipeline(config, model.model.h, model.model.marker_positions, options);
-
+  SensorRunSpec spec = a.sensor;
+  spec.gains = Eigen::Vector3d(a.gains[0], a.gains[1], a.gains[2]);
+  const std::unique_ptr<SensorStream> stream = OpenSensorStream(spec, CachedModelLoader(a.cache_dir));
   FrameOutputs outputs(OutputArgs(a));
-  Frame frame;
-  TactileFrame out;
-  std::string failure;
-  const auto start = std::chrono::steady_clock::now();
+  stream->Start({.epoch = std::chrono::steady_clock::now(), .common = false});
   const FrameLoopCounts counts = RunFrameLoop(
       outputs, a.max_frames,
-      [&](const std::atomic<bool>&, const TactileFrame*& produced, const cv::Mat*& image) {
-        const ReadStatus status = source->Read(frame);
-        if (status == ReadStatus::kEnd) return Produced::kEnd;
-        if (status == ReadStatus::kFailed) {
-          failure = source->last_error();
-          return Produced::kEnd;
-        }
-        if (status == ReadStatus::kBadFrame) {
-          std::fprintf(stderr, "skipped a bad frame: %s\n", source->last_error().c_str());
-          return Produced::kSkipped;
-        }
-        if (a.pace && a.speed > 0) {
-          std::this_thread::sleep_until(start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                                    std::chrono::duration<double>(frame.timestamp_s / a.speed)));
-        }
-        try {
-          pipeline.Process(frame, out);
-        } catch (const Error& e) {
-          std::fprintf(stderr, "skipped frame %lld: %s\n", static_cast<long long>(frame.index),
-                       e.what());
-          return Produced::kSkipped;
-        }
-        produced = &out;
-        image = &frame.image;
-        return Produced::kFrame;
+      [&](const std::atomic<bool>& stop, const TactileFrame*& frame, const cv::Mat*& image) {
+        return stream->Next(stop, frame, image);
       },
-      [&pipeline] { pipeline.RequestZero(); });
+      [&] { stream->Zero(); });
   std::fprintf(stderr, "%ld frames processed, %ld skipped%s\n", counts.emitted, counts.skipped,
                outputs.RecordedNote().c_str());
   outputs.HoldWeb();
   // The recording is complete up to the last frame; now say why the source ended.
-  if (!failure.empty()) throw Error(fmt::format("the frame source failed: {}", failure));
+  if (const StreamEnd end = stream->End(counts.emitted); !end.failure.empty()) throw Error(end.failure);
 }
+
+// `tac3d run --run-file FILE`: every sensor's report, then an error if any failed.
+void RunFile(const RunArgs& a) {
+  const std::vector<SensorRunSpec> sensors = LoadRunFile(a.run_file);
+  a.viewer.Validate();
+  const std::shared_ptr<WebServer> viewer = a.viewer.web.empty() ? nullptr : OpenViewer(a.viewer);
+  std::vector<SensorReport> reports;
+  {
+    StopSignals signals;
+    StopSignals::flag() = false;
+    reports = RunSensorGroup(sensors, CachedModelLoader(a.cache_dir),
+                             {.max_frames = a.max_frames, .json = a.json}, viewer, StopSignals::flag());
+  }
+  HoldViewer(viewer.get(), a.viewer.web_hold_s);
+  std::vector<std::string> failed;
+  for (const SensorReport& r : reports) {
+    if (!r.failure.empty()) failed.push_back(r.sn);
+  }
+  std::fprintf(stderr, "%zu sensors, %zu failed\n", reports.size(), failed.size());
+  if (!failed.empty()) throw Error(fmt::format("sensor(s) failed: {} (see above)", fmt::join(failed, ", ")));
+}
+
+// The one-sensor flags that a run file replaces.
+constexpr std::initializer_list<const char*> kSensorFlags = {
+    "--source", "--config", "--sn", "--udp", "--record", "--record-images", "--overwrite",
+    "--reference-frames", "--weight", "--gains", "--width", "--height", "--fps", "--exposure", "--speed"};
 
 }  // namespace
 
 void RegisterRun(CLI::App& app) {
   auto a = std::make_shared<RunArgs>();
+  SensorRunSpec& sensor = a->sensor;
   CLI::App* cmd = app.add_subcommand(
       "run",
       "Camera (or video, image folder, twin dataset) to 3D markers, displacements and forces, "
-      "every frame; or a recording's frames replayed");
-  cmd->add_option("--source", a->source,
+      "every frame; or a recording's frames replayed; several sensors with --run-file");
+  cmd->add_option("--source", sensor.source,
                   "camera:N, /dev/videoN, a video file, an image folder, dataset:DIR, or "
-                  "recording:FILE (replays its frames)")
-      ->required();
-  cmd->add_option("--config", a->config, "sensor YAML (default: the built-in prototype)");
+                  "recording:FILE (replays its frames)");
+  cmd->add_option("--run-file", a->run_file,
+                  "several sensors in one process, each on its thread (YAML; docs/pipeline.md)");
+  cmd->add_option("--config", sensor.config, "sensor YAML (default: the built-in prototype)");
   cmd->add_option("--cache", a->cache_dir, "directory of cached compliance models")->capture_default_str();
-  cmd->add_option("--sn", a->sn, "the sensor's serial number in the stream")->capture_default_str();
-  cmd->add_option("--udp", a->udp, "stream the Tac3D protocol to HOST:PORT");
-  cmd->add_option("--record", a->record, "record the frames to this file (crash-safe)");
-  cmd->add_flag("--record-images", a->record_images, "record the raw camera images too (with --record)");
-  cmd->add_flag("--overwrite", a->overwrite, "replace the --record file if it exists");
+  cmd->add_option("--sn", sensor.sn, "the sensor's serial number in the stream")->capture_default_str();
+  cmd->add_option("--udp", sensor.outputs.udp, "stream the Tac3D protocol to HOST:PORT");
+  cmd->add_option("--record", sensor.outputs.record, "record the frames to this file (crash-safe)");
+  cmd->add_flag("--record-images", sensor.outputs.record_images, "record the raw camera images too (with --record)");
+  cmd->add_flag("--overwrite", sensor.outputs.overwrite, "replace the --record file if it exists");
   cmd->add_flag("--json", a->json, "print each frame's summary as a JSON line");
-  cmd->add_option("--reference-frames", a->reference_frames, "static frames taken as the reference")
+  cmd->add_option("--reference-frames", sensor.reference_frames, "static frames taken as the reference")
       ->capture_default_str();
-  cmd->add_option("--weight", a->weight, "Tikhonov weight w, (mm/N)^2")->capture_default_str();
+  cmd->add_option("--weight", sensor.weight, "Tikhonov weight w, (mm/N)^2")->capture_default_str();
   cmd->add_option("--gains", a->gains, "force gains Cx Cy Cz")->expected(3);
-  cmd->add_option("--max-frames", a->max_frames, "stop after this many frames (0: until the source ends)");
-  cmd->add_option("--width", a->camera.width, "camera width (default: the sensor config's)");
-  cmd->add_option("--height", a->camera.height, "camera height (default: the sensor config's)");
-  cmd->add_option("--fps", a->camera.fps, "camera frame rate")->capture_default_str();
-  cmd->add_option("--exposure", a->exposure, "camera exposure (driver units; default automatic)");
+  cmd->add_option("--max-frames", a->max_frames,
+                  "stop after this many frames (0: until the source ends); per sensor with --run-file");
+  cmd->add_option("--width", sensor.camera.width, "camera width (default: the sensor config's)");
+  cmd->add_option("--height", sensor.camera.height, "camera height (default: the sensor config's)");
+  cmd->add_option("--fps", sensor.camera.fps, "camera frame rate")->capture_default_str();
+  cmd->add_option("--exposure", sensor.exposure, "camera exposure (driver units; default automatic)");
   cmd->add_option("--speed", a->speed,
                   "recording:FILE pace: 1 recorded, 2 twice as fast, 0 as fast as possible; "
                   "with dataset:DIR, paces it by its timestamps (default there: as fast as possible)")
       ->capture_default_str();
-  cmd->add_option("--web", a->web,
+  cmd->add_option("--web", a->viewer.web,
                   "serve the live viewer on HOST:PORT, e.g. 127.0.0.1:8080 (docs/viewer.md)");
-  cmd->add_option("--web-root", a->web_root, "the viewer page's folder (default: the built one)");
-  cmd->add_option("--web-hold", a->web_hold_s,
+  cmd->add_option("--web-root", a->viewer.web_root, "the viewer page's folder (default: the built one)");
+  cmd->add_option("--web-hold", a->viewer.web_hold_s,
                   "after the source ends keep the viewer up this many seconds (-1: until Ctrl-C)");
   cmd->callback([a, cmd] {
-    if (const std::optional<std::string> path = RecordingSourcePath(a->source)) {
+    if (!a->run_file.empty()) {
+      RefuseOptions(*cmd, kSensorFlags, "is given per sensor in the run file (--run-file)");
+      return RunFile(*a);
+    }
+    if (a->sensor.source.empty()) throw Error("run: --source or --run-file is required");
+    if (const std::optional<std::string> path = RecordingSourcePath(a->sensor.source)) {
       RefuseOptions(*cmd,
                     {"--config", "--cache", "--reference-frames", "--weight", "--gains", "--width",
                      "--height", "--fps", "--exposure"},
                     "does not apply to a recording: its frames were computed when it was recorded");
+      FrameOutputArgs outputs = OutputArgs(*a);
+      outputs.sn = {};
       return RunRecording({.path = *path,
                            .speed = a->speed,
                            .max_frames = a->max_frames,
-                           .sn = cmd->count("--sn") > 0 ? std::optional(a->sn) : std::nullopt,
-                           .outputs = {.udp = a->udp,
-                                       .record = a->record,
-                                       .record_images = a->record_images,
-                                       .json = a->json,
-                                       .sn = {},
-                                       .overwrite = a->overwrite,
-                                       .web = a->web,
-                                       .web_root = a->web_root,
-                                       .web_hold_s = a->web_hold_s}});
+                           .sn = cmd->count("--sn") > 0 ? std::optional(a->sensor.sn) : std::nullopt,
+                           .outputs = outputs});
     }
-    if (a->source.rfind("dataset:", 0) == 0) {
-      a->pace = cmd->count("--speed") > 0;
+    if (a->sensor.source.rfind("dataset:", 0) == 0) {
+      if (cmd->count("--speed") > 0) a->sensor.speed = a->speed;
     } else {
       RefuseOptions(*cmd, {"--speed"}, "applies to --source recording:FILE or dataset:DIR only");
     }

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <chrono>
 #include <filesystem>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <thread>
 
@@ -103,7 +104,19 @@ void FrameOutputArgs::Validate() const {
   if (web.empty() && !web_root.empty()) throw Error("--web-root needs --web HOST:PORT");
 }
 
-FrameOutputs::FrameOutputs(const FrameOutputArgs& args) : args_(args) {
+std::shared_ptr<WebServer> OpenViewer(const FrameOutputArgs& args, WebApiHandler api) {
+  TAC3D_DEMAND(!args.web.empty());
+  WebServerOptions options = ParseWeb(args);
+  options.api = std::move(api);
+  auto viewer = std::make_shared<WebServer>(options);
+  std::fprintf(stderr, "viewer on http://%s:%u/ (page from %s)\n", options.host.c_str(),
+               static_cast<unsigned>(viewer->port()), options.root.c_str());
+  return viewer;
+}
+
+FrameOutputs::FrameOutputs(const FrameOutputArgs& args, std::shared_ptr<WebServer> shared_viewer)
+    : args_(args), web_(std::move(shared_viewer)) {
+  TAC3D_DEMAND(!(web_ && !args.web.empty()));
   args.Validate();
   if (!args.udp.empty()) {
     sender_.emplace(ParseUdp(args.udp));
@@ -114,12 +127,7 @@ FrameOutputs::FrameOutputs(const FrameOutputArgs& args) : args_(args) {
                  sender_->local_endpoint().ToString().c_str());
   }
   if (!args.record.empty()) recorder_.emplace(args.record, RecordingWriterOptions{.overwrite = args.overwrite});
-  if (!args.web.empty()) {
-    const WebServerOptions options = ParseWeb(args);
-    web_ = std::make_unique<WebServer>(options);
-    std::fprintf(stderr, "viewer on http://%s:%u/ (page from %s)\n", options.host.c_str(),
-                 static_cast<unsigned>(web_->port()), options.root.c_str());
-  }
+  if (!args.web.empty()) web_ = OpenViewer(args);
 }
 
 FrameOutputs::~FrameOutputs() = default;
@@ -130,27 +138,44 @@ void FrameOutputs::Emit(const TactileFrame& frame, const cv::Mat& image) {
   if (web_) web_->Publish(frame, image);
   // Flushed line by line: a reader on a pipe gets each frame at once, and a killed run has
   // printed every frame it recorded.
-  if (args_.json) WriteLineFlushed(stdout, Summary(frame).dump());
+  if (args_.json) {
+    // One line at a time: the sensors of a run file print from their own threads.
+    static std::mutex stdout_mutex;
+    const std::string line = Summary(frame).dump();
+    std::lock_guard lock(stdout_mutex);
+    WriteLineFlushed(stdout, line);
+  }
 }
 
 std::optional<SensorCommand> FrameOutputs::PollCommand() {
-  if (web_ && web_->TakeZeroRequest()) return SensorCommand::kZero;
+  if (web_ && web_->TakeZeroRequest(args_.sn)) return SensorCommand::kZero;
   return sender_ ? sender_->PollCommand() : std::nullopt;
 }
 
-void FrameOutputs::HoldWeb() {
-  if (!web_ || args_.web_hold_s == 0 || g_stop) return;
-  std::signal(SIGINT, [](int) { g_stop = true; });
-  std::signal(SIGTERM, [](int) { g_stop = true; });
+void FrameOutputs::HoldWeb() { HoldViewer(web_.get(), args_.web_hold_s); }
+
+void HoldViewer(const WebServer* viewer, double hold_s) {
+  if (viewer == nullptr || hold_s == 0 || g_stop) return;
+  StopSignals signals;
   std::fprintf(stderr, "the source ended; the viewer stays up %s\n",
-               args_.web_hold_s < 0 ? "until Ctrl-C" : fmt::format("{} s", args_.web_hold_s).c_str());
-  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(args_.web_hold_s);
-  while (!g_stop && (args_.web_hold_s < 0 || std::chrono::steady_clock::now() < end)) {
+               hold_s < 0 ? "until Ctrl-C" : fmt::format("{} s", hold_s).c_str());
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(hold_s);
+  while (!g_stop && (hold_s < 0 || std::chrono::steady_clock::now() < end)) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }
+}
+
+StopSignals::StopSignals() {
+  std::signal(SIGINT, [](int) { g_stop = true; });
+  std::signal(SIGTERM, [](int) { g_stop = true; });
+}
+
+StopSignals::~StopSignals() {
   std::signal(SIGINT, SIG_DFL);
   std::signal(SIGTERM, SIG_DFL);
 }
+
+std::atomic<bool>& StopSignals::flag() { return g_stop; }
 
 std::string FrameOutputs::RecordedNote() const {
   std::string note =
@@ -163,39 +188,40 @@ std::string FrameOutputs::RecordedNote() const {
   return note;
 }
 
+FrameLoopCounts FrameLoop(FrameOutputs& outputs,
+                          long max_frames,
+                          const std::atomic<bool>& stop,
+                          const FrameProducer& produce,
+                          const std::function<void()>& on_zero) {
+  FrameLoopCounts counts;
+  while (!stop && !counts.quit && (max_frames <= 0 || counts.emitted < max_frames)) {
+    const TactileFrame* frame = nullptr;
+    const cv::Mat* image = nullptr;
+    const Produced produced = produce(stop, frame, image);
+    if (produced == Produced::kEnd) break;
+    if (produced == Produced::kSkipped) {
+      ++counts.skipped;
+      continue;
+    }
+    TAC3D_DEMAND(frame != nullptr);
+    ++counts.emitted;
+    outputs.Emit(*frame, image != nullptr ? *image : cv::Mat());
+    while (const std::optional<SensorCommand> command = outputs.PollCommand()) {
+      if (*command == SensorCommand::kZero) on_zero();
+      if (*command == SensorCommand::kStop) counts.quit = true;
+    }
+  }
+  return counts;
+}
+
 FrameLoopCounts RunFrameLoop(FrameOutputs& outputs,
                              long max_frames,
                              const FrameProducer& produce,
                              const std::function<void()>& on_zero) {
   g_stop = false;
-  std::signal(SIGINT, [](int) { g_stop = true; });
-  std::signal(SIGTERM, [](int) { g_stop = true; });
-  FrameLoopCounts counts;
-  try {
-    while (!g_stop && (max_frames <= 0 || counts.emitted < max_frames)) {
-      const TactileFrame* frame = nullptr;
-      const cv::Mat* image = nullptr;
-      const Produced produced = produce(g_stop, frame, image);
-      if (produced == Produced::kEnd) break;
-      if (produced == Produced::kSkipped) {
-        ++counts.skipped;
-        continue;
-      }
-      TAC3D_DEMAND(frame != nullptr);
-      ++counts.emitted;
-      outputs.Emit(*frame, image != nullptr ? *image : cv::Mat());
-      while (const std::optional<SensorCommand> command = outputs.PollCommand()) {
-        if (*command == SensorCommand::kZero) on_zero();
-        if (*command == SensorCommand::kStop) g_stop = true;
-      }
-    }
-  } catch (...) {
-    std::signal(SIGINT, SIG_DFL);
-    std::signal(SIGTERM, SIG_DFL);
-    throw;
-  }
-  std::signal(SIGINT, SIG_DFL);
-  std::signal(SIGTERM, SIG_DFL);
+  StopSignals signals;
+  const FrameLoopCounts counts = FrameLoop(outputs, max_frames, g_stop, produce, on_zero);
+  if (counts.quit) g_stop = true;
   return counts;
 }
 

@@ -15,13 +15,10 @@
 #include "tac3d/frame/tactile_frame.h"
 #include "tac3d/protocol/udp_sender.h"
 #include "tac3d/record/recording.h"
+#include "tac3d/web/web_server.h"
 
 namespace CLI {
 class App;
-}
-
-namespace tac3d {
-class WebServer;
 }
 
 namespace tac3d::cli {
@@ -46,20 +43,28 @@ struct FrameOutputArgs {
   void Validate() const;
 };
 
+/// Starts the viewer `args.web` names (docs/viewer.md), with `api` answering its /api/
+/// requests, and names it on stderr.
+/// @pre args.web is not empty. @throws Error as WebServer's constructor does.
+std::shared_ptr<WebServer> OpenViewer(const FrameOutputArgs& args, WebApiHandler api = {});
+
 /// Opens the outputs a run asked for and sends every frame to each of them.
 class FrameOutputs {
  public:
   /// Validates the arguments, opens the UDP sender and the recording and names them on stderr.
+  /// @param shared_viewer a viewer several sensors publish to (then args.web must be empty);
+  ///   else one is opened when args.web asks for it.
   /// @throws Error on a malformed HOST:PORT, a host that does not resolve, or a recording
   /// file that exists or cannot be created.
-  explicit FrameOutputs(const FrameOutputArgs& args);
+  explicit FrameOutputs(const FrameOutputArgs& args,
+                        std::shared_ptr<WebServer> shared_viewer = nullptr);
   ~FrameOutputs();
 
   /// Records the frame (with `image` if record_images and it is not empty), streams it, and
   /// prints its JSON line. @throws Error as RecordingWriter::Write and UdpSender::Send do.
   void Emit(const TactileFrame& frame, const cv::Mat& image);
-  /// The next command the UDP client sent (`$C`, `$Q`), or a zero the viewer asked for
-  /// (`$C`); nullopt when none.
+  /// The next command the UDP client sent (`$C`, `$Q`), or a zero the viewer asked for this
+  /// SN (`$C`); nullopt when none.
   std::optional<SensorCommand> PollCommand();
   /// With --web and --web-hold: keeps the viewer up after the source ended, until the hold
   /// is over or Ctrl-C / SIGTERM.
@@ -71,7 +76,23 @@ class FrameOutputs {
   FrameOutputArgs args_;
   std::optional<UdpSender> sender_;
   std::optional<RecordingWriter> recorder_;
-  std::unique_ptr<WebServer> web_;
+  std::shared_ptr<WebServer> web_;
+};
+
+/// With a viewer and a hold (`--web-hold`): keeps it up after the sources ended, until the
+/// hold is over or Ctrl-C / SIGTERM (none when the run was stopped that way).
+void HoldViewer(const WebServer* viewer, double hold_s);
+
+/// While an instance lives, Ctrl-C and SIGTERM set flag() (and no longer end the process).
+/// One instance at a time.
+class StopSignals {
+ public:
+  StopSignals();
+  ~StopSignals();
+  StopSignals(const StopSignals&) = delete;
+  StopSignals& operator=(const StopSignals&) = delete;
+  /// Set by a signal; cleared by the frame loops when they start.
+  static std::atomic<bool>& flag();
 };
 
 /// What a run's frame producer made of one step.
@@ -90,11 +111,20 @@ using FrameProducer = std::function<Produced(
 struct FrameLoopCounts {
   long emitted = 0;
   long skipped = 0;
+  bool quit = false;  ///< ended by the client's `$Q`
 };
 
-/// The loop of `tac3d run`: takes frames from `produce` and emits them until it ends,
-/// `max_frames` (> 0) have been emitted, Ctrl-C or SIGTERM, or the client's `$Q`; a `$C` calls
-/// `on_zero`. The signal handlers are in place only during the loop.
+/// One sensor's loop: takes frames from `produce` and emits them until it ends, `max_frames`
+/// (> 0) have been emitted, `stop` is set, or the client's `$Q`; a `$C` calls `on_zero`.
+/// Thread-safe for distinct outputs (the sensors of a run file each run one).
+FrameLoopCounts FrameLoop(FrameOutputs& outputs,
+                          long max_frames,
+                          const std::atomic<bool>& stop,
+                          const FrameProducer& produce,
+                          const std::function<void()>& on_zero);
+
+/// The loop of `tac3d run`: FrameLoop, stopped by Ctrl-C or SIGTERM as well, whose handlers
+/// are in place only during the loop; a `$Q` also skips the viewer's hold.
 FrameLoopCounts RunFrameLoop(FrameOutputs& outputs,
                              long max_frames,
                              const FrameProducer& produce,

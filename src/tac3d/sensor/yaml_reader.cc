@@ -101,21 +101,21 @@ YAML::Node LoadYamlFile(const std::string& path, std::string_view what) {
 
 YamlReader::YamlReader(YAML::Node node, std::string path, const std::string* source)
     : node_(std::move(node)), path_(std::move(path)), source_(source) {
-  if (!node_.IsMap()) Fail(path_.empty() ? "the document" : path_, "must be a mapping");
+  if (!node_.IsMap()) FailAt(node_, path_.empty() ? "the document" : path_, "must be a mapping");
 }
 
 YamlReader::~YamlReader() noexcept(false) {
   if (std::uncaught_exceptions() > 0) return;
   for (const auto& kv : node_) {
     const std::string key = kv.first.as<std::string>();
-    if (!used_.count(key)) Fail(Join(key), "unknown key (misspelt?)");
+    if (!used_.count(key)) FailAt(kv.first, Join(key), "unknown key (misspelt?)");
   }
 }
 
 YAML::Node YamlReader::Required(const std::string& key) {
   used_.insert(key);
   YAML::Node child = node_[key];
-  if (!child) Fail(Join(key), "missing");
+  if (!child) FailAt(node_, Join(key), "missing");
   return child;
 }
 
@@ -125,7 +125,7 @@ YamlReader YamlReader::Child(const std::string& key) {
 
 YAML::Node YamlReader::Sequence(const std::string& key) {
   YAML::Node n = Required(key);
-  if (!n.IsSequence()) Fail(Join(key), "must be a list");
+  if (!n.IsSequence()) FailAt(n, Join(key), "must be a list");
   return n;
 }
 
@@ -140,22 +140,31 @@ int YamlReader::Int(const std::string& key) {
   try {
     return n.as<int>();
   } catch (const YAML::Exception&) {
-    Fail(Join(key), "must be an integer");
+    FailAt(n, Join(key), "must be an integer");
+  }
+}
+
+bool YamlReader::Bool(const std::string& key) {
+  const YAML::Node n = Required(key);
+  try {
+    return n.as<bool>();
+  } catch (const YAML::Exception&) {
+    FailAt(n, Join(key), "must be true or false");
   }
 }
 
 std::string YamlReader::String(const std::string& key) {
   const YAML::Node n = Required(key);
-  if (!n.IsScalar()) Fail(Join(key), "must be a string");
+  if (!n.IsScalar()) FailAt(n, Join(key), "must be a string");
   return n.as<std::string>();
 }
 
 Eigen::Matrix3d YamlReader::Matrix3(const std::string& key) {
   const YAML::Node n = Required(key);
-  if (!n.IsSequence() || n.size() != 3) Fail(Join(key), "must be 3 rows of 3 numbers");
+  if (!n.IsSequence() || n.size() != 3) FailAt(n, Join(key), "must be 3 rows of 3 numbers");
   Eigen::Matrix3d m;
   for (int r = 0; r < 3; ++r) {
-    if (!n[r].IsSequence() || n[r].size() != 3) Fail(Join(key), "must be 3 rows of 3 numbers");
+    if (!n[r].IsSequence() || n[r].size() != 3) FailAt(n, Join(key), "must be 3 rows of 3 numbers");
     for (int c = 0; c < 3; ++c)
       m(r, c) = AsDouble(n[r][c], fmt::format("{}[{}][{}]", Join(key), r, c));
   }
@@ -166,15 +175,21 @@ void YamlReader::Fail(const std::string& where, const std::string& what) const {
   throw Error(fmt::format("{}: {}: {}", *source_, where, what));
 }
 
+void YamlReader::FailAt(const YAML::Node& at, const std::string& where, const std::string& what) const {
+  // A node made in code (not parsed) has no mark.
+  if (at.Mark().is_null()) Fail(where, what);
+  throw Error(fmt::format("{}: line {}: {}: {}", *source_, at.Mark().line + 1, where, what));
+}
+
 double YamlReader::AsDouble(const YAML::Node& n, const std::string& where) const {
-  if (!n.IsScalar()) Fail(where, "must be a number");
+  if (!n.IsScalar()) FailAt(n, where, "must be a number");
   double value = 0.0;
   try {
     value = n.as<double>();
   } catch (const YAML::Exception&) {
-    Fail(where, fmt::format("'{}' is not a number", n.Scalar()));
+    FailAt(n, where, fmt::format("'{}' is not a number", n.Scalar()));
   }
-  if (!std::isfinite(value)) Fail(where, fmt::format("'{}' is not a finite number", n.Scalar()));
+  if (!std::isfinite(value)) FailAt(n, where, fmt::format("'{}' is not a finite number", n.Scalar()));
   return value;
 }
 

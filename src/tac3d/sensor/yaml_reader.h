@@ -25,7 +25,8 @@ YAML::Node LoadYamlFile(const std::string& path, std::string_view what);
 /// Reads one YAML mapping strictly, with the file and the key path in every error
 /// ("sensor.yaml: markers.pitch_mm: 'abc' is not a number"): a missing key, a value of the
 /// wrong type and (when the reader goes out of scope normally) a key nobody asked for
-/// ("unknown key (misspelt?)") are all errors. Used for every YAML file tac3d reads.
+/// ("unknown key (misspelt?)") are all errors, each naming its line. Used for every YAML file
+/// tac3d reads.
 class YamlReader {
  public:
   /// @param source the file name (or "<text>"), kept by pointer: it must outlive the reader.
@@ -44,6 +45,8 @@ class YamlReader {
   double Double(const std::string& key, double fallback) { return Has(key) ? Double(key) : fallback; }
   int Int(const std::string& key);
   int Int(const std::string& key, int fallback) { return Has(key) ? Int(key) : fallback; }
+  bool Bool(const std::string& key);
+  bool Bool(const std::string& key, bool fallback) { return Has(key) ? Bool(key) : fallback; }
   std::string String(const std::string& key);
   std::string String(const std::string& key, const std::string& fallback) {
     return Has(key) ? String(key) : fallback;
@@ -52,7 +55,7 @@ class YamlReader {
   template <int N>
   Eigen::Matrix<double, N, 1> Vector(const std::string& key) {
     const YAML::Node n = Required(key);
-    if (!n.IsSequence() || n.size() != N) Fail(Join(key), fmt::format("must be a list of {} numbers", N));
+    if (!n.IsSequence() || n.size() != N) FailAt(n, Join(key), fmt::format("must be a list of {} numbers", N));
     Eigen::Matrix<double, N, 1> v;
     for (int i = 0; i < N; ++i) v(i) = AsDouble(n[i], fmt::format("{}[{}]", Join(key), i));
     return v;
@@ -68,6 +71,8 @@ class YamlReader {
   YamlReader Element(const YAML::Node& sequence, const std::string& key, size_t i) const;
 
   [[noreturn]] void Fail(const std::string& where, const std::string& what) const;
+  /// As Fail, with the line of `at` in the file ("sensor.yaml: line 7: markers.rows: ...").
+  [[noreturn]] void FailAt(const YAML::Node& at, const std::string& where, const std::string& what) const;
   std::string Join(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
   const std::string& source() const { return *source_; }
 

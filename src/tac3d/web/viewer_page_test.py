@@ -1,10 +1,13 @@
 #!/usr/bin/env python3
 """The viewer page in headless Chromium against a replayed twin dataset (docs/viewer.md).
 
-Simulates a short two_material_slide dataset, replays it with `tac3d run --web`, loads the
-page twice in headless Chromium (Debian's `chromium`, installed by scripts/setup.sh): once to
+Simulates a short two_material_slide dataset, replays it with `tac3d run --web --record`, loads
+the page twice in headless Chromium (Debian's `chromium`, installed by scripts/setup.sh): once to
 dump the DOM (frames received > 0, the sensor's panel made) and once for a screenshot, whose
-3D canvas must hold drawn (non-background) pixels. Exits non-zero on any failure.
+3D canvas must hold drawn (non-background) pixels. Then serves that recording and a small
+friction map with `tac3d view`: the page must show the time slider over every recorded frame,
+the first frame fetched by index, the map's band counts and a drawn friction canvas. Exits
+non-zero on any failure.
 
 usage: viewer_page_test.py TAC3D_BINARY WORK_DIR
 """
@@ -21,6 +24,7 @@ import urllib.request
 import zlib
 
 WINDOW = (1120, 900)
+VIEW_WINDOW = (1120, 1400)  # `tac3d view`: the friction map's panel below the sensor's
 BACKGROUND_3D = (0x10, 0x12, 0x14)  # viewer.js BACKGROUND, the WebGL clear colour
 
 
@@ -92,14 +96,81 @@ def drawn_share(path, left, top, width, height):
     return drawn / max(total, 1)
 
 
-def chromium(args, timeout):
+def chromium(args, timeout, window=WINDOW):
     binary = shutil.which("chromium")
     if binary is None:
         fail("chromium is not installed (scripts/setup.sh installs it)")
     command = [binary, "--headless=new", "--no-sandbox", "--disable-gpu", "--use-angle=swiftshader",
-               "--enable-unsafe-swiftshader", "--window-size=%d,%d" % WINDOW, "--hide-scrollbars",
+               "--enable-unsafe-swiftshader", "--window-size=%d,%d" % window, "--hide-scrollbars",
                "--virtual-time-budget=4000"] + args
     return subprocess.run(command, capture_output=True, text=True, timeout=timeout)
+
+
+def wait_for_page(url, process):
+    deadline = time.time() + 90  # a first run may build the compliance model
+    while True:
+        try:
+            return urllib.request.urlopen(url, timeout=2).read().decode()
+        except OSError:
+            if process.poll() is not None:
+                fail("tac3d ended: " + process.stderr.read())
+            if time.time() > deadline:
+                fail("the viewer did not come up on " + url)
+            time.sleep(0.2)
+
+
+def dump_dom_until(url, pattern, what):
+    """The DOM of the first of 5 loads in which `pattern` matches (virtual time can run out)."""
+    for attempt in range(5):
+        dom = chromium(["--dump-dom", url], timeout=60, window=VIEW_WINDOW).stdout
+        if re.search(pattern, dom):
+            return dom
+        print("load %d: %s not yet" % (attempt + 1, what))
+    fail("%s did not show in 5 loads: %s" % (what, dom[:400]))
+
+
+def write_friction_ply(path):
+    """Two triangles, one vertex in each of the paper's bands (mu 0.3, 0.65, 0.95, unknown)."""
+    with open(path, "w") as f:
+        f.write("ply\nformat ascii 1.0\nelement vertex 4\nproperty double x\nproperty double y\n"
+                "property double z\nproperty double mu\nproperty double confidence\n"
+                "element face 2\nproperty list uchar int vertex_indices\nend_header\n"
+                "0 0 0 0.3 1\n10 0 0 0.65 1\n0 10 0 0.95 1\n10 10 2 nan 0\n3 0 1 2\n3 1 3 2\n")
+
+
+def check_view(tac3d, work, recording):
+    """`tac3d view`: the recording's frames on the time slider, and a friction map."""
+    ply = os.path.join(work, "map.ply")
+    write_friction_ply(ply)
+    port = free_port()
+    url = "http://127.0.0.1:%d/" % port
+    view = subprocess.Popen([tac3d, "view", "--recording", recording, "--friction-map", ply, "--web",
+                             "127.0.0.1:%d" % port, "--web-hold", "60"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        wait_for_page(url, view)
+        dom = dump_dom_until(url, r'data-shown="0"', "frame 0 fetched by index")
+        slider = re.search(r'id="slider" min="0" max="(\d+)"', dom)
+        if not slider or int(slider.group(1)) != 29:
+            fail("the time slider does not span the 30 recorded frames: " + (slider.group(0) if slider else "none"))
+        if "0.5: 1 vertices" not in dom or "unknown: 1" not in dom:
+            fail("the friction map's band counts are missing")
+        rect = re.search(r'data-friction-canvas="([^"]+)"', dom)
+        if not rect:
+            fail("the page did not report the friction canvas")
+        left, top, width, height = json.loads(rect.group(1).replace("&quot;", '"'))
+        shot = os.path.join(work, "view.png")
+        for attempt in range(5):
+            chromium(["--screenshot=" + shot, url], timeout=60, window=VIEW_WINDOW)
+            share = drawn_share(shot, left, top, width, height)
+            if share >= 0.02:
+                break
+        print("tac3d view: slider over %d frames, friction canvas drawn pixels %.1f%%" % (int(slider.group(1)) + 1, 100 * share))
+        if share < 0.02:
+            fail("the friction canvas is (nearly) empty: %.2f%% drawn" % (100 * share))
+    finally:
+        view.terminate()
+        view.wait(timeout=10)
 
 
 def main():
@@ -112,21 +183,13 @@ def main():
     port = free_port()
     url = "http://127.0.0.1:%d/" % port
     # 30 steps of 20 ms at a fifth of real time: 3 s of live frames, then the last one held.
+    recording = os.path.join(work, "run.rec")
     run = subprocess.Popen([tac3d, "run", "--source", "dataset:" + dataset, "--speed", "0.2", "--web",
-                            "127.0.0.1:%d" % port, "--web-hold", "30"],
+                            "127.0.0.1:%d" % port, "--web-hold", "30", "--record", recording],
                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     try:
-        deadline = time.time() + 90  # a first run may build the compliance model
-        while True:
-            try:
-                page = urllib.request.urlopen(url, timeout=2).read().decode()
-                break
-            except OSError:
-                if run.poll() is not None:
-                    fail("tac3d run ended: " + run.stderr.read())
-                if time.time() > deadline:
-                    fail("the viewer did not come up on " + url)
-                time.sleep(0.2)
+        page = wait_for_page(url, run)
+        source_ends = time.time() + 4  # 30 steps of 20 ms at 0.2x: 3 s after the page is up
         if "three.min.js" not in page:
             fail("the page does not load three.js")
 
@@ -157,13 +220,15 @@ def main():
         print("frames received in the DOM dump: %s; 3D canvas drawn pixels: %.1f%%" % (received.group(1), 100 * share))
         if share < 0.05:
             fail("the 3D canvas is (nearly) empty: %.2f%% drawn" % (100 * share))
-        print("PASS")
+        time.sleep(max(0.0, source_ends - time.time()))  # every frame recorded
     finally:
         run.terminate()
         try:
             run.wait(timeout=10)
         except subprocess.TimeoutExpired:
             run.kill()
+    check_view(tac3d, work, recording)
+    print("PASS")
 
 
 if __name__ == "__main__":

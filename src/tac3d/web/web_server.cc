@@ -8,6 +8,7 @@
 #include <map>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <sstream>
 #include <thread>
 #include <vector>
@@ -124,6 +125,17 @@ std::string JsonSafe(std::string s) {
 
 }  // namespace
 
+std::string ImageToJson(const std::string& sn, std::int64_t index, const cv::Mat& image, int width) {
+  TAC3D_DEMAND(!image.empty());
+  cv::Mat small;
+  const double scale = std::min(1.0, width / static_cast<double>(image.cols));
+  cv::resize(image, small, cv::Size(), scale, scale, cv::INTER_AREA);
+  std::vector<uchar> jpeg;
+  cv::imencode(".jpg", small, jpeg, {cv::IMWRITE_JPEG_QUALITY, 70});
+  return fmt::format("{{\"type\":\"image\",\"sn\":\"{}\",\"index\":{},\"w\":{},\"h\":{},\"jpeg\":\"{}\"}}",
+                     JsonSafe(sn), index, small.cols, small.rows, Base64(jpeg));
+}
+
 std::string ResolveStaticPath(const std::string& root, const std::string& target) {
   std::string_view path(target);
   path = path.substr(0, path.find_first_of("?#"));
@@ -165,6 +177,9 @@ class WebServerImpl {
   void Unregister(const WsSession* session);
   void Accept();
   void Tick();
+  // A client's "zero" (every sensor) or "zero SN".
+  void RequestZero(const std::string& message);
+  bool TakeZeroRequest(const std::string& sn);
 
   const WebServerOptions options_;
   net::io_context io_{1};
@@ -173,7 +188,6 @@ class WebServerImpl {
   std::thread thread_;
   std::uint16_t port_ = 0;
 
-  std::atomic<bool> zero_requested_{false};
   std::atomic<int> clients_{0};
   std::atomic<std::int64_t> frames_published_{0}, messages_sent_{0}, sends_skipped_{0},
       clients_dropped_{0}, http_requests_{0}, bad_requests_{0};
@@ -194,6 +208,11 @@ class WebServerImpl {
   };
   std::mutex mutex_;
   std::map<std::string, Slot, std::less<>> slots_;
+  // Zero requests: "zero" bumps the generation every sensor compares with the one it took
+  // last; "zero SN" marks that sensor. Under mutex_.
+  std::uint64_t zero_all_generation_ = 0;
+  std::map<std::string, std::uint64_t, std::less<>> zero_taken_generation_;
+  std::set<std::string, std::less<>> zero_one_;
 
   std::vector<std::shared_ptr<WsSession>> sessions_;  // server thread only
   // The last message of each key ("frame:SN", "image:SN"), which a new client gets at once
@@ -248,7 +267,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       if (ec) return self->Close();
       const std::string message = beast::buffers_to_string(self->read_buffer_.data());
       self->read_buffer_.consume(self->read_buffer_.size());
-      if (message == "zero") self->server_.zero_requested_ = true;
+      self->server_.RequestZero(message);
       self->DoRead();
     });
   }
@@ -325,6 +344,8 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
     }
     if (request.method() != http::verb::get && request.method() != http::verb::head)
       return Respond(http::status::method_not_allowed, "GET or HEAD only\n", "text/plain", request.version(), false);
+    const bool head = request.method() == http::verb::head;
+    if (target.rfind("/api/", 0) == 0) return RespondApi(target, head, request.version(), request.keep_alive());
     const std::string file = ResolveStaticPath(server_.options_.root, target);
     std::string body;
     if (!file.empty()) {
@@ -334,9 +355,20 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
       if (in.good() || in.eof()) body = contents.str();
     }
     if (file.empty()) return Respond(http::status::not_found, "not found\n", "text/plain", request.version(), request.keep_alive());
-    const bool head = request.method() == http::verb::head;
     Respond(http::status::ok, head ? std::string() : std::move(body), ContentType(file), request.version(),
             request.keep_alive());
+  }
+
+  void RespondApi(const std::string& target, bool head, unsigned version, bool keep_alive) {
+    std::optional<WebReply> reply;
+    try {
+      if (server_.options_.api) reply = server_.options_.api(target);
+    } catch (const Error& e) {
+      return Respond(http::status::bad_request, std::string(e.what()) + "\n", "text/plain", version, keep_alive);
+    }
+    if (!reply) return Respond(http::status::not_found, "not found\n", "text/plain", version, keep_alive);
+    Respond(http::status::ok, head ? std::string() : std::move(reply->body), reply->content_type.c_str(), version,
+            keep_alive);
   }
 
   void Respond(http::status status, std::string body, const char* type, unsigned version, bool keep_alive) {
@@ -417,6 +449,28 @@ void WebServerImpl::Unregister(const WsSession* session) {
   clients_ = static_cast<int>(sessions_.size());
 }
 
+void WebServerImpl::RequestZero(const std::string& message) {
+  std::lock_guard lock(mutex_);
+  if (message == "zero") {
+    ++zero_all_generation_;
+  } else if (message.rfind("zero ", 0) == 0 && slots_.count(message.substr(5)) > 0) {
+    // Only published SNs: a client cannot grow the set without bound.
+    zero_one_.insert(message.substr(5));
+  }
+}
+
+bool WebServerImpl::TakeZeroRequest(const std::string& sn) {
+  std::lock_guard lock(mutex_);
+  bool requested = zero_one_.erase(sn) > 0;
+  auto taken = zero_taken_generation_.find(sn);
+  if (taken == zero_taken_generation_.end()) taken = zero_taken_generation_.emplace(sn, 0).first;
+  if (taken->second != zero_all_generation_) {
+    taken->second = zero_all_generation_;
+    requested = true;
+  }
+  return requested;
+}
+
 void WebServerImpl::Publish(const TactileFrame& frame, const cv::Mat& image) {
   const Clock::time_point now = Clock::now();
   std::lock_guard lock(mutex_);
@@ -482,15 +536,8 @@ void WebServerImpl::Tick() {
         // Serialised outside the lock: Publish waits at most for the copies above.
         if (frame_message) frame_message = std::make_shared<const std::string>(FrameToJson(scratch_frame_, fps));
         if (have_image) {
-          cv::Mat small;
-          const double scale = std::min(1.0, options_.image_width / static_cast<double>(scratch_image_.cols));
-          cv::resize(scratch_image_, small, cv::Size(), scale, scale, cv::INTER_AREA);
-          std::vector<uchar> jpeg;
-          cv::imencode(".jpg", small, jpeg, {cv::IMWRITE_JPEG_QUALITY, 70});
           image_message = std::make_shared<const std::string>(
-              fmt::format("{{\"type\":\"image\",\"sn\":\"{}\",\"index\":{},\"w\":{},\"h\":{},\"jpeg\":\"{}\"}}",
-                          JsonSafe(sn), image_index, small.cols,
-                          small.rows, Base64(jpeg)));
+              ImageToJson(sn, image_index, scratch_image_, options_.image_width));
         }
         if (frame_message) last_messages_["frame:" + sn] = frame_message;
         if (image_message) last_messages_["image:" + sn] = image_message;
@@ -513,7 +560,7 @@ std::uint16_t WebServer::port() const { return impl_->port_; }
 
 void WebServer::Publish(const TactileFrame& frame, const cv::Mat& image) { impl_->Publish(frame, image); }
 
-bool WebServer::TakeZeroRequest() { return impl_->zero_requested_.exchange(false); }
+bool WebServer::TakeZeroRequest(const std::string& sn) { return impl_->TakeZeroRequest(sn); }
 
 WebServerStats WebServer::stats() const {
   return {.frames_published = impl_->frames_published_,

@@ -6,7 +6,9 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include <opencv2/core.hpp>
@@ -14,6 +16,17 @@
 #include "tac3d/frame/tactile_frame.h"
 
 namespace tac3d {
+
+/// A reply to an HTTP GET the server's `api` handler answered.
+struct WebReply {
+  std::string body;
+  std::string content_type = "application/json";
+};
+
+/// Answers GET (and HEAD) requests whose target starts with "/api/", on the server's thread:
+/// the target (path and query) in, the reply out, or nullopt for 404. An Error it throws is a
+/// 400 with the message.
+using WebApiHandler = std::function<std::optional<WebReply>(const std::string& target)>;
 
 /// How the viewer's server listens and streams. Defaults bind loopback only.
 struct WebServerOptions {
@@ -26,6 +39,8 @@ struct WebServerOptions {
   int max_clients = 64;            ///< WebSocket clients at once, [1, 10000]; more are refused
   /// A client whose send has not completed for this long is disconnected, (0, 600] s.
   double stall_timeout_s = 5.0;
+  /// Dynamic data under /api/ (`tac3d view`: a recording's frames by index); empty: 404.
+  WebApiHandler api;
 
   /// @throws Error naming the field and its bound, or a root that is not a folder.
   void Validate() const;
@@ -65,8 +80,10 @@ class WebServer {
   /// an image is due (image_hz) and a client is connected. Never blocks on the network.
   void Publish(const TactileFrame& frame, const cv::Mat& image = cv::Mat());
 
-  /// True once for each zero request ("zero" message) a client sent since the last call.
-  bool TakeZeroRequest();
+  /// True once for each zero request for sensor `sn` a client sent since the last call with
+  /// this `sn`: the message "zero" asks every sensor, "zero SN" the one sensor SN (a sensor
+  /// that has published; others are ignored).
+  bool TakeZeroRequest(const std::string& sn);
 
   WebServerStats stats() const;
 
@@ -79,6 +96,10 @@ class WebServer {
 /// null for an invalid marker's values), "valid", "contact" (0/1 strings), "F", "M", "flags",
 /// "init", "slip", "slip_fraction", "mu", "mu_sigma", "fps"}.
 std::string FrameToJson(const TactileFrame& frame, double fps);
+
+/// The camera image as the page's message: {"type":"image","sn","index","w","h","jpeg"
+/// (base64)}, downscaled to at most `width` px wide. @pre image is CV_8UC1 and not empty.
+std::string ImageToJson(const std::string& sn, std::int64_t index, const cv::Mat& image, int width);
 
 /// The file under `root` a request target names, or "" when it names none: the path part
 /// (query dropped) percent-decoded, "/" as index.html; "" for "..", a NUL, a backslash, a bad

@@ -321,14 +321,51 @@ TEST(WebServer, RefusesCrossOriginWebSockets) {
 TEST(WebServer, ZeroRequestReachesTheCaller) {
   PageDir page;
   WebServer server(Options(page.root));
-  EXPECT_FALSE(server.TakeZeroRequest());
+  EXPECT_FALSE(server.TakeZeroRequest("A"));
   WsClient client(server.port());
   client.ws.write(net::buffer(std::string("zero")));
-  EXPECT_TRUE(WaitFor([&] { return server.TakeZeroRequest(); }));
-  EXPECT_FALSE(server.TakeZeroRequest());  // once per request
+  EXPECT_TRUE(WaitFor([&] { return server.TakeZeroRequest("A"); }));
+  EXPECT_FALSE(server.TakeZeroRequest("A"));  // once per request
+  EXPECT_TRUE(server.TakeZeroRequest("B"));   // "zero" asks every sensor
   client.ws.write(net::buffer(std::string("something else")));
   std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  EXPECT_FALSE(server.TakeZeroRequest());
+  EXPECT_FALSE(server.TakeZeroRequest("A"));
+}
+
+TEST(WebServer, ApiTargetsReachTheHandler) {
+  PageDir page;
+  WebServerOptions options = Options(page.root);
+  options.api = [](const std::string& target) -> std::optional<WebReply> {
+    if (target == "/api/frame/3?x=1") return WebReply{.body = "{\"index\":3}"};
+    if (target == "/api/bad") throw Error("frame 'x' is not a number");
+    return std::nullopt;
+  };
+  WebServer server(options);
+  const std::string ok = Get(server.port(), "/api/frame/3?x=1");
+  EXPECT_EQ(Status(ok), 200) << ok;
+  EXPECT_THAT(ok, ::testing::HasSubstr("application/json"));
+  EXPECT_THAT(ok, ::testing::EndsWith("{\"index\":3}"));
+  EXPECT_EQ(Status(Get(server.port(), "/api/frame/4")), 404);
+  const std::string bad = Get(server.port(), "/api/bad");
+  EXPECT_EQ(Status(bad), 400);
+  EXPECT_THAT(bad, ::testing::HasSubstr("frame 'x' is not a number"));
+  // Without a handler, /api/ is 404 like any missing file.
+  WebServer plain(Options(page.root));
+  EXPECT_EQ(Status(Get(plain.port(), "/api/frame/3")), 404);
+}
+
+TEST(WebServer, ZeroRequestForOneSensorReachesOnlyIt) {
+  PageDir page;
+  WebServer server(Options(page.root));
+  server.Publish(MakeSyntheticTactileFrame("A", 0));
+  server.Publish(MakeSyntheticTactileFrame("B", 0));
+  WsClient client(server.port());
+  client.ws.write(net::buffer(std::string("zero C")));  // never published: ignored
+  client.ws.write(net::buffer(std::string("zero B")));
+  EXPECT_TRUE(WaitFor([&] { return server.TakeZeroRequest("B"); }));
+  EXPECT_FALSE(server.TakeZeroRequest("B"));
+  EXPECT_FALSE(server.TakeZeroRequest("A"));
+  EXPECT_FALSE(server.TakeZeroRequest("C"));
 }
 
 // A client that completes the handshake and never reads: its socket buffers fill, and the

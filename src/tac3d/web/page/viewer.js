@@ -1,11 +1,15 @@
-// tac3d live viewer: one panel per sensor (SN), fed by the server's /ws stream (docs/viewer.md).
+// tac3d viewer: one panel per sensor (SN), fed live by the server's /ws stream (`tac3d run
+// --web`), or, under `tac3d view`, by a recording's frames fetched by index with the time
+// slider; and a friction map's mesh (docs/viewer.md).
 'use strict';
 
 const HISTORY = 300;             // samples in the scrolling plots
 const BACKGROUND = 0x101214;
 const sensors = new Map();       // sn -> panel
+const views = [];                // other 3D views (the friction map)
 let received = 0;
 let socket = null;
+let replay = null;               // under `tac3d view`: /api/frames (count, t, F, M)
 
 function fmt3(v) { return v.map(x => (x === null ? '-' : x.toFixed(3))).join(', '); }
 
@@ -26,6 +30,8 @@ function pushPlot(plot, values) {
   plot.series.forEach((s, k) => { s.push(values[k]); if (s.length > HISTORY) s.shift(); });
 }
 
+// Live: the last HISTORY samples, newest at the right. Replay: the whole recording, with the
+// slider's frame (plot.cursor) marked.
 function drawPlot(plot, unit) {
   const ctx = plot.canvas.getContext('2d');
   const w = plot.canvas.width, h = plot.canvas.height;
@@ -37,11 +43,13 @@ function drawPlot(plot, unit) {
   ctx.strokeStyle = '#444';
   ctx.beginPath(); ctx.moveTo(0, h / 2); ctx.lineTo(w, h / 2); ctx.stroke();
   const colors = ['#f66', '#6d6', '#69f'];
+  const span = replay ? Math.max(1, replay.count - 1) : HISTORY;
+  const xOf = (i, n) => w - (n - 1 - i) * (w / span);
   plot.series.forEach((s, k) => {
     ctx.strokeStyle = colors[k];
     ctx.beginPath();
     s.forEach((v, i) => {
-      const x = w - (s.length - 1 - i) * (w / HISTORY);
+      const x = xOf(i, s.length);
       const y = h / 2 - (v === null ? 0 : v) / lim * (h / 2 - 4);
       if (i === 0) ctx.moveTo(x, y); else ctx.lineTo(x, y);
     });
@@ -49,8 +57,35 @@ function drawPlot(plot, unit) {
     ctx.fillStyle = colors[k];
     ctx.fillText(plot.labels[k], 6 + 34 * k, 12);
   });
+  if (plot.cursor !== undefined) {
+    const x = xOf(plot.cursor, plot.series[0].length);
+    ctx.strokeStyle = '#ddd';
+    ctx.beginPath(); ctx.moveTo(x, 0); ctx.lineTo(x, h); ctx.stroke();
+  }
   ctx.fillStyle = '#aaa';
   ctx.fillText('\u00b1' + lim.toPrecision(3) + ' ' + unit, w - 90, 12);
+}
+
+// A three.js renderer, scene, camera and orbit controls in the element `view`.
+function makeView(view, id) {
+  const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+  renderer.setSize(view.clientWidth, view.clientHeight);
+  renderer.setClearColor(BACKGROUND);
+  renderer.domElement.id = id;
+  view.appendChild(renderer.domElement);
+  const scene = new THREE.Scene();
+  const camera = new THREE.PerspectiveCamera(40, view.clientWidth / view.clientHeight, 0.1, 1000);
+  const controls = new THREE.OrbitControls(camera, renderer.domElement);
+  return { renderer, scene, camera, controls };
+}
+
+// Looks at a bounding sphere from below-front, z up.
+function placeCamera(panel, sphere) {
+  panel.controls.target.copy(sphere.center);
+  panel.camera.position.set(sphere.center.x - 0.2 * sphere.radius, sphere.center.y - 2.0 * sphere.radius,
+                            sphere.center.z + 1.6 * sphere.radius);
+  panel.camera.up.set(0, 0, 1);
+  panel.controls.update();
 }
 
 function makePanel(sn, rows, cols) {
@@ -60,19 +95,14 @@ function makePanel(sn, rows, cols) {
   $('sn').textContent = sn;
   const n = rows * cols;
   const view = $('view3d');
-  const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
-  renderer.setSize(view.clientWidth, view.clientHeight);
-  renderer.setClearColor(BACKGROUND);
-  renderer.domElement.id = 'canvas3d-' + sn;
-  view.appendChild(renderer.domElement);
+  const { renderer, scene, camera, controls } = makeView(view, 'canvas3d-' + sn);
   // Where the first sensor's 3D view is, for the headless test's screenshot check.
   if (!document.body.dataset.canvas) {
     const r = view.getBoundingClientRect();
     document.body.dataset.canvas = JSON.stringify([r.left, r.top, r.width, r.height]);
   }
-  const scene = new THREE.Scene();
-  const camera = new THREE.PerspectiveCamera(40, view.clientWidth / view.clientHeight, 0.1, 1000);
-  const controls = new THREE.OrbitControls(camera, renderer.domElement);
+  $('zero-one').onclick = () => { if (socket && socket.readyState === 1) socket.send('zero ' + sn); };
+  $('zero-one').hidden = replay !== null;  // a recording's frames were computed when recorded
 
   // The surface: one vertex a marker, two triangles a grid cell whose four markers are valid.
   const surface = new THREE.BufferGeometry();
@@ -172,11 +202,7 @@ function onFrame(m) {
   panel.contact.attributes.position.needsUpdate = true;
   panel.surface.computeBoundingSphere();
   if (!panel.placed && nvalid > 0) {
-    const s = panel.surface.boundingSphere;
-    panel.controls.target.copy(s.center);
-    panel.camera.position.set(s.center.x - 0.2 * s.radius, s.center.y - 2.0 * s.radius, s.center.z + 1.6 * s.radius);
-    panel.camera.up.set(0, 0, 1);
-    panel.controls.update();
+    placeCamera(panel, panel.surface.boundingSphere);
     panel.placed = true;
   }
   const $ = panel.$;
@@ -189,8 +215,14 @@ function onFrame(m) {
   $('nvalid').textContent = nvalid;
   $('force').textContent = fmt3(m.F);
   $('moment').textContent = fmt3(m.M);
-  pushPlot(panel.forcePlot, m.F);
-  pushPlot(panel.momentPlot, m.M);
+  if (replay) {
+    panel.forcePlot.series = [0, 1, 2].map(k => replay.F.map(v => v[k]));
+    panel.momentPlot.series = [0, 1, 2].map(k => replay.M.map(v => v[k]));
+    panel.forcePlot.cursor = panel.momentPlot.cursor = m.index_in_view;
+  } else {
+    pushPlot(panel.forcePlot, m.F);
+    pushPlot(panel.momentPlot, m.M);
+  }
   drawPlot(panel.forcePlot, 'N');
   drawPlot(panel.momentPlot, 'N mm');
   panel.renderer.render(panel.scene, panel.camera);
@@ -222,10 +254,110 @@ function connect() {
   };
 }
 
+// `tac3d view`: frame i of the recording, fetched when the slider moves (one request at a
+// time; the slider's latest value is fetched when it is done).
+let loading = false;
+async function showFrame() {
+  if (loading) return;
+  loading = true;
+  const slider = document.getElementById('slider');
+  let i;
+  do {
+    i = Number(slider.value);
+    document.getElementById('slider-label').textContent =
+      'frame ' + (i + 1) + ' / ' + replay.count + ', t = ' + replay.t[i].toFixed(3) + ' s';
+    const frame = await fetch('api/frame/' + i);
+    if (frame.ok) {
+      const m = await frame.json();
+      m.index_in_view = i;
+      ++received;
+      document.getElementById('received').textContent = received;
+      onFrame(m);
+    }
+    const image = await fetch('api/image/' + i);
+    if (image.ok) onImage(await image.json());
+  } while (Number(slider.value) !== i);
+  document.body.dataset.shown = i;  // for the headless test
+  loading = false;
+}
+
+async function startReplay() {
+  const r = await fetch('api/frames');
+  if (!r.ok) return;
+  replay = await r.json();
+  if (replay.count === 0) return;
+  document.getElementById('replay').hidden = false;
+  document.getElementById('zero').hidden = true;
+  const slider = document.getElementById('slider');
+  slider.max = replay.count - 1;
+  slider.oninput = showFrame;
+  document.title = 'tac3d view: ' + replay.count + ' frames';
+  showFrame();
+}
+
+// Each triangle split into its three corners' regions (corner, edge midpoints, centroid), each
+// region flat in its corner's band colour: every point shows its nearest vertex's band, as the
+// map's PNG does, and colours of different bands are never blended.
+function bandRegions(map) {
+  const v = map.vertices, c = map.colors, t = map.triangles;
+  const position = [], color = [], at = i => [v[3 * i], v[3 * i + 1], v[3 * i + 2]];
+  const mid = (p, q) => p.map((x, k) => (x + q[k]) / 2);
+  for (let f = 0; f < t.length; f += 3) {
+    const p = [at(t[f]), at(t[f + 1]), at(t[f + 2])];
+    const g = p[0].map((x, k) => (x + p[1][k] + p[2][k]) / 3);
+    for (let j = 0; j < 3; ++j) {
+      const a = p[j], ab = mid(a, p[(j + 1) % 3]), ca = mid(a, p[(j + 2) % 3]);
+      position.push(...a, ...ab, ...g, ...a, ...g, ...ca);
+      const rgb = [0, 1, 2].map(k => c[3 * t[f + j] + k] / 255);
+      for (let n = 0; n < 6; ++n) color.push(...rgb);
+    }
+  }
+  const geometry = new THREE.BufferGeometry();
+  geometry.setAttribute('position', new THREE.BufferAttribute(new Float32Array(position), 3));
+  geometry.setAttribute('color', new THREE.BufferAttribute(new Float32Array(color), 3));
+  geometry.computeVertexNormals();
+  geometry.computeBoundingSphere();
+  return geometry;
+}
+
+// `tac3d view --friction-map`: the mesh in the paper's bands (the server's colours).
+async function showFrictionMap() {
+  const r = await fetch('api/friction-map');
+  if (!r.ok) return;
+  const map = await r.json();
+  const section = document.getElementById('friction');
+  section.hidden = false;
+  document.getElementById('friction-path').textContent = map.path;
+  const panel = makeView(document.getElementById('friction-view'), 'canvas3d-friction');
+  const geometry = bandRegions(map);
+  panel.scene.add(new THREE.Mesh(geometry, new THREE.MeshLambertMaterial({ vertexColors: THREE.VertexColors, side: THREE.DoubleSide })));
+  panel.scene.add(new THREE.AmbientLight(0xffffff, 0.45));
+  const light = new THREE.DirectionalLight(0xffffff, 0.6);
+  light.position.set(0, -1, 2);
+  panel.scene.add(light);
+  placeCamera(panel, geometry.boundingSphere);
+  const swatch = (rgb, text) => '<span class="swatch" style="background:rgb(' + rgb + ')"></span>' + text + '<br>';
+  document.getElementById('friction-legend').innerHTML =
+    swatch('40,90,255', '\u03bc \u2264 0.5: ' + map.bands.low + ' vertices') +
+    swatch('40,200,60', '0.5 < \u03bc \u2264 0.8: ' + map.bands.medium) +
+    swatch('230,40,40', '\u03bc > 0.8: ' + map.bands.high) +
+    swatch('150,150,150', 'unknown: ' + map.bands.unknown);
+  views.push(panel);
+}
+
 document.getElementById('zero').onclick = () => { if (socket && socket.readyState === 1) socket.send('zero'); };
 function animate() {
   requestAnimationFrame(animate);
-  sensors.forEach(p => { p.controls.update(); p.renderer.render(p.scene, p.camera); });
+  // Where the friction map's view is now (the sensors' panels above it come later), for the
+  // headless test's screenshot check.
+  const friction = document.getElementById('canvas3d-friction');
+  if (friction) {
+    const r = friction.getBoundingClientRect();
+    document.body.dataset.frictionCanvas = JSON.stringify([r.left, r.top, r.width, r.height]);
+  }
+  [...sensors.values(), ...views].forEach(p => { p.controls.update(); p.renderer.render(p.scene, p.camera); });
 }
 connect();
+startReplay();
+showFrictionMap();
 animate();

@@ -1,0 +1,103 @@
+#include "run_file.h"
+
+#include <filesystem>
+#include <map>
+
+#include <fmt/format.h>
+
+#include "tac3d/sensor/yaml_reader.h"
+#include "tac3d/util/error.h"
+#include "tac3d/util/file_io.h"
+
+namespace tac3d::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string FromBase(const std::string& base_dir, const std::string& path) {
+  if (path.empty() || fs::path(path).is_absolute()) return path;
+  return (fs::path(base_dir) / path).lexically_normal().string();
+}
+
+// A source's file or folder taken from the run file's folder; a camera is left alone.
+std::string ResolveSource(const std::string& base_dir, const std::string& source) {
+  for (const char* prefix : {"dataset:", "recording:"}) {
+    const std::string p(prefix);
+    if (source.rfind(p, 0) == 0) return p + FromBase(base_dir, source.substr(p.size()));
+  }
+  if (source.rfind("camera:", 0) == 0 || source.rfind("/dev/", 0) == 0) return source;
+  return FromBase(base_dir, source);
+}
+
+SensorRunSpec ReadSensor(YamlReader r, const std::string& base_dir) {
+  SensorRunSpec s;
+  s.sn = r.String("sn");
+  if (s.sn.empty()) r.FailAt(r.Required("sn"), r.Join("sn"), "must not be empty");
+  s.source = ResolveSource(base_dir, r.String("source"));
+  s.config = FromBase(base_dir, r.String("config", ""));
+  s.gains = r.Vector<3>("gains", s.gains);
+  s.weight = r.Double("weight", s.weight);
+  s.reference_frames = r.Int("reference_frames", s.reference_frames);
+  if (r.Has("speed")) {
+    const bool paced = s.source.rfind("dataset:", 0) == 0 || s.source.rfind("recording:", 0) == 0;
+    if (!paced) r.FailAt(r.Required("speed"), r.Join("speed"), "applies to recording:FILE or dataset:DIR only");
+    s.speed = r.Double("speed");
+    if (*s.speed < 0) r.FailAt(r.Required("speed"), r.Join("speed"), "must be >= 0");
+  }
+  s.camera.fps = r.Double("fps", s.camera.fps);
+  s.exposure = r.Double("exposure", s.exposure);
+  s.outputs.udp = r.String("udp", "");
+  s.outputs.record = FromBase(base_dir, r.String("record", ""));
+  s.outputs.record_images = r.Bool("record_images", false);
+  s.outputs.overwrite = r.Bool("overwrite", false);
+  s.outputs.sn = s.sn;
+  // The outputs' own checks (HOST:PORT's form, the record file's folder), named by the line.
+  const auto check = [&r](const char* key, const FrameOutputArgs& args) {
+    try {
+      args.Validate();
+    } catch (const Error& e) {
+      r.FailAt(r.Required(key), r.Join(key), e.what());
+    }
+  };
+  FrameOutputArgs udp, record;
+  udp.udp = s.outputs.udp;
+  record.record = s.outputs.record;
+  check("udp", udp);
+  check("record", record);
+  return s;
+}
+
+}  // namespace
+
+std::vector<SensorRunSpec> ParseRunFile(const std::string& text,
+                                        const std::string& source,
+                                        const std::string& base_dir) {
+  const YAML::Node root = ParseYamlDocument(text, source);
+  YamlReader r(root, "", &source);
+  const YAML::Node list = r.Sequence("sensors");
+  if (list.size() == 0) r.FailAt(list, "sensors", "lists no sensor");
+  std::vector<SensorRunSpec> sensors;
+  std::map<std::string, int> sn_line, record_line;
+  for (size_t i = 0; i < list.size(); ++i) {
+    sensors.push_back(ReadSensor(r.Element(list, "sensors", i), base_dir));
+    const SensorRunSpec& s = sensors.back();
+    const int line = list[i].Mark().line + 1;
+    const auto refuse_twice = [&](std::map<std::string, int>& seen, const std::string& value, const char* what) {
+      const auto [it, inserted] = seen.emplace(value, line);
+      if (!inserted) {
+        throw Error(fmt::format("{}: line {}: sensors[{}]: {} '{}' is used twice (first at line {})", source,
+                                line, i, what, value, it->second));
+      }
+    };
+    refuse_twice(sn_line, s.sn, "sn");
+    if (!s.outputs.record.empty()) refuse_twice(record_line, s.outputs.record, "record file");
+  }
+  return sensors;
+}
+
+std::vector<SensorRunSpec> LoadRunFile(const std::string& path) {
+  return ParseRunFile(ReadFileCapped(path, kMaxConfigFileBytes, "run file"), path,
+                      fs::path(path).parent_path().string());
+}
+
+}  // namespace tac3d::cli

@@ -1,0 +1,117 @@
+#include "sensor_group.h"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <map>
+#include <memory>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include "tac3d/util/error.h"
+
+namespace tac3d::cli {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// A sensor ready to run (both null when it could not be opened).
+struct OpenSensor {
+  std::unique_ptr<FrameOutputs> outputs;
+  std::unique_ptr<SensorStream> stream;
+};
+
+// Several sensors with one config share one model (loaded once).
+ModelLoader Memoized(const ModelLoader& load_model) {
+  auto models = std::make_shared<std::map<std::string, std::shared_ptr<const fem::ComplianceModel>>>();
+  return [load_model, models](const SensorConfig& config) {
+    auto& model = (*models)[SensorConfigToYaml(config)];
+    if (!model) model = load_model(config);
+    return model;
+  };
+}
+
+// One sensor's thread: its frame loop, timed on the common clock.
+void RunSensor(OpenSensor& sensor, const StreamClock& clock, long max_frames, const std::atomic<bool>& stop,
+               SensorReport& report) {
+  try {
+    sensor.stream->Start(clock);
+    double last = std::numeric_limits<double>::quiet_NaN();
+    const FrameLoopCounts counts = FrameLoop(
+        *sensor.outputs, max_frames, stop,
+        [&](const std::atomic<bool>& s, const TactileFrame*& frame, const cv::Mat*& image) {
+          const Produced produced = sensor.stream->Next(s, frame, image);
+          if (produced != Produced::kFrame) return produced;
+          const double now = std::chrono::duration<double>(Clock::now() - clock.epoch).count();
+          if (std::isnan(report.first_frame_s)) report.first_frame_s = now;
+          if (!std::isnan(last)) report.max_gap_s = std::max(report.max_gap_s, now - last);
+          last = report.last_frame_s = now;
+          return produced;
+        },
+        [&] { sensor.stream->Zero(); });
+    report.frames = counts.emitted;
+    report.skipped = counts.skipped;
+    const StreamEnd end = sensor.stream->End(counts.emitted);
+    report.failure = end.failure;
+    report.warning = end.warning;
+    report.last_skip = end.last_skip;
+  } catch (const Error& e) {
+    report.failure = e.what();  // an output failed (a full disk, say)
+  }
+  std::fprintf(stderr, "%s\n", report.BriefReport().c_str());
+}
+
+}  // namespace
+
+std::string SensorReport::BriefReport() const {
+  std::string s = fmt::format("{}: {} frames, {} skipped", sn, frames, skipped);
+  if (frames > 0) {
+    s += fmt::format(", {:.2f}-{:.2f} s, longest gap {:.0f} ms", first_frame_s, last_frame_s, 1e3 * max_gap_s);
+  }
+  if (!last_skip.empty()) s += ", last skipped: " + last_skip;
+  if (!warning.empty()) s += ", warning: " + warning;
+  if (!failure.empty()) s += ", FAILED: " + failure;
+  return s;
+}
+
+std::vector<SensorReport> RunSensorGroup(const std::vector<SensorRunSpec>& sensors,
+                                         const ModelLoader& load_model,
+                                         const SensorGroupOptions& options,
+                                         const std::shared_ptr<WebServer>& viewer,
+                                         const std::atomic<bool>& stop) {
+  // Checked before any sensor starts: a run file's mistake stops the run.
+  for (const SensorRunSpec& spec : sensors) spec.outputs.Validate();
+  const ModelLoader shared_models = Memoized(load_model);
+
+  std::vector<SensorReport> reports(sensors.size());
+  std::vector<OpenSensor> open(sensors.size());
+  for (size_t i = 0; i < sensors.size(); ++i) {
+    reports[i].sn = sensors[i].sn;
+    FrameOutputArgs outputs = sensors[i].outputs;
+    outputs.sn = sensors[i].sn;
+    outputs.json = options.json;
+    try {
+      open[i].stream = OpenSensorStream(sensors[i], shared_models, sensors[i].sn + ": ");
+      open[i].outputs = std::make_unique<FrameOutputs>(outputs, viewer);
+    } catch (const Error& e) {
+      reports[i].failure = fmt::format("could not start: {}", e.what());
+      std::fprintf(stderr, "%s\n", reports[i].BriefReport().c_str());
+      open[i] = {};
+    }
+  }
+
+  const Clock::time_point epoch = Clock::now();
+  std::vector<std::thread> threads;
+  for (size_t i = 0; i < sensors.size(); ++i) {
+    if (!open[i].stream) continue;
+    threads.emplace_back([&, i] {
+      RunSensor(open[i], {.epoch = epoch, .common = true}, options.max_frames, stop, reports[i]);
+    });
+  }
+  for (std::thread& t : threads) t.join();
+  return reports;
+}
+
+}  // namespace tac3d::cli

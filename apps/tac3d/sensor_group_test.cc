@@ -1,0 +1,301 @@
+// Several sensors in one `tac3d run` (issue 13): three twin datasets streamed at 30 fps on
+// their own threads, every frame of each counted on UDP by SN, each on its own pace on one
+// clock; a sensor whose dataset disappears mid-run, or that cannot start, is reported and the
+// others go on. And the run file's validation. The compliance is the synthetic stand-in (the
+// FEM model takes a minute to build); all else is what `tac3d run --run-file` runs.
+#include "sensor_group.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <thread>
+
+#include "run_file.h"
+#include "tac3d/dataset/twin_dataset.h"
+#include "tac3d/design/light_path_design.h"
+#include "tac3d/force/synthetic_compliance.h"
+#include "tac3d/protocol/client.h"
+#include "tac3d/testing/testing.h"
+#include "tac3d/twin/camera_renderer.h"
+#include "tac3d/util/error.h"
+
+namespace tac3d::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+constexpr int kSteps = 30;
+constexpr double kFps = 30.0;
+
+const SensorConfig& Sensor() {
+  static const SensorConfig config = DefaultSensorConfig();
+  return config;
+}
+
+// A twin dataset of undeformed frames at `times_s` (three rendered noise seeds, reused).
+std::string MakeDataset(const std::string& dir, const std::vector<double>& times_s) {
+  static const std::vector<cv::Mat> images = [] {
+    MarkerImageRenderer renderer(Sensor());
+    std::vector<cv::Mat> out;
+    for (int k = 0; k < 3; ++k) out.push_back(renderer.Render(Sensor().MarkerPositions(), k));
+    return out;
+  }();
+  TwinDatasetWriter writer(dir, {{"name", "sensor_group_test"}});
+  for (int k = 0; k < static_cast<int>(times_s.size()); ++k) {
+    TwinStep step;
+    step.index = k;
+    step.t_s = times_s[k];
+    step.image = images[k % images.size()];
+    writer.Write(step);
+  }
+  return dir;
+}
+
+// kSteps frames at kFps, made once; the sensors read it each on its own (a copy where the test
+// deletes it).
+const std::string& Dataset() {
+  static const std::string dir = [] {
+    std::vector<double> times_s;
+    for (int k = 0; k < kSteps; ++k) times_s.push_back(k / kFps);
+    return MakeDataset(testing::MakeTempDir("dataset") + "/ds", times_s);
+  }();
+  return dir;
+}
+
+ModelLoader SyntheticModel() {
+  return [](const SensorConfig& config) {
+    auto model = std::make_shared<fem::ComplianceModel>();
+    model->h = CalcSyntheticCompliance({}).h;
+    model->marker_positions = config.MarkerPositions();
+    return std::shared_ptr<const fem::ComplianceModel>(model);
+  };
+}
+
+SensorRunSpec TwinSensor(const std::string& sn, const std::string& dataset, std::uint16_t udp_port) {
+  SensorRunSpec spec;
+  spec.sn = sn;
+  spec.source = "dataset:" + dataset;
+  spec.speed = 1.0;
+  spec.reference_frames = 5;
+  spec.outputs.udp = fmt::format("127.0.0.1:{}", udp_port);
+  return spec;
+}
+
+// Every frame a Tac3D client receives, by SN: index -> the sender's timestamp.
+class Receiver {
+ public:
+  Receiver() : client_({.bind_address = "127.0.0.1", .port = 0}) {
+    thread_ = std::thread([this] {
+      while (!done_) {
+        if (std::optional<ReceivedFrame> r = client_.Receive(0.02)) {
+          std::lock_guard lock(mutex_);
+          frames_[r->frame.sn][r->frame.index] = r->frame.timestamp_s;
+        }
+      }
+    });
+  }
+  ~Receiver() { Stop(); }
+  std::uint16_t port() const { return client_.local_endpoint().port; }
+  void Stop() {
+    done_ = true;
+    if (thread_.joinable()) thread_.join();
+  }
+  std::map<std::int64_t, double> Frames(const std::string& sn) {
+    std::lock_guard lock(mutex_);
+    return frames_[sn];
+  }
+
+ private:
+  Client client_;
+  std::atomic<bool> done_{false};
+  std::mutex mutex_;
+  std::map<std::string, std::map<std::int64_t, double>> frames_;
+  std::thread thread_;
+};
+
+// How late frame k arrived behind its due time k / fps on the common clock: the largest and
+// the smallest (negative: early) over the frames.
+std::pair<double, double> Lateness(const std::map<std::int64_t, double>& frames) {
+  double latest = -1e9, earliest = 1e9;
+  for (const auto& [index, t] : frames) {
+    latest = std::max(latest, t - index / kFps);
+    earliest = std::min(earliest, t - index / kFps);
+  }
+  return {latest, earliest};
+}
+
+// A sanity bound on keeping pace, loose for a shared 2-core machine: up to 0.7 s was seen with
+// ctest -j2 and other builds beside it (load 10). Waiting on another sensor is tested apart,
+// without a clock bound (ASensorThatFailsOrWaitsHoldsUpNoOther).
+constexpr double kMaxLatenessS = 1.5;
+
+TEST(SensorGroup, ThreeTwinSensorsDeliverEveryFrameOnOneClock) {
+  Receiver receiver;
+  std::vector<SensorRunSpec> sensors;
+  for (const char* sn : {"HAND-A", "HAND-B", "HAND-C"}) sensors.push_back(TwinSensor(sn, Dataset(), receiver.port()));
+  const std::atomic<bool> stop{false};
+  const std::vector<SensorReport> reports = RunSensorGroup(sensors, SyntheticModel(), {}, nullptr, stop);
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // the last datagrams
+  receiver.Stop();
+
+  ASSERT_EQ(reports.size(), 3u);
+  for (const SensorReport& r : reports) {
+    SCOPED_TRACE(r.BriefReport());
+    EXPECT_EQ(r.frames, kSteps);
+    EXPECT_EQ(r.skipped, 0);
+    EXPECT_EQ(r.failure, "");
+    const std::map<std::int64_t, double> frames = receiver.Frames(r.sn);
+    EXPECT_EQ(frames.size(), static_cast<size_t>(kSteps)) << "frames received over UDP";
+    const auto [latest, earliest] = Lateness(frames);
+    // Paced from the common epoch: never early (1 ms for the clock's rounding), never far late.
+    EXPECT_GE(earliest, -1e-3);
+    EXPECT_LE(latest, kMaxLatenessS);
+    std::printf("%s; over UDP: %zu frames, lateness behind k/30 s on the common clock %.1f-%.1f ms\n",
+                r.BriefReport().c_str(), frames.size(), 1e3 * earliest, 1e3 * latest);
+  }
+}
+
+// HAND-C's dataset disappears mid-run, HAND-D's does not exist, HAND-E waits 1 s for its third
+// frame (a slow source): HAND-A and HAND-B must stream every frame on time all the same.
+TEST(SensorGroup, ASensorThatFailsOrWaitsHoldsUpNoOther) {
+  const std::string dir = testing::MakeTempDir("failing");
+  fs::copy(Dataset(), dir + "/HAND-C", fs::copy_options::recursive);
+  Receiver receiver;
+  std::vector<SensorRunSpec> sensors;
+  for (const char* sn : {"HAND-A", "HAND-B"}) sensors.push_back(TwinSensor(sn, Dataset(), receiver.port()));
+  sensors.push_back(TwinSensor("HAND-C", dir + "/HAND-C", receiver.port()));
+  sensors.push_back(TwinSensor("HAND-D", dir + "/missing", receiver.port()));
+  sensors.push_back(TwinSensor("HAND-E", MakeDataset(dir + "/slow", {0.0, 0.02, 1.0}), receiver.port()));
+  sensors.back().reference_frames = 2;
+  const std::atomic<bool> stop{false};
+  std::vector<SensorReport> reports;
+  std::atomic<bool> done{false};
+  std::thread run([&] {
+    reports = RunSensorGroup(sensors, SyntheticModel(), {}, nullptr, stop);
+    done = true;
+  });
+  // HAND-C's dataset disappears once it has streamed 10 frames.
+  while (!done && receiver.Frames("HAND-C").size() < 10) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  fs::remove_all(dir + "/HAND-C");
+  run.join();
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  receiver.Stop();
+
+  ASSERT_EQ(reports.size(), 5u);
+  // HAND-E's third frame came 1 s after its second; one thread serving the sensors in turn
+  // would have sent nothing else in between.
+  const std::map<std::int64_t, double> slow_frames = receiver.Frames("HAND-E");
+  ASSERT_EQ(slow_frames.size(), 3u);
+  const double wait_from_s = slow_frames.at(1), wait_to_s = slow_frames.at(2);
+  for (int i : {0, 1}) {
+    SCOPED_TRACE(reports[i].BriefReport());
+    EXPECT_EQ(reports[i].frames, kSteps);
+    EXPECT_EQ(reports[i].failure, "");
+    const std::map<std::int64_t, double> frames = receiver.Frames(reports[i].sn);
+    EXPECT_EQ(frames.size(), static_cast<size_t>(kSteps));
+    EXPECT_LE(Lateness(frames).first, kMaxLatenessS);
+    const long during_wait = std::count_if(frames.begin(), frames.end(), [&](const auto& f) {
+      return f.second > wait_from_s && f.second < wait_to_s;
+    });
+    EXPECT_GE(during_wait, 10) << "frames sent while HAND-E waited";
+    std::printf("%s; %ld frames sent while HAND-E waited %.2f-%.2f s\n", reports[i].BriefReport().c_str(),
+                during_wait, wait_from_s, wait_to_s);
+  }
+  const SensorReport& killed = reports[2];
+  std::printf("%s\n", killed.BriefReport().c_str());
+  EXPECT_GE(killed.frames, 10);
+  EXPECT_LT(killed.frames, kSteps);
+  EXPECT_EQ(killed.frames + killed.skipped, kSteps);
+  EXPECT_THAT(killed.BriefReport(), HasSubstr("HAND-C"));
+  EXPECT_THAT(killed.last_skip, HasSubstr(dir + "/HAND-C"));
+  const SensorReport& missing = reports[3];
+  std::printf("%s\n", missing.BriefReport().c_str());
+  EXPECT_EQ(missing.frames, 0);
+  EXPECT_THAT(missing.failure, HasSubstr("could not start"));
+  EXPECT_THAT(missing.failure, HasSubstr(dir + "/missing"));
+  const SensorReport& slow = reports[4];
+  std::printf("%s\n", slow.BriefReport().c_str());
+  EXPECT_EQ(slow.frames, 3);
+  EXPECT_GE(wait_to_s, 1.0 - 1e-3);  // due 1 s after the epoch: it did wait
+}
+
+// Parses `text` as a run file in /tmp and returns the error, or "" if it was accepted.
+std::string RunFileError(const std::string& text) {
+  try {
+    ParseRunFile(text, "hand.yaml", "/tmp");
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(RunFile, ReadsEachSensorWithPathsFromItsFolder) {
+  const std::vector<SensorRunSpec> sensors = ParseRunFile(
+      "sensors:\n"
+      "  - sn: THUMB\n"
+      "    source: dataset:twin/thumb\n"
+      "    config: thumb.yaml\n"
+      "    gains: [1.1, 1.2, 0.9]\n"
+      "    speed: 1\n"
+      "    udp: 127.0.0.1:9988\n"
+      "    record: thumb.rec\n"
+      "    record_images: true\n"
+      "    overwrite: true\n"
+      "  - sn: INDEX\n"
+      "    source: camera:2\n"
+      "    weight: 0.1\n"
+      "    reference_frames: 10\n",
+      "hand.yaml", "/tmp");
+  ASSERT_EQ(sensors.size(), 2u);
+  EXPECT_EQ(sensors[0].sn, "THUMB");
+  EXPECT_EQ(sensors[0].source, "dataset:/tmp/twin/thumb");
+  EXPECT_EQ(sensors[0].config, "/tmp/thumb.yaml");
+  EXPECT_THAT(sensors[0].gains, EigenNear(Eigen::Vector3d(1.1, 1.2, 0.9), 0.0));
+  EXPECT_EQ(sensors[0].speed, 1.0);
+  EXPECT_EQ(sensors[0].outputs.udp, "127.0.0.1:9988");
+  EXPECT_EQ(sensors[0].outputs.record, "/tmp/thumb.rec");
+  EXPECT_TRUE(sensors[0].outputs.record_images);
+  EXPECT_TRUE(sensors[0].outputs.overwrite);
+  EXPECT_FALSE(sensors[1].outputs.overwrite);
+  EXPECT_EQ(sensors[0].outputs.sn, "THUMB");
+  EXPECT_EQ(sensors[1].source, "camera:2");
+  EXPECT_EQ(sensors[1].config, "");
+  EXPECT_EQ(sensors[1].weight, 0.1);
+  EXPECT_EQ(sensors[1].reference_frames, 10);
+  EXPECT_FALSE(sensors[1].speed.has_value());
+  EXPECT_EQ(sensors[1].outputs.record, "");
+}
+
+TEST(RunFile, RefusesMistakesNamingTheLine) {
+  const std::string a = "sensors:\n  - sn: A\n    source: camera:0\n";
+  EXPECT_EQ(RunFileError(a), "");
+  EXPECT_THAT(RunFileError(a + "    sn: B\n"), HasSubstr("hand.yaml: line 4: duplicated key 'sn' (first at line 2)"));
+  EXPECT_THAT(RunFileError(a + "    colour: red\n"), HasSubstr("hand.yaml: line 4: sensors[0].colour: unknown key"));
+  EXPECT_THAT(RunFileError(a + "  - sn: B\n"), HasSubstr("hand.yaml: line 4: sensors[1].source: missing"));
+  EXPECT_THAT(RunFileError(a + "  - sn: A\n    source: camera:1\n"),
+              HasSubstr("hand.yaml: line 4: sensors[1]: sn 'A' is used twice (first at line 2)"));
+  EXPECT_THAT(RunFileError(a + "    speed: 2\n"),
+              HasSubstr("hand.yaml: line 4: sensors[0].speed: applies to recording:FILE or dataset:DIR only"));
+  EXPECT_THAT(RunFileError(a + "    gains: [1, 2]\n"), HasSubstr("line 4: sensors[0].gains: must be a list of 3"));
+  EXPECT_THAT(RunFileError(a + "    record_images: maybe\n"), HasSubstr("line 4: sensors[0].record_images: must be true or false"));
+  EXPECT_THAT(RunFileError(a + "    udp: nowhere\n"),
+              HasSubstr("hand.yaml: line 4: sensors[0].udp: --udp 'nowhere': expected HOST:PORT"));
+  EXPECT_THAT(RunFileError(a + "    record: missing/r.rec\n"),
+              HasSubstr("hand.yaml: line 4: sensors[0].record: "));
+  EXPECT_THAT(RunFileError("sensors: []\n"), HasSubstr("hand.yaml: line 1: sensors: lists no sensor"));
+  EXPECT_THAT(RunFileError("sensor:\n  - sn: A\n"), HasSubstr("hand.yaml: line 1: sensors: missing"));
+  EXPECT_THAT(RunFileError(a + "  - sn: B\n    source: x.avi\n    record: r.rec\n  - sn: C\n    source: y.avi\n"
+                               "    record: ./r.rec\n"),
+              HasSubstr("line 7: sensors[2]: record file '/tmp/r.rec' is used twice (first at line 4)"));
+}
+
+}  // namespace
+}  // namespace tac3d::cli

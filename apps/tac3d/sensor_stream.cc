@@ -1,0 +1,187 @@
+#include "sensor_stream.h"
+
+#include <cstdio>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include "commands.h"
+#include "tac3d/dataset/twin_dataset.h"
+#include "tac3d/record/recording_replay.h"
+#include "tac3d/util/error.h"
+
+namespace tac3d::cli {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double SecondsSinceEpoch(const StreamClock& clock) {
+  return std::chrono::duration<double>(Clock::now() - clock.epoch).count();
+}
+
+std::unique_ptr<FrameSource> OpenImageSource(const SensorRunSpec& spec, const SensorConfig& config) {
+  if (spec.source.rfind("dataset:", 0) == 0) return OpenTwinDataset(spec.source.substr(8));
+  CameraSourceOptions camera = spec.camera;
+  if (camera.width == 0) camera.width = config.camera.intrinsics.width;
+  if (camera.height == 0) camera.height = config.camera.intrinsics.height;
+  if (spec.exposure > 0) camera.exposure = spec.exposure;
+  return OpenFrameSource(spec.source, camera);
+}
+
+// Camera images through the Pipeline.
+class PipelineStream final : public SensorStream {
+ public:
+  PipelineStream(const SensorRunSpec& spec, const ModelLoader& load_model, const std::string& log_prefix)
+      : spec_(spec), log_prefix_(log_prefix) {
+    const SensorConfig config = LoadSensorOrDefault(spec.config);
+    source_ = OpenImageSource(spec, config);
+    std::fprintf(stderr, "%ssource: %s\n", log_prefix_.c_str(), source_->Describe().c_str());
+    const std::shared_ptr<const fem::ComplianceModel> model = load_model(config);
+    PipelineOptions options;
+    options.sn = spec.sn;
+    options.reference_frames = spec.reference_frames;
+    options.force.weight = spec.weight;
+    options.force.gains = spec.gains;
+    pipeline_.emplace(config, model->h, model->marker_positions, options);
+  }
+
+  void Start(const StreamClock& clock) override { clock_ = clock; }
+
+  Produced Next(const std::atomic<bool>&, const TactileFrame*& produced, const cv::Mat*& image) override {
+    const ReadStatus status = source_->Read(frame_);
+    if (status == ReadStatus::kEnd) return Produced::kEnd;
+    if (status == ReadStatus::kFailed) {
+      failure_ = source_->last_error();
+      return Produced::kEnd;
+    }
+    if (status == ReadStatus::kBadFrame) {
+      last_skip_ = source_->last_error();
+      std::fprintf(stderr, "%sskipped a bad frame: %s\n", log_prefix_.c_str(), last_skip_.c_str());
+      return Produced::kSkipped;
+    }
+    if (spec_.speed && *spec_.speed > 0) {
+      std::this_thread::sleep_until(clock_.epoch + std::chrono::duration_cast<Clock::duration>(
+                                                       std::chrono::duration<double>(frame_.timestamp_s / *spec_.speed)));
+    }
+    if (clock_.common) frame_.timestamp_s = SecondsSinceEpoch(clock_);
+    try {
+      pipeline_->Process(frame_, out_);
+    } catch (const Error& e) {
+      last_skip_ = e.what();
+      std::fprintf(stderr, "%sskipped frame %lld: %s\n", log_prefix_.c_str(),
+                   static_cast<long long>(frame_.index), e.what());
+      return Produced::kSkipped;
+    }
+    produced = &out_;
+    image = &frame_.image;
+    return Produced::kFrame;
+  }
+
+  void Zero() override { pipeline_->RequestZero(); }
+
+  StreamEnd End(long) const override {
+    return {.failure = failure_.empty() ? "" : fmt::format("the frame source failed: {}", failure_),
+            .warning = "",
+            .last_skip = last_skip_};
+  }
+
+  std::string Describe() const override { return source_->Describe(); }
+
+ private:
+  SensorRunSpec spec_;
+  std::string log_prefix_;
+  std::unique_ptr<FrameSource> source_;
+  std::optional<Pipeline> pipeline_;
+  StreamClock clock_;
+  Frame frame_;
+  TactileFrame out_;
+  std::string failure_;
+  std::string last_skip_;
+};
+
+// A recording's frames as they were computed, at its recorded pace times `speed`.
+class RecordingStream final : public SensorStream {
+ public:
+  RecordingStream(const std::string& path, const SensorRunSpec& spec, bool replace_sn, const std::string& log_prefix)
+      : path_(path), log_prefix_(log_prefix), replay_(path, {.speed = spec.speed.value_or(1.0)}) {
+    if (replace_sn) sn_ = spec.sn;
+    std::fprintf(stderr, "%ssource: %s\n", log_prefix_.c_str(), replay_.Describe().c_str());
+  }
+
+  void Start(const StreamClock& clock) override { clock_ = clock; }
+
+  Produced Next(const std::atomic<bool>& stop, const TactileFrame*& frame, const cv::Mat*& image) override {
+    current_ = replay_.Next(&stop);
+    if (!current_) return Produced::kEnd;
+    if (sn_) current_->frame.sn = *sn_;
+    if (clock_.common) current_->frame.timestamp_s = SecondsSinceEpoch(clock_);
+    frame = &current_->frame;
+    image = &current_->image;
+    return Produced::kFrame;
+  }
+
+  void Zero() override {
+    if (!zero_noted_) {
+      std::fprintf(stderr, "%signored $C (zero): a recording's frames were computed when it was recorded\n",
+                   log_prefix_.c_str());
+    }
+    zero_noted_ = true;
+  }
+
+  // A truncated file (a writer killed mid-record) is a warning, a corrupt one a failure.
+  StreamEnd End(long emitted) const override {
+    const std::string message =
+        fmt::format("{} (the {} frames before it were replayed)", replay_.message(), emitted);
+    if (replay_.status() == RecordingStatus::kTruncated) return {.failure = "", .warning = message, .last_skip = ""};
+    if (replay_.status() == RecordingStatus::kCorrupt) return {.failure = message, .warning = "", .last_skip = ""};
+    return {};
+  }
+
+  std::string Describe() const override { return path_; }
+
+ private:
+  std::string path_;
+  std::string log_prefix_;
+  RecordingReplay replay_;
+  std::optional<std::string> sn_;
+  StreamClock clock_;
+  std::optional<RecordedFrame> current_;
+  bool zero_noted_ = false;
+};
+
+}  // namespace
+
+CameraSourceOptions CameraWithSensorResolution() {
+  CameraSourceOptions camera;
+  camera.width = 0;
+  camera.height = 0;
+  return camera;
+}
+
+std::unique_ptr<SensorStream> OpenRecordingStream(const std::string& path,
+                                                  const SensorRunSpec& spec,
+                                                  bool replace_sn,
+                                                  const std::string& log_prefix) {
+  return std::make_unique<RecordingStream>(path, spec, replace_sn, log_prefix);
+}
+
+std::unique_ptr<SensorStream> OpenSensorStream(const SensorRunSpec& spec,
+                                               const ModelLoader& load_model,
+                                               const std::string& log_prefix) {
+  if (const std::optional<std::string> path = RecordingSourcePath(spec.source)) {
+    return OpenRecordingStream(*path, spec, /*replace_sn=*/true, log_prefix);
+  }
+  return std::make_unique<PipelineStream>(spec, load_model, log_prefix);
+}
+
+ModelLoader CachedModelLoader(const std::string& cache_dir) {
+  return [cache_dir](const SensorConfig& config) {
+    MakeDirectory(cache_dir);
+    return std::make_shared<const fem::ComplianceModel>(
+        fem::LoadOrBuildComplianceModel(fem::BodyModelOptionsFromSensor(config), cache_dir,
+                                        /*show_progress=*/true)
+            .model);
+  };
+}
+
+}  // namespace tac3d::cli

@@ -1,0 +1,101 @@
+#pragma once
+
+// One sensor of `tac3d run`: its source (a camera, video, image folder or twin dataset through
+// the Pipeline, or a recording replayed) as a stream of TactileFrames for the frame loop.
+// Shared by the one-sensor flags (run_command.cc, recording_command.cc) and the run file's
+// sensors (sensor_group.cc).
+
+#include <atomic>
+#include <chrono>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "run_outputs.h"
+#include "tac3d/fem/compliance.h"
+#include "tac3d/pipeline/pipeline.h"
+#include "tac3d/source/frame_source.h"
+
+namespace tac3d::cli {
+
+/// Camera options whose width and height (0) are taken from the sensor config.
+CameraSourceOptions CameraWithSensorResolution();
+
+/// What one sensor of a run reads, how it computes its frames and where they go: the
+/// one-sensor flags of `tac3d run`, or one entry of a run file (docs/pipeline.md).
+struct SensorRunSpec {
+  std::string sn = PipelineOptions{}.sn;
+  /// camera:N, /dev/videoN, a video file, an image folder, dataset:DIR or recording:FILE.
+  std::string source;
+  std::string config;  ///< sensor YAML; "" the built-in prototype
+  int reference_frames = PipelineOptions{}.reference_frames;
+  double weight = PipelineOptions{}.force.weight;  ///< Tikhonov weight w, (mm/N)^2
+  Eigen::Vector3d gains = Eigen::Vector3d::Ones();  ///< force gains Cx, Cy, Cz
+  /// recording:FILE: replay speed (unset: 1, the recorded pace; 0 as fast as possible);
+  /// dataset:DIR: paced at this times its timestamps (unset: as fast as possible).
+  std::optional<double> speed;
+  CameraSourceOptions camera = CameraWithSensorResolution();
+  double exposure = 0.0;  ///< camera exposure in driver units; 0 automatic
+  /// udp, record, record_images, overwrite, json; sn is set from `sn` for pipelines.
+  FrameOutputArgs outputs;
+};
+
+/// The compliance model of a sensor config: the CLI loads (or builds) it from its cache;
+/// tests give a stand-in.
+using ModelLoader = std::function<std::shared_ptr<const fem::ComplianceModel>(const SensorConfig&)>;
+
+/// How a stream's frames are timed, set when its loop starts.
+struct StreamClock {
+  std::chrono::steady_clock::time_point epoch;  ///< a dataset's pace counts from here
+  /// Stamp each frame with seconds since `epoch` (the one clock of a run file's sensors)
+  /// instead of the source's own timestamps.
+  bool common = false;
+};
+
+/// How a stream ended, once its loop is over.
+struct StreamEnd {
+  std::string failure;  ///< why the source broke (a camera unplugged, a corrupt file); "" none
+  std::string warning;  ///< worth saying but not a failure (a truncated recording)
+  std::string last_skip;  ///< why the last skipped (bad) frame was skipped; "" none
+};
+
+/// One sensor's TactileFrames, one at a time (not thread-safe; one thread per stream).
+class SensorStream {
+ public:
+  virtual ~SensorStream() = default;
+  virtual void Start(const StreamClock& clock) = 0;
+  /// As FrameProducer.
+  virtual Produced Next(const std::atomic<bool>& stop,
+                        const TactileFrame*& frame,
+                        const cv::Mat*& image) = 0;
+  /// A `$C`: retake the reference.
+  virtual void Zero() = 0;
+  /// @param emitted frames the loop emitted, for the messages.
+  virtual StreamEnd End(long emitted) const = 0;
+  virtual std::string Describe() const = 0;
+};
+
+/// Opens the sensor's source and, unless it is a recording, its config, compliance model and
+/// pipeline (spec.speed is used with dataset:DIR and recording:FILE only).
+/// @throws Error if the source cannot be opened (a camera missing, a folder without images)
+///   or the config is invalid.
+/// @param log_prefix before each line it prints on stderr ("SN: " for a run file's sensors).
+std::unique_ptr<SensorStream> OpenSensorStream(const SensorRunSpec& spec,
+                                               const ModelLoader& load_model,
+                                               const std::string& log_prefix = "");
+
+/// A recording's frames as they were computed, replayed at spec.speed (unset: 1) times the
+/// recorded pace, with spec.sn when `replace_sn`, else the recorded SN.
+/// @throws Error if the file is not a recording.
+std::unique_ptr<SensorStream> OpenRecordingStream(const std::string& path,
+                                                  const SensorRunSpec& spec,
+                                                  bool replace_sn,
+                                                  const std::string& log_prefix = "");
+
+/// The compliance model from `cache_dir`, built there the first time (~1 min).
+ModelLoader CachedModelLoader(const std::string& cache_dir);
+
+}  // namespace tac3d::cli
