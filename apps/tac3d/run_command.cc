@@ -1,4 +1,5 @@
 #include <chrono>
+#include <map>
 #include <cstdio>
 #include <memory>
 #include <optional>
@@ -38,6 +39,8 @@ struct RunArgs {
   bool json = false;
   int reference_frames = PipelineOptions{}.reference_frames;
   double weight = PipelineOptions{}.force.weight;
+  DriftMode drift = PipelineOptions{}.drift.mode;
+  double drift_time_constant_s = PipelineOptions{}.drift.time_constant_s;
   std::vector<double> gains = {1.0, 1.0, 1.0};
   long max_frames = 0;
   CameraSourceOptions camera = CameraWithSensorResolution();
@@ -83,6 +86,8 @@ void Run(const RunArgs& a) {
   options.sn = a.sn;
   options.reference_frames = a.reference_frames;
   options.force.weight = a.weight;
+  options.drift.mode = a.drift;
+  options.drift.time_constant_s = a.drift_time_constant_s;
   if (a.gains.size() != 3) throw Error("--gains takes three numbers: Cx Cy Cz");
   options.force.gains = Eigen::Vector3d(a.gains[0], a.gains[1], a.gains[2]);
   Pipeline pipeline(config, model.model.h, model.model.marker_positions, options);
@@ -152,6 +157,16 @@ void RegisterRun(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--weight", a->weight, "Tikhonov weight w, (mm/N)^2")->capture_default_str();
   cmd->add_option("--gains", a->gains, "force gains Cx Cy Cz")->expected(3);
+  cmd->add_option("--drift", a->drift,
+                  "drift at rest: off, flag (the default: drift_at_rest) or rezero (tracked out of the "
+                  "reference; docs/pipeline.md)")
+      ->transform(CLI::CheckedTransformer(
+          std::map<std::string, DriftMode>{
+              {"off", DriftMode::kOff}, {"flag", DriftMode::kFlag}, {"rezero", DriftMode::kRezero}},
+          CLI::ignore_case));
+  cmd->add_option("--drift-time-constant", a->drift_time_constant_s,
+                  "time constant of the drift estimate at rest, s")
+      ->capture_default_str();
   cmd->add_option("--max-frames", a->max_frames, "stop after this many frames (0: until the source ends)");
   cmd->add_option("--width", a->camera.width, "camera width (default: the sensor config's)");
   cmd->add_option("--height", a->camera.height, "camera height (default: the sensor config's)");
@@ -169,7 +184,8 @@ void RegisterRun(CLI::App& app) {
   cmd->callback([a, cmd] {
     if (const std::optional<std::string> path = RecordingSourcePath(a->source)) {
       RefuseOptions(*cmd,
-                    {"--config", "--cache", "--reference-frames", "--weight", "--gains", "--width",
+                    {"--config", "--cache", "--reference-frames", "--weight", "--gains", "--drift",
+                     "--drift-time-constant", "--width",
                      "--height", "--fps", "--exposure"},
                     "does not apply to a recording: its frames were computed when it was recorded");
       return RunRecording({.path = *path,

@@ -46,6 +46,35 @@ void SessionConditions::Validate() const {
           "> 0 and finite", creep_direction.norm());
 }
 
+std::string_view ToString(Nuisance nuisance) {
+  switch (nuisance) {
+    case Nuisance::kIlluminationGain: return "illumination_gain";
+    case Nuisance::kIlluminationOffset: return "illumination_offset";
+    case Nuisance::kIlluminationGradient: return "illumination_gradient";
+    case Nuisance::kContrastFade: return "contrast_fade";
+    case Nuisance::kExposureDrift: return "exposure_drift";
+    case Nuisance::kCreep: return "creep";
+  }
+  TAC3D_DEMAND(false);
+}
+
+SessionConditions SessionConditions::Only(Nuisance nuisance) const {
+  SessionConditions one;
+  one.session_s = session_s;
+  switch (nuisance) {
+    case Nuisance::kIlluminationGain: one.illumination_gain = illumination_gain; break;
+    case Nuisance::kIlluminationOffset: one.illumination_offset = illumination_offset; break;
+    case Nuisance::kIlluminationGradient: one.illumination_gradient = illumination_gradient; break;
+    case Nuisance::kContrastFade: one.contrast_fade = contrast_fade; break;
+    case Nuisance::kExposureDrift: one.exposure_drift = exposure_drift; break;
+    case Nuisance::kCreep:
+      one.creep_mm = creep_mm;
+      one.creep_direction = creep_direction;
+      break;
+  }
+  return one;
+}
+
 FrameConditions SessionConditions::At(double t_s) const {
   const double s = std::clamp(t_s / session_s, 0.0, 1.0);
   FrameConditions c;

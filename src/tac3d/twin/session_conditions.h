@@ -1,5 +1,7 @@
 #pragma once
 
+#include <string_view>
+
 #include <Eigen/Core>
 
 namespace tac3d {
@@ -16,6 +18,21 @@ struct FrameConditions {
   /// Every marker's drift at rest (creep of the gel), sensor frame, mm.
   Eigen::Vector3d creep_mm = Eigen::Vector3d::Zero();
 };
+
+/// One nuisance of a session, to measure each alone (SessionConditions::Only).
+enum class Nuisance {
+  kIlluminationGain,
+  kIlluminationOffset,
+  kIlluminationGradient,
+  kContrastFade,
+  kExposureDrift,
+  kCreep,
+};
+inline constexpr Nuisance kAllNuisances[] = {
+    Nuisance::kIlluminationGain, Nuisance::kIlluminationOffset, Nuisance::kIlluminationGradient,
+    Nuisance::kContrastFade,     Nuisance::kExposureDrift,      Nuisance::kCreep};
+/// snake_case, as the option's name ("illumination_gain", ..., "creep").
+std::string_view ToString(Nuisance nuisance);
 
 /// The twin's nuisances over a session (issue 15): what changes on a real sensor while it
 /// runs. Each ramps linearly from nothing at t = 0 to its level at `session_s` and is held
@@ -37,6 +54,8 @@ struct SessionConditions {
 
   /// @throws Error naming the field and the bound.
   void Validate() const;
+  /// These conditions with every nuisance but `nuisance` at nothing (same session_s).
+  SessionConditions Only(Nuisance nuisance) const;
   /// The conditions at time t_s (s since the session's start; clamped to [0, session_s]).
   FrameConditions At(double t_s) const;
 };

@@ -36,6 +36,19 @@ TEST(SessionConditions, RampsFromNothingToItsLevelsAndHolds) {
   EXPECT_EQ(s.At(-1.0).creep_mm, Eigen::Vector3d::Zero());
 }
 
+TEST(SessionConditions, OnlyKeepsOneNuisance) {
+  const SessionConditions all = SessionConditions::Realistic();
+  const FrameConditions gain = all.Only(Nuisance::kIlluminationGain).At(all.session_s);
+  EXPECT_DOUBLE_EQ(gain.illumination_gain, all.illumination_gain);
+  EXPECT_EQ(gain.illumination_offset, 0.0);
+  EXPECT_EQ(gain.dot_contrast, 1.0);
+  EXPECT_EQ(gain.creep_mm, Eigen::Vector3d::Zero());
+  const FrameConditions creep = all.Only(Nuisance::kCreep).At(all.session_s);
+  EXPECT_EQ(creep.illumination_gain, 1.0);
+  EXPECT_TRUE(creep.creep_mm.isApprox(Eigen::Vector3d(0, 0, -all.creep_mm)));
+  EXPECT_EQ(ToString(Nuisance::kContrastFade), "contrast_fade");
+}
+
 TEST(SessionConditions, BadLevelsThrowNamingTheField) {
   auto throws = [](void (*set)(SessionConditions&), const char* field) {
     SessionConditions c;
