@@ -1,9 +1,9 @@
+#include <fmt/format.h>
+
+#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <map>
 #include <memory>
-
-#include <CLI/CLI.hpp>
-#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
@@ -26,20 +26,27 @@ void RegisterEvalConditions(CLI::App& eval) {
       "conditions",
       "Replay a twin dataset at the end of a session under each nuisance alone, all together and "
       "on a sensor built at tolerance (docs/pipeline.md, \"Lighting and drift\")");
-  cmd->add_option("--dataset", args->replay.dataset, "twin dataset folder (tac3d simulate)")->required();
+  cmd->add_option("--dataset", args->replay.dataset, "twin dataset folder (tac3d simulate)")
+      ->required();
   AddReplayOptions(cmd, args->replay);
-  cmd->add_option("--drift", args->drift, "the pipeline's drift mode: off, flag or rezero (the default here)")
+  cmd->add_option("--drift",
+                  args->drift,
+                  "the pipeline's drift mode: off, flag or rezero (the default here)")
       ->transform(CLI::CheckedTransformer(
           std::map<std::string, DriftMode>{
               {"off", DriftMode::kOff}, {"flag", DriftMode::kFlag}, {"rezero", DriftMode::kRezero}},
           CLI::ignore_case));
-  cmd->add_option("--session", args->options.levels.session_s,
+  cmd->add_option("--session",
+                  args->options.levels.session_s,
                   "the session's length, s: the nuisances reach their realistic levels at its end")
       ->capture_default_str();
-  cmd->add_option("--rest-frame", args->options.rest_frame_s,
+  cmd->add_option("--rest-frame",
+                  args->options.rest_frame_s,
                   "a frame every this many seconds while the sensor rests through the session")
       ->capture_default_str();
-  cmd->add_flag("--no-spread", args->no_spread, "leave out the sensor built at tolerance (and its calibration)");
+  cmd->add_flag("--no-spread",
+                args->no_spread,
+                "leave out the sensor built at tolerance (and its calibration)");
   cmd->add_flag("--json", args->json, "print JSON");
   cmd->callback([args] {
     ReplayArgs a = args->replay;
@@ -63,20 +70,33 @@ void RegisterEvalConditions(CLI::App& eval) {
       std::printf("%s\n", report.dump(2).c_str());
       return;
     }
-    std::printf("%-22s %-26s %-26s %-12s %-6s %s\n", "case", "resultant max % FS x y z", "rms % FS x y z",
-                "displ. RMSE", "lost", "frames by flag");
+    std::printf("%-22s %-26s %-26s %-12s %-6s %s\n",
+                "case",
+                "resultant max % FS x y z",
+                "rms % FS x y z",
+                "displ. RMSE",
+                "lost",
+                "frames by flag");
     for (const ConditionsCase& c : e.cases) {
       const ReplaySummary& s = c.summary;
       std::string flags;
       for (const auto& [name, frames] : s.flag_counts) {
         if (frames > 0) flags += fmt::format("{}{} {}", flags.empty() ? "" : ", ", name, frames);
       }
-      std::printf("%-22s %7.3f %7.3f %7.3f    %7.3f %7.3f %7.3f    %.4f mm    %-6ld %s\n", c.name.c_str(),
-                  s.force_error_max_pct_fs.x(), s.force_error_max_pct_fs.y(), s.force_error_max_pct_fs.z(),
-                  s.force_error_rms_pct_fs.x(), s.force_error_rms_pct_fs.y(), s.force_error_rms_pct_fs.z(),
-                  s.displacement_rmse_mm, s.lost_marker_frames, flags.empty() ? "none" : flags.c_str());
+      std::printf("%-22s %7.3f %7.3f %7.3f    %7.3f %7.3f %7.3f    %.4f mm    %-6ld %s\n",
+                  c.name.c_str(),
+                  s.force_error_max_pct_fs.x(),
+                  s.force_error_max_pct_fs.y(),
+                  s.force_error_max_pct_fs.z(),
+                  s.force_error_rms_pct_fs.x(),
+                  s.force_error_rms_pct_fs.y(),
+                  s.force_error_rms_pct_fs.z(),
+                  s.displacement_rmse_mm,
+                  s.lost_marker_frames,
+                  flags.empty() ? "none" : flags.c_str());
     }
-    std::printf("all cases within 2%% FS and 0.01 mm: %s\n", report.at("all_pass").get<bool>() ? "yes" : "no");
+    std::printf("all cases within 2%% FS and 0.01 mm: %s\n",
+                report.at("all_pass").get<bool>() ? "yes" : "no");
   });
 }
 

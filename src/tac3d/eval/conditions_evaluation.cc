@@ -1,8 +1,8 @@
 #include "tac3d/eval/conditions_evaluation.h"
 
-#include <cmath>
-
 #include <fmt/format.h>
+
+#include <cmath>
 
 #include "tac3d/calib/virtual_stereo_calibration.h"
 #include "tac3d/twin/calibration_set.h"
@@ -30,9 +30,11 @@ struct SpreadSensor {
   SensorConfig calibrated;
 };
 
-SpreadSensor CalibrateSpread(const SensorConfig& config, const ConditionsEvaluationOptions& options) {
+SpreadSensor CalibrateSpread(const SensorConfig& config,
+                             const ConditionsEvaluationOptions& options) {
   SpreadSensor s;
-  s.truth = PerturbSensor(config, SensorPerturbationOptions::ManufacturingSpread(options.spread_seed));
+  s.truth =
+      PerturbSensor(config, SensorPerturbationOptions::ManufacturingSpread(options.spread_seed));
   CalibrationSetOptions set_options;
   set_options.views = options.calibration_views;
   set_options.seed = options.spread_seed;
@@ -43,15 +45,20 @@ SpreadSensor CalibrateSpread(const SensorConfig& config, const ConditionsEvaluat
 
 // One case's replay: its images rendered again through `truth` under the session's
 // conditions, the pipeline built on `seen`.
-ReplaySummary ReplayCase(const TwinDatasetReader& dataset, const SensorConfig& truth, const SensorConfig& seen,
-                         const Eigen::MatrixXd& h, const std::vector<Eigen::Vector3d>& fem_markers_mm,
-                         const SessionConditions& session, const ConditionsEvaluationOptions& options) {
+ReplaySummary ReplayCase(const TwinDatasetReader& dataset,
+                         const SensorConfig& truth,
+                         const SensorConfig& seen,
+                         const Eigen::MatrixXd& h,
+                         const std::vector<Eigen::Vector3d>& fem_markers_mm,
+                         const SessionConditions& session,
+                         const ConditionsEvaluationOptions& options) {
   const MarkerImageRenderer renderer(truth, options.render);
   const FrameConditions end = session.At(session.session_s);
   ReplayAlterations alter;
   alter.step = [&](TwinStep& step, bool reference) {
     if (!reference) step.t_s += session.session_s;
-    step.image = renderer.Render(step.marker_positions_mm, static_cast<std::uint64_t>(step.index),
+    step.image = renderer.Render(step.marker_positions_mm,
+                                 static_cast<std::uint64_t>(step.index),
                                  reference ? session.At(0.0) : end);
   };
   alter.after_reference = [&](Pipeline& pipeline, const TwinStep& last) {
@@ -61,7 +68,8 @@ ReplaySummary ReplayCase(const TwinDatasetReader& dataset, const SensorConfig& t
       // Frame indices past the dataset's, so the rest frames' noise is their own.
       const std::uint64_t noise_index = static_cast<std::uint64_t>(1'000'000 + ++frame);
       pipeline.Process(Frame{renderer.Render(last.marker_positions_mm, noise_index, session.At(t)),
-                             last.t_s + t, frame},
+                             last.t_s + t,
+                             frame},
                        out);
     }
   };
@@ -79,13 +87,17 @@ void ConditionsEvaluationOptions::Validate() const {
       throw Error(fmt::format("conditions evaluation: {} = {} must be {}", field, value, bound));
     }
   };
-  require(rest_frame_s > 0 && rest_frame_s <= levels.session_s, "rest_frame_s", "in (0, levels.session_s]",
+  require(rest_frame_s > 0 && rest_frame_s <= levels.session_s,
+          "rest_frame_s",
+          "in (0, levels.session_s]",
           rest_frame_s);
   require(calibration_views >= 6, "calibration_views", ">= 6", calibration_views);
-  require(max_displacement_rmse_mm > 0, "max_displacement_rmse_mm", "> 0", max_displacement_rmse_mm);
+  require(
+      max_displacement_rmse_mm > 0, "max_displacement_rmse_mm", "> 0", max_displacement_rmse_mm);
 }
 
-ConditionsEvaluation EvaluateConditions(const TwinDatasetReader& dataset, const SensorConfig& config,
+ConditionsEvaluation EvaluateConditions(const TwinDatasetReader& dataset,
+                                        const SensorConfig& config,
                                         const Eigen::MatrixXd& h,
                                         const std::vector<Eigen::Vector3d>& fem_markers_mm,
                                         const ConditionsEvaluationOptions& options,
@@ -98,7 +110,8 @@ ConditionsEvaluation EvaluateConditions(const TwinDatasetReader& dataset, const 
     ConditionsCase& one = evaluation.cases[c];
     if (one.spread) {
       const SpreadSensor spread = CalibrateSpread(config, options);
-      one.summary = ReplayCase(dataset, spread.truth, spread.calibrated, h, fem_markers_mm, one.conditions, options);
+      one.summary = ReplayCase(
+          dataset, spread.truth, spread.calibrated, h, fem_markers_mm, one.conditions, options);
     } else {
       one.summary = ReplayCase(dataset, config, config, h, fem_markers_mm, one.conditions, options);
     }
@@ -107,13 +120,15 @@ ConditionsEvaluation EvaluateConditions(const TwinDatasetReader& dataset, const 
   return evaluation;
 }
 
-nlohmann::json ToJson(const ConditionsEvaluation& evaluation, const ConditionsEvaluationOptions& options) {
+nlohmann::json ToJson(const ConditionsEvaluation& evaluation,
+                      const ConditionsEvaluationOptions& options) {
   const SessionConditions& l = options.levels;
   nlohmann::json cases = nlohmann::json::array();
   bool all_pass = !evaluation.cases.empty();
   for (const ConditionsCase& c : evaluation.cases) {
     nlohmann::json summary = ToJson(c.summary, options.replay);
-    const bool displacement_pass = c.summary.displacement_rmse_mm <= options.max_displacement_rmse_mm;
+    const bool displacement_pass =
+        c.summary.displacement_rmse_mm <= options.max_displacement_rmse_mm;
     summary["checks"].push_back({{"name", "displacement_rmse"},
                                  {"value", c.summary.displacement_rmse_mm},
                                  {"unit", "mm"},

@@ -1,12 +1,11 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <functional>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
-#include <nlohmann/json.hpp>
 
 #include "tac3d/eval/replay_evaluation.h"
 #include "tac3d/twin/camera_renderer.h"
@@ -60,7 +59,8 @@ struct ConditionsEvaluation {
 /// at tolerance, seen through its calibration.
 /// @param progress called with (cases done, cases in all), may be empty.
 /// @throws Error as ReplayTwinDataset does, if the options are invalid or the calibration fails.
-ConditionsEvaluation EvaluateConditions(const TwinDatasetReader& dataset, const SensorConfig& config,
+ConditionsEvaluation EvaluateConditions(const TwinDatasetReader& dataset,
+                                        const SensorConfig& config,
                                         const Eigen::MatrixXd& h,
                                         const std::vector<Eigen::Vector3d>& fem_markers_mm,
                                         const ConditionsEvaluationOptions& options,
@@ -68,6 +68,7 @@ ConditionsEvaluation EvaluateConditions(const TwinDatasetReader& dataset, const 
 
 /// Each case's name, its replay summary (ToJson of ReplaySummary) and its checks (the
 /// resultant error and the displacement RMSE within their bounds), and `all_pass`.
-nlohmann::json ToJson(const ConditionsEvaluation& evaluation, const ConditionsEvaluationOptions& options);
+nlohmann::json ToJson(const ConditionsEvaluation& evaluation,
+                      const ConditionsEvaluationOptions& options);
 
 }  // namespace tac3d

@@ -9,15 +9,20 @@ namespace tac3d {
 namespace {
 
 void Require(bool ok, const char* field, const char* bound, double value) {
-  if (!ok || std::isnan(value)) throw Error(fmt::format("drift: {} = {} must be {}", field, value, bound));
+  if (!ok || std::isnan(value))
+    throw Error(fmt::format("drift: {} = {} must be {}", field, value, bound));
 }
 
 }  // namespace
 
 void DriftOptions::Validate() const {
-  Require(mode == DriftMode::kOff || mode == DriftMode::kFlag || mode == DriftMode::kRezero, "mode",
-          "off, flag or rezero", static_cast<int>(mode));
-  Require(time_constant_s > 0 && std::isfinite(time_constant_s), "time_constant_s", "> 0 and finite",
+  Require(mode == DriftMode::kOff || mode == DriftMode::kFlag || mode == DriftMode::kRezero,
+          "mode",
+          "off, flag or rezero",
+          static_cast<int>(mode));
+  Require(time_constant_s > 0 && std::isfinite(time_constant_s),
+          "time_constant_s",
+          "> 0 and finite",
           time_constant_s);
   Require(rest_band_mm > 0, "rest_band_mm", "> 0", rest_band_mm);
   Require(flag_mm > 0, "flag_mm", "> 0", flag_mm);
@@ -30,7 +35,9 @@ void DriftMonitor::Reset() {
   has_last_ = false;
 }
 
-DriftStatus DriftMonitor::Update(double timestamp_s, MarkerField& field, DisplacementReference& reference) {
+DriftStatus DriftMonitor::Update(double timestamp_s,
+                                 MarkerField& field,
+                                 DisplacementReference& reference) {
   if (options_.mode == DriftMode::kOff) return {};
   const std::size_t n = field.positions.size();
   if (drift_.size() != n) drift_.assign(n, Eigen::Vector3d::Zero());

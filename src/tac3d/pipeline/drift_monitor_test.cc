@@ -1,8 +1,8 @@
 #include "tac3d/pipeline/drift_monitor.h"
 
-#include <cmath>
-
 #include <gtest/gtest.h>
+
+#include <cmath>
 
 #include "tac3d/util/error.h"
 
@@ -59,7 +59,8 @@ TEST(DriftMonitor, RezeroTracksADriftOutOfTheDisplacements) {
   Stream s(options);
   const double rate = 0.0005;
   DriftStatus status;
-  for (int k = 0; k * kFrameS <= 120; ++k) status = s.Step(k * kFrameS, Eigen::Vector3d(0, 0, -rate * k * kFrameS));
+  for (int k = 0; k * kFrameS <= 120; ++k)
+    status = s.Step(k * kFrameS, Eigen::Vector3d(0, 0, -rate * k * kFrameS));
   // The residual is the lag, rate x tau (0.005 mm), not the 0.06 mm drifted.
   EXPECT_NEAR(s.field.displacements[0].z(), -rate * options.time_constant_s, 2e-4);
   EXPECT_NEAR(s.reference.positions()[0].z(), -rate * (120 - options.time_constant_s), 2e-4);

@@ -28,7 +28,9 @@ void Require(bool ok, const char* field, const char* bound, double value) {
 }  // namespace
 
 void LightingMonitorOptions::Validate() const {
-  Require(min_contrast_ratio > 0 && min_contrast_ratio < 1, "min_contrast_ratio", "in (0, 1)",
+  Require(min_contrast_ratio > 0 && min_contrast_ratio < 1,
+          "min_contrast_ratio",
+          "in (0, 1)",
           min_contrast_ratio);
   Require(quantile >= 0 && quantile <= 0.5, "quantile", "in [0, 0.5]", quantile);
 }

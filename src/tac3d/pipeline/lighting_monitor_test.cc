@@ -1,8 +1,8 @@
 #include "tac3d/pipeline/lighting_monitor.h"
 
-#include <functional>
-
 #include <gtest/gtest.h>
+
+#include <functional>
 
 #include "tac3d/util/error.h"
 

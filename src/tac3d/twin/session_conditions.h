@@ -1,8 +1,7 @@
 #pragma once
 
-#include <string_view>
-
 #include <Eigen/Core>
+#include <string_view>
 
 namespace tac3d {
 
@@ -28,9 +27,12 @@ enum class Nuisance {
   kExposureDrift,
   kCreep,
 };
-inline constexpr Nuisance kAllNuisances[] = {
-    Nuisance::kIlluminationGain, Nuisance::kIlluminationOffset, Nuisance::kIlluminationGradient,
-    Nuisance::kContrastFade,     Nuisance::kExposureDrift,      Nuisance::kCreep};
+inline constexpr Nuisance kAllNuisances[] = {Nuisance::kIlluminationGain,
+                                             Nuisance::kIlluminationOffset,
+                                             Nuisance::kIlluminationGradient,
+                                             Nuisance::kContrastFade,
+                                             Nuisance::kExposureDrift,
+                                             Nuisance::kCreep};
 /// snake_case, as the option's name ("illumination_gain", ..., "creep").
 std::string_view ToString(Nuisance nuisance);
 
@@ -39,13 +41,13 @@ std::string_view ToString(Nuisance nuisance);
 /// after it, so every frame has its own truth (At). The default is no nuisance;
 /// Realistic() gives the levels docs/render.md derives ("Session conditions").
 struct SessionConditions {
-  double session_s = 600.0;             ///< the ramps' duration, s (> 0)
-  double illumination_gain = 1.0;       ///< LED output at the end, x the start's (in (0, 2])
-  double illumination_offset = 0.0;     ///< stray light at the end, fraction of full scale ([0, 0.5])
-  double illumination_gradient = 0.0;   ///< left-to-right LED output change at the end ((-1, 1))
-  double contrast_fade = 0.0;           ///< fraction of the markers' darkening lost at the end ([0, 1))
-  double exposure_drift = 0.0;          ///< exposure x (1 + this) at the end ((-1, 1])
-  double creep_mm = 0.0;                ///< markers' drift at rest at the end, mm ([0, 1])
+  double session_s = 600.0;          ///< the ramps' duration, s (> 0)
+  double illumination_gain = 1.0;    ///< LED output at the end, x the start's (in (0, 2])
+  double illumination_offset = 0.0;  ///< stray light at the end, fraction of full scale ([0, 0.5])
+  double illumination_gradient = 0.0;  ///< left-to-right LED output change at the end ((-1, 1))
+  double contrast_fade = 0.0;   ///< fraction of the markers' darkening lost at the end ([0, 1))
+  double exposure_drift = 0.0;  ///< exposure x (1 + this) at the end ((-1, 1])
+  double creep_mm = 0.0;        ///< markers' drift at rest at the end, mm ([0, 1])
   /// Direction of the creep (sensor frame; normalised): -z, the gel settling onto its base.
   Eigen::Vector3d creep_direction = -Eigen::Vector3d::UnitZ();
 

@@ -1,8 +1,8 @@
 #include "tac3d/twin/session_conditions.h"
 
-#include <cmath>
-
 #include <gtest/gtest.h>
+
+#include <cmath>
 
 #include "tac3d/design/light_path_design.h"
 #include "tac3d/twin/calibration_set.h"
@@ -82,11 +82,13 @@ TEST(SessionConditions, TheRendererAppliesEachNuisance) {
   ASSERT_GT(nominal.at<float>(right), 0.5f);
   const auto uv = ProjectPoint(renderer.rays().layout(), ImageHalf::kLeft, markers[210]);
   ASSERT_TRUE(uv.has_value());
-  const cv::Point dot(static_cast<int>(std::lround(uv->x())), static_cast<int>(std::lround(uv->y())));
+  const cv::Point dot(static_cast<int>(std::lround(uv->x())),
+                      static_cast<int>(std::lround(uv->y())));
   // The film behind the dot: RenderOptions' film level with its vignetting.
   const RenderOptions render;
   const CameraIntrinsics& k = Sensor().camera.intrinsics;
-  const double r2 = (std::pow(dot.x - k.cx, 2) + std::pow(dot.y - k.cy, 2)) / (k.cx * k.cx + k.cy * k.cy);
+  const double r2 =
+      (std::pow(dot.x - k.cx, 2) + std::pow(dot.y - k.cy, 2)) / (k.cx * k.cx + k.cy * k.cy);
   const double film_at_dot = render.film_level * (1.0 - render.vignetting * r2);
   const double darkening = 1.0 - nominal.at<float>(dot) / film_at_dot;
   ASSERT_GT(darkening, 0.5);
@@ -102,8 +104,10 @@ TEST(SessionConditions, TheRendererAppliesEachNuisance) {
   gradient.illumination_gradient = 0.2;
   const cv::Mat tilted = renderer.RenderIrradiance(markers, gradient);
   const double cx = Sensor().camera.intrinsics.cx;
-  EXPECT_NEAR(tilted.at<float>(left) / nominal.at<float>(left), 1 + 0.2 * (left.x - cx) / 639, 1e-6);
-  EXPECT_NEAR(tilted.at<float>(right) / nominal.at<float>(right), 1 + 0.2 * (right.x - cx) / 639, 1e-6);
+  EXPECT_NEAR(
+      tilted.at<float>(left) / nominal.at<float>(left), 1 + 0.2 * (left.x - cx) / 639, 1e-6);
+  EXPECT_NEAR(
+      tilted.at<float>(right) / nominal.at<float>(right), 1 + 0.2 * (right.x - cx) / 639, 1e-6);
 
   FrameConditions faded;
   faded.dot_contrast = 0.5;
@@ -114,9 +118,15 @@ TEST(SessionConditions, TheRendererAppliesEachNuisance) {
   creep.creep_mm = Eigen::Vector3d(0.01, 0, -0.02);
   std::vector<Eigen::Vector3d> moved = markers;
   for (auto& p : moved) p += creep.creep_mm;
-  EXPECT_EQ(cv::norm(renderer.RenderIrradiance(markers, creep), renderer.RenderIrradiance(moved), cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(renderer.RenderIrradiance(markers, creep),
+                     renderer.RenderIrradiance(moved),
+                     cv::NORM_INF),
+            0.0);
   // Nominal conditions render what the renderer always did.
-  EXPECT_EQ(cv::norm(renderer.Render(markers, 3, FrameConditions{}), renderer.Render(markers, 3), cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(renderer.Render(markers, 3, FrameConditions{}),
+                     renderer.Render(markers, 3),
+                     cv::NORM_INF),
+            0.0);
 }
 
 TEST(SessionConditions, ManufacturingSpreadMovesTheCameraWithinItsTolerances) {
@@ -140,8 +150,8 @@ TEST(SessionConditions, ManufacturingSpreadMovesTheCameraWithinItsTolerances) {
   }
   EXPECT_GT(largest_tilt, 0.5 * spread.camera_tilt_max_deg);
   // Without camera tolerances (the default) the camera stays where the design put it.
-  EXPECT_TRUE(PerturbSensor(Sensor(), SensorPerturbationOptions{}).camera.sensor_from_cam.isApprox(
-      Sensor().camera.sensor_from_cam, 0.0));
+  EXPECT_TRUE(PerturbSensor(Sensor(), SensorPerturbationOptions{})
+                  .camera.sensor_from_cam.isApprox(Sensor().camera.sensor_from_cam, 0.0));
 }
 
 }  // namespace
