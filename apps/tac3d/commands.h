@@ -35,6 +35,7 @@ void RegisterEvalFem(CLI::App& eval);
 void RegisterEvalContact(CLI::App& eval);
 void RegisterEvalForce(CLI::App& eval);
 void RegisterEvalReplay(CLI::App& eval);
+void RegisterEvalConditions(CLI::App& eval);
 void RegisterEvalFriction(CLI::App& eval);
 
 /// The sensor a command works on: the YAML file if one is given, else the built-in

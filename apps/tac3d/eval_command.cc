@@ -14,6 +14,7 @@ void RegisterEval(CLI::App& app) {
   RegisterEvalContact(*eval);
   RegisterEvalForce(*eval);
   RegisterEvalReplay(*eval);
+  RegisterEvalConditions(*eval);
   RegisterEvalFriction(*eval);
 }
 

@@ -37,27 +37,37 @@ void AddReplayOptions(CLI::App* cmd, ReplayArgs& replay) {
   cmd->add_option("--steps", replay.max_steps, "replay only the first N steps (0: all)")->capture_default_str();
 }
 
-ReplayRun RunReplay(const ReplayArgs& a, const std::function<void(const TwinStep&, const TactileFrame&)>& on_frame) {
+ReplaySetup PrepareReplay(const ReplayArgs& a, const TwinDatasetReader& dataset) {
   if (!a.gains.empty() && !a.calibration.empty()) throw Error("give --gains or --calibration, not both");
   if (!a.gains.empty() && a.gains.size() != 3) throw Error("--gains takes three numbers: Cx Cy Cz");
-  const TwinDatasetReader dataset(a.dataset);
-  const SensorConfig config = a.config.empty() ? DatasetSensor(dataset) : LoadSensorConfig(a.config);
+  ReplaySetup setup;
+  setup.config = a.config.empty() ? DatasetSensor(dataset) : LoadSensorConfig(a.config);
   MakeDirectory(a.cache_dir);
-  const fem::ComplianceCacheResult model = fem::LoadOrBuildComplianceModel(
-      fem::BodyModelOptionsFromSensor(config), a.cache_dir, a.show_progress);
-  ReplayRun run;
-  run.options.max_steps = a.max_steps;
-  if (a.max_support_markers != 0) run.options.pipeline.force.max_support_markers = a.max_support_markers;
-  if (!a.gains.empty()) run.options.pipeline.force.gains = {a.gains[0], a.gains[1], a.gains[2]};
+  fem::ComplianceCacheResult model = fem::LoadOrBuildComplianceModel(
+      fem::BodyModelOptionsFromSensor(setup.config), a.cache_dir, a.show_progress);
+  setup.h = std::move(model.model.h);
+  setup.fem_markers_mm = std::move(model.model.marker_positions);
+  setup.options.max_steps = a.max_steps;
+  if (a.max_support_markers != 0) setup.options.pipeline.force.max_support_markers = a.max_support_markers;
+  if (!a.gains.empty()) setup.options.pipeline.force.gains = {a.gains[0], a.gains[1], a.gains[2]};
   if (!a.calibration.empty()) {
     std::unique_ptr<ProgressBar> bar;
-    run.calibration = CalibrateGainsByReplay(TwinDatasetReader(a.calibration), config, model.model.h,
-                                             model.model.marker_positions, run.options,
-                                             Progress(bar, "replay calibration", a.show_progress));
-    run.options.pipeline.force.gains = run.calibration->fit.gains;
+    setup.calibration = CalibrateGainsByReplay(TwinDatasetReader(a.calibration), setup.config, setup.h,
+                                               setup.fem_markers_mm, setup.options,
+                                               Progress(bar, "replay calibration", a.show_progress));
+    setup.options.pipeline.force.gains = setup.calibration->fit.gains;
   }
+  return setup;
+}
+
+ReplayRun RunReplay(const ReplayArgs& a, const std::function<void(const TwinStep&, const TactileFrame&)>& on_frame) {
+  const TwinDatasetReader dataset(a.dataset);
+  ReplaySetup setup = PrepareReplay(a, dataset);
+  ReplayRun run;
+  run.options = setup.options;
+  run.calibration = std::move(setup.calibration);
   std::unique_ptr<ProgressBar> bar;
-  run.replay = ReplayTwinDataset(dataset, config, model.model.h, model.model.marker_positions, run.options,
+  run.replay = ReplayTwinDataset(dataset, setup.config, setup.h, setup.fem_markers_mm, run.options,
                                  Progress(bar, "replay", a.show_progress), on_frame);
   run.report = ToJson(run.replay.summary, run.options);
   run.report["dataset"] = a.dataset;

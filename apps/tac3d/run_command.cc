@@ -1,5 +1,6 @@
 #include <chrono>
 #include <cstdio>
+#include <map>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -86,7 +87,8 @@ void RunFile(const RunArgs& a) {
 // The one-sensor flags that a run file replaces.
 constexpr std::initializer_list<const char*> kSensorFlags = {
     "--source", "--config", "--sn", "--udp", "--record", "--record-images", "--overwrite",
-    "--reference-frames", "--weight", "--gains", "--width", "--height", "--fps", "--exposure", "--speed"};
+    "--reference-frames", "--weight", "--gains", "--drift", "--drift-time-constant", "--width",
+    "--height", "--fps", "--exposure", "--speed"};
 
 }  // namespace
 
@@ -114,6 +116,16 @@ void RegisterRun(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--weight", sensor.weight, "Tikhonov weight w, (mm/N)^2")->capture_default_str();
   cmd->add_option("--gains", a->gains, "force gains Cx Cy Cz")->expected(3);
+  cmd->add_option("--drift", sensor.drift.mode,
+                  "drift at rest: off, flag (the default: drift_at_rest) or rezero (tracked out of the "
+                  "reference; docs/pipeline.md)")
+      ->transform(CLI::CheckedTransformer(
+          std::map<std::string, DriftMode>{
+              {"off", DriftMode::kOff}, {"flag", DriftMode::kFlag}, {"rezero", DriftMode::kRezero}},
+          CLI::ignore_case));
+  cmd->add_option("--drift-time-constant", sensor.drift.time_constant_s,
+                  "time constant of the drift estimate at rest, s")
+      ->capture_default_str();
   cmd->add_option("--max-frames", a->max_frames,
                   "stop after this many frames (0: until the source ends); per sensor with --run-file");
   cmd->add_option("--width", sensor.camera.width, "camera width (default: the sensor config's)");
@@ -137,8 +149,8 @@ void RegisterRun(CLI::App& app) {
     if (a->sensor.source.empty()) throw Error("run: --source or --run-file is required");
     if (const std::optional<std::string> path = RecordingSourcePath(a->sensor.source)) {
       RefuseOptions(*cmd,
-                    {"--config", "--cache", "--reference-frames", "--weight", "--gains", "--width",
-                     "--height", "--fps", "--exposure"},
+                    {"--config", "--cache", "--reference-frames", "--weight", "--gains", "--drift",
+                     "--drift-time-constant", "--width", "--height", "--fps", "--exposure"},
                     "does not apply to a recording: its frames were computed when it was recorded");
       FrameOutputArgs outputs = OutputArgs(*a);
       outputs.sn = {};

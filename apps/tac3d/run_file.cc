@@ -38,6 +38,17 @@ SensorRunSpec ReadSensor(YamlReader r, const std::string& base_dir) {
   s.gains = r.Vector<3>("gains", s.gains);
   s.weight = r.Double("weight", s.weight);
   s.reference_frames = r.Int("reference_frames", s.reference_frames);
+  if (r.Has("drift")) {
+    const std::string mode = r.String("drift");
+    if (mode == "off") s.drift.mode = DriftMode::kOff;
+    else if (mode == "flag") s.drift.mode = DriftMode::kFlag;
+    else if (mode == "rezero") s.drift.mode = DriftMode::kRezero;
+    else r.FailAt(r.Required("drift"), r.Join("drift"), "must be off, flag or rezero");
+  }
+  s.drift.time_constant_s = r.Double("drift_time_constant_s", s.drift.time_constant_s);
+  if (!(s.drift.time_constant_s > 0)) {
+    r.FailAt(r.Required("drift_time_constant_s"), r.Join("drift_time_constant_s"), "must be > 0");
+  }
   if (r.Has("speed")) {
     const bool paced = s.source.rfind("dataset:", 0) == 0 || s.source.rfind("recording:", 0) == 0;
     if (!paced) r.FailAt(r.Required("speed"), r.Join("speed"), "applies to recording:FILE or dataset:DIR only");

@@ -252,7 +252,9 @@ TEST(RunFile, ReadsEachSensorWithPathsFromItsFolder) {
       "  - sn: INDEX\n"
       "    source: camera:2\n"
       "    weight: 0.1\n"
-      "    reference_frames: 10\n",
+      "    reference_frames: 10\n"
+      "    drift: rezero\n"
+      "    drift_time_constant_s: 5\n",
       "hand.yaml", "/tmp");
   ASSERT_EQ(sensors.size(), 2u);
   EXPECT_EQ(sensors[0].sn, "THUMB");
@@ -267,6 +269,9 @@ TEST(RunFile, ReadsEachSensorWithPathsFromItsFolder) {
   EXPECT_FALSE(sensors[1].outputs.overwrite);
   EXPECT_EQ(sensors[0].outputs.sn, "THUMB");
   EXPECT_EQ(sensors[1].source, "camera:2");
+  EXPECT_EQ(sensors[0].drift.mode, DriftMode::kFlag);
+  EXPECT_EQ(sensors[1].drift.mode, DriftMode::kRezero);
+  EXPECT_EQ(sensors[1].drift.time_constant_s, 5.0);
   EXPECT_EQ(sensors[1].config, "");
   EXPECT_EQ(sensors[1].weight, 0.1);
   EXPECT_EQ(sensors[1].reference_frames, 10);
@@ -286,6 +291,10 @@ TEST(RunFile, RefusesMistakesNamingTheLine) {
               HasSubstr("hand.yaml: line 4: sensors[0].speed: applies to recording:FILE or dataset:DIR only"));
   EXPECT_THAT(RunFileError(a + "    gains: [1, 2]\n"), HasSubstr("line 4: sensors[0].gains: must be a list of 3"));
   EXPECT_THAT(RunFileError(a + "    record_images: maybe\n"), HasSubstr("line 4: sensors[0].record_images: must be true or false"));
+  EXPECT_THAT(RunFileError(a + "    drift: sometimes\n"),
+              HasSubstr("line 4: sensors[0].drift: must be off, flag or rezero"));
+  EXPECT_THAT(RunFileError(a + "    drift_time_constant_s: 0\n"),
+              HasSubstr("line 4: sensors[0].drift_time_constant_s: must be > 0"));
   EXPECT_THAT(RunFileError(a + "    udp: nowhere\n"),
               HasSubstr("hand.yaml: line 4: sensors[0].udp: --udp 'nowhere': expected HOST:PORT"));
   EXPECT_THAT(RunFileError(a + "    record: missing/r.rec\n"),

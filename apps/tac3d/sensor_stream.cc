@@ -41,6 +41,7 @@ class PipelineStream final : public SensorStream {
     options.sn = spec.sn;
     options.reference_frames = spec.reference_frames;
     options.force.weight = spec.weight;
+    options.drift = spec.drift;
     options.force.gains = spec.gains;
     pipeline_.emplace(config, model->h, model->marker_positions, options);
   }

@@ -34,6 +34,7 @@ struct SensorRunSpec {
   int reference_frames = PipelineOptions{}.reference_frames;
   double weight = PipelineOptions{}.force.weight;  ///< Tikhonov weight w, (mm/N)^2
   Eigen::Vector3d gains = Eigen::Vector3d::Ones();  ///< force gains Cx, Cy, Cz
+  DriftOptions drift = PipelineOptions{}.drift;     ///< drift at rest: flag, rezero or off
   /// recording:FILE: replay speed (unset: 1, the recorded pace; 0 as fast as possible);
   /// dataset:DIR: paced at this times its timestamps (unset: as fast as possible).
   std::optional<double> speed;

@@ -19,6 +19,30 @@ nlohmann::json ToJson(const TwinDeviation& d) {
           {"poisson_ratio_factor", d.poisson_ratio_factor}};
 }
 
+nlohmann::json ToJson(const SessionConditions& c) {
+  return {{"session_s", c.session_s},
+          {"illumination_gain", c.illumination_gain},
+          {"illumination_offset", c.illumination_offset},
+          {"illumination_gradient", c.illumination_gradient},
+          {"contrast_fade", c.contrast_fade},
+          {"exposure_drift", c.exposure_drift},
+          {"creep_mm", c.creep_mm},
+          {"creep_direction", {c.creep_direction.x(), c.creep_direction.y(), c.creep_direction.z()}}};
+}
+
+// The spread's tolerances and the sensor the twin renders with (what a calibration should
+// recover); null without one.
+nlohmann::json SpreadJson(const Scene& scene) {
+  if (!scene.spread) return nullptr;
+  const SensorPerturbationOptions& o = *scene.spread;
+  return {{"seed", o.seed},
+          {"mirror_tilt_max_deg", o.mirror_tilt_max_deg},
+          {"mirror_shift_max_mm", o.mirror_shift_max_mm},
+          {"camera_tilt_max_deg", o.camera_tilt_max_deg},
+          {"camera_shift_max_mm", o.camera_shift_max_mm},
+          {"true_sensor_yaml", SensorConfigToYaml(PerturbSensor(scene.sensor, o))}};
+}
+
 }  // namespace
 
 SimulateRun SimulateToDataset(const SimulateArgs& args) {
@@ -27,7 +51,11 @@ SimulateRun SimulateToDataset(const SimulateArgs& args) {
   const fem::BodyModelOptions body = simulation::TwinBodyModelOptions(scene.sensor, scene.deviation);
   // The output folder first, so a bad --out fails before a long model build.
   TwinDatasetWriter writer(
-      args.out, {{"name", scene.name}, {"scene", args.scene}, {"deviation", ToJson(scene.deviation)}});
+      args.out, {{"name", scene.name},
+                 {"scene", args.scene},
+                 {"deviation", ToJson(scene.deviation)},
+                 {"conditions", ToJson(scene.conditions)},
+                 {"spread", SpreadJson(scene)}});
   MakeDirectory(args.cache_dir);
   simulation::TwinBodyCacheResult cached = simulation::LoadOrBuildTwinBodyModel(
       body, simulation::TwinBodyOptions{}, args.cache_dir, /*show_progress=*/true);

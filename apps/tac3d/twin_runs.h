@@ -48,6 +48,21 @@ struct ReplayArgs {
 /// --calibration, --config, --cache, --steps (the dataset is each command's own).
 void AddReplayOptions(CLI::App* cmd, ReplayArgs& replay);
 
+/// What a replay runs on: the sensor, the nominal compliance, and the options with the gains
+/// (given, or fitted on the calibration dataset).
+struct ReplaySetup {
+  SensorConfig config;
+  Eigen::MatrixXd h;
+  std::vector<Eigen::Vector3d> fem_markers_mm;
+  ReplayOptions options;
+  std::optional<ReplayGainCalibration> calibration;
+};
+
+/// Loads the sensor (`--config`, else the dataset's) and the nominal compliance (from the
+/// cache), and fits the gains on the calibration dataset if one is given.
+/// @throws Error on bad arguments or datasets (FitForceGains).
+ReplaySetup PrepareReplay(const ReplayArgs& args, const TwinDatasetReader& dataset);
+
 struct ReplayRun {
   ReplayOptions options;  ///< as run, the gains included
   std::optional<ReplayGainCalibration> calibration;

@@ -200,14 +200,14 @@ change the frame. Assigning an array copies it in after a shape check.
             return names;
           },
           "Names of the flags set: markers_lost, grid_reacquired, displacement_out_of_range, "
-          "force_out_of_range, initializing, zeroed.")
+          "force_out_of_range, initializing, zeroed, lighting_changed, drift_at_rest.")
       .def(
           "has",
           [](const TactileFrame& f, const std::string& name) {
             const std::optional<FrameFlag> flag = FlagByName(name);
             if (!flag)
               throw Error(
-                  fmt::format("'{}' is not a frame flag ({})", name, FrameFlagNames(~0u & 63u)));
+                  fmt::format("'{}' is not a frame flag ({})", name, FrameFlagNames(~0u)));
             return f.has(*flag);
           },
           py::arg("flag"),

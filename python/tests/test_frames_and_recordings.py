@@ -42,6 +42,9 @@ def test_frame_flags_slip_and_vendor_dict():
     f.flags = 1 | 16
     assert f.flag_names == ["markers_lost", "initializing"]
     assert f.has("markers_lost") and not f.has("zeroed")
+    f.flags = 64 | 128
+    assert f.flag_names == ["lighting_changed", "drift_at_rest"]
+    assert f.has("drift_at_rest") and not f.has("markers_lost")
     assert f.slip_state == "unknown" and np.isnan(f.slip_fraction)
     d = f.to_dict()
     assert d["SN"] == "PY-TEST" and d["index"] == 3

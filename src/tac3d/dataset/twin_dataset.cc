@@ -146,6 +146,7 @@ void TwinDatasetWriter::Write(const TwinStep& step) {
                   {"contact", step.marker_contact},
                   {"slip", step.marker_slip}};
   j["solver"] = step.solver;
+  if (!step.conditions.is_null()) j["conditions"] = step.conditions;
   j["image"] = nullptr;
   j["surface"] = nullptr;
   if (!step.image.empty()) {
@@ -211,6 +212,7 @@ TwinStep TwinDatasetReader::Read(int step, bool with_surface) const {
     s.marker_contact = m.at("contact").get<std::vector<std::uint8_t>>();
     s.marker_slip = m.at("slip").get<std::vector<std::uint8_t>>();
     s.solver = j.at("solver");
+    if (j.contains("conditions")) s.conditions = j.at("conditions");
     if (!j.at("image").is_null()) {
       s.image = cv::imread(folder_ + "/" + j.at("image").get<std::string>(), cv::IMREAD_GRAYSCALE);
       if (s.image.empty()) throw Error(fmt::format("'{}': its image does not decode", path));

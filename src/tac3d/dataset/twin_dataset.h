@@ -44,6 +44,9 @@ struct TwinStep {
   SurfaceTractions surface;
   /// The contact solver's report for this step (iterations, residuals, status).
   nlohmann::json solver;
+  /// The session's nuisances at this step, their truth (a scene's `conditions`,
+  /// docs/render.md); null in a nominal session. The marker positions include their creep.
+  nlohmann::json conditions;
 };
 
 /// Writes a dataset folder (layout: docs/datasets.md). Each step is written to temporary

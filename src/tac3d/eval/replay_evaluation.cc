@@ -137,7 +137,8 @@ ReplayResult ReplayTwinDataset(const TwinDatasetReader& dataset, const SensorCon
                                const std::vector<Eigen::Vector3d>& fem_markers_mm,
                                const ReplayOptions& options,
                                const std::function<void(int, int)>& progress,
-                               const std::function<void(const TwinStep&, const TactileFrame&)>& on_frame) {
+                               const std::function<void(const TwinStep&, const TactileFrame&)>& on_frame,
+                               const ReplayAlterations& alter) {
   options.Validate();
   const auto start = std::chrono::steady_clock::now();
   const std::vector<int>& steps = dataset.steps();
@@ -154,7 +155,8 @@ ReplayResult ReplayTwinDataset(const TwinDatasetReader& dataset, const SensorCon
   ReplayResult result;
   TactileFrame out;
   for (int k = 0; k < count; ++k) {
-    const TwinStep truth = dataset.Read(steps[k]);
+    TwinStep truth = dataset.Read(steps[k]);
+    if (alter.step) alter.step(truth, k < reference);
     if (truth.image.empty()) {
       throw Error(fmt::format("step {} has no image: simulate without --no-images to replay", truth.index));
     }
@@ -173,6 +175,7 @@ ReplayResult ReplayTwinDataset(const TwinDatasetReader& dataset, const SensorCon
       for (int i = 0; i < markers; ++i) rest[i] += truth.marker_positions_mm[i] / reference;
     }
     pipeline.Process(Frame{truth.image, truth.t_s, truth.index}, out);
+    if (k + 1 == reference && alter.after_reference) alter.after_reference(pipeline, truth);
     if (k >= reference) {
       result.frames.push_back(Compare(out, truth, rest, options.loaded_force_n));
       if (on_frame) on_frame(truth, out);

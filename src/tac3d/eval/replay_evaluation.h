@@ -84,6 +84,16 @@ struct ReplayResult {
   ReplaySummary summary;
 };
 
+/// What a replay changes in what the sensor sees (`tac3d eval conditions`): each step may be
+/// altered before the pipeline sees it (its image re-rendered, its time moved), and frames may
+/// be fed to the pipeline between the reference and the first step after it.
+struct ReplayAlterations {
+  /// Called with each step as read, and whether it is one of the reference steps.
+  std::function<void(TwinStep&, bool reference)> step;
+  /// Called once the reference steps are processed, with the pipeline and the last of them.
+  std::function<void(Pipeline&, const TwinStep&)> after_reference;
+};
+
 /// The sensor a dataset was simulated with: the scene its header names (a built-in name, or
 /// a scene file that still exists) gives it.
 /// @throws Error if the header names no scene that can be loaded (pass the sensor instead).
@@ -94,6 +104,7 @@ SensorConfig DatasetSensor(const TwinDatasetReader& dataset);
 /// truth (issue 6, paper section V).
 /// @param progress called after each step with (steps done, steps in all), may be empty.
 /// @param on_frame called with each frame after the reference and its truth, may be empty.
+/// @param alter changes to what the sensor sees (ReplayAlterations), may be empty.
 /// @throws Error if the options are invalid, a step lacks its image, the markers disagree
 ///   with the sensor, or a step among the first reference_frames carries force (the pipeline
 ///   would take a loaded state as its reference).
@@ -102,7 +113,8 @@ ReplayResult ReplayTwinDataset(const TwinDatasetReader& dataset, const SensorCon
                                const std::vector<Eigen::Vector3d>& fem_markers_mm,
                                const ReplayOptions& options,
                                const std::function<void(int, int)>& progress = {},
-                               const std::function<void(const TwinStep&, const TactileFrame&)>& on_frame = {});
+                               const std::function<void(const TwinStep&, const TactileFrame&)>& on_frame = {},
+                               const ReplayAlterations& alter = {});
 
 /// The force-calibration pairs of a replay: per loaded frame, the pipeline's resultant with
 /// unit gains (the measured resultant divided by the gains the replay ran with: the gains

@@ -1,4 +1,5 @@
 #include "tac3d/eval/replay_evaluation.h"
+#include "tac3d/eval/conditions_evaluation.h"
 
 #include <cmath>
 
@@ -149,6 +150,50 @@ TEST(ReplayEvaluation, RefusesADatasetLoadedDuringTheReference) {
   ReplayOptions too_short = FiveReferenceFrames();
   too_short.max_steps = 5;
   EXPECT_THROW(too_short.Validate(), Error);
+}
+
+// `tac3d eval conditions` (conditions_evaluation.h) on the synthetic dataset: a one-minute
+// session at the realistic levels, each nuisance alone, all together and a sensor built at
+// tolerance; with the creep re-zeroed every case holds issue 15's bounds, without it the
+// creep's case does not.
+TEST(ConditionsEvaluation, EachNuisanceAndAllTogetherHoldTheBoundsOnlyWithTheDriftHandled) {
+  const TwinDatasetReader dataset(WriteDataset("conditions", 5, {{0.4, 0, -1.5}, {0.8, -0.3, -3}, {-0.5, 0.6, -4.5}}));
+  ConditionsEvaluationOptions options;
+  options.replay = FiveReferenceFrames();
+  options.replay.pipeline.drift.mode = DriftMode::kRezero;
+  options.levels.session_s = 60.0;  // the 0.02 mm creep 10 x faster than over 10 minutes
+  options.rest_frame_s = 2.0;
+  options.calibration_views = 8;
+  const ConditionsEvaluation e = EvaluateConditions(dataset, Sensor(), H(), Sensor().MarkerPositions(), options);
+  ASSERT_EQ(e.cases.size(), 9u);  // nominal, six nuisances, all, spread
+  for (const ConditionsCase& c : e.cases) {
+    const ReplaySummary& s = c.summary;
+    std::printf("%-22s resultant error max %% FS %.3f %.3f %.3f, displacement RMSE %.4f mm, lost %ld, flagged %d\n",
+                c.name.c_str(), s.force_error_max_pct_fs.x(), s.force_error_max_pct_fs.y(),
+                s.force_error_max_pct_fs.z(), s.displacement_rmse_mm, s.lost_marker_frames, s.flagged_frames);
+    EXPECT_EQ(s.loaded_frames, 3) << c.name;
+    EXPECT_EQ(s.lost_marker_frames, 0) << c.name;
+    EXPECT_LE(s.force_error_max_pct_fs.maxCoeff(), 2.0) << c.name;
+    EXPECT_LE(s.displacement_rmse_mm, 0.01) << c.name;
+  }
+  EXPECT_EQ(e.cases.back().name, "spread");
+  EXPECT_TRUE(ToJson(e, options).at("all_pass").get<bool>());
+
+  ConditionsEvaluationOptions untracked = options;
+  untracked.replay.pipeline.drift.mode = DriftMode::kFlag;
+  untracked.spread = false;
+  const ConditionsEvaluation raw = EvaluateConditions(dataset, Sensor(), H(), Sensor().MarkerPositions(), untracked);
+  const ConditionsCase& creep = raw.cases[6];
+  ASSERT_EQ(creep.name, "creep");
+  std::printf("creep flagged, not re-zeroed: displacement RMSE %.4f mm, Fz error %.2f %% FS, drift_at_rest on %d of 3 frames\n",
+              creep.summary.displacement_rmse_mm, creep.summary.force_error_max_pct_fs.z(),
+              creep.summary.flag_counts[7].second);
+  EXPECT_GT(creep.summary.displacement_rmse_mm, 0.015);
+  EXPECT_EQ(creep.summary.flag_counts[7].first, "drift_at_rest");
+  EXPECT_EQ(creep.summary.flag_counts[7].second, 3);
+  EXPECT_FALSE(ToJson(raw, untracked).at("all_pass").get<bool>());
+  options.rest_frame_s = 0;
+  EXPECT_THROW(options.Validate(), Error);
 }
 
 TEST(ReplayEvaluation, OptionsAndHeadersAreChecked) {

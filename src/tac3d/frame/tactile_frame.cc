@@ -23,6 +23,10 @@ const char* FrameFlagName(FrameFlag flag) {
       return "initializing";
     case FrameFlag::kZeroed:
       return "zeroed";
+    case FrameFlag::kLightingChanged:
+      return "lighting_changed";
+    case FrameFlag::kDriftAtRest:
+      return "drift_at_rest";
   }
   TAC3D_DEMAND(false);
 }

@@ -16,6 +16,8 @@ enum class FrameFlag : std::uint32_t {
   kForceOutOfRange = 1u << 3,         ///< a resultant beyond the sensor's rated range
   kInitializing = 1u << 4,            ///< initialize_progress < 100: reference not yet taken
   kZeroed = 1u << 5,                  ///< the reference was retaken (a `$C`) for this frame
+  kLightingChanged = 1u << 6,         ///< lighting or marker contrast far from the reference's
+  kDriftAtRest = 1u << 7,             ///< the markers drifted at rest since the reference
 };
 
 /// Every flag, in bit order (for printing and iteration).
@@ -24,7 +26,9 @@ inline constexpr FrameFlag kAllFrameFlags[] = {FrameFlag::kMarkersLost,
                                                FrameFlag::kDisplacementOutOfRange,
                                                FrameFlag::kForceOutOfRange,
                                                FrameFlag::kInitializing,
-                                               FrameFlag::kZeroed};
+                                               FrameFlag::kZeroed,
+                                               FrameFlag::kLightingChanged,
+                                               FrameFlag::kDriftAtRest};
 
 /// snake_case name of a flag ("markers_lost"), as the wire header's msg and logs show it.
 const char* FrameFlagName(FrameFlag flag);

@@ -43,6 +43,11 @@ TEST(TactileFrame, FlagsSetClearAndName) {
   frame.set(FrameFlag::kMarkersLost, false);
   EXPECT_EQ(FrameFlagNames(frame.flags), "force_out_of_range");
   EXPECT_EQ(FrameFlagNames(0), "");
+  frame.flags = 0;
+  frame.set(FrameFlag::kLightingChanged);
+  frame.set(FrameFlag::kDriftAtRest);
+  EXPECT_EQ(FrameFlagNames(frame.flags), "lighting_changed drift_at_rest");
+  EXPECT_NO_THROW(frame.Validate());
 }
 
 TEST(TactileFrame, ValidateNamesTheBrokenField) {

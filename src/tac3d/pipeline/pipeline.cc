@@ -27,6 +27,8 @@ void PipelineOptions::Validate() const {
   Require(displacement_range_mm > 0, "displacement_range_mm", "> 0", displacement_range_mm);
   Require(force_range_n > 0, "force_range_n", "> 0", force_range_n);
   force.Validate();
+  lighting.Validate();
+  drift.Validate();
   contact.Validate();
   slip.Validate();
   stereo.Validate();
@@ -41,7 +43,9 @@ Pipeline::Pipeline(const SensorConfig& config, const Eigen::MatrixXd& h,
       triangulator_(config, options.stereo),
       reconstructor_(h, fem_markers_mm, options.force),
       surface_(config.markers.rows, config.markers.cols, fem_markers_mm, options.contact),
-      slip_(config.markers.rows * config.markers.cols, options.slip) {
+      slip_(config.markers.rows * config.markers.cols, options.slip),
+      lighting_(options.lighting),
+      drift_(options.drift) {
   const size_t n = static_cast<size_t>(rows_) * cols_;
   if (fem_markers_mm.size() != n) {
     throw Error(fmt::format("pipeline: the sensor has {} x {} markers, the compliance model {}", rows_, cols_,
@@ -68,6 +72,7 @@ bool Pipeline::initializing() const { return reference_.empty() || zero_requeste
 void Pipeline::RequestZero() {
   zero_requested_ = true;
   reference_stack_.clear();
+  lighting_.ClearReference();
 }
 
 void Pipeline::FillInitializing(int progress, TactileFrame& out) const {
@@ -89,6 +94,50 @@ void Pipeline::FillInitializing(int progress, TactileFrame& out) const {
   out.slip = FrameSlip{.state = SlipState::kNone};
 }
 
+bool Pipeline::CollectReference(TactileFrame& out) {
+  const int n = rows_ * cols_;
+  // The reference is taken from consecutive frames that see the grid: a covered or dark
+  // frame starts the collection again.
+  auto restart = [&] {
+    reference_stack_.clear();
+    lighting_.ClearReference();
+    FillInitializing(0, out);
+    return false;
+  };
+  if (2 * field_.CountValid() < n) return restart();
+  reference_stack_.push_back(field_);
+  lighting_.AddReference(observation_);
+  if (static_cast<int>(reference_stack_.size()) < options_.reference_frames) {
+    FillInitializing(static_cast<int>(100 * reference_stack_.size() / options_.reference_frames), out);
+    return false;
+  }
+  // A reference needs most markers seen in every frame (a black or covered start is not
+  // the undeformed state): otherwise start collecting again.
+  int steady = 0;
+  for (int i = 0; i < n; ++i) {
+    steady += std::all_of(reference_stack_.begin(), reference_stack_.end(),
+                          [i](const MarkerField& f) { return f.valid[i] != 0; });
+  }
+  if (2 * steady < n) return restart();
+  reference_.Set(reference_stack_);
+  lighting_.FinishReference();
+  drift_.Reset();
+  std::vector<Eigen::VectorXd> static_d;
+  for (MarkerField& f : reference_stack_) {
+    reference_.Apply(f);
+    Eigen::VectorXd d(3 * n);
+    for (int i = 0; i < n; ++i) {
+      for (int a = 0; a < 3; ++a) d[a * n + i] = f.valid[i] ? f.displacements[i][a] : kNaN;
+    }
+    static_d.push_back(std::move(d));
+  }
+  noise_variance_ = EstimateDisplacementNoise(static_d).variance_mm2;
+  slip_.SetDisplacementVariance(*noise_variance_);
+  slip_.SetMarkerForceSigma(reconstructor_.CalcUncertainty(*noise_variance_).marker_sigma_n);
+  reference_stack_.clear();
+  return true;
+}
+
 void Pipeline::Process(const Frame& frame, TactileFrame& out) {
   const int n = rows_ * cols_;
   if (out.num_markers() != n || out.positions_mm.size() != static_cast<size_t>(n)) {
@@ -106,51 +155,16 @@ void Pipeline::Process(const Frame& frame, TactileFrame& out) {
 
   bool zeroed_now = false;
   if (initializing()) {
-    // The reference is taken from consecutive frames that see the grid: a covered or dark
-    // frame starts the collection again.
-    if (2 * field_.CountValid() < n) {
-      reference_stack_.clear();
-      FillInitializing(0, out);
-      return;
-    }
-    reference_stack_.push_back(field_);
-    if (static_cast<int>(reference_stack_.size()) < options_.reference_frames) {
-      FillInitializing(static_cast<int>(100 * reference_stack_.size() / options_.reference_frames), out);
-      return;
-    }
-    // A reference needs most markers seen in every frame (a black or covered start is not
-    // the undeformed state): otherwise start collecting again.
-    int steady = 0;
-    for (int i = 0; i < n; ++i) {
-      steady += std::all_of(reference_stack_.begin(), reference_stack_.end(),
-                            [i](const MarkerField& f) { return f.valid[i] != 0; });
-    }
-    if (2 * steady < n) {
-      reference_stack_.clear();
-      FillInitializing(0, out);
-      return;
-    }
-    reference_.Set(reference_stack_);
-    std::vector<Eigen::VectorXd> static_d;
-    for (MarkerField& f : reference_stack_) {
-      reference_.Apply(f);
-      Eigen::VectorXd d(3 * n);
-      for (int i = 0; i < n; ++i) {
-        for (int a = 0; a < 3; ++a) d[a * n + i] = f.valid[i] ? f.displacements[i][a] : kNaN;
-      }
-      static_d.push_back(std::move(d));
-    }
-    noise_variance_ = EstimateDisplacementNoise(static_d).variance_mm2;
-    slip_.SetDisplacementVariance(*noise_variance_);
-    slip_.SetMarkerForceSigma(reconstructor_.CalcUncertainty(*noise_variance_).marker_sigma_n);
-    reference_stack_.clear();
+    if (!CollectReference(out)) return;
     zeroed_now = zero_requested_;
     zero_requested_ = false;
   }
   out.initialize_progress = 100;
   out.set(FrameFlag::kZeroed, zeroed_now);
+  out.set(FrameFlag::kLightingChanged, lighting_.Compare(observation_).changed);
 
   reference_.Apply(field_);
+  out.set(FrameFlag::kDriftAtRest, drift_.Update(frame.timestamp_s, field_, reference_).flagged);
   double max_displacement = 0.0;
   for (int i = 0; i < n; ++i) {
     const bool valid = field_.valid[i] != 0;

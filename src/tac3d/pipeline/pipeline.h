@@ -10,6 +10,8 @@
 #include "tac3d/force/force_reconstructor.h"
 #include "tac3d/force/marker_surface.h"
 #include "tac3d/frame/tactile_frame.h"
+#include "tac3d/pipeline/drift_monitor.h"
+#include "tac3d/pipeline/lighting_monitor.h"
 #include "tac3d/sensor/sensor_config.h"
 #include "tac3d/slip/slip_estimator.h"
 #include "tac3d/source/frame_source.h"
@@ -38,6 +40,10 @@ struct PipelineOptions {
   /// for, so the numbers are not to be trusted.
   double displacement_range_mm = 3.0;
   double force_range_n = 30.0;
+  /// kLightingChanged: the markers' lighting against the reference's.
+  LightingMonitorOptions lighting;
+  /// kDriftAtRest: the markers' drift at rest, flagged or tracked out of the reference.
+  DriftOptions drift;
 
   /// @throws Error naming the field and its bound.
   void Validate() const;
@@ -73,6 +79,9 @@ class Pipeline {
  private:
   // A frame while the reference is being taken: markers as measured, no forces.
   void FillInitializing(int progress, TactileFrame& out) const;
+  // Adds this frame to the reference being taken; true once it is complete (else `out` is
+  // an initializing frame).
+  bool CollectReference(TactileFrame& out);
 
   PipelineOptions options_;
   int rows_, cols_;
@@ -81,6 +90,8 @@ class Pipeline {
   ForceReconstructor reconstructor_;
   MarkerSurface surface_;
   SlipEstimator slip_;
+  LightingMonitor lighting_;
+  DriftMonitor drift_;
   DisplacementReference reference_;
   std::vector<MarkerField> reference_stack_;
   std::optional<Eigen::Vector3d> noise_variance_;

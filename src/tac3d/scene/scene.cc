@@ -283,6 +283,8 @@ void Scene::Validate() const {
   const double nu = sensor.elastic_body.poisson_ratio * deviation.poisson_ratio_factor;
   Require(deviation.poisson_ratio_factor > 0 && nu < 0.5, "deviation.poisson_ratio_factor",
           "> 0 with the twin's nu below 0.5", deviation.poisson_ratio_factor);
+  conditions.Validate();
+  if (spread) spread->Validate();
   if (objects.empty()) throw Error("scene: objects: a scene needs at least one object");
   for (size_t i = 0; i < objects.size(); ++i) {
     const SceneObject& o = objects[i];
@@ -343,6 +345,36 @@ void Scene::Validate() const {
   }
 }
 
+namespace {
+
+// The `conditions:` section: `levels` (none | realistic) to start from, then any level.
+SessionConditions ReadConditions(YamlReader r) {
+  const std::string levels = r.String("levels", "none");
+  if (levels != "none" && levels != "realistic") r.Fail(r.Join("levels"), "must be none or realistic");
+  SessionConditions c = levels == "realistic" ? SessionConditions::Realistic() : SessionConditions{};
+  c.session_s = r.Double("session_s", c.session_s);
+  c.illumination_gain = r.Double("illumination_gain", c.illumination_gain);
+  c.illumination_offset = r.Double("illumination_offset", c.illumination_offset);
+  c.illumination_gradient = r.Double("illumination_gradient", c.illumination_gradient);
+  c.contrast_fade = r.Double("contrast_fade", c.contrast_fade);
+  c.exposure_drift = r.Double("exposure_drift", c.exposure_drift);
+  c.creep_mm = r.Double("creep_mm", c.creep_mm);
+  c.creep_direction = r.Vector<3>("creep_direction", c.creep_direction);
+  return c;
+}
+
+// The `spread:` section: ManufacturingSpread's tolerances unless given.
+SensorPerturbationOptions ReadSpread(YamlReader r) {
+  SensorPerturbationOptions o = SensorPerturbationOptions::ManufacturingSpread(r.Int("seed", 1));
+  o.mirror_tilt_max_deg = r.Double("mirror_tilt_max_deg", o.mirror_tilt_max_deg);
+  o.mirror_shift_max_mm = r.Double("mirror_shift_max_mm", o.mirror_shift_max_mm);
+  o.camera_tilt_max_deg = r.Double("camera_tilt_max_deg", o.camera_tilt_max_deg);
+  o.camera_shift_max_mm = r.Double("camera_shift_max_mm", o.camera_shift_max_mm);
+  return o;
+}
+
+}  // namespace
+
 Scene ParseScene(const std::string& yaml_text, const std::string& source, const std::string& base_dir) {
   const YAML::Node root = ParseYamlDocument(yaml_text, source);
   Scene scene;
@@ -357,6 +389,8 @@ Scene ParseScene(const std::string& yaml_text, const std::string& source, const 
       scene.deviation.youngs_modulus_factor = d.Double("youngs_modulus_factor", scene.deviation.youngs_modulus_factor);
       scene.deviation.poisson_ratio_factor = d.Double("poisson_ratio_factor", scene.deviation.poisson_ratio_factor);
     }
+    if (r.Has("conditions")) scene.conditions = ReadConditions(r.Child("conditions"));
+    if (r.Has("spread")) scene.spread = ReadSpread(r.Child("spread"));
     const YAML::Node objects = r.Sequence("objects");
     for (size_t i = 0; i < objects.size(); ++i) {
       scene.objects.push_back(ReadObject(r.Element(objects, "objects", i), base_dir));

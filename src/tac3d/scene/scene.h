@@ -11,6 +11,8 @@
 #include "tac3d/geometry/geometry.h"
 #include "tac3d/scene/ply.h"
 #include "tac3d/sensor/sensor_config.h"
+#include "tac3d/twin/calibration_set.h"
+#include "tac3d/twin/session_conditions.h"
 
 namespace tac3d {
 
@@ -121,6 +123,12 @@ struct Scene {
   std::string name;
   SensorConfig sensor;
   TwinDeviation deviation;
+  /// The twin's nuisances over the session, from the trajectory's first keyframe on
+  /// (docs/render.md, "Session conditions"); none by default.
+  SessionConditions conditions;
+  /// This twin sensor's manufacturing spread: its camera renders through
+  /// PerturbSensor(sensor, *spread), which only a calibration recovers; none by default.
+  std::optional<SensorPerturbationOptions> spread;
   std::vector<SceneObject> objects;
   Trajectory trajectory;
 

@@ -76,6 +76,27 @@ TEST(Scene, DefaultDeviationRefinesTheMeshOneAndAHalfTimes) {
   EXPECT_DOUBLE_EQ(scene.deviation.youngs_modulus_factor, TwinDeviation{}.youngs_modulus_factor);
 }
 
+TEST(Scene, ConditionsAndSpreadAreOptionsWithTheirDefaults) {
+  const Scene plain = ParseScene(kSlide, "test.yaml", "");
+  EXPECT_EQ(plain.conditions.At(1e9).illumination_gain, 1.0);  // no nuisance by default
+  EXPECT_FALSE(plain.spread.has_value());
+  const std::string with = Replace(kSlide, "objects:\n",
+                                   "conditions: {levels: realistic, creep_mm: 0.05}\n"
+                                   "spread: {seed: 4, camera_tilt_max_deg: 0.2}\nobjects:\n");
+  const Scene scene = ParseScene(with, "test.yaml", "");
+  const SessionConditions realistic = SessionConditions::Realistic();
+  EXPECT_DOUBLE_EQ(scene.conditions.illumination_gain, realistic.illumination_gain);
+  EXPECT_DOUBLE_EQ(scene.conditions.creep_mm, 0.05);
+  ASSERT_TRUE(scene.spread.has_value());
+  EXPECT_EQ(scene.spread->seed, 4u);
+  EXPECT_DOUBLE_EQ(scene.spread->camera_tilt_max_deg, 0.2);
+  EXPECT_DOUBLE_EQ(scene.spread->camera_shift_max_mm,
+                   SensorPerturbationOptions::ManufacturingSpread(4).camera_shift_max_mm);
+  EXPECT_THAT(ErrorOf(Replace(with, "levels: realistic", "levels: harsh")), HasSubstr("conditions.levels"));
+  EXPECT_THAT(ErrorOf(Replace(with, "creep_mm: 0.05", "creep_mm: -1")), HasSubstr("creep_mm"));
+  EXPECT_THAT(ErrorOf(Replace(with, "creep_mm: 0.05", "glare: 1")), HasSubstr("unknown key"));
+}
+
 TEST(Trajectory, InterpolatesPositionLinearlyAndRotationBySlerp) {
   const Scene scene = ParseScene(kSlide, "test.yaml", "");
   const Trajectory& t = scene.trajectory;

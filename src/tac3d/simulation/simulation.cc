@@ -27,6 +27,24 @@ tac3d::ContactState ToDatasetState(contact::NodeState state) {
   return tac3d::ContactState::kSeparated;
 }
 
+bool IsNominal(const FrameConditions& c) {
+  const FrameConditions nominal;
+  return c.illumination_gain == nominal.illumination_gain &&
+         c.illumination_offset == nominal.illumination_offset &&
+         c.illumination_gradient == nominal.illumination_gradient &&
+         c.dot_contrast == nominal.dot_contrast && c.exposure == nominal.exposure &&
+         c.creep_mm == nominal.creep_mm;
+}
+
+nlohmann::json ConditionsJson(const FrameConditions& c) {
+  return {{"illumination_gain", c.illumination_gain},
+          {"illumination_offset", c.illumination_offset},
+          {"illumination_gradient", c.illumination_gradient},
+          {"dot_contrast", c.dot_contrast},
+          {"exposure", c.exposure},
+          {"creep_mm", {c.creep_mm.x(), c.creep_mm.y(), c.creep_mm.z()}}};
+}
+
 }  // namespace
 
 contact::ContactSolverOptions DefaultSimulationContactOptions() {
@@ -98,7 +116,10 @@ TwinSimulation::TwinSimulation(const Scene& scene,
   node_markers_ = model_->CalcNodeMarkers();
   caster_ = std::make_unique<GapCaster>(
       scene_.objects, model_->grid, surface_points_, model_->CalcActiveNodes());
-  if (options_.render_images) renderer_ = std::make_unique<MarkerImageRenderer>(scene_.sensor);
+  if (options_.render_images) {
+    renderer_ = std::make_unique<MarkerImageRenderer>(
+        scene_.spread ? PerturbSensor(scene_.sensor, *scene_.spread) : scene_.sensor);
+  }
   state_ = contact::ContactState::Unloaded(model_->grid.num_nodes());
 }
 
@@ -218,11 +239,16 @@ TwinStep TwinSimulation::Step() {
   }
   timings.response_s += Seconds(start);
 
+  const FrameConditions conditions =
+      scene_.conditions.At(out.t_s - scene_.trajectory.keyframes.front().t_s);
   if (renderer_) {
     start = Clock::now();
-    out.image = renderer_->Render(out.marker_positions_mm, static_cast<std::uint64_t>(k));
+    out.image = renderer_->Render(out.marker_positions_mm, static_cast<std::uint64_t>(k), conditions);
     timings.render_s += Seconds(start);
   }
+  // The truth: the markers where the renderer drew them, crept.
+  for (Eigen::Vector3d& p : out.marker_positions_mm) p += conditions.creep_mm;
+  if (!IsNominal(conditions)) out.conditions = ConditionsJson(conditions);
   ++summary_.steps;
   timings.total_s += Seconds(step_start);
   return out;

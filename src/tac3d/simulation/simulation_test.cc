@@ -179,6 +179,33 @@ TEST(TwinSimulation, WritesADatasetTheReaderReadsBack) {
   EXPECT_LT(got.total_force_n.z(), 0.0);
 }
 
+// A session's nuisances: each step carries its truth, the markers have crept, the image is
+// darker, and the dataset keeps it.
+TEST(TwinSimulation, ConditionsGiveEachStepItsTruth) {
+  Scene scene = SphereScene({{0.0, {0, 0, -0.5}}, {1.0, {0, 0, -0.5}}}, 3);  // clear of the ball
+  const TwinStep nominal = TwinSimulation(scene, SmallModel()).Step();
+  scene.conditions.session_s = 1.0;
+  scene.conditions.illumination_gain = 0.5;
+  scene.conditions.creep_mm = 0.02;
+  TwinSimulation sim(scene, SmallModel());
+  const TwinStep first = sim.Step();
+  EXPECT_TRUE(first.conditions.is_null());  // t = 0: nothing yet
+  sim.Step();
+  const TwinStep last = sim.Step();  // t = 1 s: the session's end
+  ASSERT_FALSE(last.conditions.is_null());
+  EXPECT_DOUBLE_EQ(last.conditions.at("illumination_gain").get<double>(), 0.5);
+  EXPECT_DOUBLE_EQ(last.conditions.at("creep_mm")[2].get<double>(), -0.02);
+  for (size_t m = 0; m < last.marker_positions_mm.size(); ++m) {
+    EXPECT_TRUE(last.marker_positions_mm[m].isApprox(
+        nominal.marker_positions_mm[m] + Eigen::Vector3d(0, 0, -0.02), 1e-12));
+  }
+  EXPECT_LT(cv::mean(last.image)[0], 0.6 * cv::mean(first.image)[0]);
+
+  const std::string dir = testing::MakeTempDir("simulation_conditions") + "/run";
+  TwinDatasetWriter(dir, {{"name", scene.name}}).Write(last);
+  EXPECT_EQ(TwinDatasetReader(dir).Read(last.index).conditions, last.conditions);
+}
+
 TEST(TwinSimulation, BadInputsThrowWithClearMessages) {
   const Scene scene = SphereScene({{0.0, {0, 0, 0}}, {1.0, {0, 0, 0.1}}}, 2);
   SimulationOptions bad = NoImages();

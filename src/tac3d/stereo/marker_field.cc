@@ -83,6 +83,11 @@ void DisplacementReference::Set(const std::vector<MarkerField>& frames) {
   }
 }
 
+void DisplacementReference::Shift(std::size_t i, const Eigen::Vector3d& delta_mm) {
+  TAC3D_DEMAND(i < reference_.size());
+  reference_[i] += delta_mm;
+}
+
 void DisplacementReference::Apply(MarkerField& field) const {
   if (field.positions.size() != reference_.size()) {
     throw Error(fmt::format("displacement reference has {} markers, the frame {}",

@@ -72,6 +72,9 @@ class DisplacementReference {
   /// Fills `displacements`; a marker without a reference becomes invalid.
   void Apply(MarkerField& field) const;
   const std::vector<Eigen::Vector3d>& positions() const { return reference_; }
+  /// Moves marker i's reference by delta_mm (the drift at rest tracked out,
+  /// pipeline/drift_monitor.h). @pre i < positions().size().
+  void Shift(std::size_t i, const Eigen::Vector3d& delta_mm);
 
  private:
   std::vector<Eigen::Vector3d> reference_;

@@ -434,6 +434,7 @@ BlobStatus MeasureBlob(const cv::Mat& image,
     return BlobStatus::kBadShape;
   }
   blob.center = shape.center;
+  blob.background_dn = background;
   blob.contrast_dn = contrast;
   blob.spread_px = shape.spread;
   blob.elongation = shape.elongation;

@@ -52,7 +52,8 @@ std::string_view ToString(BlobStatus status);
 /// at integers).
 struct Blob {
   Eigen::Vector2d center = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
-  double contrast_dn = 0.0;  ///< local background minus the darkest pixel
+  double background_dn = 0.0;  ///< the local background (the ring's median)
+  double contrast_dn = 0.0;    ///< local background minus the darkest pixel
   double spread_px = 0.0;    ///< weighted RMS radius along the long axis
   double elongation = 0.0;   ///< long axis over short axis
 };

@@ -107,6 +107,7 @@ MarkerTracker::MarkerTracker(const SensorConfig& config, const MarkerTrackerOpti
     half.estimate.assign(n, Eigen::Vector2d::Zero());
     half.base.assign(n, Eigen::Vector2d::Zero());
     half.found.assign(n, Eigen::Vector2d::Zero());
+    half.levels.assign(n, Eigen::Vector2d::Zero());
     half.state.assign(n, MarkerState::kGridLost);
     half.accepted.assign(n, 0);
     half.queued.assign(n, 0);
@@ -175,6 +176,7 @@ void MarkerTracker::Grow(const cv::Mat& image, Half& half, int head, int tail) c
       half.state[i] = MarkerState::kValid;
       half.accepted[i] = 1;
       half.found[i] = blob.center;
+      half.levels[i] = {blob.background_dn, blob.contrast_dn};
       ForNeighbours(i, [&](int j) {
         if (!half.accepted[j] && !half.queued[j] && half.tries[j] < kMaxTries) push(j);
       });
@@ -307,7 +309,7 @@ void MarkerTracker::AcquireHalf(const cv::Mat& image, Half& half) const {
   // the map cannot follow). The candidate that ends with the most valid markers wins: one
   // a pitch off loses a row or column of markers over the grid's border.
   int best_valid = -1;
-  std::vector<Eigen::Vector2d> best_base, best_found;
+  std::vector<Eigen::Vector2d> best_base, best_found, best_levels;
   std::vector<MarkerState> best_state;
   std::vector<std::uint8_t> best_accepted;
   for (const GridIndex& index : IndexGrid(centers, half.nominal, half.pitch, options_.index)) {
@@ -322,6 +324,7 @@ void MarkerTracker::AcquireHalf(const cv::Mat& image, Half& half) const {
       half.accepted[i] = 1;
       half.tries[i] = 1;
       half.found[i] = centers[j];
+      half.levels[i] = {blobs[j].background_dn, blobs[j].contrast_dn};
       half.state[i] = MarkerState::kValid;
     }
     KeepLargestConsistentSeeds(half);
@@ -340,6 +343,7 @@ void MarkerTracker::AcquireHalf(const cv::Mat& image, Half& half) const {
     best_valid = valid;
     best_base = half.base;
     best_found = half.found;
+    best_levels = half.levels;
     best_state = half.state;
     best_accepted = half.accepted;
     if (valid == n) break;
@@ -351,6 +355,7 @@ void MarkerTracker::AcquireHalf(const cv::Mat& image, Half& half) const {
   }
   half.base = std::move(best_base);
   half.found = std::move(best_found);
+  half.levels = std::move(best_levels);
   half.state = std::move(best_state);
   half.accepted = std::move(best_accepted);
   Commit(half);
@@ -389,11 +394,16 @@ void MarkerTracker::Track(const cv::Mat& image, MarkerObservation& observation) 
     }
     out.grid_lost = !half.tracking;
     out.uv.resize(n);
+    out.background_dn.resize(n);
+    out.contrast_dn.resize(n);
     out.state.resize(n);
     out.state_counts.fill(0);
     for (int i = 0; i < n; ++i) {
       out.state[i] = out.grid_lost ? MarkerState::kGridLost : half.state[i];
-      out.uv[i] = out.state[i] == MarkerState::kValid ? half.found[i] : Eigen::Vector2d(nan, nan);
+      const bool valid = out.state[i] == MarkerState::kValid;
+      out.uv[i] = valid ? half.found[i] : Eigen::Vector2d(nan, nan);
+      out.background_dn[i] = valid ? half.levels[i].x() : nan;
+      out.contrast_dn[i] = valid ? half.levels[i].y() : nan;
       ++out.state_counts[static_cast<int>(out.state[i])];
     }
     out.valid_markers = out.state_counts[static_cast<int>(MarkerState::kValid)];

@@ -56,6 +56,10 @@ struct HalfObservation {
   /// Per marker, row-major (index = row * cols + col): the sub-pixel centroid in the full
   /// image (px), NaN unless valid.
   std::vector<Eigen::Vector2d> uv;
+  /// Per marker, its blob's local background (the film around it) and contrast (DN,
+  /// MeasureBlob), NaN unless valid: the lighting where the markers are.
+  std::vector<double> background_dn;
+  std::vector<double> contrast_dn;
   std::vector<MarkerState> state;
   /// The grid was indexed from a full-image detection in this frame (first frame, or
   /// re-acquisition after the tracked grid was lost).
@@ -147,6 +151,7 @@ class MarkerTracker {
     // Scratch.
     std::vector<Eigen::Vector2d> base;      // prediction before the neighbours' correction
     std::vector<Eigen::Vector2d> found;
+    std::vector<Eigen::Vector2d> levels;    // found blob's (background, contrast), DN
     std::vector<MarkerState> state;
     std::vector<std::uint8_t> accepted, queued, tries;
     std::vector<int> queue;

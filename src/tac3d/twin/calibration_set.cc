@@ -59,6 +59,18 @@ void SensorPerturbationOptions::Validate() const {
           "in [0, 10]", mirror_tilt_max_deg);
   Require(mirror_shift_max_mm >= 0 && mirror_shift_max_mm <= 5, what, "mirror_shift_max_mm",
           "in [0, 5]", mirror_shift_max_mm);
+  Require(camera_tilt_max_deg >= 0 && camera_tilt_max_deg <= 10, what, "camera_tilt_max_deg",
+          "in [0, 10]", camera_tilt_max_deg);
+  Require(camera_shift_max_mm >= 0 && camera_shift_max_mm <= 5, what, "camera_shift_max_mm",
+          "in [0, 5]", camera_shift_max_mm);
+}
+
+SensorPerturbationOptions SensorPerturbationOptions::ManufacturingSpread(std::uint64_t seed) {
+  SensorPerturbationOptions o;
+  o.seed = seed;
+  o.camera_tilt_max_deg = 0.5;
+  o.camera_shift_max_mm = 0.3;
+  return o;
 }
 
 SensorConfig PerturbSensor(const SensorConfig& nominal, const SensorPerturbationOptions& o) {
@@ -89,6 +101,12 @@ SensorConfig PerturbSensor(const SensorConfig& nominal, const SensorPerturbation
     s.v_axis = tilt * s.v_axis;
     s.center += uniform(0.0, o.mirror_shift_max_mm) * RandomDirection(rng);
   }
+  // Drawn last, so the draws above (and the calibration figures made with them) stay.
+  Rigid3& camera = truth.camera.sensor_from_cam;
+  const Eigen::Vector3d camera_axis = RandomDirection(rng);
+  camera.linear() = Eigen::AngleAxisd(DegToRad(uniform(-o.camera_tilt_max_deg, o.camera_tilt_max_deg)),
+                                      camera_axis).toRotationMatrix() * camera.linear();
+  camera.translation() += uniform(0.0, o.camera_shift_max_mm) * RandomDirection(rng);
   const OpticalLayout layout = truth.MakeOpticalLayout(false);
   for (VirtualCameraConfig& v : truth.virtual_cameras) {
     v.sensor_from_vcam = layout.SensorFromVirtualCamera(v.half);

@@ -23,6 +23,16 @@ struct SensorPerturbationOptions {
   double tangential_max = 5e-4;           ///< |p1|, |p2|
   double mirror_tilt_max_deg = 0.3;       ///< each mirror turned about an axis in its plane
   double mirror_shift_max_mm = 0.2;       ///< each mirror moved by a vector this long at most
+  /// The camera turned about a random axis by up to this and moved by a vector this long at
+  /// most (0 by default: the calibration figures of docs/calibration.md predate them;
+  /// ManufacturingSpread() sets the tolerances).
+  double camera_tilt_max_deg = 0.0;
+  double camera_shift_max_mm = 0.0;
+
+  /// Sensor-to-sensor spread at general machining tolerances (ISO 2768-1 class m:
+  /// +-0.3 mm on 30-120 mm, +-0.5 deg on legs of 10-50 mm) for the camera's mount, the
+  /// mirrors as the defaults; docs/render.md, "Session conditions".
+  static SensorPerturbationOptions ManufacturingSpread(std::uint64_t seed);
 
   /// @throws Error naming the field and the bound.
   void Validate() const;

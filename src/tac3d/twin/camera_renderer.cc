@@ -117,7 +117,20 @@ void SplatDisks(const RayField& rays, const std::vector<Disk>& disks, cv::Mat& i
   }
 }
 
-// Blur, noise and 8-bit quantisation of linear light in [0, 1].
+// A session's lighting on linear light: the LEDs' gain and left-to-right gradient (zero at
+// the principal point's column, as the illumination tilt), stray light, then the exposure.
+void ApplyLighting(const FrameConditions& c, double cx, cv::Mat& image) {
+  const int width = image.cols;
+  for (int y = 0; y < image.rows; ++y) {
+    float* row = image.ptr<float>(y);
+    for (int x = 0; x < width; ++x) {
+      const double light = c.illumination_gain * (1.0 + c.illumination_gradient * (x - cx) / (width - 1));
+      row[x] = static_cast<float>(c.exposure * (light * row[x] + c.illumination_offset));
+    }
+  }
+}
+
+// Blur, noise and 8-bit quantisation of linear light (1: full scale).
 cv::Mat Expose(cv::Mat irradiance, const RenderOptions& o, std::uint64_t frame_index) {
   if (o.blur_sigma_px > 0) cv::GaussianBlur(irradiance, irradiance, cv::Size(0, 0), o.blur_sigma_px);
   cv::Mat dn = irradiance * 255.0;
@@ -233,26 +246,30 @@ MarkerImageRenderer::MarkerImageRenderer(const SensorConfig& config, const Rende
 
 MarkerImageRenderer::~MarkerImageRenderer() = default;
 
-cv::Mat MarkerImageRenderer::RenderIrradiance(const std::vector<Eigen::Vector3d>& markers) const {
+cv::Mat MarkerImageRenderer::RenderIrradiance(const std::vector<Eigen::Vector3d>& markers,
+                                              const FrameConditions& conditions) const {
   const int rows = config_.markers.rows, cols = config_.markers.cols;
   if (static_cast<int>(markers.size()) != rows * cols) {
     throw Error(fmt::format("render: {} marker positions given, the sensor has {} x {}",
                             markers.size(), rows, cols));
   }
   const std::vector<Eigen::Vector3d> normals = GridNormals(markers, rows, cols);
+  const double reflectance = 1.0 - conditions.dot_contrast * (1.0 - options_.dot_reflectance);
   std::vector<Disk> disks(markers.size());
   for (size_t i = 0; i < markers.size(); ++i) {
-    disks[i] = {markers[i], normals[i], 0.5 * config_.markers.dot_diameter_mm,
-                options_.dot_reflectance};
+    disks[i] = {markers[i] + conditions.creep_mm, normals[i], 0.5 * config_.markers.dot_diameter_mm,
+                reflectance};
   }
   cv::Mat image = base_.clone();
   SplatDisks(rays_, disks, image);
+  ApplyLighting(conditions, config_.camera.intrinsics.cx, image);
   return image;
 }
 
 cv::Mat MarkerImageRenderer::Render(const std::vector<Eigen::Vector3d>& markers,
-                                    std::uint64_t frame_index) const {
-  return Expose(RenderIrradiance(markers), options_, frame_index);
+                                    std::uint64_t frame_index,
+                                    const FrameConditions& conditions) const {
+  return Expose(RenderIrradiance(markers, conditions), options_, frame_index);
 }
 
 BoardImageRenderer::BoardImageRenderer(const SensorConfig& config, const RenderOptions& options)

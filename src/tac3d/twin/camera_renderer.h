@@ -10,6 +10,7 @@
 #include "tac3d/calib/calibration_board.h"
 #include "tac3d/sensor/sensor_config.h"
 #include "tac3d/twin/ray_field.h"
+#include "tac3d/twin/session_conditions.h"
 
 namespace tac3d {
 
@@ -63,12 +64,17 @@ class MarkerImageRenderer {
   ~MarkerImageRenderer();
 
   /// The full camera image (CV_8UC1) of markers at the given sensor-frame positions
-  /// (row-major over the grid, as SensorConfig::MarkerPositions).
+  /// (row-major over the grid, as SensorConfig::MarkerPositions), under a session's
+  /// `conditions` (SessionConditions::At): the markers moved by its creep, their darkening
+  /// scaled by its dot_contrast, the light by its illumination gain and gradient, its stray
+  /// light added and the whole scaled by its exposure.
   /// @throws Error if the number of positions is not rows * cols.
   cv::Mat Render(const std::vector<Eigen::Vector3d>& markers_in_sensor,
-                 std::uint64_t frame_index = 0) const;
-  /// The same before exposure: linear light in [0, 1], no blur or noise (CV_32FC1).
-  cv::Mat RenderIrradiance(const std::vector<Eigen::Vector3d>& markers_in_sensor) const;
+                 std::uint64_t frame_index = 0, const FrameConditions& conditions = {}) const;
+  /// The same before blur, noise and quantisation: linear light (CV_32FC1; in [0, 1] under
+  /// nominal conditions).
+  cv::Mat RenderIrradiance(const std::vector<Eigen::Vector3d>& markers_in_sensor,
+                           const FrameConditions& conditions = {}) const;
 
   const RayField& rays() const { return rays_; }
 
