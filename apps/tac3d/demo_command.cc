@@ -124,12 +124,7 @@ class Demo {
   SensorConfig Design() {
     Step(1, "designing the light path of the built-in sensor (paper Fig. 4)");
     const SensorConfig prototype;
-    LightPathDesignOptions options;
-    options.h_mm = prototype.light_path.h_mm;
-    options.l_mm = prototype.light_path.l_mm;
-    options.d_mm = prototype.light_path.d_mm;
-    options.fov_deg = prototype.light_path.fov_deg;
-    const LightPathDesign design = DesignLightPath(options, prototype);
+    const LightPathDesign design = DesignLightPath(DesignOptionsOf(prototype), prototype);
     if (!design.config) throw Error("the built-in sensor has no valid mirror layout");
     const SensorConfig& config = *design.config;
     const LightPathRoot& root = design.roots[*design.chosen];

@@ -351,14 +351,18 @@ LightPathDesign DesignLightPath(const LightPathDesignOptions& options, const Sen
   return design;
 }
 
+LightPathDesignOptions DesignOptionsOf(const SensorConfig& sensor) {
+  LightPathDesignOptions options;
+  options.h_mm = sensor.light_path.h_mm;
+  options.l_mm = sensor.light_path.l_mm;
+  options.d_mm = sensor.light_path.d_mm;
+  options.fov_deg = sensor.light_path.fov_deg;
+  return options;
+}
+
 SensorConfig DefaultSensorConfig() {
   const SensorConfig prototype;
-  LightPathDesignOptions options;
-  options.h_mm = prototype.light_path.h_mm;
-  options.l_mm = prototype.light_path.l_mm;
-  options.d_mm = prototype.light_path.d_mm;
-  options.fov_deg = prototype.light_path.fov_deg;
-  const LightPathDesign design = DesignLightPath(options, prototype);
+  const LightPathDesign design = DesignLightPath(DesignOptionsOf(prototype), prototype);
   TAC3D_DEMAND(design.config.has_value());
   return *design.config;
 }

@@ -66,6 +66,9 @@ struct LightPathDesign {
 LightPathDesign DesignLightPath(const LightPathDesignOptions& options,
                                 const SensorConfig& base = SensorConfig{});
 
+/// The design problem of a sensor: its light path's h, l, d and field of view.
+LightPathDesignOptions DesignOptionsOf(const SensorConfig& sensor);
+
 /// The built-in sensor: the paper's prototype with its designed mirrors.
 SensorConfig DefaultSensorConfig();
 

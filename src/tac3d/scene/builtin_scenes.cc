@@ -41,6 +41,24 @@ SceneObject Object(const std::string& name, SceneObject::Shape shape, const Eige
   return o;
 }
 
+// A box of the object's frame where mu differs from the object's default.
+FrictionRegion BoxRegion(const Eigen::Vector3d& min_mm, const Eigen::Vector3d& max_mm, double mu) {
+  FrictionRegion r;
+  r.kind = FrictionRegion::Kind::kBox;
+  r.min_mm = min_mm;
+  r.max_mm = max_mm;
+  r.mu = mu;
+  return r;
+}
+
+// The box of the cylinder's (axis along y) bottom half whose points lie between phi_from and
+// phi_to (deg, phi = 0 at the bottom line, x = -r sin(phi)) and between y_from and y_to.
+FrictionRegion CylinderPatch(double radius, double phi_from_deg, double phi_to_deg, double y_from,
+                             double y_to, double mu) {
+  const auto x = [radius](double phi_deg) { return -radius * std::sin(phi_deg * M_PI / 180.0); };
+  return BoxRegion({x(phi_to_deg), y_from, -radius - 1}, {x(phi_from_deg), y_to, 0}, mu);
+}
+
 void Add(Trajectory& t, double time_s, const Eigen::Vector3d& position_mm,
          const Eigen::Vector3d& rpy_deg = Eigen::Vector3d::Zero()) {
   t.keyframes.push_back({time_s, PoseFromRpy(position_mm, rpy_deg)});
@@ -115,12 +133,7 @@ Scene TwoMaterialSlide() {
   const double top = s.sensor.elastic_body.thickness_mm;
   SceneObject block = Object("block", SceneObject::Shape::kBox, {0, 0, top + kClearanceMm + 5.0}, 0.4);
   block.size_mm = {60, 40, 10};
-  FrictionRegion rough;
-  rough.kind = FrictionRegion::Kind::kBox;
-  rough.min_mm = {-31, -21, -6};
-  rough.max_mm = {0, 21, 6};
-  rough.mu = 1.0;
-  block.friction.regions.push_back(rough);
+  block.friction.regions.push_back(BoxRegion({-31, -21, -6}, {0, 21, 6}, 1.0));
   s.objects.push_back(block);
   // 0.3 mm keeps the slide inside the sensor's rated range (Fz <= 10 N, |Fx| <= 5 N on the
   // mu = 1.0 half; it peaks at 4.0 N each): 0.8 mm into the 45 mm dome loads it with ~27 N.
@@ -217,12 +230,7 @@ Scene FrictionBlock() {
   const double top = s.sensor.elastic_body.thickness_mm;
   SceneObject block = Object("block", SceneObject::Shape::kBox, {0, 0, top + kClearanceMm + 5.0}, 0.4);
   block.size_mm = {60, 40, 10};
-  FrictionRegion rough;
-  rough.kind = FrictionRegion::Kind::kBox;
-  rough.min_mm = {-31, -21, -6};
-  rough.max_mm = {0, 21, 6};
-  rough.mu = 1.0;
-  block.friction.regions.push_back(rough);
+  block.friction.regions.push_back(BoxRegion({-31, -21, -6}, {0, 21, 6}, 1.0));
   s.objects.push_back(block);
   const double depth = 0.3, half_length = 12.0;
   const int slide_steps = static_cast<int>(std::lround(2.0 * half_length / kStrokeStepMm));
@@ -296,17 +304,9 @@ Scene FrictionPaintCan() {
   SceneObject can = Object("can", SceneObject::Shape::kCylinder, axis_point, 0.65);
   can.radius_mm = radius;
   can.length_mm = 100.0;
-  FrictionRegion tape;
-  tape.kind = FrictionRegion::Kind::kBox;
-  tape.min_mm = {-radius - 1, -14, -radius - 1};
-  tape.max_mm = {radius + 1, -4, radius + 1};
-  tape.mu = 1.0;
-  FrictionRegion sticker;  // the bottom half's points with phi in [5, 30] deg: x = -r sin(phi)
-  sticker.kind = FrictionRegion::Kind::kBox;
-  sticker.min_mm = {-radius * std::sin(30.0 * M_PI / 180.0), -1, -radius - 1};
-  sticker.max_mm = {-radius * std::sin(5.0 * M_PI / 180.0), 14, 0};
-  sticker.mu = 0.35;
-  can.friction.regions = {tape, sticker};
+  const FrictionRegion tape =
+      BoxRegion({-radius - 1, -14, -radius - 1}, {radius + 1, -4, radius + 1}, 1.0);
+  can.friction.regions = {tape, CylinderPatch(radius, 5, 30, -1, 14, 0.35)};  // the sticker
   s.objects.push_back(can);
   CylinderStrokes(s.trajectory, axis_point, radius, top, -15.0, 25.0, {-6.0, 0.0, 6.0});
   return s;
@@ -325,17 +325,9 @@ Scene FrictionToolHandle() {
   SceneObject handle = Object("handle", SceneObject::Shape::kCylinder, axis_point, 0.45);
   handle.radius_mm = radius;
   handle.length_mm = 100.0;
-  FrictionRegion grip;
-  grip.kind = FrictionRegion::Kind::kBox;
-  grip.min_mm = {-radius - 1, -51, -radius - 1};
-  grip.max_mm = {radius + 1, -3, radius + 1};
-  grip.mu = 1.1;
-  FrictionRegion label;  // the bottom half's points with phi in [0, 18] deg: x = -r sin(phi)
-  label.kind = FrictionRegion::Kind::kBox;
-  label.min_mm = {-radius * std::sin(18.0 * M_PI / 180.0), 3, -radius - 1};
-  label.max_mm = {0, 15, 0};
-  label.mu = 0.7;
-  handle.friction.regions = {grip, label};
+  const FrictionRegion grip =
+      BoxRegion({-radius - 1, -51, -radius - 1}, {radius + 1, -3, radius + 1}, 1.1);
+  handle.friction.regions = {grip, CylinderPatch(radius, 0, 18, 3, 15, 0.7)};  // the label
   s.objects.push_back(handle);
   CylinderStrokes(s.trajectory, axis_point, radius, top, -20.0, 30.0, {-6.0, 0.0, 6.0});
   return s;
