@@ -23,6 +23,13 @@ TEST(EvalForceOptions, TrueMaterialScalesTheShearAndBulkModuli) {
   EXPECT_NEAR(options.TrueMaterial().youngs_modulus_mpa, 1.1, 1e-12);
 }
 
+TEST(EvalForceOptions, SetTrueMaterialInvertsTrueMaterial) {
+  EvalForceOptions options;
+  options.SetTrueMaterial({1.2, 0.45});
+  EXPECT_NEAR(options.TrueMaterial().youngs_modulus_mpa, 1.2, 1e-12);
+  EXPECT_NEAR(options.TrueMaterial().poisson_ratio, 0.45, 1e-12);
+}
+
 TEST(EvalForceOptions, EveryBoundIsChecked) {
   EXPECT_NO_THROW(EvalForceOptions{}.Validate());
   const auto expect_throw = [](auto change) {
@@ -48,6 +55,12 @@ TEST(EvalForceOptions, EveryBoundIsChecked) {
   expect_throw([](EvalForceOptions& o) { o.body.thickness_mm = -1.0; });
   expect_throw([](EvalForceOptions& o) { o.weight.discrepancy_factor = 0.5; });
   expect_throw([](EvalForceOptions& o) { o.contact.contact_threshold_n = -1.0; });
+  expect_throw([](EvalForceOptions& o) { o.material.max_poisson_error = 0.0; });
+  expect_throw([](EvalForceOptions& o) { o.poisson_nodes = {0.45, 0.5}; });
+  expect_throw([](EvalForceOptions& o) {
+    o.calibrate_material = true;
+    o.poisson_nodes = {0.48};
+  });
   EXPECT_THROW(EvaluateForce([] {
                  EvalForceOptions o;
                  o.noise_mm = NAN;
