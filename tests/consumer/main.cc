@@ -11,7 +11,7 @@
 
 int main() {
   using namespace tac3d::contact;
-  const tac3d::fem::ElasticMaterial material{1.0, 0.48};
+  const tac3d::ElasticMaterial material{1.0, 0.48};
   const double radius_mm = 10.0, force_n = 1.0;
   const double hertz_radius_mm = std::cbrt(3.0 * force_n * radius_mm * (1.0 - 0.48 * 0.48) / 4.0);
   const SurfaceGrid grid{25, 25, hertz_radius_mm / 8.0, hertz_radius_mm / 8.0};
