@@ -157,13 +157,15 @@ nlohmann::json CalibrateMaterialOnPresses(const EvalForceOptions& options,
                                           const std::vector<LoadCase>& calibration,
                                           const std::vector<Eigen::VectorXd>& frames,
                                           const DisplacementNoise& noise,
-                                          const ForceGainFit& gains_only_fit, const TestSet& test,
-                                          ForceReconstructor* reconstructor, nlohmann::json* timing) {
+                                          const ForceGainFit& gains_only_fit,
+                                          const TestSet& test,
+                                          ForceReconstructor* reconstructor,
+                                          nlohmann::json* timing) {
   const auto start = std::chrono::steady_clock::now();
   const ResultantErrors gains_only =
       MeasureResultantErrors(*reconstructor, test.frames, test.loads, test.full_scale_n);
-  const fem::ComplianceFamily family(options.body, options.poisson_nodes, options.cache_dir,
-                                     options.show_progress);
+  const fem::ComplianceFamily family(
+      options.body, options.poisson_nodes, options.cache_dir, options.show_progress);
   std::vector<CalibrationPress> presses;
   for (size_t k = 0; k < calibration.size(); ++k) {
     presses.push_back({frames[k], calibration[k][0].force_n});
@@ -172,7 +174,8 @@ nlohmann::json CalibrateMaterialOnPresses(const EvalForceOptions& options,
   material_options.weight = options.weight;
   material_options.support_refinement = options.support_refinement;
   const MaterialCalibration fit = CalibrateMaterial(family, presses, noise, material_options);
-  *reconstructor = ForceReconstructor(family.CalcH(fit.material), family.marker_positions(),
+  *reconstructor = ForceReconstructor(family.CalcH(fit.material),
+                                      family.marker_positions(),
                                       {.weight = fit.weight,
                                        .gains = fit.gains.gains,
                                        .support_refinement = options.support_refinement});
@@ -377,11 +380,17 @@ nlohmann::json EvaluateForce(const EvalForceOptions& options) {
   const std::vector<Eigen::VectorXd> test_frames(frames.begin() + calibration.size(),
                                                  frames.begin() + calibration.size() + test.size());
   const nlohmann::json material_json =
-      options.calibrate_material
-          ? CalibrateMaterialOnPresses(options, calibration, frames, noise, gain_fit,
-                                       {test_frames, test, full_scale}, &reconstructor, &timing)
-          : nlohmann::json();
-  const ResultantErrors errors = MeasureResultantErrors(reconstructor, test_frames, test, full_scale);
+      options.calibrate_material ? CalibrateMaterialOnPresses(options,
+                                                              calibration,
+                                                              frames,
+                                                              noise,
+                                                              gain_fit,
+                                                              {test_frames, test, full_scale},
+                                                              &reconstructor,
+                                                              &timing)
+                                 : nlohmann::json();
+  const ResultantErrors errors =
+      MeasureResultantErrors(reconstructor, test_frames, test, full_scale);
   const Eigen::Vector3d& max_error_pct = errors.max_pct_fs;
 
   // The probe's centre: the normal-force-weighted centroid of the contact region.
@@ -468,7 +477,8 @@ nlohmann::json EvaluateForce(const EvalForceOptions& options) {
   result["probe_center_error_mm"] = max_probe_error;
   result["pins_dip_ratio"] = max_dip_ratio;
   result["weight"] = ToJson(selection);
-  result["gains"] = options.calibrate_material ? material_json.at("fit").at("gains") : ToJson(gain_fit);
+  result["gains"] =
+      options.calibrate_material ? material_json.at("fit").at("gains") : ToJson(gain_fit);
   if (options.calibrate_material) result["material_calibration"] = material_json;
   result["noise"] = {{"true_sigma_mm", options.noise_mm},
                      {"estimated_sigma_mm_xyz", Json(noise.sigma_mm())},

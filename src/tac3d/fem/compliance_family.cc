@@ -1,8 +1,8 @@
 #include "tac3d/fem/compliance_family.h"
 
-#include <algorithm>
-
 #include <fmt/ranges.h>
+
+#include <algorithm>
 
 #include "tac3d/fem/compliance.h"
 #include "tac3d/util/error.h"
@@ -15,13 +15,15 @@ double ShearToBulkRatio(double poisson_ratio) {
 
 ComplianceFamily::ComplianceFamily(const BodyModelOptions& options,
                                    std::vector<double> poisson_nodes,
-                                   const std::string& cache_dir, bool show_progress)
+                                   const std::string& cache_dir,
+                                   bool show_progress)
     : options_(options), poisson_nodes_(std::move(poisson_nodes)) {
   std::sort(poisson_nodes_.begin(), poisson_nodes_.end());
   if (poisson_nodes_.size() < 2 ||
       std::adjacent_find(poisson_nodes_.begin(), poisson_nodes_.end()) != poisson_nodes_.end()) {
-    throw Error(fmt::format("ComplianceFamily needs at least 2 distinct Poisson's ratio nodes, got {}",
-                            fmt::join(poisson_nodes_, ", ")));
+    throw Error(
+        fmt::format("ComplianceFamily needs at least 2 distinct Poisson's ratio nodes, got {}",
+                    fmt::join(poisson_nodes_, ", ")));
   }
   // Every node checked before the first (expensive) build.
   std::vector<BodyModelOptions> nodes;
@@ -45,7 +47,9 @@ Eigen::MatrixXd ComplianceFamily::CalcH(const ElasticMaterial& material) const {
   const double nu = material.poisson_ratio;
   if (nu < min_poisson_ratio() || nu > max_poisson_ratio()) {
     throw Error(fmt::format("Poisson's ratio {} is outside the compliance family's nodes [{}, {}]",
-                            nu, min_poisson_ratio(), max_poisson_ratio()));
+                            nu,
+                            min_poisson_ratio(),
+                            max_poisson_ratio()));
   }
   const double s = ShearToBulkRatio(nu);
   Eigen::MatrixXd h = Eigen::MatrixXd::Zero(shear_scaled_h_[0].rows(), shear_scaled_h_[0].cols());

@@ -1,9 +1,8 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "tac3d/fem/body_model.h"
 #include "tac3d/material/elastic_material.h"
@@ -34,8 +33,10 @@ class ComplianceFamily {
   /// @param poisson_nodes at least 2 distinct valid Poisson's ratios.
   /// @param cache_dir where H is cached; empty: built, not cached.
   /// @throws tac3d::Error if the options or the nodes are invalid.
-  ComplianceFamily(const BodyModelOptions& options, std::vector<double> poisson_nodes,
-                   const std::string& cache_dir, bool show_progress = false);
+  ComplianceFamily(const BodyModelOptions& options,
+                   std::vector<double> poisson_nodes,
+                   const std::string& cache_dir,
+                   bool show_progress = false);
 
   /// H (3N x 3N, mm/N) for the material, interpolated in G / K between the nodes and scaled
   /// by 1 / G; exactly the node's H (scaled by its E / material's E) at a node.

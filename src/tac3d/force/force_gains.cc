@@ -20,7 +20,9 @@ std::string Trim(const std::string& s) {
 }
 
 // The line's numbers (num_fields of them), or what is wrong with it.
-std::string ParseNumberLine(const std::string& line, size_t num_fields, std::vector<double>* values) {
+std::string ParseNumberLine(const std::string& line,
+                            size_t num_fields,
+                            std::vector<double>* values) {
   std::vector<std::string> fields;
   std::stringstream stream(line);
   for (std::string field; std::getline(stream, field, ',');) fields.push_back(Trim(field));
@@ -31,7 +33,8 @@ std::string ParseNumberLine(const std::string& line, size_t num_fields, std::vec
   values->resize(num_fields);
   for (size_t k = 0; k < num_fields; ++k) {
     const std::string& field = fields[k];
-    const auto [end, error] = std::from_chars(field.data(), field.data() + field.size(), (*values)[k]);
+    const auto [end, error] =
+        std::from_chars(field.data(), field.data() + field.size(), (*values)[k]);
     if (field.empty() || error != std::errc() || end != field.data() + field.size() ||
         !std::isfinite((*values)[k])) {
       return fmt::format("field {} '{}' is not a finite number", k + 1, field);
@@ -61,8 +64,11 @@ std::vector<std::vector<double>> ParseNumberRows(const std::string& csv_text,
         if (c != ' ' && c != '\t') header += c;
       }
       if (header != expected_header) {
-        throw Error(fmt::format("{}:{}: expected the header '{}', got '{}'", source, line_number,
-                                expected_header, line));
+        throw Error(fmt::format("{}:{}: expected the header '{}', got '{}'",
+                                source,
+                                line_number,
+                                expected_header,
+                                line));
       }
       have_header = true;
       continue;
@@ -101,7 +107,8 @@ std::string ReadWholeFile(const std::string& path, const char* what) {
 std::vector<ForcePair> ParseForcePairs(const std::string& csv_text, const std::string& source) {
   std::vector<ForcePair> pairs;
   for (const std::vector<double>& row : ParseNumberRows(csv_text, source, kForcePairCsvHeader, 6)) {
-    pairs.push_back({Eigen::Vector3d(row[0], row[1], row[2]), Eigen::Vector3d(row[3], row[4], row[5])});
+    pairs.push_back(
+        {Eigen::Vector3d(row[0], row[1], row[2]), Eigen::Vector3d(row[3], row[4], row[5])});
   }
   return pairs;
 }
@@ -110,7 +117,8 @@ std::vector<ForcePair> LoadForcePairs(const std::string& path) {
   return ParseForcePairs(ReadWholeFile(path, "force pairs"), path);
 }
 
-std::vector<CalibrationPress> ParseCalibrationPresses(const std::string& csv_text, int num_markers,
+std::vector<CalibrationPress> ParseCalibrationPresses(const std::string& csv_text,
+                                                      int num_markers,
                                                       const std::string& source) {
   std::vector<CalibrationPress> presses;
   for (const std::vector<double>& row :
@@ -128,7 +136,9 @@ std::vector<CalibrationPress> LoadCalibrationPresses(const std::string& path, in
 std::string CalibrationPressesToCsv(const std::vector<CalibrationPress>& presses) {
   std::string csv = std::string(kCalibrationPressCsvHeader) + "\n";
   for (const CalibrationPress& press : presses) {
-    csv += fmt::format("{:.17g},{:.17g},{:.17g}", press.reference_n.x(), press.reference_n.y(),
+    csv += fmt::format("{:.17g},{:.17g},{:.17g}",
+                       press.reference_n.x(),
+                       press.reference_n.y(),
                        press.reference_n.z());
     for (double d : press.displacement_mm) csv += fmt::format(",{:.17g}", d);
     csv += "\n";

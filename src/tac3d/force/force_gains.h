@@ -51,7 +51,8 @@ inline constexpr const char* kCalibrationPressCsvHeader = "fx_ref,fy_ref,fz_ref,
 /// Parses a calibration-press CSV: the header kCalibrationPressCsvHeader, then one press a
 /// line, 3 + 3 num_markers finite numbers; blank and '#' lines skipped, spaces allowed.
 /// @throws tac3d::Error as ParseForcePairs (every malformed line as "source:line: what").
-std::vector<CalibrationPress> ParseCalibrationPresses(const std::string& csv_text, int num_markers,
+std::vector<CalibrationPress> ParseCalibrationPresses(const std::string& csv_text,
+                                                      int num_markers,
                                                       const std::string& source = "<text>");
 
 /// Reads a calibration-press CSV file (ParseCalibrationPresses).

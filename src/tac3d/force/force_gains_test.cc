@@ -133,7 +133,8 @@ TEST(CalibrationPressCsv, RoundTripsExactly) {
   const std::vector<CalibrationPress> presses = {
       {Eigen::VectorXd::LinSpaced(6, -0.1, 0.35), Eigen::Vector3d(0.1, -1.0 / 3.0, -4.9)},
       {Eigen::VectorXd::Constant(6, 1e-5), Eigen::Vector3d(0, 0, -1)}};
-  const std::vector<CalibrationPress> parsed = ParseCalibrationPresses(CalibrationPressesToCsv(presses), 2);
+  const std::vector<CalibrationPress> parsed =
+      ParseCalibrationPresses(CalibrationPressesToCsv(presses), 2);
   ASSERT_EQ(parsed.size(), 2u);
   for (size_t k = 0; k < presses.size(); ++k) {
     EXPECT_TRUE(parsed[k].displacement_mm == presses[k].displacement_mm);

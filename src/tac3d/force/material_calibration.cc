@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-
 #include <nlohmann/json.hpp>
 
 #include "tac3d/fem/compliance_family.h"
@@ -33,20 +32,25 @@ struct Trial {
 class PoissonObjective {
  public:
   PoissonObjective(const fem::ComplianceFamily& family,
-                   const std::vector<CalibrationPress>& presses, const DisplacementNoise& noise,
+                   const std::vector<CalibrationPress>& presses,
+                   const DisplacementNoise& noise,
                    const MaterialCalibrationOptions& options)
       : family_(family), presses_(presses), noise_(noise), options_(options) {
     for (const CalibrationPress& press : presses) frames_.push_back(press.displacement_mm);
     references_n_.resize(3 * static_cast<Eigen::Index>(presses.size()));
-    for (size_t k = 0; k < presses.size(); ++k) references_n_.segment<3>(3 * k) = presses[k].reference_n;
+    for (size_t k = 0; k < presses.size(); ++k)
+      references_n_.segment<3>(3 * k) = presses[k].reference_n;
   }
 
   // The inverse on H(material) with w chosen on the presses.
   ForceReconstructor MakeReconstructor(const ElasticMaterial& material, double* weight) const {
     const Eigen::MatrixXd h = family_.CalcH(material);
-    *weight = SelectRegularizationWeight(ComplianceSpectrum(h), frames_, noise_, options_.weight).weight;
-    return ForceReconstructor(h, family_.marker_positions(),
-                              {.weight = *weight, .support_refinement = options_.support_refinement});
+    *weight =
+        SelectRegularizationWeight(ComplianceSpectrum(h), frames_, noise_, options_.weight).weight;
+    return ForceReconstructor(
+        h,
+        family_.marker_positions(),
+        {.weight = *weight, .support_refinement = options_.support_refinement});
   }
 
   Trial Evaluate(double poisson_ratio) {
@@ -57,12 +61,14 @@ class PoissonObjective {
     Trial trial;
     trial.resultants_n.resize(references_n_.size());
     for (size_t k = 0; k < presses_.size(); ++k) {
-      trial.resultants_n.segment<3>(3 * k) = reconstructor.Reconstruct(frames_[k]).resultant_force_n;
+      trial.resultants_n.segment<3>(3 * k) =
+          reconstructor.Reconstruct(frames_[k]).resultant_force_n;
     }
     // H / E makes the forces E times larger: E is the least-squares scale of m onto r.
     trial.scale = trial.resultants_n.dot(references_n_) / trial.resultants_n.squaredNorm();
     trial.residual_norm2_n2 = (references_n_ - trial.scale * trial.resultants_n).squaredNorm();
-    trial.candidate = {poisson_ratio, trial.scale * material.youngs_modulus_mpa,
+    trial.candidate = {poisson_ratio,
+                       trial.scale * material.youngs_modulus_mpa,
                        std::sqrt(trial.residual_norm2_n2 / references_n_.size())};
     trials_.push_back(trial);
     return trial;
@@ -84,7 +90,8 @@ class PoissonObjective {
 // The nu of least residual: the family's nodes first, then golden section between the best
 // node's neighbours (the residual is unimodal there in every case seen; the nodes keep a
 // second minimum elsewhere from being missed silently, since the best trial overall wins).
-Trial SearchPoissonRatio(const fem::ComplianceFamily& family, double tolerance,
+Trial SearchPoissonRatio(const fem::ComplianceFamily& family,
+                         double tolerance,
                          PoissonObjective* objective) {
   const std::vector<double>& nodes = family.poisson_nodes();
   size_t best_node = 0;
@@ -110,10 +117,10 @@ Trial SearchPoissonRatio(const fem::ComplianceFamily& family, double tolerance,
       f2 = objective->Evaluate(x2).residual_norm2_n2;
     }
   }
-  return *std::min_element(objective->trials().begin(), objective->trials().end(),
-                           [](const Trial& p, const Trial& q) {
-                             return p.residual_norm2_n2 < q.residual_norm2_n2;
-                           });
+  return *std::min_element(
+      objective->trials().begin(), objective->trials().end(), [](const Trial& p, const Trial& q) {
+        return p.residual_norm2_n2 < q.residual_norm2_n2;
+      });
 }
 
 // Linearised least squares at the best nu: the error of the fitted nu caused by a data error
@@ -121,8 +128,10 @@ Trial SearchPoissonRatio(const fem::ComplianceFamily& family, double tolerance,
 // component along the resultants (what E can mimic) removed. A model error of relative size
 // eps in the worst direction gives eps |r| / |J_perp|; the residual, as independent noise of
 // variance sigma^2 per component, 2 sigma / |J_perp| (2-sigma).
-void BoundPoissonError(const fem::ComplianceFamily& family, const Trial& best,
-                       const MaterialCalibrationOptions& options, PoissonObjective* objective,
+void BoundPoissonError(const fem::ComplianceFamily& family,
+                       const Trial& best,
+                       const MaterialCalibrationOptions& options,
+                       PoissonObjective* objective,
                        MaterialCalibration* result) {
   const double nu = best.candidate.poisson_ratio;
   const double below = std::max(family.min_poisson_ratio(), nu - kSensitivityStep);
@@ -136,19 +145,22 @@ void BoundPoissonError(const fem::ComplianceFamily& family, const Trial& best,
   const auto dof = static_cast<double>(std::max<Eigen::Index>(1, m.size() - 2));
   const double sigma_n = std::sqrt(best.residual_norm2_n2 / dof);
   result->poisson_sensitivity = perpendicular.norm() / references_norm;
-  result->poisson_error_bound = (options.model_relative_error * references_norm + 2.0 * sigma_n) /
-                                perpendicular.norm();
+  result->poisson_error_bound =
+      (options.model_relative_error * references_norm + 2.0 * sigma_n) / perpendicular.norm();
 }
 
-void CheckPresses(const fem::ComplianceFamily& family, const std::vector<CalibrationPress>& presses) {
+void CheckPresses(const fem::ComplianceFamily& family,
+                  const std::vector<CalibrationPress>& presses) {
   if (static_cast<int>(presses.size()) < kMinForcePairs) {
-    throw Error(fmt::format("material calibration needs at least {} presses, got {}", kMinForcePairs,
-                            presses.size()));
+    throw Error(fmt::format(
+        "material calibration needs at least {} presses, got {}", kMinForcePairs, presses.size()));
   }
   const auto size = static_cast<Eigen::Index>(3 * family.marker_positions().size());
   for (size_t k = 0; k < presses.size(); ++k) {
     if (presses[k].displacement_mm.size() != size || !presses[k].displacement_mm.allFinite()) {
-      throw Error(fmt::format("press {}: expected {} finite displacements, got {}", k, size,
+      throw Error(fmt::format("press {}: expected {} finite displacements, got {}",
+                              k,
+                              size,
                               presses[k].displacement_mm.size()));
     }
   }
@@ -159,8 +171,9 @@ void CheckPresses(const fem::ComplianceFamily& family, const std::vector<Calibra
 void MaterialCalibrationOptions::Validate() const {
   weight.Validate();
   if (!(poisson_tolerance > 0.0 && poisson_tolerance <= 0.05)) {
-    throw Error(fmt::format("MaterialCalibrationOptions.poisson_tolerance must be in (0, 0.05], got {}",
-                            poisson_tolerance));
+    throw Error(
+        fmt::format("MaterialCalibrationOptions.poisson_tolerance must be in (0, 0.05], got {}",
+                    poisson_tolerance));
   }
   if (!(model_relative_error >= 0.0 && std::isfinite(model_relative_error))) {
     throw Error(fmt::format("MaterialCalibrationOptions.model_relative_error must be >= 0, got {}",
@@ -216,23 +229,29 @@ MaterialCalibration CalibrateMaterial(const fem::ComplianceFamily& family,
         "residual ({:.3g} N RMS) leave nu uncertain by {:.3g} (more than {:.3g}). Normal presses "
         "see nu almost only as a scale, which E absorbs: add presses with tangential force in "
         "both x and y (docs/force.md)",
-        result.poisson_sensitivity, 100.0 * options.model_relative_error, result.residual_rms_n,
-        result.poisson_error_bound, options.max_poisson_error));
+        result.poisson_sensitivity,
+        100.0 * options.model_relative_error,
+        result.residual_rms_n,
+        result.poisson_error_bound,
+        options.max_poisson_error));
   }
 
   // The gains on top of the fitted material, on the inverse the pipeline will run.
   ForceReconstructor reconstructor = objective.MakeReconstructor(result.material, &result.weight);
   std::vector<ForcePair> pairs;
   for (const CalibrationPress& press : presses) {
-    pairs.push_back({reconstructor.Reconstruct(press.displacement_mm).resultant_force_n,
-                     press.reference_n});
+    pairs.push_back(
+        {reconstructor.Reconstruct(press.displacement_mm).resultant_force_n, press.reference_n});
   }
   result.gains = FitForceGains(pairs);
   result.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   result.message = fmt::format(
       "E {:.4g} MPa, nu {:.4f} (+-{:.4f}) from {} presses in {} evaluations{}",
-      result.material.youngs_modulus_mpa, result.material.poisson_ratio, result.poisson_error_bound,
-      presses.size(), result.evaluations.size(),
+      result.material.youngs_modulus_mpa,
+      result.material.poisson_ratio,
+      result.poisson_error_bound,
+      presses.size(),
+      result.evaluations.size(),
       result.at_range_limit ? "; nu is at the end of the family's range, the truth may lie beyond"
                             : "");
   return result;

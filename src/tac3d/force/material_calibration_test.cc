@@ -54,16 +54,19 @@ class MaterialCalibrationTest : public ::testing::Test {
       const double radius = 1.3 + 1.2 * uniform(rng);
       const double fz = 1.0 + 9.0 * uniform(rng);
       const Eigen::Vector3d force(tangential_ratio * fz * (2 * uniform(rng) - 1),
-                                  tangential_ratio * fz * (2 * uniform(rng) - 1), -fz);
+                                  tangential_ratio * fz * (2 * uniform(rng) - 1),
+                                  -fz);
       Eigen::VectorXd weights = Eigen::VectorXd::Zero(n);
       for (int i = 0; i < n; ++i) {
         const double r2 = (markers[i].head<2>() - center).squaredNorm() / (radius * radius);
         if (r2 < 1.0) weights(i) = std::sqrt(1.0 - r2);
       }
       Eigen::VectorXd f(3 * n);
-      for (int axis = 0; axis < 3; ++axis) f.segment(axis * n, n) = force(axis) / weights.sum() * weights;
+      for (int axis = 0; axis < 3; ++axis)
+        f.segment(axis * n, n) = force(axis) / weights.sum() * weights;
       CalibrationPress press{truth_->h * f, force};
-      for (Eigen::Index j = 0; j < press.displacement_mm.size(); ++j) press.displacement_mm(j) += noise(rng);
+      for (Eigen::Index j = 0; j < press.displacement_mm.size(); ++j)
+        press.displacement_mm(j) += noise(rng);
       presses.push_back(press);
     }
     return presses;
@@ -88,11 +91,14 @@ TEST_F(MaterialCalibrationTest, RecoversAKnownMaterialFromMixedPresses) {
   const MaterialCalibrationOptions options;
   const MaterialCalibration fit =
       CalibrateMaterial(*family_, SimulatePresses(24, 0.6), Noise(), options);
-  std::printf("%s; sensitivity %.3g per unit nu, residual %.4f N\n", fit.message.c_str(),
-              fit.poisson_sensitivity, fit.residual_rms_n);
+  std::printf("%s; sensitivity %.3g per unit nu, residual %.4f N\n",
+              fit.message.c_str(),
+              fit.poisson_sensitivity,
+              fit.residual_rms_n);
   // nu within the accepted error bound (0.005) and within its own bound.
   EXPECT_NEAR(fit.material.poisson_ratio, kTrueMaterial.poisson_ratio, options.max_poisson_error);
-  EXPECT_LE(std::abs(fit.material.poisson_ratio - kTrueMaterial.poisson_ratio), fit.poisson_error_bound);
+  EXPECT_LE(std::abs(fit.material.poisson_ratio - kTrueMaterial.poisson_ratio),
+            fit.poisson_error_bound);
   EXPECT_NEAR(fit.material.youngs_modulus_mpa / kTrueMaterial.youngs_modulus_mpa, 1.0, 0.02);
   EXPECT_FALSE(fit.at_range_limit);
   // The truth is this FEM: nothing is left for the gains.
