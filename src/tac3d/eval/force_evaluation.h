@@ -59,7 +59,7 @@ struct EvalForceOptions {
   bool show_progress = true;
 
   /// @throws tac3d::Error naming the field and its bound: truth_refinement in [1, 4];
-  ///   factors in (0, 2] with the true nu valid; noise_mm >= 0; static_frames >= 2;
+  ///   factors > 0 with the true material valid; noise_mm >= 0; static_frames >= 2;
   ///   presses >= 3 each; full scales > 0; and the body, weight and contact options.
   void Validate() const;
   /// The true sensor's material: the nominal one with G and K scaled.

@@ -40,7 +40,9 @@ TEST(EvalForceOptions, EveryBoundIsChecked) {
   expect_throw([](EvalForceOptions& o) { o.truth_refinement = 0.9; });
   expect_throw([](EvalForceOptions& o) { o.truth_refinement = 4.5; });
   expect_throw([](EvalForceOptions& o) { o.truth_shear_modulus_factor = 0.0; });
-  expect_throw([](EvalForceOptions& o) { o.truth_bulk_modulus_factor = 2.5; });
+  // K x 1000 takes nu from 0.48 to 0.49992, past the element's bound.
+  expect_throw([](EvalForceOptions& o) { o.truth_bulk_modulus_factor = 1e3; });
+  expect_throw([](EvalForceOptions& o) { o.truth_shear_modulus_factor = INFINITY; });
   // From nu = 0.4999, a stiffer K takes the true nu past the element's bound.
   expect_throw([](EvalForceOptions& o) {
     o.body.material.poisson_ratio = 0.4999;
