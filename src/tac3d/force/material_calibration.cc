@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <nlohmann/json.hpp>
 
 #include "tac3d/fem/compliance_family.h"
@@ -95,11 +96,10 @@ Trial SearchPoissonRatio(const fem::ComplianceFamily& family,
                          PoissonObjective* objective) {
   const std::vector<double>& nodes = family.poisson_nodes();
   size_t best_node = 0;
+  double best_residual = std::numeric_limits<double>::infinity();
   for (size_t i = 0; i < nodes.size(); ++i) {
-    if (objective->Evaluate(nodes[i]).residual_norm2_n2 <
-        objective->trials()[best_node].residual_norm2_n2) {
-      best_node = i;
-    }
+    const double residual = objective->Evaluate(nodes[i]).residual_norm2_n2;
+    if (residual < best_residual) best_node = i, best_residual = residual;
   }
   double a = nodes[best_node > 0 ? best_node - 1 : 0];
   double b = nodes[std::min(best_node + 1, nodes.size() - 1)];
