@@ -183,7 +183,7 @@ void RegisterCalibrateForce(CLI::App& app) {
                     fit.residual_rms_n,
                     fit.weight);
         PrintGains(fit.gains);
-        std::printf("and the material in the sensor config (elastic body), or: --weight %.6g\n",
+        std::printf("with E and nu in the sensor config's elastic body, and --weight %.6g\n",
                     fit.weight);
       }
     } else {
