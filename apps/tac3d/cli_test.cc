@@ -55,6 +55,19 @@ TEST(Cli, DesignChecksEveryOutputBeforeWritingAny) {
   EXPECT_EQ(CountFiles(dir), 3);
 }
 
+TEST(Cli, CalibrateForceSaysWhatItNeedsBeforeAnyWork) {
+  Outcome o = RunCli("calibrate-force");
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("calibrate-force needs --pairs or --presses"));
+  // Checked before the compliance family is built (minutes on the default sensor).
+  o = RunCli("calibrate-force --presses missing.csv --cache " + testing::MakeTempDir("cf"));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("needs --noise-mm (for the discrepancy principle) or --weight"));
+  o = RunCli("calibrate-force --presses a.csv --pairs b.csv");
+  EXPECT_NE(o.exit_code, 0);  // CLI11's own code for a usage error
+  EXPECT_THAT(o.output, HasSubstr("excludes"));
+}
+
 TEST(Cli, DesignRefusesAThicknessBeyondTheLimit) {
   const Outcome o = RunCli("design --d 1e9 --out " + testing::MakeTempDir("d") + "/s.yaml");
   EXPECT_EQ(o.exit_code, 1);

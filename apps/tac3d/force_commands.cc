@@ -1,15 +1,16 @@
+#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <memory>
-
 #include <nlohmann/json.hpp>
 
-#include <CLI/CLI.hpp>
-
 #include "commands.h"
-#include "tac3d/util/file_io.h"
 #include "model_args.h"
 #include "tac3d/eval/force_evaluation.h"
+#include "tac3d/fem/compliance_family.h"
 #include "tac3d/force/force_gains.h"
+#include "tac3d/force/material_calibration.h"
+#include "tac3d/util/error.h"
+#include "tac3d/util/file_io.h"
 
 namespace tac3d::cli {
 
@@ -18,6 +19,7 @@ void RegisterEvalForce(CLI::App& eval) {
     ModelArgs model;
     EvalForceOptions options;
     std::string weight_rule = ToString(WeightSelectionOptions{}.rule);
+    std::vector<double> truth_material;
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = eval.add_subcommand(
@@ -35,6 +37,17 @@ void RegisterEvalForce(CLI::App& eval) {
   cmd->add_option("--truth-bulk-factor", o.truth_bulk_modulus_factor,
                   "the true bulk modulus K / the nominal one")
       ->capture_default_str();
+  cmd->add_option("--truth-material",
+                  args->truth_material,
+                  "the true E (MPa) and nu, instead of the shear and bulk factors")
+      ->expected(2);
+  cmd->add_flag("--calibrate-material",
+                o.calibrate_material,
+                "fit E and nu as well as the gains on the calibration presses (docs/force.md)");
+  cmd->add_option("--poisson-nodes",
+                  o.poisson_nodes,
+                  "nu at which H is built for --calibrate-material (interpolated between)")
+      ->capture_default_str();
   cmd->add_option("--noise-mm", o.noise_mm, "displacement noise, 1 sigma (mm)")->capture_default_str();
   cmd->add_option("--calibration-presses", o.calibration_presses, "presses for w and the gains")
       ->capture_default_str();
@@ -50,6 +63,9 @@ void RegisterEvalForce(CLI::App& eval) {
     options.body = args->model.Body();
     options.cache_dir = args->model.cache_dir;
     options.weight.rule = WeightRuleFromString(args->weight_rule);
+    if (!args->truth_material.empty()) {
+      options.SetTrueMaterial({args->truth_material[0], args->truth_material[1]});
+    }
     options.show_progress = !args->model.json;
     MakeDirectory(options.cache_dir);
     nlohmann::json j = EvaluateForce(options);
@@ -61,41 +77,120 @@ void RegisterEvalForce(CLI::App& eval) {
     std::printf("resultant error, %% of full scale, max x y z: %s, rms x y z: %s\n",
                 j.at("resultant_error_max_pct_fs_xyz").dump().c_str(),
                 j.at("resultant_error_rms_pct_fs_xyz").dump().c_str());
+    if (j.contains("material_calibration")) {
+      const nlohmann::json& m = j.at("material_calibration");
+      std::printf(
+          "material: %s (true E %.4g MPa, nu %.4f)\n"
+          "gains only: resultant error, %% of full scale, max x y z: %s, rms x y z: %s\n",
+          m.at("fit").at("message").get<std::string>().c_str(),
+          m.at("true_youngs_modulus_mpa").get<double>(),
+          m.at("true_poisson_ratio").get<double>(),
+          m.at("gains_only_resultant_error_max_pct_fs_xyz").dump().c_str(),
+          m.at("gains_only_resultant_error_rms_pct_fs_xyz").dump().c_str());
+    }
     std::printf("gains: %s\nweight: %s\nall pass: %s\n", j.at("gains").dump().c_str(),
                 j.at("weight").dump().c_str(), j.at("all_pass").get<bool>() ? "yes" : "no");
   });
 }
 
+namespace {
+
+void PrintGains(const ForceGainFit& fit) {
+  std::printf("%d pairs\n", fit.num_pairs);
+  for (int axis = 0; axis < 3; ++axis) {
+    std::printf("C%c = %.5f   R^2 %.5f   residual RMS %.4f N\n",
+                "xyz"[axis],
+                fit.gains(axis),
+                fit.r_squared(axis),
+                fit.residual_rms_n(axis));
+  }
+  std::printf("use them with: tac3d run ... --gains %.6g %.6g %.6g\n",
+              fit.gains.x(),
+              fit.gains.y(),
+              fit.gains.z());
+}
+
+}  // namespace
+
 void RegisterCalibrateForce(CLI::App& app) {
   struct Args {
     std::string pairs;
+    std::string presses;
+    ModelArgs model;
+    std::vector<double> poisson_nodes = EvalForceOptions{}.poisson_nodes;
+    double noise_mm = 0.0;
+    double weight = 0.0;
+    MaterialCalibrationOptions material;
     std::string out;
-    bool json = false;
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = app.add_subcommand(
       "calibrate-force",
-      "Fit the per-axis force gains Cx, Cy, Cz to a reference force sensor (docs/force.md)");
-  cmd->add_option("--pairs", args->pairs,
-                  "CSV of (resultant measured with unit gains, reference reading) pairs")
-      ->required();
+      "Fit the per-axis force gains Cx, Cy, Cz to a reference force sensor, and with --presses "
+      "the silicone's E and nu first (docs/force.md)");
+  CLI::Option* pairs =
+      cmd->add_option("--pairs",
+                      args->pairs,
+                      "CSV of (resultant measured with unit gains, reference reading) pairs");
+  CLI::Option* presses = cmd->add_option(
+      "--presses",
+      args->presses,
+      "CSV of presses (reference reading, marker displacements): fit E and nu, then the gains");
+  pairs->excludes(presses);
+  cmd->add_option("--poisson-nodes",
+                  args->poisson_nodes,
+                  "with --presses: nu at which H is built (cached), interpolated between")
+      ->capture_default_str();
+  cmd->add_option(
+      "--noise-mm",
+      args->noise_mm,
+      "with --presses: displacement noise, 1 sigma (mm), for the discrepancy principle");
+  cmd->add_option("--weight", args->weight, "with --presses: a given w instead, (mm/N)^2");
+  cmd->add_option("--max-poisson-error",
+                  args->material.max_poisson_error,
+                  "with --presses: refuse the fit if nu is less certain than this")
+      ->capture_default_str();
+  args->model.Add(cmd);
   cmd->add_option("--out", args->out, "also write the fit as JSON to this file");
-  cmd->add_flag("--json", args->json, "print JSON");
   cmd->callback([args] {
-    const ForceGainFit fit = FitForceGains(LoadForcePairs(args->pairs));
-    const nlohmann::json j = ToJson(fit);
+    nlohmann::json j;
+    if (!args->pairs.empty()) {
+      const ForceGainFit fit = FitForceGains(LoadForcePairs(args->pairs));
+      j = ToJson(fit);
+      if (!args->model.json) PrintGains(fit);
+    } else if (!args->presses.empty()) {
+      const fem::BodyModelOptions body = args->model.Body();
+      MaterialCalibrationOptions options = args->material;
+      DisplacementNoise noise;
+      if (args->weight > 0.0) {
+        options.weight = {.rule = WeightRule::kGiven, .weight = args->weight};
+      } else if (args->noise_mm > 0.0) {
+        noise.variance_mm2.setConstant(args->noise_mm * args->noise_mm);
+      } else {
+        throw Error(
+            "calibrate-force --presses needs --noise-mm (for the discrepancy principle) or "
+            "--weight");
+      }
+      MakeDirectory(args->model.cache_dir);
+      const fem::ComplianceFamily family(
+          body, args->poisson_nodes, args->model.cache_dir, !args->model.json);
+      const MaterialCalibration fit = CalibrateMaterial(
+          family, LoadCalibrationPresses(args->presses, body.num_markers()), noise, options);
+      j = ToJson(fit);
+      if (!args->model.json) {
+        std::printf("%s\nresidual with the material alone: %.4f N RMS; weight %.4g (mm/N)^2\n",
+                    fit.message.c_str(),
+                    fit.residual_rms_n,
+                    fit.weight);
+        PrintGains(fit.gains);
+        std::printf("with E and nu in the sensor config's elastic body, and --weight %.6g\n",
+                    fit.weight);
+      }
+    } else {
+      throw Error("calibrate-force needs --pairs or --presses");
+    }
     if (!args->out.empty()) WriteTextFileAtomically(args->out, j.dump(2) + "\n");
-    if (args->json) {
-      std::printf("%s\n", j.dump(2).c_str());
-      return;
-    }
-    std::printf("%d pairs\n", fit.num_pairs);
-    for (int axis = 0; axis < 3; ++axis) {
-      std::printf("C%c = %.5f   R^2 %.5f   residual RMS %.4f N\n", "xyz"[axis], fit.gains(axis),
-                  fit.r_squared(axis), fit.residual_rms_n(axis));
-    }
-    std::printf("use them with: tac3d run ... --gains %.6g %.6g %.6g\n", fit.gains.x(),
-                fit.gains.y(), fit.gains.z());
+    if (args->model.json) std::printf("%s\n", j.dump(2).c_str());
   });
 }
 

@@ -6,6 +6,7 @@
 #include <random>
 
 #include "tac3d/fem/compliance.h"
+#include "tac3d/fem/compliance_family.h"
 #include "tac3d/force/force_gains.h"
 #include "tac3d/force/force_reconstructor.h"
 #include "tac3d/util/error.h"
@@ -115,6 +116,79 @@ std::vector<LoadCase> MakePresses(int count, const EvalForceOptions& options, st
   return presses;
 }
 
+// The largest and RMS resultant error over the test presses, per axis, in % of full scale.
+struct ResultantErrors {
+  Eigen::Vector3d max_pct_fs = Eigen::Vector3d::Zero();
+  Eigen::Vector3d rms_pct_fs = Eigen::Vector3d::Zero();
+  nlohmann::json presses = nlohmann::json::array();
+};
+
+ResultantErrors MeasureResultantErrors(ForceReconstructor& reconstructor,
+                                       const std::vector<Eigen::VectorXd>& test_frames,
+                                       const std::vector<LoadCase>& test,
+                                       const Eigen::Vector3d& full_scale_n) {
+  ResultantErrors errors;
+  Eigen::Vector3d sum_squares = Eigen::Vector3d::Zero();
+  for (size_t k = 0; k < test.size(); ++k) {
+    const Eigen::Vector3d measured = reconstructor.Reconstruct(test_frames[k]).resultant_force_n;
+    const Eigen::Vector3d error_pct =
+        100.0 * (measured - test[k][0].force_n).cwiseAbs().cwiseQuotient(full_scale_n);
+    errors.max_pct_fs = errors.max_pct_fs.cwiseMax(error_pct);
+    sum_squares += error_pct.cwiseAbs2();
+    errors.presses.push_back({{"reference_n", Json(test[k][0].force_n)},
+                              {"measured_n", Json(measured)},
+                              {"error_pct_fs", Json(error_pct)}});
+  }
+  errors.rms_pct_fs = (sum_squares / static_cast<double>(test.size())).cwiseSqrt();
+  return errors;
+}
+
+// The test presses' frames and loads, and the axes' full scale (N).
+struct TestSet {
+  const std::vector<Eigen::VectorXd>& frames;
+  const std::vector<LoadCase>& loads;
+  Eigen::Vector3d full_scale_n;
+};
+
+// Material calibration (CalibrateMaterial) on the calibration presses: measures the gains-only
+// `reconstructor` on the test set, then replaces it by the calibrated inverse (H of the fitted
+// material, its w and gains). Returns the "material_calibration" JSON.
+nlohmann::json CalibrateMaterialOnPresses(const EvalForceOptions& options,
+                                          const std::vector<LoadCase>& calibration,
+                                          const std::vector<Eigen::VectorXd>& frames,
+                                          const DisplacementNoise& noise,
+                                          const ForceGainFit& gains_only_fit,
+                                          const TestSet& test,
+                                          ForceReconstructor* reconstructor,
+                                          nlohmann::json* timing) {
+  const auto start = std::chrono::steady_clock::now();
+  const ResultantErrors gains_only =
+      MeasureResultantErrors(*reconstructor, test.frames, test.loads, test.full_scale_n);
+  const fem::ComplianceFamily family(
+      options.body, options.poisson_nodes, options.cache_dir, options.show_progress);
+  std::vector<CalibrationPress> presses;
+  for (size_t k = 0; k < calibration.size(); ++k) {
+    presses.push_back({frames[k], calibration[k][0].force_n});
+  }
+  MaterialCalibrationOptions material_options = options.material;
+  material_options.weight = options.weight;
+  material_options.support_refinement = options.support_refinement;
+  const MaterialCalibration fit = CalibrateMaterial(family, presses, noise, material_options);
+  *reconstructor = ForceReconstructor(family.CalcH(fit.material),
+                                      family.marker_positions(),
+                                      {.weight = fit.weight,
+                                       .gains = fit.gains.gains,
+                                       .support_refinement = options.support_refinement});
+  (*timing)["material_calibration"] = Seconds(start);
+  const ElasticMaterial truth = options.TrueMaterial();
+  return {{"fit", ToJson(fit)},
+          {"true_youngs_modulus_mpa", truth.youngs_modulus_mpa},
+          {"true_poisson_ratio", truth.poisson_ratio},
+          {"gains_only_resultant_error_max_pct_fs_xyz", Json(gains_only.max_pct_fs)},
+          {"gains_only_resultant_error_rms_pct_fs_xyz", Json(gains_only.rms_pct_fs)},
+          {"gains_only_gains", ToJson(gains_only_fit)}};
+}
+
 // A check of the result: {name, value, tolerance, pass, unit}.
 nlohmann::json Check(const std::string& name, double value, double tolerance, const char* unit) {
   return {{"name", name},
@@ -130,6 +204,18 @@ void EvalForceOptions::Validate() const {
   body.Validate();
   weight.Validate();
   contact.Validate();
+  material.Validate();
+  // Checked here, not only by ComplianceFamily, so a bad node fails before the true model's
+  // minutes of solving.
+  if (calibrate_material && poisson_nodes.size() < 2) {
+    throw Error(fmt::format("EvalForceOptions.poisson_nodes needs at least 2 values, got {}",
+                            poisson_nodes.size()));
+  }
+  for (double nu : poisson_nodes) {
+    if (!(nu > -1.0 && nu <= 0.4999)) {
+      throw Error(fmt::format("EvalForceOptions.poisson_nodes: {} is not in (-1, 0.4999]", nu));
+    }
+  }
   if (!(truth_refinement >= 1.0 && truth_refinement <= 4.0)) {
     throw Error(fmt::format("EvalForceOptions.truth_refinement must be in [1, 4], got {}",
                             truth_refinement));
@@ -137,8 +223,10 @@ void EvalForceOptions::Validate() const {
   for (const auto& [value, field] :
        {std::pair{truth_shear_modulus_factor, "truth_shear_modulus_factor"},
         std::pair{truth_bulk_modulus_factor, "truth_bulk_modulus_factor"}}) {
-    if (!(value > 0.0 && value <= 2.0)) {
-      throw Error(fmt::format("EvalForceOptions.{} must be in (0, 2], got {}", field, value));
+    // No upper bound of its own: nu 0.499 against the nominal 0.48 is a bulk modulus 16x the
+    // nominal one at E x 0.8; the true material's own bounds are checked below.
+    if (!(value > 0.0 && std::isfinite(value))) {
+      throw Error(fmt::format("EvalForceOptions.{} must be > 0 and finite, got {}", field, value));
     }
   }
   try {
@@ -162,6 +250,11 @@ void EvalForceOptions::Validate() const {
                                      std::pair{full_scale_tangential_n, "full_scale_tangential_n"}}) {
     if (!(value > 0.0)) throw Error(fmt::format("EvalForceOptions.{} must be > 0, got {}", field, value));
   }
+}
+
+void EvalForceOptions::SetTrueMaterial(const ElasticMaterial& truth) {
+  truth_shear_modulus_factor = truth.shear_modulus() / body.material.shear_modulus();
+  truth_bulk_modulus_factor = truth.bulk_modulus() / body.material.bulk_modulus();
 }
 
 ElasticMaterial EvalForceOptions::TrueMaterial() const {
@@ -286,20 +379,21 @@ nlohmann::json EvaluateForce(const EvalForceOptions& options) {
   // Resultants of the test presses, in percent of each axis' full scale.
   const Eigen::Vector3d full_scale(options.full_scale_tangential_n, options.full_scale_tangential_n,
                                    options.full_scale_normal_n);
-  Eigen::Vector3d max_error_pct = Eigen::Vector3d::Zero(), sum_squares = Eigen::Vector3d::Zero();
-  nlohmann::json press_rows = nlohmann::json::array();
-  for (size_t k = 0; k < test.size(); ++k) {
-    const Eigen::Vector3d measured =
-        reconstructor.Reconstruct(frames[calibration.size() + k]).resultant_force_n;
-    const Eigen::Vector3d error_pct =
-        100.0 * (measured - test[k][0].force_n).cwiseAbs().cwiseQuotient(full_scale);
-    max_error_pct = max_error_pct.cwiseMax(error_pct);
-    sum_squares += error_pct.cwiseAbs2();
-    press_rows.push_back({{"reference_n", Json(test[k][0].force_n)},
-                          {"measured_n", Json(measured)},
-                          {"error_pct_fs", Json(error_pct)}});
-  }
-  const Eigen::Vector3d rms_error_pct = (sum_squares / static_cast<double>(test.size())).cwiseSqrt();
+  const std::vector<Eigen::VectorXd> test_frames(frames.begin() + calibration.size(),
+                                                 frames.begin() + calibration.size() + test.size());
+  const nlohmann::json material_json =
+      options.calibrate_material ? CalibrateMaterialOnPresses(options,
+                                                              calibration,
+                                                              frames,
+                                                              noise,
+                                                              gain_fit,
+                                                              {test_frames, test, full_scale},
+                                                              &reconstructor,
+                                                              &timing)
+                                 : nlohmann::json();
+  const ResultantErrors errors =
+      MeasureResultantErrors(reconstructor, test_frames, test, full_scale);
+  const Eigen::Vector3d& max_error_pct = errors.max_pct_fs;
 
   // The probe's centre: the normal-force-weighted centroid of the contact region.
   const size_t probe_begin = calibration.size() + test.size();
@@ -381,17 +475,19 @@ nlohmann::json EvaluateForce(const EvalForceOptions& options) {
   result["all_pass"] = all_pass;
   result["resultant_error_pct_fs"] = max_error_pct_fs;
   result["resultant_error_max_pct_fs_xyz"] = Json(max_error_pct);
-  result["resultant_error_rms_pct_fs_xyz"] = Json(rms_error_pct);
+  result["resultant_error_rms_pct_fs_xyz"] = Json(errors.rms_pct_fs);
   result["probe_center_error_mm"] = max_probe_error;
   result["pins_dip_ratio"] = max_dip_ratio;
   result["weight"] = ToJson(selection);
-  result["gains"] = ToJson(gain_fit);
+  result["gains"] =
+      options.calibrate_material ? material_json.at("fit").at("gains") : ToJson(gain_fit);
+  if (options.calibrate_material) result["material_calibration"] = material_json;
   result["noise"] = {{"true_sigma_mm", options.noise_mm},
                      {"estimated_sigma_mm_xyz", Json(noise.sigma_mm())},
                      {"static_frames", noise.num_frames}};
   result["uncertainty"] = {{"median_marker_sigma_n_xyz", Json(median_sigma)},
                            {"resultant_sigma_n_xyz", Json(uncertainty.resultant_sigma_n)}};
-  result["presses"] = {{"calibration", calibration.size()}, {"test", press_rows}};
+  result["presses"] = {{"calibration", calibration.size()}, {"test", errors.presses}};
   result["probes"] = probe_rows;
   result["pins"] = pin_rows;
   result["truth_model"] = {{"options", fem::ToJson(truth_options)},

@@ -1,12 +1,13 @@
 #pragma once
 
 #include <cstdint>
-#include <string>
-
 #include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
 
 #include "tac3d/fem/body_model.h"
 #include "tac3d/force/marker_surface.h"
+#include "tac3d/force/material_calibration.h"
 #include "tac3d/force/regularization.h"
 
 namespace tac3d {
@@ -47,21 +48,33 @@ struct EvalForceOptions {
   /// F = K D alone.
   bool support_refinement = true;
   ContactOptions contact;
+  /// Fit E and nu (CalibrateMaterial) as well as the gains on the calibration presses, over H
+  /// built at `poisson_nodes` (cached in cache_dir); the figures are then the calibrated
+  /// inverse's, with the gains-only ones reported beside them. False: the gains alone.
+  bool calibrate_material = false;
+  std::vector<double> poisson_nodes = {0.40, 0.45, 0.48, 0.499};
+  /// Its weight and support_refinement are the evaluation's own (`weight`, `support_refinement`).
+  MaterialCalibrationOptions material;
   std::uint64_t seed = 20221122;
   bool show_progress = true;
 
   /// @throws tac3d::Error naming the field and its bound: truth_refinement in [1, 4];
-  ///   factors in (0, 2] with the true nu valid; noise_mm >= 0; static_frames >= 2;
+  ///   factors > 0 with the true material valid; noise_mm >= 0; static_frames >= 2;
   ///   presses >= 3 each; full scales > 0; and the body, weight and contact options.
   void Validate() const;
   /// The true sensor's material: the nominal one with G and K scaled.
   ElasticMaterial TrueMaterial() const;
+  /// Sets the G and K factors so that TrueMaterial() is `truth` (the body's material must be
+  /// set first).
+  void SetTrueMaterial(const ElasticMaterial& truth);
 };
 
 /// Runs the evaluation and returns every figure with its tolerance:
 /// {"checks": [{name, value, tolerance, pass, unit}], "resultant_error_pct_fs",
 ///  "probe_center_error_mm", "pins_dip_ratio", "weight", "gains", "noise", "uncertainty",
-///  "presses", "probes", "pins", "truth_model", "timing_s", "all_pass"}.
+///  "presses", "probes", "pins", "truth_model", "timing_s", "all_pass"}, and with
+///  calibrate_material "material_calibration" (CalibrateMaterial's result, the true material
+///  and the gains-only resultant errors).
 /// Checks: resultant force error <= 2% of full scale (max over test presses and axes, gains
 /// fitted on the calibration presses); 2 mm probe centre error <= one pitch (max over probe
 /// positions; the centre is the normal-force-weighted centroid of the contact markers); two

@@ -23,6 +23,13 @@ TEST(EvalForceOptions, TrueMaterialScalesTheShearAndBulkModuli) {
   EXPECT_NEAR(options.TrueMaterial().youngs_modulus_mpa, 1.1, 1e-12);
 }
 
+TEST(EvalForceOptions, SetTrueMaterialInvertsTrueMaterial) {
+  EvalForceOptions options;
+  options.SetTrueMaterial({1.2, 0.45});
+  EXPECT_NEAR(options.TrueMaterial().youngs_modulus_mpa, 1.2, 1e-12);
+  EXPECT_NEAR(options.TrueMaterial().poisson_ratio, 0.45, 1e-12);
+}
+
 TEST(EvalForceOptions, EveryBoundIsChecked) {
   EXPECT_NO_THROW(EvalForceOptions{}.Validate());
   const auto expect_throw = [](auto change) {
@@ -33,7 +40,9 @@ TEST(EvalForceOptions, EveryBoundIsChecked) {
   expect_throw([](EvalForceOptions& o) { o.truth_refinement = 0.9; });
   expect_throw([](EvalForceOptions& o) { o.truth_refinement = 4.5; });
   expect_throw([](EvalForceOptions& o) { o.truth_shear_modulus_factor = 0.0; });
-  expect_throw([](EvalForceOptions& o) { o.truth_bulk_modulus_factor = 2.5; });
+  // K x 1000 takes nu from 0.48 to 0.49992, past the element's bound.
+  expect_throw([](EvalForceOptions& o) { o.truth_bulk_modulus_factor = 1e3; });
+  expect_throw([](EvalForceOptions& o) { o.truth_shear_modulus_factor = INFINITY; });
   // From nu = 0.4999, a stiffer K takes the true nu past the element's bound.
   expect_throw([](EvalForceOptions& o) {
     o.body.material.poisson_ratio = 0.4999;
@@ -48,6 +57,12 @@ TEST(EvalForceOptions, EveryBoundIsChecked) {
   expect_throw([](EvalForceOptions& o) { o.body.thickness_mm = -1.0; });
   expect_throw([](EvalForceOptions& o) { o.weight.discrepancy_factor = 0.5; });
   expect_throw([](EvalForceOptions& o) { o.contact.contact_threshold_n = -1.0; });
+  expect_throw([](EvalForceOptions& o) { o.material.max_poisson_error = 0.0; });
+  expect_throw([](EvalForceOptions& o) { o.poisson_nodes = {0.45, 0.5}; });
+  expect_throw([](EvalForceOptions& o) {
+    o.calibrate_material = true;
+    o.poisson_nodes = {0.48};
+  });
   EXPECT_THROW(EvaluateForce([] {
                  EvalForceOptions o;
                  o.noise_mm = NAN;

@@ -19,31 +19,38 @@ std::string Trim(const std::string& s) {
   return s.substr(begin, s.find_last_not_of(" \t\r") - begin + 1);
 }
 
-// The line's six numbers, or what is wrong with it.
-std::string ParsePairLine(const std::string& line, ForcePair* pair) {
+// The line's numbers (num_fields of them), or what is wrong with it.
+std::string ParseNumberLine(const std::string& line,
+                            size_t num_fields,
+                            std::vector<double>* values) {
   std::vector<std::string> fields;
   std::stringstream stream(line);
   for (std::string field; std::getline(stream, field, ',');) fields.push_back(Trim(field));
   if (!line.empty() && line.back() == ',') fields.emplace_back();
-  if (fields.size() != 6) return fmt::format("expected 6 fields, got {}", fields.size());
-  for (int k = 0; k < 6; ++k) {
-    double value = 0.0;
+  if (fields.size() != num_fields) {
+    return fmt::format("expected {} fields, got {}", num_fields, fields.size());
+  }
+  values->resize(num_fields);
+  for (size_t k = 0; k < num_fields; ++k) {
     const std::string& field = fields[k];
-    const auto [end, error] = std::from_chars(field.data(), field.data() + field.size(), value);
+    const auto [end, error] =
+        std::from_chars(field.data(), field.data() + field.size(), (*values)[k]);
     if (field.empty() || error != std::errc() || end != field.data() + field.size() ||
-        !std::isfinite(value)) {
+        !std::isfinite((*values)[k])) {
       return fmt::format("field {} '{}' is not a finite number", k + 1, field);
     }
-    (k < 3 ? pair->measured_n : pair->reference_n)(k % 3) = value;
   }
   return "";
 }
 
-}  // namespace
-
-std::vector<ForcePair> ParseForcePairs(const std::string& csv_text, const std::string& source) {
+// The rows of a CSV of finite numbers under a fixed header: blank and '#' lines skipped,
+// every malformed line reported in one error as "source:line: what".
+std::vector<std::vector<double>> ParseNumberRows(const std::string& csv_text,
+                                                 const std::string& source,
+                                                 const std::string& expected_header,
+                                                 size_t num_fields) {
   std::stringstream stream(csv_text);
-  std::vector<ForcePair> pairs;
+  std::vector<std::vector<double>> rows;
   std::vector<std::string> errors;
   bool have_header = false;
   int line_number = 0;
@@ -56,24 +63,25 @@ std::vector<ForcePair> ParseForcePairs(const std::string& csv_text, const std::s
       for (char c : line) {
         if (c != ' ' && c != '\t') header += c;
       }
-      if (header != kForcePairCsvHeader) {
-        throw Error(fmt::format("{}:{}: expected the header '{}', got '{}'", source, line_number,
-                                kForcePairCsvHeader, line));
+      if (header != expected_header) {
+        throw Error(fmt::format("{}:{}: expected the header '{}', got '{}'",
+                                source,
+                                line_number,
+                                expected_header,
+                                line));
       }
       have_header = true;
       continue;
     }
-    ForcePair pair;
-    const std::string error = ParsePairLine(line, &pair);
+    std::vector<double> values;
+    const std::string error = ParseNumberLine(line, num_fields, &values);
     if (error.empty()) {
-      pairs.push_back(pair);
+      rows.push_back(std::move(values));
     } else {
       errors.push_back(fmt::format("{}:{}: {}", source, line_number, error));
     }
   }
-  if (!have_header) {
-    throw Error(fmt::format("{}: no header line '{}'", source, kForcePairCsvHeader));
-  }
+  if (!have_header) throw Error(fmt::format("{}: no header line '{}'", source, expected_header));
   if (!errors.empty()) {
     std::string message = fmt::format("{}: {} malformed line(s):", source, errors.size());
     for (int k = 0; k < std::min<int>(kMaxListedErrors, errors.size()); ++k) {
@@ -82,16 +90,60 @@ std::vector<ForcePair> ParseForcePairs(const std::string& csv_text, const std::s
     if (errors.size() > kMaxListedErrors) message += "\n  ...";
     throw Error(message);
   }
-  if (pairs.empty()) throw Error(fmt::format("{}: no force pairs after the header", source));
+  if (rows.empty()) throw Error(fmt::format("{}: no rows after the header", source));
+  return rows;
+}
+
+std::string ReadWholeFile(const std::string& path, const char* what) {
+  std::ifstream file(path);
+  if (!file) throw Error(fmt::format("cannot read {} from {}", what, path));
+  std::stringstream buffer;
+  buffer << file.rdbuf();
+  return buffer.str();
+}
+
+}  // namespace
+
+std::vector<ForcePair> ParseForcePairs(const std::string& csv_text, const std::string& source) {
+  std::vector<ForcePair> pairs;
+  for (const std::vector<double>& row : ParseNumberRows(csv_text, source, kForcePairCsvHeader, 6)) {
+    pairs.push_back(
+        {Eigen::Vector3d(row[0], row[1], row[2]), Eigen::Vector3d(row[3], row[4], row[5])});
+  }
   return pairs;
 }
 
 std::vector<ForcePair> LoadForcePairs(const std::string& path) {
-  std::ifstream file(path);
-  if (!file) throw Error(fmt::format("cannot read force pairs from {}", path));
-  std::stringstream buffer;
-  buffer << file.rdbuf();
-  return ParseForcePairs(buffer.str(), path);
+  return ParseForcePairs(ReadWholeFile(path, "force pairs"), path);
+}
+
+std::vector<CalibrationPress> ParseCalibrationPresses(const std::string& csv_text,
+                                                      int num_markers,
+                                                      const std::string& source) {
+  std::vector<CalibrationPress> presses;
+  for (const std::vector<double>& row :
+       ParseNumberRows(csv_text, source, kCalibrationPressCsvHeader, 3 + 3 * num_markers)) {
+    presses.push_back({Eigen::Map<const Eigen::VectorXd>(row.data() + 3, 3 * num_markers),
+                       Eigen::Vector3d(row[0], row[1], row[2])});
+  }
+  return presses;
+}
+
+std::vector<CalibrationPress> LoadCalibrationPresses(const std::string& path, int num_markers) {
+  return ParseCalibrationPresses(ReadWholeFile(path, "calibration presses"), num_markers, path);
+}
+
+std::string CalibrationPressesToCsv(const std::vector<CalibrationPress>& presses) {
+  std::string csv = std::string(kCalibrationPressCsvHeader) + "\n";
+  for (const CalibrationPress& press : presses) {
+    csv += fmt::format("{:.17g},{:.17g},{:.17g}",
+                       press.reference_n.x(),
+                       press.reference_n.y(),
+                       press.reference_n.z());
+    for (double d : press.displacement_mm) csv += fmt::format(",{:.17g}", d);
+    csv += "\n";
+  }
+  return csv;
 }
 
 std::string ForcePairsToCsv(const std::vector<ForcePair>& pairs) {

@@ -34,6 +34,33 @@ std::vector<ForcePair> LoadForcePairs(const std::string& path);
 /// Writes pairs in the format ParseForcePairs reads (17 significant digits).
 std::string ForcePairsToCsv(const std::vector<ForcePair>& pairs);
 
+/// One force-calibration press as material calibration needs it: the marker displacements
+/// (a ForcePair's resultant cannot be recomputed for another H) and the reference sensor's
+/// reading.
+struct CalibrationPress {
+  /// D (3N, mm), paper ordering, every marker valid.
+  Eigen::VectorXd displacement_mm;
+  /// The reference force (N), sensor frame.
+  Eigen::Vector3d reference_n = Eigen::Vector3d::Zero();
+};
+
+/// The header line of a calibration-press CSV file: the reference force, then the 3N
+/// displacements (dx^1..dx^N, dy^1..dy^N, dz^1..dz^N, mm) on the same line.
+inline constexpr const char* kCalibrationPressCsvHeader = "fx_ref,fy_ref,fz_ref,displacements_mm";
+
+/// Parses a calibration-press CSV: the header kCalibrationPressCsvHeader, then one press a
+/// line, 3 + 3 num_markers finite numbers; blank and '#' lines skipped, spaces allowed.
+/// @throws tac3d::Error as ParseForcePairs (every malformed line as "source:line: what").
+std::vector<CalibrationPress> ParseCalibrationPresses(const std::string& csv_text,
+                                                      int num_markers,
+                                                      const std::string& source = "<text>");
+
+/// Reads a calibration-press CSV file (ParseCalibrationPresses).
+std::vector<CalibrationPress> LoadCalibrationPresses(const std::string& path, int num_markers);
+
+/// Writes presses in the format ParseCalibrationPresses reads (17 significant digits).
+std::string CalibrationPressesToCsv(const std::vector<CalibrationPress>& presses);
+
 /// The fewest pairs FitForceGains accepts: one gain an axis fitted on one or two pairs fits
 /// them (almost) exactly whatever the sensor does, so its R^2 would mean nothing.
 inline constexpr int kMinForcePairs = 3;

@@ -129,5 +129,31 @@ TEST(ForcePairCsv, LoadsAFile) {
   EXPECT_THROW(LoadForcePairs(path + ".missing"), Error);
 }
 
+TEST(CalibrationPressCsv, RoundTripsExactly) {
+  const std::vector<CalibrationPress> presses = {
+      {Eigen::VectorXd::LinSpaced(6, -0.1, 0.35), Eigen::Vector3d(0.1, -1.0 / 3.0, -4.9)},
+      {Eigen::VectorXd::Constant(6, 1e-5), Eigen::Vector3d(0, 0, -1)}};
+  const std::vector<CalibrationPress> parsed =
+      ParseCalibrationPresses(CalibrationPressesToCsv(presses), 2);
+  ASSERT_EQ(parsed.size(), 2u);
+  for (size_t k = 0; k < presses.size(); ++k) {
+    EXPECT_TRUE(parsed[k].displacement_mm == presses[k].displacement_mm);
+    EXPECT_TRUE(parsed[k].reference_n == presses[k].reference_n);
+  }
+}
+
+TEST(CalibrationPressCsv, AWrongMarkerCountIsReportedPerLine) {
+  const std::string text =
+      std::string(kCalibrationPressCsvHeader) + "\n0,0,-1,1,2,3,4,5,6\n0,0,-1,1,2,3\n";
+  try {
+    ParseCalibrationPresses(text, 2, "presses.csv");
+    FAIL() << "no throw";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("presses.csv:3: expected 9 fields, got 6"));
+  }
+  EXPECT_THROW(ParseCalibrationPresses(std::string(kForcePairCsvHeader) + "\n1,2,3,4,5,6\n", 1),
+               Error);
+}
+
 }  // namespace
 }  // namespace tac3d
