@@ -8,7 +8,7 @@
 #include "tac3d/eval/force_evaluation.h"
 #include "tac3d/fem/compliance_family.h"
 #include "tac3d/force/force_gains.h"
-#include "tac3d/force/material_calibration.h"
+#include "tac3d/material_calibration/material_calibration.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/file_io.h"
 

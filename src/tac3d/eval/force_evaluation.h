@@ -7,7 +7,7 @@
 
 #include "tac3d/fem/body_model.h"
 #include "tac3d/force/marker_surface.h"
-#include "tac3d/force/material_calibration.h"
+#include "tac3d/material_calibration/material_calibration.h"
 #include "tac3d/force/regularization.h"
 
 namespace tac3d {

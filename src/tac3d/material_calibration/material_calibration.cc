@@ -1,4 +1,4 @@
-#include "tac3d/force/material_calibration.h"
+#include "tac3d/material_calibration/material_calibration.h"
 
 #include <algorithm>
 #include <chrono>
