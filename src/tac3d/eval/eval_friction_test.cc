@@ -7,16 +7,18 @@
 #include <string>
 
 // Issue 11's friction-map acceptance (ctest label `eval`, not run by CI): `tac3d eval friction`
-// on the three friction scenes, simulated by the twin (minutes each; the twin body is built
-// once, ~15 min, and cached), their images through the pipeline, mapped and compared with the
+// on the friction scenes, simulated by the twin (minutes each; the twin body is built once,
+// ~15 min, and cached), their images through the pipeline, mapped and compared with the
 // truth. TAC3D_EVAL_FRICTION_DATASETS names a folder of datasets to reuse (DIR/<scene>).
 
 namespace tac3d {
 namespace {
 
-TEST(EvalFriction, MeetsTheAcceptanceOnTheFrictionScenes) {
-  const std::string out = ::testing::TempDir() + "/eval_friction";
-  std::string command = std::string(TAC3D_CLI) + " eval friction --out " + out;
+// Runs the command on `scenes` and expects every check of every scene, and of their pooled
+// figures, to pass.
+void ExpectEveryCheckPasses(const std::string& name, const std::string& scenes) {
+  const std::string out = ::testing::TempDir() + "/eval_friction_" + name;
+  std::string command = std::string(TAC3D_CLI) + " eval friction --scenes " + scenes + " --out " + out;
   if (const char* datasets = std::getenv("TAC3D_EVAL_FRICTION_DATASETS")) {
     command += std::string(" --datasets ") + datasets;
   }
@@ -37,6 +39,17 @@ TEST(EvalFriction, MeetsTheAcceptanceOnTheFrictionScenes) {
     }
   }
   EXPECT_TRUE(report.at("overall").at("all_pass").get<bool>()) << report.at("overall").dump(2);
+}
+
+// The issue's three scenes (its item 5).
+TEST(EvalFriction, MeetsTheAcceptanceOnTheFrictionScenes) {
+  ExpectEveryCheckPasses("issue", "friction_block friction_bottle friction_paint_can");
+}
+
+// The scene held out of the map's settings, against the same targets. Fails today on band
+// agreement and slip recall (docs/friction.md says why).
+TEST(EvalFriction, HeldOutToolHandleMeetsTheSameTargets) {
+  ExpectEveryCheckPasses("held_out", "friction_tool_handle");
 }
 
 }  // namespace
