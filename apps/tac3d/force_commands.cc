@@ -13,6 +13,28 @@
 #include "tac3d/util/file_io.h"
 
 namespace tac3d::cli {
+namespace {
+
+// One line a true material: the resultant error (max % FS per axis) after the fit, and with
+// --calibrate-material the fitted material and the gains-only figure beside it.
+void PrintMaterialGrid(const nlohmann::json& grid) {
+  for (const nlohmann::json& point : grid.at("points")) {
+    std::printf("true E %.4g MPa, nu %.4f: resultant error max x y z %s %% FS",
+                point.at("true_youngs_modulus_mpa").get<double>(),
+                point.at("true_poisson_ratio").get<double>(),
+                point.at("resultant_error_max_pct_fs_xyz").dump().c_str());
+    if (point.contains("material_calibration")) {
+      const nlohmann::json& m = point.at("material_calibration");
+      std::printf("; %s; gains only %s %% FS",
+                  m.at("fit").at("message").get<std::string>().c_str(),
+                  m.at("gains_only_resultant_error_max_pct_fs_xyz").dump().c_str());
+    }
+    std::printf("; all checks %s\n", point.at("all_pass").get<bool>() ? "pass" : "FAIL");
+  }
+  std::printf("all pass: %s\n", grid.at("all_pass").get<bool>() ? "yes" : "no");
+}
+
+}  // namespace
 
 void RegisterEvalForce(CLI::App& eval) {
   struct Args {
@@ -20,6 +42,8 @@ void RegisterEvalForce(CLI::App& eval) {
     EvalForceOptions options;
     std::string weight_rule = ToString(WeightSelectionOptions{}.rule);
     std::vector<double> truth_material;
+    bool material_grid = false;
+    MaterialGrid grid;
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = eval.add_subcommand(
@@ -41,6 +65,16 @@ void RegisterEvalForce(CLI::App& eval) {
                   args->truth_material,
                   "the true E (MPa) and nu, instead of the shear and bulk factors")
       ->expected(2);
+  cmd->add_flag("--material-grid",
+                args->material_grid,
+                "evaluate at every true material of the grid below instead of one (one true "
+                "model a Poisson's ratio)");
+  cmd->add_option("--grid-youngs-factors",
+                  args->grid.youngs_modulus_factors,
+                  "the grid's true E as multiples of the nominal E")
+      ->capture_default_str();
+  cmd->add_option("--grid-poisson", args->grid.poisson_ratios, "the grid's true nu")
+      ->capture_default_str();
   cmd->add_flag("--calibrate-material",
                 o.calibrate_material,
                 "fit E and nu as well as the gains on the calibration presses (docs/force.md)");
@@ -64,10 +98,20 @@ void RegisterEvalForce(CLI::App& eval) {
     options.cache_dir = args->model.cache_dir;
     options.weight.rule = WeightRuleFromString(args->weight_rule);
     if (!args->truth_material.empty()) {
+      if (args->material_grid) throw Error("--truth-material and --material-grid exclude each other");
       options.SetTrueMaterial({args->truth_material[0], args->truth_material[1]});
     }
     options.show_progress = !args->model.json;
     MakeDirectory(options.cache_dir);
+    if (args->material_grid) {
+      const nlohmann::json grid = EvaluateForceOverMaterials(options, args->grid);
+      if (args->model.json) {
+        std::printf("%s\n", grid.dump(2).c_str());
+      } else {
+        PrintMaterialGrid(grid);
+      }
+      return;
+    }
     nlohmann::json j = EvaluateForce(options);
     if (args->model.json) {
       std::printf("%s\n", j.dump(2).c_str());

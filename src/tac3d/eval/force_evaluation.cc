@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <random>
 
 #include "tac3d/fem/compliance.h"
@@ -159,13 +160,12 @@ nlohmann::json CalibrateMaterialOnPresses(const EvalForceOptions& options,
                                           const DisplacementNoise& noise,
                                           const ForceGainFit& gains_only_fit,
                                           const TestSet& test,
+                                          const fem::ComplianceFamily& family,
                                           ForceReconstructor* reconstructor,
                                           nlohmann::json* timing) {
   const auto start = std::chrono::steady_clock::now();
   const ResultantErrors gains_only =
       MeasureResultantErrors(*reconstructor, test.frames, test.loads, test.full_scale_n);
-  const fem::ComplianceFamily family(
-      options.body, options.poisson_nodes, options.cache_dir, options.show_progress);
   std::vector<CalibrationPress> presses;
   for (size_t k = 0; k < calibration.size(); ++k) {
     presses.push_back({frames[k], calibration[k][0].force_n});
@@ -267,171 +267,169 @@ ElasticMaterial EvalForceOptions::TrueMaterial() const {
   return truth;
 }
 
-nlohmann::json EvaluateForce(const EvalForceOptions& options) {
-  options.Validate();
-  nlohmann::json timing;
-  auto start = std::chrono::steady_clock::now();
+namespace {
 
-  // The nominal model: what the pipeline believes.
-  const fem::ComplianceModel nominal =
-      options.cache_dir.empty()
-          ? fem::CalcComplianceModel(options.body, options.show_progress)
-          : fem::LoadOrBuildComplianceModel(options.body, options.cache_dir, options.show_progress)
-                .model;
-  timing["nominal_h"] = Seconds(start);
-
-  // The true sensor: a finer mesh with other elastic constants.
-  start = std::chrono::steady_clock::now();
-  fem::BodyModelOptions truth_options = options.body;
-  truth_options.refinement *= options.truth_refinement;
-  truth_options.material = options.TrueMaterial();
-  const fem::BodyModel truth(truth_options, options.show_progress);
-  timing["truth_model"] = Seconds(start);
-
-  std::mt19937_64 rng(options.seed);
-  const std::vector<LoadCase> calibration = MakePresses(options.calibration_presses, options, &rng);
-  const std::vector<LoadCase> test = MakePresses(options.test_presses, options, &rng);
-  const int rows = options.body.marker_rows, cols = options.body.marker_cols;
-  const double pitch = options.body.marker_pitch_mm;
-  const std::vector<Eigen::Vector3d>& markers = nominal.marker_positions;
+// Every load case of one evaluation. The presses come from the seeded generator, in this order,
+// so a run's cases depend on the options and the seed alone, never on the true material.
+struct ForceCases {
+  std::vector<LoadCase> calibration, test, probes, pins;
   // Probe positions on, between and off the markers, across the sensing area.
-  const std::vector<Eigen::Vector2d> probe_centers = {
+  std::vector<Eigen::Vector2d> probe_centers = {
       {0.3, 0.2}, {-2.9, 1.7}, {4.4, -3.6}, {-6.1, -5.3}, {7.2, 6.4}};
-  std::vector<LoadCase> probes;
-  for (const Eigen::Vector2d& center : probe_centers) {
-    probes.push_back({{center, kProbeRadius, false, Eigen::Vector3d(0, 0, -kProbeForce)}});
+  // The pin pairs' midpoints off a marker column, in pitches.
+  std::vector<double> pin_offsets = {0.0, 0.25, 0.5};
+  int pin_row = 0;
+
+  // The cases in the order of the response matrix's columns.
+  std::vector<const LoadCase*> All() const {
+    std::vector<const LoadCase*> all;
+    for (const std::vector<LoadCase>* group : {&calibration, &test, &probes, &pins}) {
+      for (const LoadCase& load : *group) all.push_back(&load);
+    }
+    return all;
+  }
+  size_t probe_begin() const { return calibration.size() + test.size(); }
+  size_t pins_begin() const { return probe_begin() + probes.size(); }
+};
+
+ForceCases MakeForceCases(const EvalForceOptions& options,
+                          const std::vector<Eigen::Vector3d>& markers,
+                          std::mt19937_64* rng) {
+  ForceCases cases;
+  cases.calibration = MakePresses(options.calibration_presses, options, rng);
+  cases.test = MakePresses(options.test_presses, options, rng);
+  for (const Eigen::Vector2d& center : cases.probe_centers) {
+    cases.probes.push_back({{center, kProbeRadius, false, Eigen::Vector3d(0, 0, -kProbeForce)}});
   }
   // Pin pairs along x on the marker row nearest y = 0, their midpoint on a marker column, a
   // quarter and half a pitch off it. At half a pitch, 2.54 mm = 2 pitches puts each pin midway
   // between two markers: the markers between the pins lie as close to a pin as those outside
   // (sampling at the Nyquist limit in antiphase), so no reconstruction can show a dip there;
   // that placement is reported but not part of the check.
-  const int pin_row = rows / 2;
+  const int cols = options.body.marker_cols;
+  cases.pin_row = options.body.marker_rows / 2;
   const int mid_col = cols / 2 - 1;
-  const std::vector<double> pin_offsets = {0.0, 0.25, 0.5};
-  std::vector<LoadCase> pins;
-  for (double offset : pin_offsets) {
-    const Eigen::Vector2d mid = markers[pin_row * cols + mid_col].head<2>() +
-                                Eigen::Vector2d(offset * pitch, 0.0);
+  for (double offset : cases.pin_offsets) {
+    const Eigen::Vector2d mid = markers[cases.pin_row * cols + mid_col].head<2>() +
+                                Eigen::Vector2d(offset * options.body.marker_pitch_mm, 0.0);
     LoadCase pair;
     for (double side : {-0.5, 0.5}) {
       pair.push_back({mid + Eigen::Vector2d(side * kPinSpacing, 0.0), kPinRadius, false,
                       Eigen::Vector3d(0, 0, -kPinForce)});
     }
-    pins.push_back(pair);
+    cases.pins.push_back(pair);
   }
+  return cases;
+}
 
-  // Every case's marker displacements on the true model, then noise.
+// The true sensor's noise-free marker displacements (one column a case) and the report's
+// description of its model.
+struct TrueResponses {
+  Eigen::MatrixXd clean;
+  nlohmann::json model;
+};
+
+// The true sensor: a finer mesh with the options' true material.
+TrueResponses CalcTrueResponses(const EvalForceOptions& options,
+                                const std::vector<Eigen::Vector3d>& markers,
+                                const ForceCases& cases,
+                                nlohmann::json* timing) {
+  auto start = std::chrono::steady_clock::now();
+  fem::BodyModelOptions truth_options = options.body;
+  truth_options.refinement *= options.truth_refinement;
+  truth_options.material = options.TrueMaterial();
+  const fem::BodyModel truth(truth_options, options.show_progress);
+  (*timing)["truth_model"] = Seconds(start);
+
   start = std::chrono::steady_clock::now();
-  std::vector<const LoadCase*> cases;
-  for (const std::vector<LoadCase>* group :
-       std::initializer_list<const std::vector<LoadCase>*>{&calibration, &test, &probes, &pins}) {
-    for (const LoadCase& load : *group) cases.push_back(&load);
-  }
+  const std::vector<const LoadCase*> all = cases.All();
   std::vector<Eigen::Triplet<double>> triplets;
-  for (size_t c = 0; c < cases.size(); ++c) {
-    const Eigen::VectorXd f = AssembleLoad(truth, *cases[c]);
+  for (size_t c = 0; c < all.size(); ++c) {
+    const Eigen::VectorXd f = AssembleLoad(truth, *all[c]);
     for (Eigen::Index j = 0; j < f.size(); ++j) {
       if (f(j) != 0.0) triplets.emplace_back(j, static_cast<int>(c), f(j));
     }
   }
-  Eigen::SparseMatrix<double> loads(truth.mesh().num_dofs(), static_cast<int>(cases.size()));
+  Eigen::SparseMatrix<double> loads(truth.mesh().num_dofs(), static_cast<int>(all.size()));
   loads.setFromTriplets(triplets.begin(), triplets.end());
-  fem::SolveSummary truth_solves;
-  const Eigen::MatrixXd clean =
-      truth.solver().CalcResponse(truth.CalcPointInterpolation(markers), loads,
-                                  options.show_progress, 100, &truth_solves);
-  timing["truth_responses"] = Seconds(start);
-  std::normal_distribution<double> normal(0.0, options.noise_mm);
-  const auto noisy = [&](const Eigen::VectorXd& d) {
-    Eigen::VectorXd result = d;
-    for (Eigen::Index j = 0; j < result.size(); ++j) result(j) += normal(rng);
-    return result;
-  };
-  std::vector<Eigen::VectorXd> frames;
-  for (Eigen::Index c = 0; c < clean.cols(); ++c) frames.push_back(noisy(clean.col(c)));
-  std::vector<Eigen::VectorXd> static_frames;
-  for (int k = 0; k < options.static_frames; ++k) {
-    static_frames.push_back(noisy(Eigen::VectorXd::Zero(clean.rows())));
-  }
+  fem::SolveSummary solves;
+  TrueResponses responses;
+  responses.clean = truth.solver().CalcResponse(
+      truth.CalcPointInterpolation(markers), loads, options.show_progress, 100, &solves);
+  (*timing)["truth_responses"] = Seconds(start);
+  const fem::ElasticSolverSummary& summary = truth.solver().summary();
+  responses.model = {{"options", fem::ToJson(truth_options)},
+                     {"free_dofs", summary.num_free_dofs},
+                     {"coarse_free_dofs", summary.coarse_free_dofs},
+                     {"assembly_s", summary.assembly_s},
+                     {"factorization_s", summary.factorization_s},
+                     {"pcg_iterations", solves.iterations},
+                     {"pcg_relative_residuals", solves.relative_residuals}};
+  return responses;
+}
 
-  // The pipeline: noise from static frames, w on the calibration presses, K, gains.
-  start = std::chrono::steady_clock::now();
-  const DisplacementNoise noise = EstimateDisplacementNoise(static_frames);
-  const ComplianceSpectrum spectrum(nominal.h);
-  const std::vector<Eigen::VectorXd> calibration_frames(frames.begin(),
-                                                        frames.begin() + calibration.size());
-  const WeightSelection selection =
-      SelectRegularizationWeight(spectrum, calibration_frames, noise, options.weight);
-  ForceReconstructor reconstructor(
-      nominal.h, markers,
-      {.weight = selection.weight, .support_refinement = options.support_refinement});
-  timing["inverse_setup"] = Seconds(start);
-  std::vector<ForcePair> pairs;
-  for (size_t k = 0; k < calibration.size(); ++k) {
-    pairs.push_back({reconstructor.Reconstruct(frames[k]).resultant_force_n,
-                     calibration[k][0].force_n});
-  }
-  const ForceGainFit gain_fit = FitForceGains(pairs);
-  reconstructor.set_gains(gain_fit.gains);
-  const MarkerSurface surface(rows, cols, markers, options.contact);
+// The largest distance between a probe's centre and the normal-force-weighted centroid of the
+// contact markers the inverse finds (mm), and a row a probe.
+struct ProbeErrors {
+  double max_error_mm = 0.0;
+  nlohmann::json rows = nlohmann::json::array();
+};
 
-  // Resultants of the test presses, in percent of each axis' full scale.
-  const Eigen::Vector3d full_scale(options.full_scale_tangential_n, options.full_scale_tangential_n,
-                                   options.full_scale_normal_n);
-  const std::vector<Eigen::VectorXd> test_frames(frames.begin() + calibration.size(),
-                                                 frames.begin() + calibration.size() + test.size());
-  const nlohmann::json material_json =
-      options.calibrate_material ? CalibrateMaterialOnPresses(options,
-                                                              calibration,
-                                                              frames,
-                                                              noise,
-                                                              gain_fit,
-                                                              {test_frames, test, full_scale},
-                                                              &reconstructor,
-                                                              &timing)
-                                 : nlohmann::json();
-  const ResultantErrors errors =
-      MeasureResultantErrors(reconstructor, test_frames, test, full_scale);
-  const Eigen::Vector3d& max_error_pct = errors.max_pct_fs;
-
-  // The probe's centre: the normal-force-weighted centroid of the contact region.
-  const size_t probe_begin = calibration.size() + test.size();
-  double max_probe_error = 0.0;
-  nlohmann::json probe_rows = nlohmann::json::array();
-  for (size_t k = 0; k < probes.size(); ++k) {
-    const Eigen::VectorXd& d = frames[probe_begin + k];
+ProbeErrors MeasureProbeErrors(const EvalForceOptions& options,
+                               const ForceCases& cases,
+                               const std::vector<Eigen::VectorXd>& frames,
+                               const MarkerSurface& surface,
+                               const std::vector<Eigen::Vector3d>& markers,
+                               ForceReconstructor& reconstructor) {
+  ProbeErrors probes;
+  for (size_t k = 0; k < cases.probes.size(); ++k) {
+    const Eigen::VectorXd& d = frames[cases.probe_begin() + k];
     const ForceDecomposition split = surface.Decompose(d, {}, reconstructor.Reconstruct(d).forces_n);
     Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
     double total = 0.0;
-    for (int i = 0; i < rows * cols; ++i) {
+    for (int i = 0; i < options.body.num_markers(); ++i) {
       if (!split.contact[i]) continue;
       centroid += split.normal_force_n(i) * markers[i].head<2>();
       total += split.normal_force_n(i);
     }
     // No contact found counts as missing the probe by the sensing area's size.
-    const double error = total > 0.0 ? (centroid / total - probe_centers[k]).norm()
+    const double error = total > 0.0 ? (centroid / total - cases.probe_centers[k]).norm()
                                      : 2.0 * options.body.base_diameter_mm;
-    max_probe_error = std::max(max_probe_error, error);
-    probe_rows.push_back({{"center_mm", {probe_centers[k].x(), probe_centers[k].y()}},
-                          {"error_mm", error},
-                          {"contact_markers", split.num_contact}});
+    probes.max_error_mm = std::max(probes.max_error_mm, error);
+    probes.rows.push_back({{"center_mm", {cases.probe_centers[k].x(), cases.probe_centers[k].y()}},
+                           {"error_mm", error},
+                           {"contact_markers", split.num_contact}});
   }
+  return probes;
+}
 
-  // Pins: the normal force along the pins' marker row; the peak near each pin (within half a
-  // pitch) and the lowest value on the markers strictly between the two peaks.
-  const size_t pins_begin = probe_begin + probes.size();
+// The pins: the normal force along the pins' marker row; the peak near each pin (within half a
+// pitch) and the lowest value on the markers strictly between the two peaks, over the smaller
+// peak. The largest ratio over the placements short of the sampling limit, and a row a pair.
+struct PinDips {
   double max_dip_ratio = 0.0;
-  nlohmann::json pin_rows = nlohmann::json::array();
-  for (size_t k = 0; k < pins.size(); ++k) {
-    const Eigen::VectorXd& d = frames[pins_begin + k];
+  nlohmann::json rows = nlohmann::json::array();
+};
+
+PinDips MeasurePinDips(const EvalForceOptions& options,
+                       const ForceCases& cases,
+                       const std::vector<Eigen::VectorXd>& frames,
+                       const MarkerSurface& surface,
+                       const std::vector<Eigen::Vector3d>& markers,
+                       ForceReconstructor& reconstructor) {
+  const int cols = options.body.marker_cols;
+  const double pitch = options.body.marker_pitch_mm;
+  PinDips dips;
+  for (size_t k = 0; k < cases.pins.size(); ++k) {
+    const LoadCase& pins = cases.pins[k];
+    const Eigen::VectorXd& d = frames[cases.pins_begin() + k];
     const ForceDecomposition split = surface.Decompose(d, {}, reconstructor.Reconstruct(d).forces_n);
-    const auto profile = [&](int col) { return split.normal_force_n(pin_row * cols + col); };
+    const auto profile = [&](int col) { return split.normal_force_n(cases.pin_row * cols + col); };
     int peak_col[2] = {-1, -1};
     for (int p = 0; p < 2; ++p) {
       for (int col = 0; col < cols; ++col) {
-        const double x = markers[pin_row * cols + col].x();
-        if (std::abs(x - pins[k][p].center_mm.x()) > 0.5 * pitch + 1e-9) continue;
+        const double x = markers[cases.pin_row * cols + col].x();
+        if (std::abs(x - pins[p].center_mm.x()) > 0.5 * pitch + 1e-9) continue;
         if (peak_col[p] < 0 || profile(col) > profile(peak_col[p])) peak_col[p] = col;
       }
     }
@@ -440,19 +438,22 @@ nlohmann::json EvaluateForce(const EvalForceOptions& options) {
     double dip = smaller_peak;  // adjacent peaks: nothing between, not resolved
     for (int col = peak_col[0] + 1; col < peak_col[1]; ++col) dip = std::min(dip, profile(col));
     const double ratio = smaller_peak > 0.0 ? dip / smaller_peak : 1.0;
-    const bool sampling_limit = pin_offsets[k] >= 0.5;
-    if (!sampling_limit) max_dip_ratio = std::max(max_dip_ratio, ratio);
+    const bool sampling_limit = cases.pin_offsets[k] >= 0.5;
+    if (!sampling_limit) dips.max_dip_ratio = std::max(dips.max_dip_ratio, ratio);
     nlohmann::json row_profile = nlohmann::json::array();
     for (int col = 0; col < cols; ++col) row_profile.push_back(profile(col));
-    pin_rows.push_back({{"offset_pitch", pin_offsets[k]},
-                        {"pins_x_mm", {pins[k][0].center_mm.x(), pins[k][1].center_mm.x()}},
-                        {"peak_columns", {peak_col[0], peak_col[1]}},
-                        {"dip_ratio", ratio},
-                        {"sampling_limit", sampling_limit},
-                        {"row_normal_force_n", row_profile}});
+    dips.rows.push_back({{"offset_pitch", cases.pin_offsets[k]},
+                         {"pins_x_mm", {pins[0].center_mm.x(), pins[1].center_mm.x()}},
+                         {"peak_columns", {peak_col[0], peak_col[1]}},
+                         {"dip_ratio", ratio},
+                         {"sampling_limit", sampling_limit},
+                         {"row_normal_force_n", row_profile}});
   }
+  return dips;
+}
 
-  const ForceUncertainty uncertainty = reconstructor.CalcUncertainty(noise.variance_mm2);
+// The median over the markers of each axis' force uncertainty (N).
+Eigen::Vector3d MedianMarkerSigma(const ForceUncertainty& uncertainty) {
   Eigen::Vector3d median_sigma;
   for (int axis = 0; axis < 3; ++axis) {
     std::vector<double> sigma(uncertainty.marker_sigma_n.row(axis).begin(),
@@ -460,12 +461,83 @@ nlohmann::json EvaluateForce(const EvalForceOptions& options) {
     std::nth_element(sigma.begin(), sigma.begin() + sigma.size() / 2, sigma.end());
     median_sigma(axis) = sigma[sigma.size() / 2];
   }
+  return median_sigma;
+}
 
-  const double max_error_pct_fs = max_error_pct.maxCoeff();
+// What the pipeline makes of the true responses: noise added (drawn from `rng` after the
+// cases), the noise estimated from static frames, w chosen on the calibration presses, K and the
+// gains (and with calibrate_material, `family`'s material fit), then every figure and check.
+nlohmann::json EvaluateOnResponses(const EvalForceOptions& options,
+                                   const fem::ComplianceModel& nominal,
+                                   const fem::ComplianceFamily* family,
+                                   const ForceCases& cases,
+                                   const TrueResponses& truth,
+                                   std::mt19937_64* rng,
+                                   nlohmann::json timing) {
+  std::normal_distribution<double> normal(0.0, options.noise_mm);
+  const auto noisy = [&](const Eigen::VectorXd& d) {
+    Eigen::VectorXd result = d;
+    for (Eigen::Index j = 0; j < result.size(); ++j) result(j) += normal(*rng);
+    return result;
+  };
+  std::vector<Eigen::VectorXd> frames;
+  for (Eigen::Index c = 0; c < truth.clean.cols(); ++c) frames.push_back(noisy(truth.clean.col(c)));
+  std::vector<Eigen::VectorXd> static_frames;
+  for (int k = 0; k < options.static_frames; ++k) {
+    static_frames.push_back(noisy(Eigen::VectorXd::Zero(truth.clean.rows())));
+  }
+
+  auto start = std::chrono::steady_clock::now();
+  const DisplacementNoise noise = EstimateDisplacementNoise(static_frames);
+  const ComplianceSpectrum spectrum(nominal.h);
+  const std::vector<Eigen::VectorXd> calibration_frames(frames.begin(),
+                                                        frames.begin() + cases.calibration.size());
+  const WeightSelection selection =
+      SelectRegularizationWeight(spectrum, calibration_frames, noise, options.weight);
+  const std::vector<Eigen::Vector3d>& markers = nominal.marker_positions;
+  ForceReconstructor reconstructor(
+      nominal.h, markers,
+      {.weight = selection.weight, .support_refinement = options.support_refinement});
+  timing["inverse_setup"] = Seconds(start);
+  std::vector<ForcePair> pairs;
+  for (size_t k = 0; k < cases.calibration.size(); ++k) {
+    pairs.push_back({reconstructor.Reconstruct(frames[k]).resultant_force_n,
+                     cases.calibration[k][0].force_n});
+  }
+  const ForceGainFit gain_fit = FitForceGains(pairs);
+  reconstructor.set_gains(gain_fit.gains);
+
+  // Resultants of the test presses, in percent of each axis' full scale.
+  const Eigen::Vector3d full_scale(options.full_scale_tangential_n, options.full_scale_tangential_n,
+                                   options.full_scale_normal_n);
+  const std::vector<Eigen::VectorXd> test_frames(
+      frames.begin() + cases.calibration.size(), frames.begin() + cases.probe_begin());
+  const nlohmann::json material_json =
+      family != nullptr ? CalibrateMaterialOnPresses(options,
+                                                     cases.calibration,
+                                                     frames,
+                                                     noise,
+                                                     gain_fit,
+                                                     {test_frames, cases.test, full_scale},
+                                                     *family,
+                                                     &reconstructor,
+                                                     &timing)
+                        : nlohmann::json();
+  const ResultantErrors errors =
+      MeasureResultantErrors(reconstructor, test_frames, cases.test, full_scale);
+  const MarkerSurface surface(options.body.marker_rows, options.body.marker_cols, markers,
+                              options.contact);
+  const ProbeErrors probes =
+      MeasureProbeErrors(options, cases, frames, surface, markers, reconstructor);
+  const PinDips pins = MeasurePinDips(options, cases, frames, surface, markers, reconstructor);
+  const ForceUncertainty uncertainty = reconstructor.CalcUncertainty(noise.variance_mm2);
+
+  const double max_error_pct_fs = errors.max_pct_fs.maxCoeff();
   nlohmann::json checks = nlohmann::json::array();
   checks.push_back(Check("resultant_error_pct_fs", max_error_pct_fs, kMaxResultantErrorPctFs, "%"));
-  checks.push_back(Check("probe_center_error_mm", max_probe_error, pitch, "mm"));
-  checks.push_back(Check("pins_dip_ratio", max_dip_ratio, kMaxPinsDipRatio, ""));
+  checks.push_back(
+      Check("probe_center_error_mm", probes.max_error_mm, options.body.marker_pitch_mm, "mm"));
+  checks.push_back(Check("pins_dip_ratio", pins.max_dip_ratio, kMaxPinsDipRatio, ""));
   checks.push_back(Check("truth_edge_ratio", 1.0 / options.truth_refinement, 0.5, ""));
   bool all_pass = true;
   for (const nlohmann::json& check : checks) all_pass = all_pass && check.at("pass").get<bool>();
@@ -474,31 +546,117 @@ nlohmann::json EvaluateForce(const EvalForceOptions& options) {
   result["checks"] = checks;
   result["all_pass"] = all_pass;
   result["resultant_error_pct_fs"] = max_error_pct_fs;
-  result["resultant_error_max_pct_fs_xyz"] = Json(max_error_pct);
+  result["resultant_error_max_pct_fs_xyz"] = Json(errors.max_pct_fs);
   result["resultant_error_rms_pct_fs_xyz"] = Json(errors.rms_pct_fs);
-  result["probe_center_error_mm"] = max_probe_error;
-  result["pins_dip_ratio"] = max_dip_ratio;
+  result["probe_center_error_mm"] = probes.max_error_mm;
+  result["pins_dip_ratio"] = pins.max_dip_ratio;
   result["weight"] = ToJson(selection);
-  result["gains"] =
-      options.calibrate_material ? material_json.at("fit").at("gains") : ToJson(gain_fit);
-  if (options.calibrate_material) result["material_calibration"] = material_json;
+  result["gains"] = family != nullptr ? material_json.at("fit").at("gains") : ToJson(gain_fit);
+  if (family != nullptr) result["material_calibration"] = material_json;
   result["noise"] = {{"true_sigma_mm", options.noise_mm},
                      {"estimated_sigma_mm_xyz", Json(noise.sigma_mm())},
                      {"static_frames", noise.num_frames}};
-  result["uncertainty"] = {{"median_marker_sigma_n_xyz", Json(median_sigma)},
+  result["uncertainty"] = {{"median_marker_sigma_n_xyz", Json(MedianMarkerSigma(uncertainty))},
                            {"resultant_sigma_n_xyz", Json(uncertainty.resultant_sigma_n)}};
-  result["presses"] = {{"calibration", calibration.size()}, {"test", errors.presses}};
-  result["probes"] = probe_rows;
-  result["pins"] = pin_rows;
-  result["truth_model"] = {{"options", fem::ToJson(truth_options)},
-                           {"free_dofs", truth.solver().summary().num_free_dofs},
-                           {"coarse_free_dofs", truth.solver().summary().coarse_free_dofs},
-                           {"assembly_s", truth.solver().summary().assembly_s},
-                           {"factorization_s", truth.solver().summary().factorization_s},
-                           {"pcg_iterations", truth_solves.iterations},
-                           {"pcg_relative_residuals", truth_solves.relative_residuals}};
+  result["presses"] = {{"calibration", cases.calibration.size()}, {"test", errors.presses}};
+  result["probes"] = probes.rows;
+  result["pins"] = pins.rows;
+  result["truth_model"] = truth.model;
   result["timing_s"] = timing;
   return result;
+}
+
+// The nominal model: what the pipeline believes.
+fem::ComplianceModel LoadNominalModel(const EvalForceOptions& options, nlohmann::json* timing) {
+  const auto start = std::chrono::steady_clock::now();
+  fem::ComplianceModel nominal =
+      options.cache_dir.empty()
+          ? fem::CalcComplianceModel(options.body, options.show_progress)
+          : fem::LoadOrBuildComplianceModel(options.body, options.cache_dir, options.show_progress)
+                .model;
+  (*timing)["nominal_h"] = Seconds(start);
+  return nominal;
+}
+
+std::optional<fem::ComplianceFamily> MakeFamily(const EvalForceOptions& options) {
+  if (!options.calibrate_material) return std::nullopt;
+  return std::optional<fem::ComplianceFamily>(
+      std::in_place, options.body, options.poisson_nodes, options.cache_dir, options.show_progress);
+}
+
+}  // namespace
+
+nlohmann::json EvaluateForce(const EvalForceOptions& options) {
+  options.Validate();
+  nlohmann::json timing;
+  const fem::ComplianceModel nominal = LoadNominalModel(options, &timing);
+  std::mt19937_64 rng(options.seed);
+  const ForceCases cases = MakeForceCases(options, nominal.marker_positions, &rng);
+  const TrueResponses truth = CalcTrueResponses(options, nominal.marker_positions, cases, &timing);
+  const std::optional<fem::ComplianceFamily> family = MakeFamily(options);
+  return EvaluateOnResponses(
+      options, nominal, family ? &*family : nullptr, cases, truth, &rng, timing);
+}
+
+void MaterialGrid::Validate() const {
+  for (const auto& [values, field] : {std::pair{&youngs_modulus_factors, "youngs_modulus_factors"},
+                                      std::pair{&poisson_ratios, "poisson_ratios"}}) {
+    if (values->empty()) throw Error(fmt::format("MaterialGrid.{} is empty", field));
+  }
+  for (double factor : youngs_modulus_factors) {
+    if (!(factor > 0.0 && std::isfinite(factor))) {
+      throw Error(fmt::format("MaterialGrid.youngs_modulus_factors: {} is not > 0", factor));
+    }
+  }
+}
+
+nlohmann::json EvaluateForceOverMaterials(const EvalForceOptions& options, const MaterialGrid& grid) {
+  grid.Validate();
+  const double nominal_e = options.body.material.youngs_modulus_mpa;
+  std::vector<EvalForceOptions> point_options;
+  for (double nu : grid.poisson_ratios) {
+    for (double factor : grid.youngs_modulus_factors) {
+      point_options.push_back(options);
+      point_options.back().SetTrueMaterial({factor * nominal_e, nu});
+      point_options.back().Validate();  // every point's material before the first truth's solve
+    }
+  }
+  nlohmann::json timing;
+  const fem::ComplianceModel nominal = LoadNominalModel(options, &timing);
+  const std::optional<fem::ComplianceFamily> family = MakeFamily(options);
+  nlohmann::json points = nlohmann::json::array();
+  bool all_pass = true;
+  size_t point = 0;
+  for (double nu : grid.poisson_ratios) {
+    // One true model a Poisson's ratio, at the nominal E: at a fixed nu the stiffness is
+    // proportional to E, so the true displacements at E are exactly those at the nominal E
+    // times nominal_e / E.
+    EvalForceOptions reference = options;
+    reference.SetTrueMaterial({nominal_e, nu});
+    std::mt19937_64 rng(options.seed);
+    const ForceCases cases = MakeForceCases(reference, nominal.marker_positions, &rng);
+    nlohmann::json truth_timing = timing;
+    TrueResponses truth =
+        CalcTrueResponses(reference, nominal.marker_positions, cases, &truth_timing);
+    const Eigen::MatrixXd reference_clean = truth.clean;
+    for (double factor : grid.youngs_modulus_factors) {
+      const EvalForceOptions& point_option = point_options[point++];
+      truth.clean = reference_clean / factor;
+      truth.model["options"]["youngs_modulus_mpa"] = point_option.TrueMaterial().youngs_modulus_mpa;
+      truth.model["responses_scaled_from_youngs_modulus_mpa"] = nominal_e;
+      // The generator replays EvaluateForce's draws: the same cases, then the same noise.
+      std::mt19937_64 point_rng(options.seed);
+      MakeForceCases(point_option, nominal.marker_positions, &point_rng);
+      nlohmann::json result = EvaluateOnResponses(point_option, nominal,
+                                                  family ? &*family : nullptr, cases, truth,
+                                                  &point_rng, truth_timing);
+      result["true_youngs_modulus_mpa"] = factor * nominal_e;
+      result["true_poisson_ratio"] = nu;
+      all_pass = all_pass && result.at("all_pass").get<bool>();
+      points.push_back(std::move(result));
+    }
+  }
+  return {{"points", points}, {"all_pass", all_pass}};
 }
 
 }  // namespace tac3d

@@ -86,4 +86,24 @@ struct EvalForceOptions {
 /// @throws tac3d::Error if the options are invalid.
 nlohmann::json EvaluateForce(const EvalForceOptions& options);
 
+/// True materials to evaluate the inverse against (docs/force.md's material grid): every
+/// Young's modulus factor (times the nominal E) with every Poisson's ratio.
+struct MaterialGrid {
+  std::vector<double> youngs_modulus_factors = {0.8, 1.0, 1.2};
+  std::vector<double> poisson_ratios = {0.45, 0.48, 0.499};
+
+  /// @throws tac3d::Error on an empty list or a factor that is not > 0 and finite.
+  void Validate() const;
+};
+
+/// EvaluateForce at every point of the grid, with one true model a Poisson's ratio: at a fixed
+/// nu the FEM stiffness is proportional to E, so the true displacements at E are those at the
+/// nominal E scaled by nominal E / E (exact up to the solver's tolerance). Each point's presses,
+/// noise and result are those of EvaluateForce with SetTrueMaterial(E, nu) and the same seed.
+/// Returns {"points": [EvaluateForce's result with "true_youngs_modulus_mpa",
+/// "true_poisson_ratio"], "all_pass"}.
+/// @throws tac3d::Error if the options, the grid or a point's true material is invalid (before
+///   any solve).
+nlohmann::json EvaluateForceOverMaterials(const EvalForceOptions& options, const MaterialGrid& grid);
+
 }  // namespace tac3d

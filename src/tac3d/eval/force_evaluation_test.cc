@@ -71,5 +71,53 @@ TEST(EvalForceOptions, EveryBoundIsChecked) {
                Error);
 }
 
+// The grid's points reuse one true model a Poisson's ratio, its responses scaled by 1 / E: each
+// point must give what a run of its own gives. On a coarse mesh (refinement 0.25, the truth on
+// the same mesh) and three presses, so the check takes seconds.
+TEST(EvaluateForceOverMaterials, EachPointEqualsARunOfItsOwn) {
+  EvalForceOptions options;
+  options.body.refinement = 0.25;
+  options.truth_refinement = 1.0;
+  options.calibration_presses = 3;
+  options.test_presses = 3;
+  options.show_progress = false;
+  const MaterialGrid grid{.youngs_modulus_factors = {0.8, 1.2}, .poisson_ratios = {0.45}};
+  const nlohmann::json points = EvaluateForceOverMaterials(options, grid).at("points");
+  ASSERT_EQ(points.size(), 2u);
+  for (size_t k = 0; k < points.size(); ++k) {
+    EvalForceOptions own = options;
+    own.SetTrueMaterial({grid.youngs_modulus_factors[k] * options.body.material.youngs_modulus_mpa,
+                         0.45});
+    const nlohmann::json direct = EvaluateForce(own);
+    const nlohmann::json& point = points[k];
+    EXPECT_NEAR(point.at("true_youngs_modulus_mpa").get<double>(),
+                own.TrueMaterial().youngs_modulus_mpa, 1e-12);
+    EXPECT_EQ(point.at("presses").at("test").size(), 3u);
+    for (const char* key : {"resultant_error_max_pct_fs_xyz", "resultant_error_rms_pct_fs_xyz"}) {
+      for (int axis = 0; axis < 3; ++axis) {
+        EXPECT_NEAR(point.at(key)[axis].get<double>(), direct.at(key)[axis].get<double>(), 1e-6)
+            << key << " axis " << axis << " at E x " << grid.youngs_modulus_factors[k];
+      }
+    }
+    EXPECT_NEAR(point.at("probe_center_error_mm").get<double>(),
+                direct.at("probe_center_error_mm").get<double>(), 1e-6);
+    const double weight = direct.at("weight").at("weight").get<double>();
+    EXPECT_NEAR(point.at("weight").at("weight").get<double>(), weight, 1e-9 * weight);
+  }
+  // The two materials differ, so the scaling did something: E x 1.2 is not E x 0.8.
+  EXPECT_NE(points[0].at("resultant_error_max_pct_fs_xyz").dump(),
+            points[1].at("resultant_error_max_pct_fs_xyz").dump());
+}
+
+TEST(MaterialGrid, RefusesAnEmptyListAndABadFactor) {
+  EXPECT_NO_THROW(MaterialGrid{}.Validate());
+  EXPECT_THROW((MaterialGrid{.youngs_modulus_factors = {}}).Validate(), Error);
+  EXPECT_THROW((MaterialGrid{.poisson_ratios = {}}).Validate(), Error);
+  EXPECT_THROW((MaterialGrid{.youngs_modulus_factors = {1.0, -0.5}}).Validate(), Error);
+  // A point's material is checked before any solve: nu 0.6 is not a material.
+  EXPECT_THROW(EvaluateForceOverMaterials(EvalForceOptions{}, {.poisson_ratios = {0.48, 0.6}}),
+               Error);
+}
+
 }  // namespace
 }  // namespace tac3d
