@@ -68,6 +68,22 @@ TEST(Cli, CalibrateForceSaysWhatItNeedsBeforeAnyWork) {
   EXPECT_THAT(o.output, HasSubstr("excludes"));
 }
 
+TEST(Cli, RecordingPairsChecksItsOutputsBeforeReading) {
+  const std::string dir = testing::MakeTempDir("pairs");
+  Outcome o = RunCli(fmt::format("recording pairs {0}/none.t3r --reference {0}/none.csv", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("needs --pairs-out or --presses-out"));
+  o = RunCli(fmt::format(
+      "recording pairs {0}/none.t3r --reference {0}/none.csv --pairs-out {0}/missing/p.csv", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("the folder '" + dir + "/missing' does not exist"));
+  o = RunCli(fmt::format(
+      "recording pairs {0}/none.t3r --reference {0}/none.csv --pairs-out {0}/p.csv", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("none.csv"));
+  EXPECT_EQ(CountFiles(dir), 0);
+}
+
 TEST(Cli, DesignRefusesAThicknessBeyondTheLimit) {
   const Outcome o = RunCli("design --d 1e9 --out " + testing::MakeTempDir("d") + "/s.yaml");
   EXPECT_EQ(o.exit_code, 1);

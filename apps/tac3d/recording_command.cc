@@ -14,6 +14,8 @@
 #include "sensor_stream.h"
 #include "tac3d/io/recording_export.h"
 #include "tac3d/record/recording_info.h"
+#include "tac3d/reference_log/reference_log.h"
+#include "tac3d/util/file_io.h"
 #include "tac3d/util/error.h"
 
 namespace tac3d::cli {
@@ -130,6 +132,69 @@ void RunRecording(const RecordingRunArgs& args) {
   if (!end.failure.empty()) throw Error(end.failure);
 }
 
+struct PairsArgs {
+  std::string path;
+  std::string reference;
+  std::string pairs_out;
+  std::string presses_out;
+  std::vector<double> time_offset;
+  std::vector<double> gains_used;
+  ReferenceJoinOptions options;
+  bool json = false;
+};
+
+// `tac3d recording pairs`: the recording joined with a reference force sensor's log into the
+// CSV files `tac3d calibrate-force --pairs / --presses` read.
+void Pairs(const PairsArgs& args) {
+  if (args.pairs_out.empty() && args.presses_out.empty()) {
+    throw Error("recording pairs needs --pairs-out or --presses-out (or both)");
+  }
+  for (const std::string& out : {args.pairs_out, args.presses_out}) {
+    if (!out.empty()) CheckOutputFile(out, "calibration CSV", {".csv"});
+  }
+  ReferenceJoinOptions options = args.options;
+  if (!args.time_offset.empty()) options.time_offset_s = args.time_offset[0];
+  if (!args.gains_used.empty()) {
+    options.gains_used = Eigen::Vector3d(args.gains_used[0], args.gains_used[1], args.gains_used[2]);
+  }
+  const ReferenceJoin join =
+      JoinRecordingWithReference(args.path, LoadReferenceLog(args.reference), options);
+  if (static_cast<int>(join.pairs.size()) < kMinForcePairs) {
+    throw Error(fmt::format(
+        "{} steady press frame(s) of {} (skipped: {} outside the log, {} under {} N, {} changing "
+        "faster than {} N/s, {} flagged, {} with a marker lost): calibrate-force needs at least {}",
+        join.pairs.size(), join.frames, join.skipped.outside_reference, join.skipped.below_force,
+        options.min_force_n, join.skipped.changing, options.max_rate_n_per_s, join.skipped.flagged,
+        join.skipped.invalid_markers, kMinForcePairs));
+  }
+  if (!args.pairs_out.empty()) WriteTextFileAtomically(args.pairs_out, ForcePairsToCsv(join.pairs));
+  if (!args.presses_out.empty()) {
+    WriteTextFileAtomically(args.presses_out, CalibrationPressesToCsv(join.presses));
+  }
+  if (args.json) {
+    std::printf("%s\n", ToJson(join).dump(2).c_str());
+    return;
+  }
+  std::printf(
+      "offset %.4f s (%s; recording time = reference time + offset), force magnitudes correlate "
+      "%.4f\n%zu steady press frames of %lld; skipped: %lld outside the log, %lld under %g N, "
+      "%lld changing faster than %g N/s, %lld flagged, %lld with a marker lost\n",
+      join.time_offset_s, join.offset_estimated ? "estimated" : "given", join.correlation,
+      join.pairs.size(), static_cast<long long>(join.frames),
+      static_cast<long long>(join.skipped.outside_reference),
+      static_cast<long long>(join.skipped.below_force), options.min_force_n,
+      static_cast<long long>(join.skipped.changing), options.max_rate_n_per_s,
+      static_cast<long long>(join.skipped.flagged),
+      static_cast<long long>(join.skipped.invalid_markers));
+  if (join.recording_status != "complete") {
+    std::fprintf(stderr, "tac3d: warning: the recording ends %s: %s (its earlier frames used)\n",
+                 join.recording_status.c_str(), join.recording_message.c_str());
+  }
+  for (const std::string& out : {args.pairs_out, args.presses_out}) {
+    if (!out.empty()) std::printf("wrote %s\n", out.c_str());
+  }
+}
+
 void RegisterRecording(CLI::App& app) {
   CLI::App* recording =
       app.add_subcommand("recording",
@@ -156,6 +221,37 @@ void RegisterRecording(CLI::App& app) {
       ->capture_default_str();
   export_cmd->add_flag("--overwrite", ex->overwrite, "replace files already in the output folder");
   export_cmd->callback([ex] { Export(*ex); });
+
+  auto pairs = std::make_shared<PairsArgs>();
+  CLI::App* pairs_cmd = recording->add_subcommand(
+      "pairs",
+      "Join a recording with a reference force sensor's log (CSV t_s,fx_n,fy_n,fz_n, sensor "
+      "frame) into the force pairs and presses tac3d calibrate-force fits (docs/calibrating-a-sensor.md)");
+  pairs_cmd->add_option("FILE", pairs->path, "the recording")->required();
+  pairs_cmd->add_option("--reference", pairs->reference, "the reference log CSV")->required();
+  pairs_cmd->add_option("--pairs-out", pairs->pairs_out, "write force pairs (calibrate-force --pairs)");
+  pairs_cmd->add_option("--presses-out", pairs->presses_out,
+                        "write presses with displacements (calibrate-force --presses)");
+  pairs_cmd->add_option("--time-offset", pairs->time_offset,
+                        "recording time = reference time + this (s); default: estimated")
+      ->expected(1);
+  pairs_cmd->add_option("--max-offset", pairs->options.max_offset_s,
+                        "the estimate's search range, +- (s)")
+      ->capture_default_str();
+  pairs_cmd->add_option("--min-correlation", pairs->options.min_correlation,
+                        "the least correlation of the force magnitudes the estimate accepts")
+      ->capture_default_str();
+  pairs_cmd->add_option("--min-force", pairs->options.min_force_n,
+                        "a frame is a press when the reference reads at least this (N)")
+      ->capture_default_str();
+  pairs_cmd->add_option("--max-rate", pairs->options.max_rate_n_per_s,
+                        "... and changes no faster than this (N/s)")
+      ->capture_default_str();
+  pairs_cmd->add_option("--gains-used", pairs->gains_used,
+                        "the gains the recording was made with (tac3d run --gains); default 1 1 1")
+      ->expected(3);
+  pairs_cmd->add_flag("--json", pairs->json, "print JSON");
+  pairs_cmd->callback([pairs] { Pairs(*pairs); });
 }
 
 }  // namespace tac3d::cli
