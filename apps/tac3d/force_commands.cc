@@ -78,6 +78,13 @@ void RegisterEvalForce(CLI::App& eval) {
   cmd->add_flag("--calibrate-material",
                 o.calibrate_material,
                 "fit E and nu as well as the gains on the calibration presses (docs/force.md)");
+  cmd->add_flag("--with-contact-centers",
+                o.material_contact_centers,
+                "with --calibrate-material: the presses' centres join the fit");
+  cmd->add_option("--location-weight",
+                  o.material.location_weight_n_per_mm,
+                  "with --with-contact-centers: N of resultant error a 1 mm centre error weighs")
+      ->capture_default_str();
   cmd->add_option("--poisson-nodes",
                   o.poisson_nodes,
                   "nu at which H is built for --calibrate-material (interpolated between)")
@@ -190,6 +197,11 @@ void RegisterCalibrateForce(CLI::App& app) {
       args->noise_mm,
       "with --presses: displacement noise, 1 sigma (mm), for the discrepancy principle");
   cmd->add_option("--weight", args->weight, "with --presses: a given w instead, (mm/N)^2");
+  cmd->add_option("--location-weight",
+                  args->material.location_weight_n_per_mm,
+                  "with --presses carrying centres (cx_mm, cy_mm): N of resultant error a 1 mm "
+                  "centre error weighs (0 ignores them)")
+      ->capture_default_str();
   cmd->add_option("--max-poisson-error",
                   args->material.max_poisson_error,
                   "with --presses: refuse the fit if nu is less certain than this")

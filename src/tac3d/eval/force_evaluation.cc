@@ -168,7 +168,8 @@ nlohmann::json CalibrateMaterialOnPresses(const EvalForceOptions& options,
       MeasureResultantErrors(*reconstructor, test.frames, test.loads, test.full_scale_n);
   std::vector<CalibrationPress> presses;
   for (size_t k = 0; k < calibration.size(); ++k) {
-    presses.push_back({frames[k], calibration[k][0].force_n});
+    CalibrationPress& press = presses.emplace_back(CalibrationPress{frames[k], calibration[k][0].force_n});
+    if (options.material_contact_centers) press.contact_center_mm = calibration[k][0].center_mm;
   }
   MaterialCalibrationOptions material_options = options.material;
   material_options.weight = options.weight;

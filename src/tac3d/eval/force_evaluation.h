@@ -53,6 +53,9 @@ struct EvalForceOptions {
   /// inverse's, with the gains-only ones reported beside them. False: the gains alone.
   bool calibrate_material = false;
   std::vector<double> poisson_nodes = {0.40, 0.45, 0.48, 0.499};
+  /// With calibrate_material: give the fit each calibration press' centre as well (the twin
+  /// knows it; MaterialCalibrationOptions::location_weight_n_per_mm).
+  bool material_contact_centers = false;
   /// Its weight and support_refinement are the evaluation's own (`weight`, `support_refinement`).
   MaterialCalibrationOptions material;
   std::uint64_t seed = 20221122;

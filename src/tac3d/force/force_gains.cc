@@ -1,5 +1,6 @@
 #include "tac3d/force/force_gains.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "tac3d/util/error.h"
@@ -31,11 +32,21 @@ std::vector<ForcePair> LoadForcePairs(const std::string& path) {
 std::vector<CalibrationPress> ParseCalibrationPresses(const std::string& csv_text,
                                                       int num_markers,
                                                       const std::string& source) {
+  const size_t size = 3 * static_cast<size_t>(num_markers);
+  size_t layout = 0;
+  const std::vector<std::vector<double>> rows =
+      ParseNumberCsv(csv_text, source,
+                     {{kCalibrationPressCsvHeader, 3 + size},
+                      {kCalibrationPressWithCenterCsvHeader, 5 + size}},
+                     &layout);
+  const bool with_center = layout == 1;
   std::vector<CalibrationPress> presses;
-  for (const std::vector<double>& row :
-       ParseNumberCsv(csv_text, source, kCalibrationPressCsvHeader, 3 + 3 * num_markers)) {
-    presses.push_back({Eigen::Map<const Eigen::VectorXd>(row.data() + 3, 3 * num_markers),
-                       Eigen::Vector3d(row[0], row[1], row[2])});
+  for (const std::vector<double>& row : rows) {
+    CalibrationPress& press = presses.emplace_back();
+    press.reference_n = Eigen::Vector3d(row[0], row[1], row[2]);
+    if (with_center) press.contact_center_mm = Eigen::Vector2d(row[3], row[4]);
+    press.displacement_mm = Eigen::Map<const Eigen::VectorXd>(row.data() + (with_center ? 5 : 3),
+                                                              static_cast<Eigen::Index>(size));
   }
   return presses;
 }
@@ -45,12 +56,25 @@ std::vector<CalibrationPress> LoadCalibrationPresses(const std::string& path, in
 }
 
 std::string CalibrationPressesToCsv(const std::vector<CalibrationPress>& presses) {
-  std::string csv = std::string(kCalibrationPressCsvHeader) + "\n";
+  const auto centers = std::count_if(presses.begin(), presses.end(), [](const CalibrationPress& p) {
+    return p.contact_center_mm.has_value();
+  });
+  if (centers != 0 && centers != static_cast<std::ptrdiff_t>(presses.size())) {
+    throw Error(fmt::format("CalibrationPressesToCsv: {} of {} presses have a contact centre; a "
+                            "file holds them for every press or for none",
+                            centers, presses.size()));
+  }
+  std::string csv = std::string(centers != 0 ? kCalibrationPressWithCenterCsvHeader
+                                             : kCalibrationPressCsvHeader) +
+                    "\n";
   for (const CalibrationPress& press : presses) {
     csv += fmt::format("{:.17g},{:.17g},{:.17g}",
                        press.reference_n.x(),
                        press.reference_n.y(),
                        press.reference_n.z());
+    if (press.contact_center_mm) {
+      csv += fmt::format(",{:.17g},{:.17g}", press.contact_center_mm->x(), press.contact_center_mm->y());
+    }
     for (double d : press.displacement_mm) csv += fmt::format(",{:.17g}", d);
     csv += "\n";
   }

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -42,14 +43,21 @@ struct CalibrationPress {
   Eigen::VectorXd displacement_mm;
   /// The reference force (N), sensor frame.
   Eigen::Vector3d reference_n = Eigen::Vector3d::Zero();
+  /// Where the load was centred (x, y in the sensor frame, mm; the probe's axis), when known
+  /// (the twin, or a rig that positions the probe): material calibration then fits it too.
+  std::optional<Eigen::Vector2d> contact_center_mm;
 };
 
 /// The header line of a calibration-press CSV file: the reference force, then the 3N
 /// displacements (dx^1..dx^N, dy^1..dy^N, dz^1..dz^N, mm) on the same line.
 inline constexpr const char* kCalibrationPressCsvHeader = "fx_ref,fy_ref,fz_ref,displacements_mm";
+/// The same with each press's contact centre (mm) between the force and the displacements.
+inline constexpr const char* kCalibrationPressWithCenterCsvHeader =
+    "fx_ref,fy_ref,fz_ref,cx_mm,cy_mm,displacements_mm";
 
 /// Parses a calibration-press CSV: the header kCalibrationPressCsvHeader, then one press a
-/// line, 3 + 3 num_markers finite numbers; blank and '#' lines skipped, spaces allowed.
+/// line, 3 + 3 num_markers finite numbers; or kCalibrationPressWithCenterCsvHeader and
+/// 5 + 3 num_markers numbers a line. Blank and '#' lines skipped, spaces allowed.
 /// @throws tac3d::Error as ParseForcePairs (every malformed line as "source:line: what").
 std::vector<CalibrationPress> ParseCalibrationPresses(const std::string& csv_text,
                                                       int num_markers,
@@ -58,7 +66,9 @@ std::vector<CalibrationPress> ParseCalibrationPresses(const std::string& csv_tex
 /// Reads a calibration-press CSV file (ParseCalibrationPresses).
 std::vector<CalibrationPress> LoadCalibrationPresses(const std::string& path, int num_markers);
 
-/// Writes presses in the format ParseCalibrationPresses reads (17 significant digits).
+/// Writes presses in the format ParseCalibrationPresses reads (17 significant digits), with the
+/// contact centres when every press has one.
+/// @throws tac3d::Error if some presses have a centre and others not.
 std::string CalibrationPressesToCsv(const std::vector<CalibrationPress>& presses);
 
 /// The fewest pairs FitForceGains accepts: one gain an axis fitted on one or two pairs fits

@@ -142,6 +142,26 @@ TEST(CalibrationPressCsv, RoundTripsExactly) {
   }
 }
 
+TEST(CalibrationPressCsv, RoundTripsTheContactCentres) {
+  std::vector<CalibrationPress> presses = {
+      {Eigen::VectorXd::LinSpaced(6, -0.1, 0.35), Eigen::Vector3d(0.1, -0.2, -4.9),
+       Eigen::Vector2d(1.0 / 3.0, -2.5)},
+      {Eigen::VectorXd::Constant(6, 1e-5), Eigen::Vector3d(0, 0, -1), Eigen::Vector2d(0, 0)}};
+  const std::string csv = CalibrationPressesToCsv(presses);
+  EXPECT_EQ(csv.substr(0, csv.find('\n')), kCalibrationPressWithCenterCsvHeader);
+  const std::vector<CalibrationPress> parsed = ParseCalibrationPresses(csv, 2);
+  ASSERT_EQ(parsed.size(), 2u);
+  for (size_t k = 0; k < presses.size(); ++k) {
+    EXPECT_TRUE(parsed[k].displacement_mm == presses[k].displacement_mm);
+    EXPECT_TRUE(parsed[k].reference_n == presses[k].reference_n);
+    ASSERT_TRUE(parsed[k].contact_center_mm.has_value());
+    EXPECT_TRUE(*parsed[k].contact_center_mm == *presses[k].contact_center_mm);
+  }
+  // A centre for some presses only cannot be written.
+  presses[1].contact_center_mm.reset();
+  EXPECT_THROW(CalibrationPressesToCsv(presses), Error);
+}
+
 TEST(CalibrationPressCsv, AWrongMarkerCountIsReportedPerLine) {
   const std::string text =
       std::string(kCalibrationPressCsvHeader) + "\n0,0,-1,1,2,3,4,5,6\n0,0,-1,1,2,3\n";

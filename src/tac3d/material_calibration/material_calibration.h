@@ -31,9 +31,15 @@ struct MaterialCalibrationOptions {
   /// The largest bound on nu's error accepted (default 0.005: on the default sensor nu off by
   /// 0.048 gave a resultant error of 9.2% FS, so 0.005 costs about 1% FS, half of the 2% budget).
   double max_poisson_error = 0.005;
+  /// How much a press' contact centre counts, where the press has one: a centre error of 1 mm
+  /// weighs as a resultant error of this many newtons in the residual nu minimises. The centre
+  /// the inverse finds is the centroid of its compressive normal marker forces; it does not
+  /// depend on E. 0 ignores the centres.
+  double location_weight_n_per_mm = 0.1;
 
   /// @throws tac3d::Error naming the field: the weight options; poisson_tolerance in
-  ///   (0, 0.05]; model_relative_error >= 0; max_poisson_error > 0.
+  ///   (0, 0.05]; model_relative_error >= 0; max_poisson_error > 0; location_weight_n_per_mm
+  ///   >= 0 and finite.
   void Validate() const;
 };
 
@@ -44,6 +50,9 @@ struct MaterialCandidate {
   double youngs_modulus_mpa = 0.0;
   /// RMS over presses and axes of reference - resultant (N), unit gains.
   double residual_rms_n = 0.0;
+  /// RMS over the presses with a contact centre of its distance to the centre the inverse
+  /// finds (mm); 0 without centres.
+  double location_residual_rms_mm = 0.0;
 };
 
 /// The fitted material and the gains left on top of it.
@@ -52,6 +61,10 @@ struct MaterialCalibration {
   /// RMS of reference - resultant over presses and axes with the fitted material and unit
   /// gains (N): what the material alone explains.
   double residual_rms_n = 0.0;
+  /// The contact centres' RMS error with the fitted material (mm), over the presses that
+  /// have one (num_located_presses); 0 when none has.
+  double location_residual_rms_mm = 0.0;
+  int num_located_presses = 0;
   /// |d resultants / d nu| with the part a change of E can mimic removed, over |references|
   /// (per unit nu): how strongly the presses see nu.
   double poisson_sensitivity = 0.0;
@@ -77,7 +90,9 @@ nlohmann::json ToJson(const MaterialCalibration& calibration);
 /// presses (docs/force.md, "Material calibration"). For each candidate nu the inverse is built
 /// on the family's H (w chosen on the presses) and the resultants m_k(nu) computed; since H
 /// scales as 1 / E exactly, E is the least-squares scale of m onto the references in closed
-/// form, and nu minimises the remaining residual (the family's nodes, then golden section).
+/// form, and nu minimises the remaining residual (the family's nodes, then golden section),
+/// to which the presses' contact centres add, where given, their distance to the centres the
+/// inverse finds (weighted by options.location_weight_n_per_mm).
 /// nu is accepted only if the presses determine it: its effect on the resultants that a change
 /// of E cannot mimic must be large enough that the model error and the residual noise move nu
 /// by at most options.max_poisson_error. Normal presses fail this: nu changes a normal press'

@@ -49,6 +49,17 @@ std::vector<std::vector<double>> ParseNumberCsv(const std::string& csv_text,
                                                 const std::string& source,
                                                 const std::string& expected_header,
                                                 std::size_t num_fields) {
+  return ParseNumberCsv(csv_text, source, {{expected_header, num_fields}}, nullptr);
+}
+
+std::vector<std::vector<double>> ParseNumberCsv(const std::string& csv_text,
+                                                const std::string& source,
+                                                const std::vector<NumberCsvLayout>& layouts,
+                                                std::size_t* layout_index) {
+  TAC3D_DEMAND(!layouts.empty());
+  std::string expected = "'" + layouts[0].header + "'";
+  for (size_t k = 1; k < layouts.size(); ++k) expected += " or '" + layouts[k].header + "'";
+  std::size_t num_fields = 0;
   std::stringstream stream(csv_text);
   std::vector<std::vector<double>> rows;
   std::vector<std::string> errors;
@@ -63,13 +74,14 @@ std::vector<std::vector<double>> ParseNumberCsv(const std::string& csv_text,
       for (char c : line) {
         if (c != ' ' && c != '\t') header += c;
       }
-      if (header != expected_header) {
-        throw Error(fmt::format("{}:{}: expected the header '{}', got '{}'",
-                                source,
-                                line_number,
-                                expected_header,
-                                line));
+      const auto match = std::find_if(layouts.begin(), layouts.end(),
+                                      [&](const NumberCsvLayout& l) { return l.header == header; });
+      if (match == layouts.end()) {
+        throw Error(
+            fmt::format("{}:{}: expected the header {}, got '{}'", source, line_number, expected, line));
       }
+      num_fields = match->num_fields;
+      if (layout_index != nullptr) *layout_index = static_cast<std::size_t>(match - layouts.begin());
       have_header = true;
       continue;
     }
@@ -81,7 +93,7 @@ std::vector<std::vector<double>> ParseNumberCsv(const std::string& csv_text,
       errors.push_back(fmt::format("{}:{}: {}", source, line_number, error));
     }
   }
-  if (!have_header) throw Error(fmt::format("{}: no header line '{}'", source, expected_header));
+  if (!have_header) throw Error(fmt::format("{}: no header line {}", source, expected));
   if (!errors.empty()) {
     std::string message = fmt::format("{}: {} malformed line(s):", source, errors.size());
     for (int k = 0; k < std::min<int>(kMaxListedErrors, errors.size()); ++k) {

@@ -18,4 +18,18 @@ std::vector<std::vector<double>> ParseNumberCsv(const std::string& csv_text,
                                                 const std::string& expected_header,
                                                 std::size_t num_fields);
 
+/// One header a CSV may start with, and the number of fields its rows have.
+struct NumberCsvLayout {
+  std::string header;
+  std::size_t num_fields = 0;
+};
+
+/// ParseNumberCsv for a file that may start with any of `layouts`' headers; the rows have the
+/// matched layout's field count.
+/// @param layout_index set to the index of the matched layout (may be null).
+std::vector<std::vector<double>> ParseNumberCsv(const std::string& csv_text,
+                                                const std::string& source,
+                                                const std::vector<NumberCsvLayout>& layouts,
+                                                std::size_t* layout_index);
+
 }  // namespace tac3d
