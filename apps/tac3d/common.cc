@@ -9,6 +9,7 @@
 #include "commands.h"
 #include "tac3d/design/light_path_design.h"
 #include "tac3d/util/error.h"
+#include "tac3d/util/eval_check.h"
 
 namespace tac3d::cli {
 
@@ -25,9 +26,7 @@ std::string DefaultCacheDir() {
 
 void PrintChecks(const nlohmann::json& checks) {
   for (const nlohmann::json& check : checks) {
-    std::printf("%-4s %-26s %.4g %s (tolerance %.4g)\n", check.at("pass").get<bool>() ? "ok" : "FAIL",
-                check.at("name").get<std::string>().c_str(), check.at("value").get<double>(),
-                check.at("unit").get<std::string>().c_str(), check.at("tolerance").get<double>());
+    std::printf("%s\n", EvalCheckFromJson(check).Format().c_str());
   }
 }
 

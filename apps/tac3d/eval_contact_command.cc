@@ -30,11 +30,7 @@ void RegisterEvalContact(CLI::App& eval) {
       std::printf("%s\n", j.dump(2).c_str());
       return;
     }
-    for (const nlohmann::json& check : j.at("checks")) {
-      std::printf("%-4s %-36s %s (tolerance %s)\n", check.at("pass").get<bool>() ? "ok" : "FAIL",
-                  check.at("name").get<std::string>().c_str(), check.at("value").dump().c_str(),
-                  check.at("tolerance").dump().c_str());
-    }
+    PrintChecks(j.at("checks"));
     std::printf("all pass: %s\n", j.at("all_pass").get<bool>() ? "yes" : "no");
   });
 }

@@ -152,14 +152,7 @@ void RegisterEvalFriction(CLI::App& eval) {
     }
     for (const FrictionEvaluation& e : results) std::printf("%s\n", e.BriefReport().c_str());
     std::printf("%s\n", overall.BriefReport().c_str());
-    for (const nlohmann::json& c : report["overall"]["checks"]) {
-      std::printf("%-4s %-18s %s (%s %.4g)\n",
-                  c.at("pass").get<bool>() ? "ok" : "FAIL",
-                  c.at("name").get<std::string>().c_str(),
-                  c.at("value").dump().c_str(),
-                  c.at("bound").get<std::string>() == "max" ? "<=" : ">=",
-                  c.at("tolerance").get<double>());
-    }
+    PrintChecks(report["overall"]["checks"]);
     std::printf(
         "wrote %s/report.json and %s/<scene>/{map.ply,map.png,slip_points.csv,evaluation.json}\n",
         args->out.c_str(),

@@ -62,11 +62,7 @@ void RegisterEvalFem(CLI::App& eval) {
       std::printf("%s\n", j.dump(2).c_str());
       return;
     }
-    for (const nlohmann::json& check : j.at("checks")) {
-      std::printf("%-4s %-52s %.3g (tolerance %.3g)\n", check.at("pass").get<bool>() ? "ok" : "FAIL",
-                  check.at("name").get<std::string>().c_str(), check.at("value").get<double>(),
-                  check.at("tolerance").get<double>());
-    }
+    PrintChecks(j.at("checks"));
     std::printf("model: %s\nall pass: %s\n", j.at("model").dump().c_str(),
                 j.at("all_pass").get<bool>() ? "yes" : "no");
   });

@@ -5,6 +5,7 @@
 
 #include "tac3d/contact/indenter.h"
 #include "tac3d/util/error.h"
+#include "tac3d/util/eval_check.h"
 
 namespace tac3d::contact {
 namespace {
@@ -47,13 +48,9 @@ double EquivalentRadius(const SurfaceGrid& grid, int n, Pred in) {
 class Checks {
  public:
   void Add(const std::string& name, double value, double tolerance, const std::string& unit) {
-    const bool pass = value <= tolerance;
-    all_pass_ = all_pass_ && pass;
-    checks_.push_back({{"name", name},
-                       {"value", value},
-                       {"tolerance", tolerance},
-                       {"unit", unit},
-                       {"pass", pass}});
+    const EvalCheck check = EvalCheck::AtMost(name, value, tolerance, unit);
+    all_pass_ = all_pass_ && check.pass;
+    checks_.push_back(ToJson(check));
   }
   nlohmann::json json() const { return checks_; }
   bool all_pass() const { return all_pass_; }

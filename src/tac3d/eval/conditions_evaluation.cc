@@ -7,6 +7,7 @@
 #include "tac3d/calib/virtual_stereo_calibration.h"
 #include "tac3d/twin/calibration_set.h"
 #include "tac3d/util/error.h"
+#include "tac3d/util/eval_check.h"
 
 namespace tac3d {
 namespace {
@@ -127,13 +128,10 @@ nlohmann::json ToJson(const ConditionsEvaluation& evaluation,
   bool all_pass = !evaluation.cases.empty();
   for (const ConditionsCase& c : evaluation.cases) {
     nlohmann::json summary = ToJson(c.summary, options.replay);
-    const bool displacement_pass =
-        c.summary.displacement_rmse_mm <= options.max_displacement_rmse_mm;
-    summary["checks"].push_back({{"name", "displacement_rmse"},
-                                 {"value", c.summary.displacement_rmse_mm},
-                                 {"unit", "mm"},
-                                 {"tolerance", options.max_displacement_rmse_mm},
-                                 {"pass", displacement_pass}});
+    const EvalCheck displacement = EvalCheck::AtMost(
+        "displacement_rmse", c.summary.displacement_rmse_mm, options.max_displacement_rmse_mm, "mm");
+    const bool displacement_pass = displacement.pass;
+    summary["checks"].push_back(ToJson(displacement));
     summary["all_pass"] = summary["all_pass"].get<bool>() && displacement_pass;
     all_pass = all_pass && summary["all_pass"].get<bool>();
     cases.push_back({{"name", c.name}, {"spread", c.spread}, {"replay", summary}});

@@ -11,6 +11,7 @@
 #include "tac3d/force/force_gains.h"
 #include "tac3d/force/force_reconstructor.h"
 #include "tac3d/util/error.h"
+#include "tac3d/util/eval_check.h"
 #include "tac3d/util/progress.h"
 
 namespace tac3d {
@@ -168,7 +169,9 @@ nlohmann::json CalibrateMaterialOnPresses(const EvalForceOptions& options,
       MeasureResultantErrors(*reconstructor, test.frames, test.loads, test.full_scale_n);
   std::vector<CalibrationPress> presses;
   for (size_t k = 0; k < calibration.size(); ++k) {
-    CalibrationPress& press = presses.emplace_back(CalibrationPress{frames[k], calibration[k][0].force_n});
+    CalibrationPress& press = presses.emplace_back();
+    press.displacement_mm = frames[k];
+    press.reference_n = calibration[k][0].force_n;
     if (options.material_contact_centers) press.contact_center_mm = calibration[k][0].center_mm;
   }
   MaterialCalibrationOptions material_options = options.material;
@@ -190,13 +193,8 @@ nlohmann::json CalibrateMaterialOnPresses(const EvalForceOptions& options,
           {"gains_only_gains", ToJson(gains_only_fit)}};
 }
 
-// A check of the result: {name, value, tolerance, pass, unit}.
 nlohmann::json Check(const std::string& name, double value, double tolerance, const char* unit) {
-  return {{"name", name},
-          {"value", value},
-          {"tolerance", tolerance},
-          {"pass", value <= tolerance},
-          {"unit", unit}};
+  return ToJson(EvalCheck::AtMost(name, value, tolerance, unit));
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 
 #include "tac3d/scene/scene.h"
 #include "tac3d/util/error.h"
+#include "tac3d/util/eval_check.h"
 
 namespace tac3d {
 
@@ -216,13 +217,13 @@ nlohmann::json ToJson(const ReplaySummary& s, const ReplayOptions& options) {
   nlohmann::json checks = nlohmann::json::array();
   bool all_pass = s.loaded_frames > 0;
   for (int axis = 0; axis < 3; ++axis) {
-    const bool pass = s.loaded_frames > 0 && s.force_error_max_pct_fs[axis] <= options.max_force_error_pct_fs;
-    all_pass = all_pass && pass;
-    checks.push_back({{"name", fmt::format("resultant_f{}_max_error", "xyz"[axis])},
-                      {"value", s.force_error_max_pct_fs[axis]},
-                      {"unit", "% FS"},
-                      {"tolerance", options.max_force_error_pct_fs},
-                      {"pass", pass}});
+    EvalCheck check = EvalCheck::AtMost(fmt::format("resultant_f{}_max_error", "xyz"[axis]),
+                                        s.force_error_max_pct_fs[axis],
+                                        options.max_force_error_pct_fs,
+                                        "% FS");
+    check.pass = check.pass && s.loaded_frames > 0;  // no loaded frame: nothing was measured
+    all_pass = all_pass && check.pass;
+    checks.push_back(ToJson(check));
   }
   return {{"steps", s.steps},
           {"frames", s.frames},

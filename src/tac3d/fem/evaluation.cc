@@ -10,6 +10,7 @@
 #include "tac3d/fem/elastic_solver.h"
 #include "tac3d/fem/hex_mesh.h"
 #include "tac3d/util/error.h"
+#include "tac3d/util/eval_check.h"
 
 namespace tac3d::fem {
 namespace {
@@ -84,17 +85,12 @@ std::vector<double> FineThenGraded(double h, double fine, double length, double 
 }
 
 nlohmann::json Check(const std::string& name, double value, double tolerance) {
-  return {{"name", name}, {"value", value}, {"tolerance", tolerance}, {"pass", value <= tolerance}};
+  return ToJson(EvalCheck::AtMost(name, value, tolerance));
 }
 
 void Report(const EvalFemOptions& options, const nlohmann::json& check) {
   if (!options.show_progress) return;
-  std::fprintf(stderr,
-               "fem eval: %-48s %.3e (tolerance %.0e) %s\n",
-               check.at("name").get<std::string>().c_str(),
-               check.at("value").get<double>(),
-               check.at("tolerance").get<double>(),
-               check.at("pass").get<bool>() ? "pass" : "FAIL");
+  std::fprintf(stderr, "fem eval: %s\n", EvalCheckFromJson(check).Format().c_str());
 }
 
 }  // namespace

@@ -15,6 +15,7 @@
 #include "tac3d/friction/friction_output.h"
 #include "tac3d/scene/scene.h"
 #include "tac3d/util/error.h"
+#include "tac3d/util/eval_check.h"
 
 namespace tac3d {
 namespace {
@@ -441,17 +442,16 @@ nlohmann::json ToJson(const FrictionEvaluation& e, const FrictionTargets& target
   bool all_pass = true;
   const auto check =
       [&](const char* name, double value, const char* unit, double tolerance, bool at_most) {
-        const bool pass =
-            std::isfinite(value) && (at_most ? value <= tolerance : value >= tolerance);
         // A scene without a material boundary has no boundary figure: not a failure.
         const bool skip = std::string(name) == "boundary_error_mm" && e.boundary_levels.empty();
-        if (!skip) all_pass = all_pass && pass;
-        checks.push_back({{"name", name},
-                          {"value", num(value)},
-                          {"unit", unit},
-                          {"tolerance", tolerance},
-                          {"bound", at_most ? "max" : "min"},
-                          {"pass", skip || pass}});
+        const EvalCheck result =
+            skip ? EvalCheck::NotApplicable(
+                       name, tolerance,
+                       at_most ? EvalCheck::Bound::kAtMost : EvalCheck::Bound::kAtLeast, unit)
+            : at_most ? EvalCheck::AtMost(name, value, tolerance, unit)
+                      : EvalCheck::AtLeast(name, value, tolerance, unit);
+        all_pass = all_pass && result.pass;
+        checks.push_back(ToJson(result));
       };
   check("mu_mae", e.mu_mae, "", targets.mu_mae, true);
   check("band_agreement", e.band_agreement, "", targets.band_agreement, false);
