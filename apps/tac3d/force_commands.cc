@@ -17,21 +17,24 @@ namespace {
 
 // One line a true material: the resultant error (max % FS per axis) after the fit, and with
 // --calibrate-material the fitted material and the gains-only figure beside it.
-void PrintMaterialGrid(const nlohmann::json& grid) {
-  for (const nlohmann::json& point : grid.at("points")) {
-    std::printf("true E %.4g MPa, nu %.4f: resultant error max x y z %s %% FS",
-                point.at("true_youngs_modulus_mpa").get<double>(),
-                point.at("true_poisson_ratio").get<double>(),
-                point.at("resultant_error_max_pct_fs_xyz").dump().c_str());
-    if (point.contains("material_calibration")) {
-      const nlohmann::json& m = point.at("material_calibration");
-      std::printf("; %s; gains only %s %% FS",
-                  m.at("fit").at("message").get<std::string>().c_str(),
-                  m.at("gains_only_resultant_error_max_pct_fs_xyz").dump().c_str());
+void PrintMaterialGrid(const std::vector<ForceEvaluation>& points) {
+  const auto xyz = [](const Eigen::Vector3d& v) {
+    return fmt::format("{:.2f} / {:.2f} / {:.2f}", v.x(), v.y(), v.z());
+  };
+  bool all_pass = true;
+  for (const ForceEvaluation& point : points) {
+    std::string line = fmt::format("true E {:.4g} MPa, nu {:.4f}: resultant error max {} % FS",
+                                   point.true_material.youngs_modulus_mpa,
+                                   point.true_material.poisson_ratio,
+                                   xyz(point.resultant_error_max_pct_fs));
+    if (point.material) {
+      line += fmt::format("; {}; gains only {} % FS", point.material->fit.message,
+                          xyz(point.material->gains_only_max_pct_fs));
     }
-    std::printf("; all checks %s\n", point.at("all_pass").get<bool>() ? "pass" : "FAIL");
+    std::printf("%s; all checks %s\n", line.c_str(), point.all_pass ? "pass" : "FAIL");
+    all_pass = all_pass && point.all_pass;
   }
-  std::printf("all pass: %s\n", grid.at("all_pass").get<bool>() ? "yes" : "no");
+  std::printf("all pass: %s\n", all_pass ? "yes" : "no");
 }
 
 }  // namespace
@@ -111,36 +114,22 @@ void RegisterEvalForce(CLI::App& eval) {
     options.show_progress = !args->model.json;
     MakeDirectory(options.cache_dir);
     if (args->material_grid) {
-      const nlohmann::json grid = EvaluateForceOverMaterials(options, args->grid);
+      const std::vector<ForceEvaluation> points = EvaluateForceOverMaterials(options, args->grid);
       if (args->model.json) {
-        std::printf("%s\n", grid.dump(2).c_str());
+        nlohmann::json json = nlohmann::json::array();
+        for (const ForceEvaluation& point : points) json.push_back(ToJson(point));
+        std::printf("%s\n", json.dump(2).c_str());
       } else {
-        PrintMaterialGrid(grid);
+        PrintMaterialGrid(points);
       }
       return;
     }
-    nlohmann::json j = EvaluateForce(options);
+    const ForceEvaluation evaluation = EvaluateForce(options);
     if (args->model.json) {
-      std::printf("%s\n", j.dump(2).c_str());
-      return;
+      std::printf("%s\n", ToJson(evaluation).dump(2).c_str());
+    } else {
+      std::printf("%s", evaluation.Report().c_str());
     }
-    PrintChecks(j.at("checks"));
-    std::printf("resultant error, %% of full scale, max x y z: %s, rms x y z: %s\n",
-                j.at("resultant_error_max_pct_fs_xyz").dump().c_str(),
-                j.at("resultant_error_rms_pct_fs_xyz").dump().c_str());
-    if (j.contains("material_calibration")) {
-      const nlohmann::json& m = j.at("material_calibration");
-      std::printf(
-          "material: %s (true E %.4g MPa, nu %.4f)\n"
-          "gains only: resultant error, %% of full scale, max x y z: %s, rms x y z: %s\n",
-          m.at("fit").at("message").get<std::string>().c_str(),
-          m.at("true_youngs_modulus_mpa").get<double>(),
-          m.at("true_poisson_ratio").get<double>(),
-          m.at("gains_only_resultant_error_max_pct_fs_xyz").dump().c_str(),
-          m.at("gains_only_resultant_error_rms_pct_fs_xyz").dump().c_str());
-    }
-    std::printf("gains: %s\nweight: %s\nall pass: %s\n", j.at("gains").dump().c_str(),
-                j.at("weight").dump().c_str(), j.at("all_pass").get<bool>() ? "yes" : "no");
   });
 }
 

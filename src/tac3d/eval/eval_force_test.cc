@@ -13,12 +13,11 @@ namespace {
 TEST(EvaluateForce, DefaultOptionsMeetTheAcceptance) {
   EvalForceOptions options;
   options.cache_dir = testing::MakeTempDir("cache");
-  const nlohmann::json report = EvaluateForce(options);
-  std::printf("%s\n", report.dump(2).c_str());
-  for (const auto& check : report.at("checks")) {
-    EXPECT_TRUE(check.at("pass").get<bool>()) << check.dump();
-  }
-  EXPECT_TRUE(report.at("all_pass").get<bool>());
+  const ForceEvaluation evaluation = EvaluateForce(options);
+  std::printf("%s\n%s", ToJson(evaluation).dump(2).c_str(), evaluation.Report().c_str());
+  ASSERT_EQ(evaluation.checks.size(), 4u);
+  for (const EvalCheck& check : evaluation.checks) EXPECT_TRUE(check.pass) << check.Format();
+  EXPECT_TRUE(evaluation.all_pass);
 }
 
 }  // namespace

@@ -154,8 +154,8 @@ struct TestSet {
 
 // Material calibration (CalibrateMaterial) on the calibration presses: measures the gains-only
 // `reconstructor` on the test set, then replaces it by the calibrated inverse (H of the fitted
-// material, its w and gains). Returns the "material_calibration" JSON.
-nlohmann::json CalibrateMaterialOnPresses(const EvalForceOptions& options,
+// material, its w and gains).
+ForceMaterialFigures CalibrateMaterialOnPresses(const EvalForceOptions& options,
                                           const std::vector<LoadCase>& calibration,
                                           const std::vector<Eigen::VectorXd>& frames,
                                           const DisplacementNoise& noise,
@@ -184,17 +184,8 @@ nlohmann::json CalibrateMaterialOnPresses(const EvalForceOptions& options,
                                        .gains = fit.gains.gains,
                                        .support_refinement = options.support_refinement});
   (*timing)["material_calibration"] = Seconds(start);
-  const ElasticMaterial truth = options.TrueMaterial();
-  return {{"fit", ToJson(fit)},
-          {"true_youngs_modulus_mpa", truth.youngs_modulus_mpa},
-          {"true_poisson_ratio", truth.poisson_ratio},
-          {"gains_only_resultant_error_max_pct_fs_xyz", Json(gains_only.max_pct_fs)},
-          {"gains_only_resultant_error_rms_pct_fs_xyz", Json(gains_only.rms_pct_fs)},
-          {"gains_only_gains", ToJson(gains_only_fit)}};
-}
-
-nlohmann::json Check(const std::string& name, double value, double tolerance, const char* unit) {
-  return ToJson(EvalCheck::AtMost(name, value, tolerance, unit));
+  return {fit, options.TrueMaterial(), gains_only.max_pct_fs, gains_only.rms_pct_fs,
+          gains_only_fit};
 }
 
 }  // namespace
@@ -466,7 +457,7 @@ Eigen::Vector3d MedianMarkerSigma(const ForceUncertainty& uncertainty) {
 // What the pipeline makes of the true responses: noise added (drawn from `rng` after the
 // cases), the noise estimated from static frames, w chosen on the calibration presses, K and the
 // gains (and with calibrate_material, `family`'s material fit), then every figure and check.
-nlohmann::json EvaluateOnResponses(const EvalForceOptions& options,
+ForceEvaluation EvaluateOnResponses(const EvalForceOptions& options,
                                    const fem::ComplianceModel& nominal,
                                    const fem::ComplianceFamily* family,
                                    const ForceCases& cases,
@@ -511,8 +502,12 @@ nlohmann::json EvaluateOnResponses(const EvalForceOptions& options,
                                    options.full_scale_normal_n);
   const std::vector<Eigen::VectorXd> test_frames(
       frames.begin() + cases.calibration.size(), frames.begin() + cases.probe_begin());
-  const nlohmann::json material_json =
-      family != nullptr ? CalibrateMaterialOnPresses(options,
+  ForceEvaluation result;
+  result.weight = selection;
+  result.gains = gain_fit;
+  result.true_material = options.TrueMaterial();
+  if (family != nullptr) {
+    result.material = CalibrateMaterialOnPresses(options,
                                                      cases.calibration,
                                                      frames,
                                                      noise,
@@ -520,8 +515,9 @@ nlohmann::json EvaluateOnResponses(const EvalForceOptions& options,
                                                      {test_frames, cases.test, full_scale},
                                                      *family,
                                                      &reconstructor,
-                                                     &timing)
-                        : nlohmann::json();
+                                                     &timing);
+    result.gains = result.material->fit.gains;
+  }
   const ResultantErrors errors =
       MeasureResultantErrors(reconstructor, test_frames, cases.test, full_scale);
   const MarkerSurface surface(options.body.marker_rows, options.body.marker_cols, markers,
@@ -531,37 +527,30 @@ nlohmann::json EvaluateOnResponses(const EvalForceOptions& options,
   const PinDips pins = MeasurePinDips(options, cases, frames, surface, markers, reconstructor);
   const ForceUncertainty uncertainty = reconstructor.CalcUncertainty(noise.variance_mm2);
 
-  const double max_error_pct_fs = errors.max_pct_fs.maxCoeff();
-  nlohmann::json checks = nlohmann::json::array();
-  checks.push_back(Check("resultant_error_pct_fs", max_error_pct_fs, kMaxResultantErrorPctFs, "%"));
-  checks.push_back(
-      Check("probe_center_error_mm", probes.max_error_mm, options.body.marker_pitch_mm, "mm"));
-  checks.push_back(Check("pins_dip_ratio", pins.max_dip_ratio, kMaxPinsDipRatio, ""));
-  checks.push_back(Check("truth_edge_ratio", 1.0 / options.truth_refinement, 0.5, ""));
-  bool all_pass = true;
-  for (const nlohmann::json& check : checks) all_pass = all_pass && check.at("pass").get<bool>();
-
-  nlohmann::json result;
-  result["checks"] = checks;
-  result["all_pass"] = all_pass;
-  result["resultant_error_pct_fs"] = max_error_pct_fs;
-  result["resultant_error_max_pct_fs_xyz"] = Json(errors.max_pct_fs);
-  result["resultant_error_rms_pct_fs_xyz"] = Json(errors.rms_pct_fs);
-  result["probe_center_error_mm"] = probes.max_error_mm;
-  result["pins_dip_ratio"] = pins.max_dip_ratio;
-  result["weight"] = ToJson(selection);
-  result["gains"] = family != nullptr ? material_json.at("fit").at("gains") : ToJson(gain_fit);
-  if (family != nullptr) result["material_calibration"] = material_json;
-  result["noise"] = {{"true_sigma_mm", options.noise_mm},
-                     {"estimated_sigma_mm_xyz", Json(noise.sigma_mm())},
-                     {"static_frames", noise.num_frames}};
-  result["uncertainty"] = {{"median_marker_sigma_n_xyz", Json(MedianMarkerSigma(uncertainty))},
-                           {"resultant_sigma_n_xyz", Json(uncertainty.resultant_sigma_n)}};
-  result["presses"] = {{"calibration", cases.calibration.size()}, {"test", errors.presses}};
-  result["probes"] = probes.rows;
-  result["pins"] = pins.rows;
-  result["truth_model"] = truth.model;
-  result["timing_s"] = timing;
+  result.checks = {
+      EvalCheck::AtMost("resultant_error_pct_fs", errors.max_pct_fs.maxCoeff(),
+                        kMaxResultantErrorPctFs, "%"),
+      EvalCheck::AtMost("probe_center_error_mm", probes.max_error_mm, options.body.marker_pitch_mm,
+                        "mm"),
+      EvalCheck::AtMost("pins_dip_ratio", pins.max_dip_ratio, kMaxPinsDipRatio),
+      EvalCheck::AtMost("truth_edge_ratio", 1.0 / options.truth_refinement, 0.5)};
+  result.all_pass = AllPass(result.checks);
+  result.resultant_error_max_pct_fs = errors.max_pct_fs;
+  result.resultant_error_rms_pct_fs = errors.rms_pct_fs;
+  result.probe_center_error_mm = probes.max_error_mm;
+  result.pins_dip_ratio = pins.max_dip_ratio;
+  result.details["noise"] = {{"true_sigma_mm", options.noise_mm},
+                             {"estimated_sigma_mm_xyz", Json(noise.sigma_mm())},
+                             {"static_frames", noise.num_frames}};
+  result.details["uncertainty"] = {
+      {"median_marker_sigma_n_xyz", Json(MedianMarkerSigma(uncertainty))},
+      {"resultant_sigma_n_xyz", Json(uncertainty.resultant_sigma_n)}};
+  result.details["presses"] = {{"calibration", cases.calibration.size()},
+                               {"test", errors.presses}};
+  result.details["probes"] = probes.rows;
+  result.details["pins"] = pins.rows;
+  result.details["truth_model"] = truth.model;
+  result.details["timing_s"] = timing;
   return result;
 }
 
@@ -585,7 +574,50 @@ std::optional<fem::ComplianceFamily> MakeFamily(const EvalForceOptions& options)
 
 }  // namespace
 
-nlohmann::json EvaluateForce(const EvalForceOptions& options) {
+std::string ForceEvaluation::Report() const {
+  std::string text;
+  for (const EvalCheck& check : checks) text += check.Format() + "\n";
+  const auto xyz = [](const Eigen::Vector3d& v) {
+    return fmt::format("{:.3g} / {:.3g} / {:.3g}", v.x(), v.y(), v.z());
+  };
+  text += fmt::format("true material: E {:.4g} MPa, nu {:.4f}\n", true_material.youngs_modulus_mpa,
+                      true_material.poisson_ratio);
+  text += fmt::format("resultant error, % of full scale, x / y / z: max {}, rms {}\n",
+                      xyz(resultant_error_max_pct_fs), xyz(resultant_error_rms_pct_fs));
+  if (material) {
+    text += fmt::format("material: {}\ngains only: resultant error max {}, rms {}\n",
+                        material->fit.message, xyz(material->gains_only_max_pct_fs),
+                        xyz(material->gains_only_rms_pct_fs));
+  }
+  text += fmt::format("gains: {}\nweight: {:.4g} (mm/N)^2 ({})\nall pass: {}\n",
+                      xyz(gains.gains), weight.weight, weight.summary.message, all_pass ? "yes" : "no");
+  return text;
+}
+
+nlohmann::json ToJson(const ForceEvaluation& e) {
+  nlohmann::json json = e.details;
+  json["checks"] = ToJson(e.checks);
+  json["all_pass"] = e.all_pass;
+  json["resultant_error_pct_fs"] = e.resultant_error_max_pct_fs.maxCoeff();
+  json["resultant_error_max_pct_fs_xyz"] = Json(e.resultant_error_max_pct_fs);
+  json["resultant_error_rms_pct_fs_xyz"] = Json(e.resultant_error_rms_pct_fs);
+  json["probe_center_error_mm"] = e.probe_center_error_mm;
+  json["pins_dip_ratio"] = e.pins_dip_ratio;
+  json["weight"] = ToJson(e.weight);
+  json["gains"] = ToJson(e.gains);
+  json["true_youngs_modulus_mpa"] = e.true_material.youngs_modulus_mpa;
+  json["true_poisson_ratio"] = e.true_material.poisson_ratio;
+  if (e.material) {
+    json["material_calibration"] = {
+        {"fit", ToJson(e.material->fit)},
+        {"gains_only_resultant_error_max_pct_fs_xyz", Json(e.material->gains_only_max_pct_fs)},
+        {"gains_only_resultant_error_rms_pct_fs_xyz", Json(e.material->gains_only_rms_pct_fs)},
+        {"gains_only_gains", ToJson(e.material->gains_only)}};
+  }
+  return json;
+}
+
+ForceEvaluation EvaluateForce(const EvalForceOptions& options) {
   options.Validate();
   nlohmann::json timing;
   const fem::ComplianceModel nominal = LoadNominalModel(options, &timing);
@@ -609,7 +641,8 @@ void MaterialGrid::Validate() const {
   }
 }
 
-nlohmann::json EvaluateForceOverMaterials(const EvalForceOptions& options, const MaterialGrid& grid) {
+std::vector<ForceEvaluation> EvaluateForceOverMaterials(const EvalForceOptions& options,
+                                                        const MaterialGrid& grid) {
   grid.Validate();
   const double nominal_e = options.body.material.youngs_modulus_mpa;
   std::vector<EvalForceOptions> point_options;
@@ -623,8 +656,7 @@ nlohmann::json EvaluateForceOverMaterials(const EvalForceOptions& options, const
   nlohmann::json timing;
   const fem::ComplianceModel nominal = LoadNominalModel(options, &timing);
   const std::optional<fem::ComplianceFamily> family = MakeFamily(options);
-  nlohmann::json points = nlohmann::json::array();
-  bool all_pass = true;
+  std::vector<ForceEvaluation> points;
   size_t point = 0;
   for (double nu : grid.poisson_ratios) {
     // One true model a Poisson's ratio, at the nominal E: at a fixed nu the stiffness is
@@ -646,16 +678,11 @@ nlohmann::json EvaluateForceOverMaterials(const EvalForceOptions& options, const
       // The generator replays EvaluateForce's draws: the same cases, then the same noise.
       std::mt19937_64 point_rng(options.seed);
       MakeForceCases(point_option, nominal.marker_positions, &point_rng);
-      nlohmann::json result = EvaluateOnResponses(point_option, nominal,
-                                                  family ? &*family : nullptr, cases, truth,
-                                                  &point_rng, truth_timing);
-      result["true_youngs_modulus_mpa"] = factor * nominal_e;
-      result["true_poisson_ratio"] = nu;
-      all_pass = all_pass && result.at("all_pass").get<bool>();
-      points.push_back(std::move(result));
+      points.push_back(EvaluateOnResponses(point_option, nominal, family ? &*family : nullptr,
+                                           cases, truth, &point_rng, truth_timing));
     }
   }
-  return {{"points", points}, {"all_pass", all_pass}};
+  return points;
 }
 
 }  // namespace tac3d

@@ -2,6 +2,7 @@
 
 #include <cstdint>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -9,6 +10,7 @@
 #include "tac3d/force/marker_surface.h"
 #include "tac3d/material_calibration/material_calibration.h"
 #include "tac3d/force/regularization.h"
+#include "tac3d/util/eval_check.h"
 
 namespace tac3d {
 
@@ -72,22 +74,53 @@ struct EvalForceOptions {
   void SetTrueMaterial(const ElasticMaterial& truth);
 };
 
-/// Runs the evaluation and returns every figure with its tolerance:
-/// {"checks": [{name, value, tolerance, pass, unit}], "resultant_error_pct_fs",
-///  "probe_center_error_mm", "pins_dip_ratio", "weight", "gains", "noise", "uncertainty",
-///  "presses", "probes", "pins", "truth_model", "timing_s", "all_pass"}, and with
-///  calibrate_material "material_calibration" (CalibrateMaterial's result, the true material
-///  and the gains-only resultant errors).
-/// Checks: resultant force error <= 2% of full scale (max over test presses and axes, gains
-/// fitted on the calibration presses); 2 mm probe centre error <= one pitch (max over probe
-/// positions; the centre is the normal-force-weighted centroid of the contact markers); two
-/// pins 2.54 mm apart resolved, the lowest normal force on the markers between the two peaks
-/// <= 70% of the smaller peak (max over the pair's midpoint on a marker and a quarter pitch off
-/// it; half a pitch off, each pin midway between two markers, is reported as the sampling
-/// limit, unresolvable by any reconstruction); the true mesh's edges at most half the nominal
-/// ones.
+/// What material calibration did in an evaluation (calibrate_material).
+struct ForceMaterialFigures {
+  MaterialCalibration fit;
+  ElasticMaterial truth;
+  /// The gains-only inverse on the same test presses, for comparison.
+  Eigen::Vector3d gains_only_max_pct_fs = Eigen::Vector3d::Zero();
+  Eigen::Vector3d gains_only_rms_pct_fs = Eigen::Vector3d::Zero();
+  ForceGainFit gains_only;
+};
+
+/// The result of EvaluateForce: the checked figures, typed, and the rest as reported data.
+struct ForceEvaluation {
+  /// resultant_error_pct_fs <= 2% of full scale (max over test presses and axes, gains fitted
+  /// on the calibration presses); probe_center_error_mm <= one pitch (max over probe positions;
+  /// the centre is the normal-force-weighted centroid of the contact markers); pins_dip_ratio
+  /// <= 0.7 (two pins 2.54 mm apart: the lowest normal force between the two peaks over the
+  /// smaller peak, max over the pair's midpoint on a marker and a quarter pitch off it; half a
+  /// pitch off, each pin midway between two markers, is reported as the sampling limit);
+  /// truth_edge_ratio <= 0.5 (the true mesh's edges at most half the nominal ones).
+  std::vector<EvalCheck> checks;
+  bool all_pass = false;
+  Eigen::Vector3d resultant_error_max_pct_fs = Eigen::Vector3d::Zero();
+  Eigen::Vector3d resultant_error_rms_pct_fs = Eigen::Vector3d::Zero();
+  double probe_center_error_mm = 0.0;
+  double pins_dip_ratio = 0.0;
+  WeightSelection weight;
+  /// The gains of the evaluated inverse (after the material fit, with calibrate_material).
+  ForceGainFit gains;
+  ElasticMaterial true_material;
+  std::optional<ForceMaterialFigures> material;
+  /// Reported, not checked: "noise", "uncertainty", "presses", "probes", "pins",
+  /// "truth_model", "timing_s".
+  nlohmann::json details;
+
+  /// The figures as the CLI prints them: the checks, the resultant errors, the material fit.
+  std::string Report() const;
+};
+
+/// {"checks", "all_pass", "resultant_error_pct_fs", "resultant_error_max_pct_fs_xyz",
+///  "resultant_error_rms_pct_fs_xyz", "probe_center_error_mm", "pins_dip_ratio", "weight",
+///  "gains", "true_youngs_modulus_mpa", "true_poisson_ratio", "material_calibration" (with
+///  calibrate_material) and the details' keys}.
+nlohmann::json ToJson(const ForceEvaluation& evaluation);
+
+/// Runs the evaluation (ForceEvaluation says what is checked).
 /// @throws tac3d::Error if the options are invalid.
-nlohmann::json EvaluateForce(const EvalForceOptions& options);
+ForceEvaluation EvaluateForce(const EvalForceOptions& options);
 
 /// True materials to evaluate the inverse against (docs/force.md's material grid): every
 /// Young's modulus factor (times the nominal E) with every Poisson's ratio.
@@ -102,11 +135,11 @@ struct MaterialGrid {
 /// EvaluateForce at every point of the grid, with one true model a Poisson's ratio: at a fixed
 /// nu the FEM stiffness is proportional to E, so the true displacements at E are those at the
 /// nominal E scaled by nominal E / E (exact up to the solver's tolerance). Each point's presses,
-/// noise and result are those of EvaluateForce with SetTrueMaterial(E, nu) and the same seed.
-/// Returns {"points": [EvaluateForce's result with "true_youngs_modulus_mpa",
-/// "true_poisson_ratio"], "all_pass"}.
+/// noise and result are those of EvaluateForce with SetTrueMaterial(E, nu) and the same seed,
+/// in the grid's order (nu outer, E inner).
 /// @throws tac3d::Error if the options, the grid or a point's true material is invalid (before
 ///   any solve).
-nlohmann::json EvaluateForceOverMaterials(const EvalForceOptions& options, const MaterialGrid& grid);
+std::vector<ForceEvaluation> EvaluateForceOverMaterials(const EvalForceOptions& options,
+                                                        const MaterialGrid& grid);
 
 }  // namespace tac3d

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
 
 namespace tac3d {
@@ -82,31 +83,28 @@ TEST(EvaluateForceOverMaterials, EachPointEqualsARunOfItsOwn) {
   options.test_presses = 3;
   options.show_progress = false;
   const MaterialGrid grid{.youngs_modulus_factors = {0.8, 1.2}, .poisson_ratios = {0.45}};
-  const nlohmann::json points = EvaluateForceOverMaterials(options, grid).at("points");
+  const std::vector<ForceEvaluation> points = EvaluateForceOverMaterials(options, grid);
   ASSERT_EQ(points.size(), 2u);
   for (size_t k = 0; k < points.size(); ++k) {
     EvalForceOptions own = options;
     own.SetTrueMaterial({grid.youngs_modulus_factors[k] * options.body.material.youngs_modulus_mpa,
                          0.45});
-    const nlohmann::json direct = EvaluateForce(own);
-    const nlohmann::json& point = points[k];
-    EXPECT_NEAR(point.at("true_youngs_modulus_mpa").get<double>(),
-                own.TrueMaterial().youngs_modulus_mpa, 1e-12);
-    EXPECT_EQ(point.at("presses").at("test").size(), 3u);
-    for (const char* key : {"resultant_error_max_pct_fs_xyz", "resultant_error_rms_pct_fs_xyz"}) {
-      for (int axis = 0; axis < 3; ++axis) {
-        EXPECT_NEAR(point.at(key)[axis].get<double>(), direct.at(key)[axis].get<double>(), 1e-6)
-            << key << " axis " << axis << " at E x " << grid.youngs_modulus_factors[k];
-      }
-    }
-    EXPECT_NEAR(point.at("probe_center_error_mm").get<double>(),
-                direct.at("probe_center_error_mm").get<double>(), 1e-6);
-    const double weight = direct.at("weight").at("weight").get<double>();
-    EXPECT_NEAR(point.at("weight").at("weight").get<double>(), weight, 1e-9 * weight);
+    const ForceEvaluation direct = EvaluateForce(own);
+    const ForceEvaluation& point = points[k];
+    EXPECT_NEAR(point.true_material.youngs_modulus_mpa, own.TrueMaterial().youngs_modulus_mpa,
+                1e-12);
+    EXPECT_EQ(point.details.at("presses").at("test").size(), 3u);
+    EXPECT_THAT(point.resultant_error_max_pct_fs, EigenNear(direct.resultant_error_max_pct_fs, 1e-6))
+        << "at E x " << grid.youngs_modulus_factors[k];
+    EXPECT_THAT(point.resultant_error_rms_pct_fs, EigenNear(direct.resultant_error_rms_pct_fs, 1e-6));
+    EXPECT_NEAR(point.probe_center_error_mm, direct.probe_center_error_mm, 1e-6);
+    EXPECT_NEAR(point.weight.weight, direct.weight.weight, 1e-9 * direct.weight.weight);
+    ASSERT_EQ(point.checks.size(), 4u);
+    EXPECT_EQ(point.checks[0].name, "resultant_error_pct_fs");
   }
   // The two materials differ, so the scaling did something: E x 1.2 is not E x 0.8.
-  EXPECT_NE(points[0].at("resultant_error_max_pct_fs_xyz").dump(),
-            points[1].at("resultant_error_max_pct_fs_xyz").dump());
+  EXPECT_GT((points[0].resultant_error_max_pct_fs - points[1].resultant_error_max_pct_fs).norm(),
+            1e-6);
 }
 
 TEST(MaterialGrid, RefusesAnEmptyListAndABadFactor) {
