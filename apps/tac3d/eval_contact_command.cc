@@ -23,15 +23,15 @@ void RegisterEvalContact(CLI::App& eval) {
       ->capture_default_str();
   cmd->add_flag("--json", args->json, "print JSON");
   cmd->callback([args] {
-    nlohmann::json j = contact::EvaluateContact(args->options);
-    // Each check's figure also at the top level, under its name, for scripts.
-    for (const nlohmann::json& check : j.at("checks")) j[check.at("name").get<std::string>()] = check.at("value");
+    const contact::EvalContactResult result = contact::EvaluateContact(args->options);
     if (args->json) {
+      nlohmann::json j = ToJson(result);
+      // Each check's figure also at the top level, under its name, for scripts.
+      for (const nlohmann::json& check : j.at("checks")) j[check.at("name").get<std::string>()] = check.at("value");
       std::printf("%s\n", j.dump(2).c_str());
       return;
     }
-    PrintChecks(j.at("checks"));
-    std::printf("all pass: %s\n", j.at("all_pass").get<bool>() ? "yes" : "no");
+    std::printf("%s", result.Report().c_str());
   });
 }
 

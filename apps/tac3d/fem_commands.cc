@@ -57,14 +57,12 @@ void RegisterEvalFem(CLI::App& eval) {
     options.convergence_refinement = *convergence;
     options.show_progress = !args->json;
     MakeDirectory(options.cache_dir);
-    const nlohmann::json j = fem::EvaluateFem(options);
+    const fem::EvalFemResult result = fem::EvaluateFem(options);
     if (args->json) {
-      std::printf("%s\n", j.dump(2).c_str());
+      std::printf("%s\n", ToJson(result).dump(2).c_str());
       return;
     }
-    PrintChecks(j.at("checks"));
-    std::printf("model: %s\nall pass: %s\n", j.at("model").dump().c_str(),
-                j.at("all_pass").get<bool>() ? "yes" : "no");
+    std::printf("%s", result.Report().c_str());
   });
 }
 

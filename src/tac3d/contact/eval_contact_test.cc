@@ -14,18 +14,19 @@ namespace {
 TEST(EvaluateContact, FineGridMeetsTheAcceptance) {
   EvalContactOptions options;
   options.cells_per_radius = 32.0;
-  const nlohmann::json report = EvaluateContact(options);
-  std::printf("%s\n", report.dump(2).c_str());
+  const EvalContactResult result = EvaluateContact(options);
+  std::printf("%s\n%s", ToJson(result).dump(2).c_str(), result.Report().c_str());
   // Every check the evaluation promises is there: a loop over nothing would pass.
   const std::vector<std::string> expected = {
       "hertz_radius_error_pct",  "hertz_peak_error_pct",         "hertz_profile_rms_pct",
       "mindlin_stick_error_pct", "mindlin_shift_error_pct",      "mindlin_full_slide_error_pct",
       "history_residual_shift_error_pct", "slip_mu_error_pct", "all_converged"};
   std::vector<std::string> names;
-  for (const auto& check : report.at("checks")) {
-    names.push_back(check.at("name").get<std::string>());
-    EXPECT_TRUE(check.at("pass").get<bool>()) << check.dump();
+  for (const EvalCheck& check : result.checks) {
+    names.push_back(check.name);
+    EXPECT_TRUE(check.pass) << check.Format();
   }
+  EXPECT_TRUE(result.all_pass);
   EXPECT_EQ(names, expected);
 }
 

@@ -48,16 +48,12 @@ double EquivalentRadius(const SurfaceGrid& grid, int n, Pred in) {
 class Checks {
  public:
   void Add(const std::string& name, double value, double tolerance, const std::string& unit) {
-    const EvalCheck check = EvalCheck::AtMost(name, value, tolerance, unit);
-    all_pass_ = all_pass_ && check.pass;
-    checks_.push_back(ToJson(check));
+    checks_.push_back(EvalCheck::AtMost(name, value, tolerance, unit));
   }
-  nlohmann::json json() const { return checks_; }
-  bool all_pass() const { return all_pass_; }
+  const std::vector<EvalCheck>& checks() const { return checks_; }
 
  private:
-  nlohmann::json checks_ = nlohmann::json::array();
-  bool all_pass_ = true;
+  std::vector<EvalCheck> checks_;
 };
 
 // The analytic checks of EvaluateContact, one method a phase: Hertz (frictionless press),
@@ -263,11 +259,13 @@ class ContactEvaluation {
   }
 
   // Adds the convergence check over every solve and the verdict.
-  nlohmann::json Finish() {
+  EvalContactResult Finish() {
     checks_.Add("all_converged", all_converged_ ? 0.0 : 1.0, 0.0, "");
-    report_["checks"] = checks_.json();
-    report_["all_pass"] = checks_.all_pass();
-    return std::move(report_);
+    EvalContactResult result;
+    result.checks = checks_.checks();
+    result.all_pass = AllPass(result.checks);
+    result.details = std::move(report_);
+    return result;
   }
 
  private:
@@ -348,7 +346,20 @@ void EvalContactOptions::Validate() const {
   solver.Validate();
 }
 
-nlohmann::json EvaluateContact(const EvalContactOptions& o) {
+std::string EvalContactResult::Report() const {
+  std::string text;
+  for (const EvalCheck& check : checks) text += check.Format() + "\n";
+  return text + fmt::format("all pass: {}\n", all_pass ? "yes" : "no");
+}
+
+nlohmann::json ToJson(const EvalContactResult& result) {
+  nlohmann::json json = result.details;
+  json["checks"] = ToJson(result.checks);
+  json["all_pass"] = result.all_pass;
+  return json;
+}
+
+EvalContactResult EvaluateContact(const EvalContactOptions& o) {
   o.Validate();
   ContactEvaluation evaluation(o);
   const ContactState pressed_mu = evaluation.CheckHertz().CheckMindlin();

@@ -4,6 +4,7 @@
 
 #include "tac3d/contact/contact_solver.h"
 #include "tac3d/material/elastic_material.h"
+#include "tac3d/util/eval_check.h"
 
 namespace tac3d::contact {
 
@@ -37,14 +38,27 @@ struct EvalContactOptions {
   void Validate() const;
 };
 
-/// Runs the cases and returns every figure with its tolerance:
-/// {"checks": [{name, value, tolerance, unit, pass}], "hertz", "mindlin", "history",
-///  "two_material", "grid", "all_pass"}; each case holds its exact and measured values and
-/// its solves' convergence summaries. Check names: hertz_radius_error_pct,
-/// hertz_peak_error_pct, hertz_profile_rms_pct, mindlin_stick_error_pct,
-/// mindlin_shift_error_pct, mindlin_full_slide_error_pct, history_residual_shift_error_pct,
-/// slip_mu_error_pct, and all_converged (every solve converged, none at the grid's edge).
+/// What EvaluateContact measured.
+struct EvalContactResult {
+  /// In this order: hertz_radius_error_pct, hertz_peak_error_pct, hertz_profile_rms_pct,
+  /// mindlin_stick_error_pct, mindlin_shift_error_pct, mindlin_full_slide_error_pct,
+  /// history_residual_shift_error_pct, slip_mu_error_pct, and all_converged (every solve
+  /// converged, none at the grid's edge).
+  std::vector<EvalCheck> checks;
+  bool all_pass = false;
+  /// Each case's exact and measured values and its solves' convergence summaries: "hertz",
+  /// "mindlin", "history", "two_material", "grid".
+  nlohmann::json details;
+
+  /// The checks as the CLI prints them, and the verdict.
+  std::string Report() const;
+};
+
+/// The details' keys with "checks" and "all_pass".
+nlohmann::json ToJson(const EvalContactResult& result);
+
+/// Runs the cases (EvalContactResult says what is checked).
 /// @throws tac3d::Error if the options are invalid.
-nlohmann::json EvaluateContact(const EvalContactOptions& options);
+EvalContactResult EvaluateContact(const EvalContactOptions& options);
 
 }  // namespace tac3d::contact

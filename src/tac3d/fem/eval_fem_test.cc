@@ -14,12 +14,11 @@ namespace {
 TEST(EvaluateFem, DefaultSensorPassesEveryCheck) {
   EvalFemOptions options;
   options.cache_dir = testing::MakeTempDir("cache");
-  const nlohmann::json report = EvaluateFem(options);
-  std::printf("%s\n", report.dump(2).c_str());
-  for (const auto& check : report.at("checks")) {
-    EXPECT_TRUE(check.at("pass").get<bool>()) << check.dump();
-  }
-  EXPECT_TRUE(report.at("all_pass").get<bool>());
+  const EvalFemResult result = EvaluateFem(options);
+  std::printf("%s\n%s", ToJson(result).dump(2).c_str(), result.Report().c_str());
+  EXPECT_EQ(result.checks.size(), options.convergence_refinement > 0.0 ? 12u : 11u);
+  for (const EvalCheck& check : result.checks) EXPECT_TRUE(check.pass) << check.Format();
+  EXPECT_TRUE(result.all_pass);
   // The second call finds the default model in the cache.
   const ComplianceCacheResult cached = LoadOrBuildComplianceModel(options.body, options.cache_dir);
   EXPECT_EQ(cached.status, ComplianceCacheStatus::kLoaded);

@@ -84,13 +84,8 @@ std::vector<double> FineThenGraded(double h, double fine, double length, double 
   return coords;
 }
 
-nlohmann::json Check(const std::string& name, double value, double tolerance) {
-  return ToJson(EvalCheck::AtMost(name, value, tolerance));
-}
-
-void Report(const EvalFemOptions& options, const nlohmann::json& check) {
-  if (!options.show_progress) return;
-  std::fprintf(stderr, "fem eval: %s\n", EvalCheckFromJson(check).Format().c_str());
+void Report(const EvalFemOptions& options, const EvalCheck& check) {
+  if (options.show_progress) std::fprintf(stderr, "fem eval: %s\n", check.Format().c_str());
 }
 
 }  // namespace
@@ -320,71 +315,84 @@ void EvalFemOptions::Validate() const {
   }
 }
 
-nlohmann::json EvaluateFem(const EvalFemOptions& options) {
-  options.Validate();
+std::string EvalFemResult::Report() const {
+  std::string text;
+  for (const EvalCheck& check : checks) text += check.Format() + "\n";
+  return text + fmt::format("model: {}\nall pass: {}\n", model.dump(), all_pass ? "yes" : "no");
+}
+
+nlohmann::json ToJson(const EvalFemResult& result) {
   nlohmann::json checks = nlohmann::json::array();
-  const auto add = [&](nlohmann::json check) {
+  for (const EvalCheck& check : result.checks) {
+    nlohmann::json json = ToJson(check);
+    if (result.details.contains(check.name)) json.update(result.details.at(check.name));
+    checks.push_back(std::move(json));
+  }
+  return {{"checks", checks}, {"model", result.model}, {"all_pass", result.all_pass}};
+}
+
+EvalFemResult EvaluateFem(const EvalFemOptions& options) {
+  options.Validate();
+  EvalFemResult result;
+  result.details = nlohmann::json::object();
+  const auto add = [&](EvalCheck check, nlohmann::json details = nlohmann::json()) {
     Report(options, check);
-    checks.push_back(std::move(check));
+    if (!details.is_null()) result.details[check.name] = std::move(details);
+    result.checks.push_back(std::move(check));
   };
 
   for (double nu : {0.3, 0.4999}) {
     const PatchTestResult patch = RunPatchTest({.poisson_ratio = nu});
-    add(Check(fmt::format("patch test nu={} interior displacement (mm)", nu),
-              patch.max_displacement_error_mm,
-              kPatchDisplacementTolerance));
-    add(Check(fmt::format("patch test nu={} stress (relative)", nu),
-              patch.max_relative_stress_error,
-              kPatchStressTolerance));
+    add(EvalCheck::AtMost(fmt::format("patch test nu={} interior displacement (mm)", nu),
+                          patch.max_displacement_error_mm,
+                          kPatchDisplacementTolerance));
+    add(EvalCheck::AtMost(fmt::format("patch test nu={} stress (relative)", nu),
+                          patch.max_relative_stress_error,
+                          kPatchStressTolerance));
   }
   for (double nu : {0.3, 0.48, 0.499}) {
     const ConfinedBlockResult block = RunConfinedBlock(nu);
-    nlohmann::json check = Check(
-        fmt::format("confined block nu={} modulus", nu), block.relative_error, kConfinedTolerance);
-    check["fem_modulus_mpa"] = block.fem_modulus_mpa;
-    check["exact_modulus_mpa"] = block.exact_modulus_mpa;
-    add(check);
+    add(EvalCheck::AtMost(fmt::format("confined block nu={} modulus", nu), block.relative_error,
+                          kConfinedTolerance),
+        {{"fem_modulus_mpa", block.fem_modulus_mpa},
+         {"exact_modulus_mpa", block.exact_modulus_mpa}});
   }
   for (double nu : {0.3, 0.48}) {
     for (bool tangential : {false, true}) {
       const PointLoadResult load = RunPointLoad({.poisson_ratio = nu, .tangential = tangential});
-      nlohmann::json check = Check(
-          fmt::format("{} point load nu={} (3-8 mm)", tangential ? "Cerruti" : "Boussinesq", nu),
-          load.max_relative_error,
-          kPointLoadTolerance);
-      check["num_free_dofs"] = load.num_free_dofs;
-      add(check);
+      add(EvalCheck::AtMost(
+              fmt::format("{} point load nu={} (3-8 mm)", tangential ? "Cerruti" : "Boussinesq", nu),
+              load.max_relative_error,
+              kPointLoadTolerance),
+          {{"num_free_dofs", load.num_free_dofs}});
     }
   }
 
-  nlohmann::json model;
   if (!options.cache_dir.empty()) {
     const ComplianceCacheResult cached =
         LoadOrBuildComplianceModel(options.body, options.cache_dir, options.show_progress);
-    model = {{"path", cached.path},
-             {"loaded_from_cache", cached.status == ComplianceCacheStatus::kLoaded},
-             {"elapsed_s", cached.elapsed_s},
-             {"provenance", ToJson(cached.model.provenance)}};
+    result.model = {{"path", cached.path},
+                    {"loaded_from_cache", cached.status == ComplianceCacheStatus::kLoaded},
+                    {"elapsed_s", cached.elapsed_s},
+                    {"provenance", ToJson(cached.model.provenance)}};
   } else {
     const ComplianceModel built = CalcComplianceModel(options.body, options.show_progress);
-    model = {{"provenance", ToJson(built.provenance)}};
+    result.model = {{"provenance", ToJson(built.provenance)}};
   }
   if (options.convergence_refinement > 0.0) {
     const MeshConvergenceResult convergence = RunMeshConvergence(
         options.body, options.convergence_refinement, options.cache_dir, options.show_progress);
-    nlohmann::json check = Check(fmt::format("H change on {}x refinement (relative Frobenius)",
-                                             options.convergence_refinement),
-                                 convergence.relative_difference,
-                                 kConvergenceTolerance);
-    check["coarse_free_dofs"] = convergence.coarse_free_dofs;
-    check["fine_free_dofs"] = convergence.fine_free_dofs;
-    check["coarse_build_s"] = convergence.coarse_build_s;
-    check["fine_build_s"] = convergence.fine_build_s;
-    add(check);
+    add(EvalCheck::AtMost(fmt::format("H change on {}x refinement (relative Frobenius)",
+                                      options.convergence_refinement),
+                          convergence.relative_difference,
+                          kConvergenceTolerance),
+        {{"coarse_free_dofs", convergence.coarse_free_dofs},
+         {"fine_free_dofs", convergence.fine_free_dofs},
+         {"coarse_build_s", convergence.coarse_build_s},
+         {"fine_build_s", convergence.fine_build_s}});
   }
-  bool all_pass = true;
-  for (const auto& check : checks) all_pass = all_pass && check.at("pass").get<bool>();
-  return {{"checks", checks}, {"model", model}, {"all_pass", all_pass}};
+  result.all_pass = AllPass(result.checks);
+  return result;
 }
 
 }  // namespace tac3d::fem

@@ -1,5 +1,7 @@
 #pragma once
 
+#include "tac3d/util/eval_check.h"
+
 #include <Eigen/Core>
 #include <cstdint>
 #include <nlohmann/json.hpp>
@@ -124,11 +126,28 @@ struct EvalFemOptions {
   void Validate() const;
 };
 
-/// Runs the patch test, the confined block at nu = 0.3, 0.48, 0.499, the point loads
-/// (normal and tangential at nu = 0.3, 0.48), builds or loads the sensor's H and the mesh
-/// convergence check. Returns every figure with its tolerance and whether it passed,
-/// {"checks": [{name, value, tolerance, pass, ...}], "model": {...}, "all_pass": bool}.
+/// What EvaluateFem measured.
+struct EvalFemResult {
+  /// The patch tests (nu 0.3, 0.4999: interior displacement, stress), the confined block
+  /// (nu 0.3, 0.48, 0.499), the point loads (Boussinesq and Cerruti at nu 0.3, 0.48) and, unless
+  /// skipped, the mesh convergence of H; all "at most" their tolerance.
+  std::vector<EvalCheck> checks;
+  bool all_pass = false;
+  /// The sensor's H: where it came from and how it was built.
+  nlohmann::json model;
+  /// Each check's own figures (exact and FEM modulus, free DOFs, build times), by check name.
+  nlohmann::json details;
+
+  /// The checks as the CLI prints them, the model and the verdict.
+  std::string Report() const;
+};
+
+/// {"checks": [the check's JSON with its details' fields], "model", "all_pass"}.
+nlohmann::json ToJson(const EvalFemResult& result);
+
+/// Runs the patch test, the confined block, the point loads, builds or loads the sensor's H
+/// and the mesh convergence check (EvalFemResult).
 /// @throws tac3d::Error if the options are invalid.
-nlohmann::json EvaluateFem(const EvalFemOptions& options);
+EvalFemResult EvaluateFem(const EvalFemOptions& options);
 
 }  // namespace tac3d::fem
