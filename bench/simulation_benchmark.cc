@@ -8,7 +8,7 @@
 
 #include <memory>
 
-#include "tac3d/design/light_path_design.h"
+#include "tac3d/sensor/default_sensor.h"
 #include "tac3d/simulation/simulation.h"
 
 namespace tac3d::simulation {

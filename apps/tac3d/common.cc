@@ -7,7 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
-#include "tac3d/design/light_path_design.h"
+#include "tac3d/sensor/default_sensor.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/eval_check.h"
 

@@ -19,9 +19,9 @@
 
 #include "run_file.h"
 #include "tac3d/dataset/twin_dataset.h"
-#include "tac3d/design/light_path_design.h"
 #include "tac3d/force/synthetic_compliance.h"
 #include "tac3d/protocol/client.h"
+#include "tac3d/sensor/default_sensor.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/twin/camera_renderer.h"
 #include "tac3d/util/error.h"

@@ -360,11 +360,4 @@ LightPathDesignOptions DesignOptionsOf(const SensorConfig& sensor) {
   return options;
 }
 
-SensorConfig DefaultSensorConfig() {
-  const SensorConfig prototype;
-  const LightPathDesign design = DesignLightPath(DesignOptionsOf(prototype), prototype);
-  TAC3D_DEMAND(design.config.has_value());
-  return *design.config;
-}
-
 }  // namespace tac3d

@@ -8,6 +8,8 @@
 #include <Eigen/Core>
 
 #include "tac3d/sensor/sensor_config.h"
+// DefaultSensorConfig was declared here; kept visible to this header's existing users.
+#include "tac3d/sensor/default_sensor.h"  // IWYU pragma: export
 
 namespace tac3d {
 
@@ -68,8 +70,5 @@ LightPathDesign DesignLightPath(const LightPathDesignOptions& options,
 
 /// The design problem of a sensor: its light path's h, l, d and field of view.
 LightPathDesignOptions DesignOptionsOf(const SensorConfig& sensor);
-
-/// The built-in sensor: the paper's prototype with its designed mirrors.
-SensorConfig DefaultSensorConfig();
 
 }  // namespace tac3d

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include "tac3d/sensor/default_sensor.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
 
@@ -137,6 +138,43 @@ TEST(LightPathDesign, OtherSizesSolveToo) {
   const LightPathDesign design = DesignLightPath(options);
   ASSERT_TRUE(design.chosen.has_value());
   EXPECT_NEAR(design.roots[*design.chosen].parallax_deg, 90.0, 1e-6);
+}
+
+// The built-in sensor stores its design (sensor/default_sensor.cc) instead of solving for it at
+// run time: the solver, run on the built-in sensor's design problem, must still give it.
+TEST(DefaultSensorConfig, IsTheSolversDesignOfThePrototype) {
+  const SensorConfig prototype;
+  const LightPathDesign design = DesignLightPath(DesignOptionsOf(prototype), prototype);
+  ASSERT_TRUE(design.config.has_value());
+  const SensorConfig& solved = *design.config;
+  SensorConfig stored = DefaultSensorConfig();
+  constexpr double kLengthToleranceMm = 1e-9;
+  constexpr double kDirectionTolerance = 1e-12;  // unit vectors and rotation entries
+  ASSERT_EQ(stored.mirrors.size(), solved.mirrors.size());
+  for (size_t i = 0; i < solved.mirrors.size(); ++i) {
+    SCOPED_TRACE(solved.mirrors[i].name);
+    const Rectangle3& a = stored.mirrors[i].surface;
+    const Rectangle3& b = solved.mirrors[i].surface;
+    EXPECT_THAT(a.center, EigenNear(b.center, kLengthToleranceMm));
+    EXPECT_THAT(a.u_axis, EigenNear(b.u_axis, kDirectionTolerance));
+    EXPECT_THAT(a.v_axis, EigenNear(b.v_axis, kDirectionTolerance));
+    EXPECT_NEAR(a.half_u, b.half_u, kLengthToleranceMm);
+    EXPECT_NEAR(a.half_v, b.half_v, kLengthToleranceMm);
+    stored.mirrors[i].surface = b;  // equal within the tolerance: compared exactly below
+  }
+  ASSERT_EQ(stored.virtual_cameras.size(), solved.virtual_cameras.size());
+  for (size_t i = 0; i < solved.virtual_cameras.size(); ++i) {
+    SCOPED_TRACE(solved.virtual_cameras[i].name);
+    const Rigid3& a = stored.virtual_cameras[i].sensor_from_vcam;
+    const Rigid3& b = solved.virtual_cameras[i].sensor_from_vcam;
+    EXPECT_THAT(Eigen::Vector3d(a.translation()),
+                EigenNear(Eigen::Vector3d(b.translation()), kLengthToleranceMm));
+    EXPECT_THAT(Eigen::Matrix3d(a.linear()),
+                EigenNear(Eigen::Matrix3d(b.linear()), kDirectionTolerance));
+    stored.virtual_cameras[i].sensor_from_vcam = b;
+  }
+  // The rest exactly: names, halves, intrinsics, column ranges and the undesigned sections.
+  EXPECT_EQ(SensorConfigToYaml(stored), SensorConfigToYaml(solved));
 }
 
 TEST(LightPathDesign, OptionsAreValidated) {

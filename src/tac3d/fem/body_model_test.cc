@@ -6,23 +6,14 @@
 
 #include "tac3d/fem/compliance.h"
 #include "tac3d/fem/evaluation.h"
+#include "tac3d/fem/test_domes.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
 
 namespace tac3d::fem {
 namespace {
 
-// A dome small enough to factor in a fraction of a second; rows != cols so that a mix-up of
-// rows and columns shows.
-BodyModelOptions SmallDome() {
-  BodyModelOptions options;
-  options.base_diameter_mm = 12.0;
-  options.thickness_mm = 3.0;
-  options.sphere_radius_mm = 20.0;
-  options.marker_rows = 3;
-  options.marker_cols = 4;
-  return options;
-}
+using testing::SmallDome;
 
 TEST(BodyModelOptions, DefaultsAreThePaperPrototype) {
   const BodyModelOptions options;

@@ -3,18 +3,15 @@
 #include <gtest/gtest.h>
 
 #include "tac3d/fem/compliance.h"
+#include "tac3d/fem/test_domes.h"
 #include "tac3d/util/error.h"
 
 namespace tac3d::fem {
 namespace {
 
+// The shared small dome (3 x 4 markers) of the given material.
 BodyModelOptions SmallDome(double poisson_ratio, double youngs_modulus_mpa = 1.0) {
-  BodyModelOptions options;
-  options.base_diameter_mm = 12.0;
-  options.thickness_mm = 3.0;
-  options.sphere_radius_mm = 20.0;
-  options.marker_rows = 3;
-  options.marker_cols = 4;
+  BodyModelOptions options = testing::SmallDome();
   options.material = {youngs_modulus_mpa, poisson_ratio};
   return options;
 }

@@ -6,21 +6,15 @@
 #include <fstream>
 #include <functional>
 
+#include "tac3d/fem/test_domes.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
 
 namespace tac3d::fem {
 namespace {
 
-BodyModelOptions SmallDome() {
-  BodyModelOptions options;
-  options.base_diameter_mm = 12.0;
-  options.thickness_mm = 3.0;
-  options.sphere_radius_mm = 20.0;
-  options.marker_rows = 3;
-  options.marker_cols = 3;
-  return options;
-}
+// The shared small dome with 3 x 3 markers.
+BodyModelOptions SmallDome() { return testing::SmallDome(3, 3); }
 
 void ExpectSameModel(const ComplianceModel& a, const ComplianceModel& b) {
   EXPECT_TRUE(a.h == b.h);  // bit for bit

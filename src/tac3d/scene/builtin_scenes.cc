@@ -6,8 +6,8 @@
 
 #include <fmt/format.h>
 
-#include "tac3d/design/light_path_design.h"
 #include "tac3d/scene/scene.h"
+#include "tac3d/sensor/default_sensor.h"
 #include "tac3d/util/error.h"
 
 namespace tac3d {

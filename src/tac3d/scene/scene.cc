@@ -10,7 +10,7 @@
 #include <fmt/format.h>
 #include <Eigen/Geometry>
 
-#include "tac3d/design/light_path_design.h"
+#include "tac3d/sensor/default_sensor.h"
 #include "tac3d/sensor/yaml_reader.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/file_io.h"

@@ -45,6 +45,23 @@ nlohmann::json ConditionsJson(const FrameConditions& c) {
           {"creep_mm", {c.creep_mm.x(), c.creep_mm.y(), c.creep_mm.z()}}};
 }
 
+// Folds one contact solve's summary into the run's.
+void AccumulateSolverSummary(const contact::ContactSummary& s, SimulationSummary* summary) {
+  summary->max_normal_iterations = std::max(summary->max_normal_iterations, s.normal_iterations);
+  summary->max_tangential_iterations =
+      std::max(summary->max_tangential_iterations, s.tangential_iterations);
+  summary->max_coupling_iterations =
+      std::max(summary->max_coupling_iterations, s.coupling_iterations);
+  summary->max_cone_violation_mpa =
+      std::max(summary->max_cone_violation_mpa, s.max_cone_violation_mpa);
+  summary->max_penetration_mm = std::max(summary->max_penetration_mm, s.max_penetration_mm);
+  if (s.status != contact::ContactStatus::kConverged) ++summary->non_converged_steps;
+  if (s.num_contact > 0) {
+    ++summary->contact_steps;
+    if (s.contact_at_grid_edge) ++summary->contact_at_grid_edge_steps;
+  }
+}
+
 }  // namespace
 
 contact::ContactSolverOptions DefaultSimulationContactOptions() {
@@ -134,10 +151,6 @@ TwinStep TwinSimulation::Step() {
   TAC3D_DEMAND(next_step_ < num_steps());
   const auto step_start = Clock::now();
   const int k = next_step_++;
-  const TwinBodyModel& model = *model_;
-  const contact::SurfaceGrid& grid = model.grid;
-  const int n = grid.num_nodes();
-  const int num_markers = static_cast<int>(model.marker_positions.size());
   SimulationTimings& timings = summary_.timings;
 
   TwinStep out;
@@ -149,94 +162,14 @@ TwinStep TwinSimulation::Step() {
   const GapField gaps = caster_->Cast(out.world_from_sensor);
   timings.gap_s += Seconds(start);
 
-  // The object's rigid tangential motion relative to the sensor since the previous step; none
-  // when the previous step touched nothing (a new contact starts from an undragged surface).
-  Eigen::Vector2d increment = Eigen::Vector2d::Zero();
-  if (previous_contact_) {
-    const Rigid3 motion = out.world_from_sensor.inverse() * previous_pose_;
-    increment = ((motion * previous_centroid_) - previous_centroid_).head<2>();
-  }
-  previous_pose_ = out.world_from_sensor;
+  const Eigen::Vector2d increment = TakeTangentialIncrement(out.world_from_sensor);
 
   start = Clock::now();
-  std::vector<contact::NodeState> node_state(n, contact::NodeState::kSeparated);
-  const bool touching = (gaps.gap_mm.array() <= 0.0).any();
-  if (touching) {
-    contact::ContactStep step;
-    step.gap_mm = gaps.gap_mm;
-    step.friction_coefficient = gaps.friction_coefficient;
-    step.normal_control = contact::NormalControl::kApproach;
-    step.approach_mm = 0.0;
-    step.tangential_control = contact::TangentialControl::kShift;
-    step.shift_mm = state_.shift_mm + increment;
-    contact::ContactResult result = solver_.Solve(step, state_);
-    const contact::ContactSummary& s = result.summary;
-    out.solver = contact::ToJson(s);
-    summary_.max_normal_iterations = std::max(summary_.max_normal_iterations, s.normal_iterations);
-    summary_.max_tangential_iterations =
-        std::max(summary_.max_tangential_iterations, s.tangential_iterations);
-    summary_.max_coupling_iterations =
-        std::max(summary_.max_coupling_iterations, s.coupling_iterations);
-    summary_.max_cone_violation_mpa =
-        std::max(summary_.max_cone_violation_mpa, s.max_cone_violation_mpa);
-    summary_.max_penetration_mm = std::max(summary_.max_penetration_mm, s.max_penetration_mm);
-    if (s.status != contact::ContactStatus::kConverged) ++summary_.non_converged_steps;
-    if (s.num_contact > 0) {
-      ++summary_.contact_steps;
-      if (s.contact_at_grid_edge) ++summary_.contact_at_grid_edge_steps;
-      node_state = std::move(result.node_state);
-      state_ = std::move(result.state);
-    } else {
-      state_ = contact::ContactState::Unloaded(n);
-    }
-  } else {
-    out.solver = {{"status", "separated"}, {"num_contact", 0}};
-    state_ = contact::ContactState::Unloaded(n);
-  }
+  const std::vector<contact::NodeState> node_state = SolveContact(gaps, increment, &out.solver);
   timings.contact_s += Seconds(start);
 
   start = Clock::now();
-  const double area = grid.cell_area_mm2();
-  Eigen::VectorXd displacement = Eigen::VectorXd::Zero(3 * num_markers);
-  out.marker_forces_n.assign(num_markers, Eigen::Vector3d::Zero());
-  out.marker_contact.assign(num_markers, 0);
-  out.marker_slip.assign(num_markers, 0);
-  if (options_.keep_surface) {
-    out.surface.positions_mm = surface_points_;
-    out.surface.tractions_mpa.assign(n, Eigen::Vector3d::Zero());
-    out.surface.states.assign(n, tac3d::ContactState::kSeparated);
-  }
-  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-  double weight = 0.0;
-  for (int i = 0; i < n; ++i) {
-    if (node_state[i] == contact::NodeState::kSeparated) continue;
-    const double p = state_.pressure_mpa[i];
-    const Eigen::Vector3d traction(state_.traction_mpa(i, 0), state_.traction_mpa(i, 1), -p);
-    const Eigen::Vector3d force = area * traction;
-    for (int c = 0; c < 3; ++c) displacement += model.marker_response.col(c * n + i) * force[c];
-    out.total_force_n += force;
-    out.total_moment_nmm += surface_points_[i].cross(force);
-    centroid += p * surface_points_[i];
-    weight += p;
-    if (const int m = node_markers_[i]; m >= 0) {
-      out.marker_forces_n[m] += force;
-      out.marker_contact[m] = 1;
-      if (node_state[i] == contact::NodeState::kSlip) out.marker_slip[m] = 1;
-    }
-    if (options_.keep_surface) {
-      out.surface.tractions_mpa[i] = traction;
-      out.surface.states[i] = ToDatasetState(node_state[i]);
-    }
-  }
-  previous_contact_ = weight > 0.0;
-  if (previous_contact_) previous_centroid_ = centroid / weight;
-  out.marker_positions_mm.resize(num_markers);
-  for (int m = 0; m < num_markers; ++m) {
-    out.marker_positions_mm[m] =
-        model.marker_positions[m] + Eigen::Vector3d(displacement[m],
-                                                    displacement[num_markers + m],
-                                                    displacement[2 * num_markers + m]);
-  }
+  WriteContactTruth(node_state, &out);
   timings.response_s += Seconds(start);
 
   const FrameConditions conditions =
@@ -252,6 +185,95 @@ TwinStep TwinSimulation::Step() {
   ++summary_.steps;
   timings.total_s += Seconds(step_start);
   return out;
+}
+
+Eigen::Vector2d TwinSimulation::TakeTangentialIncrement(const Rigid3& world_from_sensor) {
+  Eigen::Vector2d increment = Eigen::Vector2d::Zero();
+  if (previous_contact_) {
+    const Rigid3 motion = world_from_sensor.inverse() * previous_pose_;
+    increment = ((motion * previous_centroid_) - previous_centroid_).head<2>();
+  }
+  previous_pose_ = world_from_sensor;
+  return increment;
+}
+
+std::vector<contact::NodeState> TwinSimulation::SolveContact(const GapField& gaps,
+                                                             const Eigen::Vector2d& increment,
+                                                             nlohmann::json* solver_json) {
+  const int n = model_->grid.num_nodes();
+  std::vector<contact::NodeState> node_state(n, contact::NodeState::kSeparated);
+  const bool touching = (gaps.gap_mm.array() <= 0.0).any();
+  if (!touching) {
+    *solver_json = {{"status", "separated"}, {"num_contact", 0}};
+    state_ = contact::ContactState::Unloaded(n);
+    return node_state;
+  }
+  contact::ContactStep step;
+  step.gap_mm = gaps.gap_mm;
+  step.friction_coefficient = gaps.friction_coefficient;
+  step.normal_control = contact::NormalControl::kApproach;
+  step.approach_mm = 0.0;
+  step.tangential_control = contact::TangentialControl::kShift;
+  step.shift_mm = state_.shift_mm + increment;
+  contact::ContactResult result = solver_.Solve(step, state_);
+  const contact::ContactSummary& s = result.summary;
+  *solver_json = contact::ToJson(s);
+  AccumulateSolverSummary(s, &summary_);
+  if (s.num_contact > 0) {
+    node_state = std::move(result.node_state);
+    state_ = std::move(result.state);
+  } else {
+    state_ = contact::ContactState::Unloaded(n);
+  }
+  return node_state;
+}
+
+void TwinSimulation::WriteContactTruth(const std::vector<contact::NodeState>& node_state,
+                                       TwinStep* out) {
+  const TwinBodyModel& model = *model_;
+  const int n = model.grid.num_nodes();
+  const int num_markers = static_cast<int>(model.marker_positions.size());
+  const double area = model.grid.cell_area_mm2();
+  Eigen::VectorXd displacement = Eigen::VectorXd::Zero(3 * num_markers);
+  out->marker_forces_n.assign(num_markers, Eigen::Vector3d::Zero());
+  out->marker_contact.assign(num_markers, 0);
+  out->marker_slip.assign(num_markers, 0);
+  if (options_.keep_surface) {
+    out->surface.positions_mm = surface_points_;
+    out->surface.tractions_mpa.assign(n, Eigen::Vector3d::Zero());
+    out->surface.states.assign(n, tac3d::ContactState::kSeparated);
+  }
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  double weight = 0.0;
+  for (int i = 0; i < n; ++i) {
+    if (node_state[i] == contact::NodeState::kSeparated) continue;
+    const double p = state_.pressure_mpa[i];
+    const Eigen::Vector3d traction(state_.traction_mpa(i, 0), state_.traction_mpa(i, 1), -p);
+    const Eigen::Vector3d force = area * traction;
+    for (int c = 0; c < 3; ++c) displacement += model.marker_response.col(c * n + i) * force[c];
+    out->total_force_n += force;
+    out->total_moment_nmm += surface_points_[i].cross(force);
+    centroid += p * surface_points_[i];
+    weight += p;
+    if (const int m = node_markers_[i]; m >= 0) {
+      out->marker_forces_n[m] += force;
+      out->marker_contact[m] = 1;
+      if (node_state[i] == contact::NodeState::kSlip) out->marker_slip[m] = 1;
+    }
+    if (options_.keep_surface) {
+      out->surface.tractions_mpa[i] = traction;
+      out->surface.states[i] = ToDatasetState(node_state[i]);
+    }
+  }
+  previous_contact_ = weight > 0.0;
+  if (previous_contact_) previous_centroid_ = centroid / weight;
+  out->marker_positions_mm.resize(num_markers);
+  for (int m = 0; m < num_markers; ++m) {
+    out->marker_positions_mm[m] =
+        model.marker_positions[m] + Eigen::Vector3d(displacement[m],
+                                                    displacement[num_markers + m],
+                                                    displacement[2 * num_markers + m]);
+  }
 }
 
 SimulationSummary TwinSimulation::Run(const std::function<void(const TwinStep&)>& sink) {

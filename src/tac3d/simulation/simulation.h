@@ -105,6 +105,22 @@ class TwinSimulation {
   const contact::ConvolutionCompliance& compliance() const { return *compliance_; }
 
  private:
+  // Step's phases, in order.
+
+  // The object's rigid tangential motion relative to the sensor since the previous step, and
+  // remembers this step's pose; zero when the previous step touched nothing (a new contact
+  // starts from an undragged surface).
+  Eigen::Vector2d TakeTangentialIncrement(const Rigid3& world_from_sensor);
+  // One contact solve (or none when nothing touches), folded into the summary; sets state_,
+  // writes the solver's report to `solver_json`, returns each node's state.
+  std::vector<contact::NodeState> SolveContact(const GapField& gaps,
+                                               const Eigen::Vector2d& increment,
+                                               nlohmann::json* solver_json);
+  // The truth from state_: nodal forces, their total and moment, marker forces, contact and
+  // slip flags, the surface (keep_surface) and the marker positions (rest + M f, not crept);
+  // sets the pressure centroid for the next step's increment.
+  void WriteContactTruth(const std::vector<contact::NodeState>& node_state, TwinStep* out);
+
   Scene scene_;
   std::shared_ptr<const TwinBodyModel> model_;
   SimulationOptions options_;

@@ -230,6 +230,154 @@ std::vector<int> TwinBodyModel::CalcNodeMarkers() const {
   return markers;
 }
 
+namespace {
+
+// Refuses a body whose mesh is too large for the direct factorisation the simulation needs.
+void RequireDirectFactorisation(const fem::BodyModelOptions& body, const TwinBodyOptions& options) {
+  const fem::DomeMesh dome = fem::BuildDomeMesh(body);
+  const int free = CountFreeDofs(dome);
+  if (free > options.max_direct_free_dofs) {
+    throw Error(fmt::format(
+        "the twin body at refinement {} has {} free DOFs, more than the {} a direct "
+        "factorisation handles (TwinBodyOptions.max_direct_free_dofs); the iterative solver "
+        "would take hours for the simulation's {} solves: use deviation.mesh_refinement <= 1.5",
+        body.refinement,
+        free,
+        options.max_direct_free_dofs,
+        3 * body.num_markers() + 3));
+  }
+}
+
+// The kernel as sampled: the displacements at every lattice offset (di, dj) from the centre
+// node under unit cell tractions there, in the ComplianceOperator's signs.
+struct KernelSamples {
+  contact::SampledKernel raw;
+  std::vector<Eigen::Vector2i> offsets;              // (di, dj) of each sampled point
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();  // the centre node (mm)
+  double radius_limit_mm = 0.0;                      // no sample beyond this radius
+};
+
+// Unit cell tractions at the centre node, displacements at every offset point.
+KernelSamples SampleKernel(const fem::BodyModel& fem_model,
+                           const fem::BodyModelOptions& body,
+                           const TwinBodyOptions& options,
+                           const contact::SurfaceGrid& grid) {
+  KernelSamples samples;
+  const int ci = grid.nx / 2, cj = grid.ny / 2;
+  samples.centre = grid.node_position_mm(cj * grid.nx + ci);
+  const Eigen::Vector2d& centre = samples.centre;
+  const Eigen::SparseMatrix<double> source =
+      CellAverage(1, options.quadrature_points_per_side) *
+      fem_model.CalcPointInterpolation(SubPoints(body, options, grid, {centre}));
+  samples.radius_limit_mm = options.kernel_radius_fraction * body.base_radius_mm();
+  // Near the rim the mesh's faceted surface may dip below surface_depth_mm: points the mesh
+  // does not hold are left out (zero kernel), like those beyond the radius.
+  const fem::PointLocator locator(fem_model.mesh());
+  std::vector<Eigen::Vector3d> lattice;
+  std::vector<Eigen::Vector2i>& offsets = samples.offsets;
+  for (int dj = -(grid.ny - 1); dj < grid.ny; ++dj) {
+    for (int di = -(grid.nx - 1); di < grid.nx; ++di) {
+      const Eigen::Vector2d xy = centre + Eigen::Vector2d(di * grid.dx_mm, dj * grid.dy_mm);
+      if (xy.norm() > samples.radius_limit_mm) continue;
+      const Eigen::Vector3d point = SurfacePoint(body, xy.x(), xy.y(), options.surface_depth_mm);
+      if (!locator.Locate(point)) continue;
+      lattice.push_back(point);
+      offsets.emplace_back(di, dj);
+    }
+  }
+  // u (3 P x 3), mm/N; rows c * P + p.
+  const Eigen::MatrixXd u = fem_model.solver().CalcResponse(
+      fem_model.CalcPointInterpolation(lattice), source.transpose(), false);
+  // ComplianceOperator's signs: the normal component is -z for both traction and displacement.
+  const double sign[3] = {1.0, 1.0, -1.0};
+  const double area = grid.cell_area_mm2();
+  samples.raw = contact::SampledKernel::Zero(grid);
+  const int num_points = static_cast<int>(offsets.size());
+  for (int k = 0; k < num_points; ++k) {
+    for (int out = 0; out < 3; ++out) {
+      for (int in = 0; in < 3; ++in) {
+        samples.raw.at(out, in, offsets[k].x(), offsets[k].y()) =
+            sign[out] * sign[in] * area * u(out * num_points + k, in);
+      }
+    }
+  }
+  return samples;
+}
+
+// Reciprocity: K_ab(d) := (K_ab(d) + K_ba(-d)) / 2, with the raw kernel's largest entry and
+// largest departure from reciprocity.
+struct ReciprocalKernel {
+  contact::SampledKernel kernel;
+  double largest = 0.0;
+  double asymmetry = 0.0;
+};
+
+ReciprocalKernel MakeReciprocal(const contact::SampledKernel& raw) {
+  ReciprocalKernel r;
+  for (int out = 0; out < 3; ++out) {
+    for (int in = 0; in < 3; ++in) {
+      const Eigen::MatrixXd mirrored = raw.k[in][out].reverse();
+      r.kernel.k[out][in] = 0.5 * (raw.k[out][in] + mirrored);
+      r.largest = std::max(r.largest, raw.k[out][in].cwiseAbs().maxCoeff());
+      r.asymmetry = std::max(r.asymmetry, (raw.k[out][in] - mirrored).cwiseAbs().maxCoeff());
+    }
+  }
+  return r;
+}
+
+// Decay: the largest entry at the outermost sampled ring (within one cell of the limit).
+double LargestAtOuterRing(const contact::SampledKernel& kernel,
+                          const KernelSamples& samples,
+                          const contact::SurfaceGrid& grid) {
+  double boundary = 0.0;
+  for (const Eigen::Vector2i& d : samples.offsets) {
+    const Eigen::Vector2d xy =
+        samples.centre + Eigen::Vector2d(d.x() * grid.dx_mm, d.y() * grid.dy_mm);
+    if (xy.norm() < samples.radius_limit_mm - grid.dx_mm) continue;
+    for (int out = 0; out < 3; ++out) {
+      for (int in = 0; in < 3; ++in) {
+        boundary = std::max(boundary, std::abs(kernel.at(out, in, d.x(), d.y())));
+      }
+    }
+  }
+  return boundary;
+}
+
+// Marker response by reciprocity: M^T = L^T K^-1 P^T, L the active cells' uniform loads;
+// (3 markers x 3 nodes), zero in the columns of inactive nodes.
+Eigen::MatrixXd CalcMarkerResponse(const TwinBodyModel& model,
+                                   const fem::BodyModel& fem_model,
+                                   bool show_progress) {
+  const contact::SurfaceGrid& grid = model.grid;
+  const int n = grid.num_nodes();
+  const std::vector<bool> active = model.CalcActiveNodes();
+  std::vector<Eigen::Vector2d> cells;
+  std::vector<int> cell_nodes;
+  for (int i = 0; i < n; ++i) {
+    if (!active[i]) continue;
+    cells.push_back(grid.node_position_mm(i));
+    cell_nodes.push_back(i);
+  }
+  const int m = static_cast<int>(cells.size());
+  const Eigen::SparseMatrix<double> cell_readout =
+      CellAverage(m, model.options.quadrature_points_per_side) *
+      fem_model.CalcPointInterpolation(SubPoints(model.body, model.options, grid, cells));
+  const Eigen::SparseMatrix<double> marker_loads =
+      fem_model.CalcPointInterpolation(model.marker_positions).transpose();
+  const Eigen::MatrixXd response_t =
+      fem_model.solver().CalcResponse(cell_readout, marker_loads, show_progress);  // 3m x 3N
+  const int num_markers = static_cast<int>(model.marker_positions.size());
+  Eigen::MatrixXd response = Eigen::MatrixXd::Zero(3 * num_markers, 3 * n);
+  for (int c = 0; c < 3; ++c) {
+    for (int k = 0; k < m; ++k) {
+      response.col(c * n + cell_nodes[k]) = response_t.row(c * m + k).transpose();
+    }
+  }
+  return response;
+}
+
+}  // namespace
+
 TwinBodyModel CalcTwinBodyModel(const fem::BodyModelOptions& body,
                                 const TwinBodyOptions& options,
                                 bool show_progress) {
@@ -238,22 +386,7 @@ TwinBodyModel CalcTwinBodyModel(const fem::BodyModelOptions& body,
   model.body = body;
   model.options = options;
   model.grid = MakeTwinContactGrid(body, options);
-  const contact::SurfaceGrid& grid = model.grid;
-  const int n = grid.num_nodes();
-  {
-    const fem::DomeMesh dome = fem::BuildDomeMesh(body);
-    const int free = CountFreeDofs(dome);
-    if (free > options.max_direct_free_dofs) {
-      throw Error(fmt::format(
-          "the twin body at refinement {} has {} free DOFs, more than the {} a direct "
-          "factorisation handles (TwinBodyOptions.max_direct_free_dofs); the iterative solver "
-          "would take hours for the simulation's {} solves: use deviation.mesh_refinement <= 1.5",
-          body.refinement,
-          free,
-          options.max_direct_free_dofs,
-          3 * body.num_markers() + 3));
-    }
-  }
+  RequireDirectFactorisation(body, options);
   fem::BodySolverOptions solver_options;
   solver_options.max_direct_free_dofs = options.max_direct_free_dofs;
   const auto mesh_start = Clock::now();
@@ -268,99 +401,18 @@ TwinBodyModel CalcTwinBodyModel(const fem::BodyModelOptions& body,
   p.mesh_s = Seconds(mesh_start) - p.factorization_s;
   model.marker_positions = fem_model.marker_positions();
 
-  // Kernel: unit cell tractions at the centre node, displacements at every offset point.
   const auto kernel_start = Clock::now();
-  const int ci = grid.nx / 2, cj = grid.ny / 2;
-  const Eigen::Vector2d centre = grid.node_position_mm(cj * grid.nx + ci);
-  const Eigen::SparseMatrix<double> source =
-      CellAverage(1, options.quadrature_points_per_side) *
-      fem_model.CalcPointInterpolation(SubPoints(body, options, grid, {centre}));
-  const double radius_limit = options.kernel_radius_fraction * body.base_radius_mm();
-  // Near the rim the mesh's faceted surface may dip below surface_depth_mm: points the mesh
-  // does not hold are left out (zero kernel), like those beyond the radius.
-  const fem::PointLocator locator(fem_model.mesh());
-  std::vector<Eigen::Vector3d> lattice;
-  std::vector<Eigen::Vector2i> offsets;
-  for (int dj = -(grid.ny - 1); dj < grid.ny; ++dj) {
-    for (int di = -(grid.nx - 1); di < grid.nx; ++di) {
-      const Eigen::Vector2d xy = centre + Eigen::Vector2d(di * grid.dx_mm, dj * grid.dy_mm);
-      if (xy.norm() > radius_limit) continue;
-      const Eigen::Vector3d point = SurfacePoint(body, xy.x(), xy.y(), options.surface_depth_mm);
-      if (!locator.Locate(point)) continue;
-      lattice.push_back(point);
-      offsets.emplace_back(di, dj);
-    }
-  }
-  p.kernel_points = static_cast<int>(lattice.size());
-  // u (3 P x 3), mm/N; rows c * P + p.
-  const Eigen::MatrixXd u = fem_model.solver().CalcResponse(
-      fem_model.CalcPointInterpolation(lattice), source.transpose(), false);
-  // ComplianceOperator's signs: the normal component is -z for both traction and displacement.
-  const double sign[3] = {1.0, 1.0, -1.0};
-  const double area = grid.cell_area_mm2();
-  contact::SampledKernel raw = contact::SampledKernel::Zero(grid);
-  const int num_points = p.kernel_points;
-  for (int k = 0; k < num_points; ++k) {
-    for (int out = 0; out < 3; ++out) {
-      for (int in = 0; in < 3; ++in) {
-        raw.at(out, in, offsets[k].x(), offsets[k].y()) =
-            sign[out] * sign[in] * area * u(out * num_points + k, in);
-      }
-    }
-  }
-  // Reciprocity: K_ab(d) := (K_ab(d) + K_ba(-d)) / 2.
-  model.kernel = contact::SampledKernel::Zero(grid);
-  double largest = 0.0, asymmetry = 0.0;
-  for (int out = 0; out < 3; ++out) {
-    for (int in = 0; in < 3; ++in) {
-      const Eigen::MatrixXd mirrored = raw.k[in][out].reverse();
-      model.kernel.k[out][in] = 0.5 * (raw.k[out][in] + mirrored);
-      largest = std::max(largest, raw.k[out][in].cwiseAbs().maxCoeff());
-      asymmetry = std::max(asymmetry, (raw.k[out][in] - mirrored).cwiseAbs().maxCoeff());
-    }
-  }
-  p.kernel_asymmetry = asymmetry / largest;
-  // Decay: the largest entry at the outermost sampled ring (within one cell of the limit).
-  double boundary = 0.0;
-  for (int k = 0; k < num_points; ++k) {
-    const Eigen::Vector2d xy =
-        centre + Eigen::Vector2d(offsets[k].x() * grid.dx_mm, offsets[k].y() * grid.dy_mm);
-    if (xy.norm() < radius_limit - grid.dx_mm) continue;
-    for (int out = 0; out < 3; ++out) {
-      for (int in = 0; in < 3; ++in) {
-        boundary =
-            std::max(boundary, std::abs(model.kernel.at(out, in, offsets[k].x(), offsets[k].y())));
-      }
-    }
-  }
-  p.kernel_truncation_ratio = boundary / largest;
+  const KernelSamples samples = SampleKernel(fem_model, body, options, model.grid);
+  p.kernel_points = static_cast<int>(samples.offsets.size());
+  ReciprocalKernel reciprocal = MakeReciprocal(samples.raw);
+  model.kernel = std::move(reciprocal.kernel);
+  p.kernel_asymmetry = reciprocal.asymmetry / reciprocal.largest;
+  p.kernel_truncation_ratio =
+      LargestAtOuterRing(model.kernel, samples, model.grid) / reciprocal.largest;
   p.kernel_s = Seconds(kernel_start);
 
-  // Marker response by reciprocity: M^T = L^T K^-1 P^T, L the active cells' uniform loads.
   const auto response_start = Clock::now();
-  const std::vector<bool> active = model.CalcActiveNodes();
-  std::vector<Eigen::Vector2d> cells;
-  std::vector<int> cell_nodes;
-  for (int i = 0; i < n; ++i) {
-    if (!active[i]) continue;
-    cells.push_back(grid.node_position_mm(i));
-    cell_nodes.push_back(i);
-  }
-  const int m = static_cast<int>(cells.size());
-  const Eigen::SparseMatrix<double> cell_readout =
-      CellAverage(m, options.quadrature_points_per_side) *
-      fem_model.CalcPointInterpolation(SubPoints(body, options, grid, cells));
-  const Eigen::SparseMatrix<double> marker_loads =
-      fem_model.CalcPointInterpolation(model.marker_positions).transpose();
-  const Eigen::MatrixXd response_t =
-      fem_model.solver().CalcResponse(cell_readout, marker_loads, show_progress);  // 3m x 3N
-  const int num_markers = static_cast<int>(model.marker_positions.size());
-  model.marker_response = Eigen::MatrixXd::Zero(3 * num_markers, 3 * n);
-  for (int c = 0; c < 3; ++c) {
-    for (int k = 0; k < m; ++k) {
-      model.marker_response.col(c * n + cell_nodes[k]) = response_t.row(c * m + k).transpose();
-    }
-  }
+  model.marker_response = CalcMarkerResponse(model, fem_model, show_progress);
   p.response_s = Seconds(response_start);
   p.build_s = Seconds(start);
   p.built_utc = UtcNow();

@@ -8,7 +8,7 @@
 #include <fstream>
 #include <memory>
 
-#include "tac3d/design/light_path_design.h"
+#include "tac3d/sensor/default_sensor.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
 

@@ -1,0 +1,14 @@
+#pragma once
+
+#include "tac3d/sensor/sensor_config.h"
+
+namespace tac3d {
+
+/// The built-in sensor: the paper's prototype (SensorConfig's defaults) with the mirrors and
+/// virtual cameras the light-path design gives it (`tac3d design` with the defaults). The
+/// designed values are stored, not solved for at run time, so that what only needs a sensor
+/// does not link the design solver; design/light_path_design_test checks that the solver
+/// still gives them.
+SensorConfig DefaultSensorConfig();
+
+}  // namespace tac3d
