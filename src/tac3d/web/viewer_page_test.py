@@ -82,6 +82,20 @@ def read_png_rgb(path):
     return width, height, rows
 
 
+def marker_pixels(path, left, top, width, height):
+    """Pixels of the camera image clearly green (a tracked marker's ring) and clearly red (a
+    lost marker's cross), as the server draws them (src/tac3d/web/camera_image.cc)."""
+    w, h, rows = read_png_rgb(path)
+    green = red = 0
+    for y in range(int(top), int(min(h, top + height))):
+        row = rows[y]
+        for x in range(int(left), int(min(w, left + width))):
+            r, g, b = row[3 * x:3 * x + 3]
+            green += g >= r + 40 and g >= b + 40
+            red += r >= g + 40 and r >= b + 40
+    return green, red
+
+
 def drawn_share(path, left, top, width, height):
     """The share of the 3D canvas's pixels (every second one) away from its clear colour."""
     w, h, rows = read_png_rgb(path)
@@ -194,14 +208,14 @@ def main():
             fail("the page does not load three.js")
 
         # Chromium's virtual time can run out before a message arrives in real time on a loaded
-        # machine, so a load that saw no frame is retried (at most 5 times); the run keeps
-        # serving, and a new client gets the last frame at once.
+        # machine, so a load that saw no frame or no camera image is retried (at most 5 times);
+        # the run keeps serving, and a new client gets the last frame and image at once.
         for attempt in range(5):
             dom = chromium(["--dump-dom", url], timeout=60).stdout
             received = re.search(r'id="received">(\d+)<', dom)
-            if received and int(received.group(1)) >= 1:
+            if received and int(received.group(1)) >= 1 and "data-camera=" in dom:
                 break
-            print("load %d: no frame yet" % (attempt + 1))
+            print("load %d: no frame or camera image yet" % (attempt + 1))
         if not received or int(received.group(1)) < 1:
             fail("no frames arrived in the page in 5 loads: " + (received.group(0) if received else dom[:400]))
         if "TAC3D-TWIN" not in dom or 'id="connection" class="good"' not in dom:
@@ -210,16 +224,25 @@ def main():
         if not rect:
             fail("the page did not report its 3D canvas")
         left, top, width, height = json.loads(rect.group(1).replace("&quot;", '"'))
+        camera = re.search(r'data-camera="([^"]+)"', dom)
+        if not camera:
+            fail("no camera image was shown in 5 loads")
+        camera_rect = json.loads(camera.group(1).replace("&quot;", '"'))
 
+        # The twin's markers at rest, all tracked: hundreds of green ring pixels on the image.
         shot = os.path.join(work, "viewer.png")
         for attempt in range(5):
             chromium(["--screenshot=" + shot, url], timeout=60)
             share = drawn_share(shot, left, top, width, height)
-            if share >= 0.05:
+            green, red = marker_pixels(shot, *camera_rect)
+            if share >= 0.05 and green >= 500:
                 break
-        print("frames received in the DOM dump: %s; 3D canvas drawn pixels: %.1f%%" % (received.group(1), 100 * share))
+        print("frames received in the DOM dump: %s; 3D canvas drawn pixels: %.1f%%; camera image: %d green "
+              "(tracked) and %d red (lost) marker pixels" % (received.group(1), 100 * share, green, red))
         if share < 0.05:
             fail("the 3D canvas is (nearly) empty: %.2f%% drawn" % (100 * share))
+        if green < 500:
+            fail("the camera image shows no tracked markers: %d green pixels" % green)
         time.sleep(max(0.0, source_ends - time.time()))  # every frame recorded
     finally:
         run.terminate()
