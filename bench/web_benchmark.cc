@@ -1,8 +1,8 @@
 // Image to TactileFrame with the live viewer's server off (/0), on with one browser-like
 // client reading everything (/1), and on with that client plus one stalled client that never
 // reads (/2): the viewer must cost the pipeline nothing measurable (issue 13: within 5%).
-// Publish (a copy into the latest-frame slot, and the image at image_hz) is inside the timed
-// loop; the server's thread serialises and sends at stream_hz = 30.
+// Publish (a copy into the latest-frame slot, and the image and its markers at image_hz) is
+// inside the timed loop; the server's thread serialises, draws and sends at stream_hz = 30.
 // Run: build/bin/bench_web --benchmark_repetitions=20 --benchmark_enable_random_interleaving=true
 //        --benchmark_report_aggregates_only=true  (interleaved: the machine's load drifts)
 #include <atomic>
@@ -127,7 +127,7 @@ void BM_ImageToTactileFrameWithViewer(benchmark::State& state) {
   for (auto _ : state) {
     const Frame& frame = press.frames[k++ % press.frames.size()];
     press.pipeline.Process(frame, out);
-    if (server) server->Publish(out, frame.image);
+    if (server) server->Publish(out, frame.image, &press.pipeline.observation());
     benchmark::DoNotOptimize(out.resultant_force_n);
   }
   if (server) {

@@ -117,9 +117,7 @@ void RunRecording(const RecordingRunArgs& args) {
   const FrameLoopCounts counts = RunFrameLoop(
       outputs,
       args.max_frames,
-      [&](const std::atomic<bool>& stop, const TactileFrame*& frame, const cv::Mat*& image) {
-        return stream->Next(stop, frame, image);
-      },
+      [&](const std::atomic<bool>& stop, ProducedFrame& out) { return stream->Next(stop, out); },
       [&] { stream->Zero(); });
   std::fprintf(stderr,
                "%ld frames replayed from %s%s\n",

@@ -52,9 +52,7 @@ void Run(const RunArgs& a) {
   stream->Start({.epoch = std::chrono::steady_clock::now(), .common = false});
   const FrameLoopCounts counts = RunFrameLoop(
       outputs, a.max_frames,
-      [&](const std::atomic<bool>& stop, const TactileFrame*& frame, const cv::Mat*& image) {
-        return stream->Next(stop, frame, image);
-      },
+      [&](const std::atomic<bool>& stop, ProducedFrame& out) { return stream->Next(stop, out); },
       [&] { stream->Zero(); });
   std::fprintf(stderr, "%ld frames processed, %ld skipped%s\n", counts.emitted, counts.skipped,
                outputs.RecordedNote().c_str());

@@ -132,10 +132,10 @@ FrameOutputs::FrameOutputs(const FrameOutputArgs& args, std::shared_ptr<WebServe
 
 FrameOutputs::~FrameOutputs() = default;
 
-void FrameOutputs::Emit(const TactileFrame& frame, const cv::Mat& image) {
+void FrameOutputs::Emit(const TactileFrame& frame, const cv::Mat& image, const MarkerObservation* markers) {
   if (recorder_) recorder_->Write(frame, args_.record_images ? image : cv::Mat());
   if (sender_) sender_->Send(frame);
-  if (web_) web_->Publish(frame, image);
+  if (web_) web_->Publish(frame, image, markers);
   // Flushed line by line: a reader on a pipe gets each frame at once, and a killed run has
   // printed every frame it recorded.
   if (args_.json) {
@@ -195,17 +195,16 @@ FrameLoopCounts FrameLoop(FrameOutputs& outputs,
                           const std::function<void()>& on_zero) {
   FrameLoopCounts counts;
   while (!stop && !counts.quit && (max_frames <= 0 || counts.emitted < max_frames)) {
-    const TactileFrame* frame = nullptr;
-    const cv::Mat* image = nullptr;
-    const Produced produced = produce(stop, frame, image);
+    ProducedFrame out;
+    const Produced produced = produce(stop, out);
     if (produced == Produced::kEnd) break;
     if (produced == Produced::kSkipped) {
       ++counts.skipped;
       continue;
     }
-    TAC3D_DEMAND(frame != nullptr);
+    TAC3D_DEMAND(out.frame != nullptr);
     ++counts.emitted;
-    outputs.Emit(*frame, image != nullptr ? *image : cv::Mat());
+    outputs.Emit(*out.frame, out.image != nullptr ? *out.image : cv::Mat(), out.markers);
     while (const std::optional<SensorCommand> command = outputs.PollCommand()) {
       if (*command == SensorCommand::kZero) on_zero();
       if (*command == SensorCommand::kStop) counts.quit = true;

@@ -21,6 +21,10 @@ namespace CLI {
 class App;
 }
 
+namespace tac3d {
+struct MarkerObservation;  // tac3d/tracking/marker_tracker.h
+}
+
 namespace tac3d::cli {
 
 /// The frame-level outputs of `tac3d run` (docs/pipeline.md).
@@ -60,9 +64,11 @@ class FrameOutputs {
                         std::shared_ptr<WebServer> shared_viewer = nullptr);
   ~FrameOutputs();
 
-  /// Records the frame (with `image` if record_images and it is not empty), streams it, and
-  /// prints its JSON line. @throws Error as RecordingWriter::Write and UdpSender::Send do.
-  void Emit(const TactileFrame& frame, const cv::Mat& image);
+  /// Records the frame (with `image` if record_images and it is not empty), streams it,
+  /// publishes it to the viewer (with `image` and the tracker's `markers` in it, when given,
+  /// drawn on it) and prints its JSON line.
+  /// @throws Error as RecordingWriter::Write and UdpSender::Send do.
+  void Emit(const TactileFrame& frame, const cv::Mat& image, const MarkerObservation* markers = nullptr);
   /// The next command the UDP client sent (`$C`, `$Q`), or a zero the viewer asked for this
   /// SN (`$C`); nullopt when none.
   std::optional<SensorCommand> PollCommand();
@@ -102,11 +108,17 @@ enum class Produced {
   kEnd,      ///< no more frames
 };
 
-/// Gives the next frame: sets `frame` (and `image`, possibly empty) to storage it owns, valid
-/// until its next call. `stop` is set by Ctrl-C, SIGTERM or the client's `$Q`; a producer that
-/// waits checks it.
-using FrameProducer = std::function<Produced(
-    const std::atomic<bool>& stop, const TactileFrame*& frame, const cv::Mat*& image)>;
+/// A frame a producer gives: pointers to storage it owns, valid until its next call.
+struct ProducedFrame {
+  const TactileFrame* frame = nullptr;
+  const cv::Mat* image = nullptr;  ///< the frame's camera image (possibly empty), or null
+  /// The tracker's markers in `image` (a pipeline's stream), or null (a recording's).
+  const MarkerObservation* markers = nullptr;
+};
+
+/// Gives the next frame: fills `out`. `stop` is set by Ctrl-C, SIGTERM or the client's `$Q`; a
+/// producer that waits checks it.
+using FrameProducer = std::function<Produced(const std::atomic<bool>& stop, ProducedFrame& out)>;
 
 struct FrameLoopCounts {
   long emitted = 0;

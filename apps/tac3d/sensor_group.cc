@@ -41,8 +41,8 @@ void RunSensor(OpenSensor& sensor, const StreamClock& clock, long max_frames, co
     double last = std::numeric_limits<double>::quiet_NaN();
     const FrameLoopCounts counts = FrameLoop(
         *sensor.outputs, max_frames, stop,
-        [&](const std::atomic<bool>& s, const TactileFrame*& frame, const cv::Mat*& image) {
-          const Produced produced = sensor.stream->Next(s, frame, image);
+        [&](const std::atomic<bool>& s, ProducedFrame& out) {
+          const Produced produced = sensor.stream->Next(s, out);
           if (produced != Produced::kFrame) return produced;
           const double now = std::chrono::duration<double>(Clock::now() - clock.epoch).count();
           if (std::isnan(report.first_frame_s)) report.first_frame_s = now;

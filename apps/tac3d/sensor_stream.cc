@@ -48,7 +48,7 @@ class PipelineStream final : public SensorStream {
 
   void Start(const StreamClock& clock) override { clock_ = clock; }
 
-  Produced Next(const std::atomic<bool>&, const TactileFrame*& produced, const cv::Mat*& image) override {
+  Produced Next(const std::atomic<bool>&, ProducedFrame& out) override {
     const ReadStatus status = source_->Read(frame_);
     if (status == ReadStatus::kEnd) return Produced::kEnd;
     if (status == ReadStatus::kFailed) {
@@ -73,8 +73,9 @@ class PipelineStream final : public SensorStream {
                    static_cast<long long>(frame_.index), e.what());
       return Produced::kSkipped;
     }
-    produced = &out_;
-    image = &frame_.image;
+    out.frame = &out_;
+    out.image = &frame_.image;
+    out.markers = &pipeline_->observation();
     return Produced::kFrame;
   }
 
@@ -111,13 +112,15 @@ class RecordingStream final : public SensorStream {
 
   void Start(const StreamClock& clock) override { clock_ = clock; }
 
-  Produced Next(const std::atomic<bool>& stop, const TactileFrame*& frame, const cv::Mat*& image) override {
+  // A recording holds no marker pixels: its images (when recorded) are shown without markers.
+  Produced Next(const std::atomic<bool>& stop, ProducedFrame& out) override {
     current_ = replay_.Next(&stop);
     if (!current_) return Produced::kEnd;
     if (sn_) current_->frame.sn = *sn_;
     if (clock_.common) current_->frame.timestamp_s = SecondsSinceEpoch(clock_);
-    frame = &current_->frame;
-    image = &current_->image;
+    out.frame = &current_->frame;
+    out.image = &current_->image;
+    out.markers = nullptr;
     return Produced::kFrame;
   }
 

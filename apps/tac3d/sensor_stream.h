@@ -68,10 +68,8 @@ class SensorStream {
  public:
   virtual ~SensorStream() = default;
   virtual void Start(const StreamClock& clock) = 0;
-  /// As FrameProducer.
-  virtual Produced Next(const std::atomic<bool>& stop,
-                        const TactileFrame*& frame,
-                        const cv::Mat*& image) = 0;
+  /// As FrameProducer: a pipeline's stream gives its tracker's markers too.
+  virtual Produced Next(const std::atomic<bool>& stop, ProducedFrame& out) = 0;
   /// A `$C`: retake the reference.
   virtual void Zero() = 0;
   /// @param emitted frames the loop emitted, for the messages.

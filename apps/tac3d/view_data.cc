@@ -40,15 +40,19 @@ void ViewData::LoadFrames(SensorStream& stream, const std::string& source, int i
   source_ = source;
   const std::atomic<bool> stop{false};
   stream.Start({.epoch = std::chrono::steady_clock::now(), .common = false});
+  std::vector<ImageMarker> markers;
   for (;;) {
-    const TactileFrame* frame = nullptr;
-    const cv::Mat* image = nullptr;
-    const Produced produced = stream.Next(stop, frame, image);
+    ProducedFrame out;
+    const Produced produced = stream.Next(stop, out);
     if (produced == Produced::kEnd) break;
     if (produced == Produced::kSkipped) continue;
-    frames_.push_back(*frame);
-    const bool has_image = image != nullptr && !image->empty();
-    images_.push_back(has_image ? ImageToJson(frame->sn, frame->index, *image, image_width) : "");
+    frames_.push_back(*out.frame);
+    const bool has_image = out.image != nullptr && !out.image->empty();
+    // A pipeline's stream gives its tracker's markers (a dataset's), a recording none.
+    markers.clear();
+    if (has_image && out.markers != nullptr) ImageMarkersOf(*out.markers, markers);
+    images_.push_back(
+        has_image ? ImageToJson(out.frame->sn, out.frame->index, *out.image, image_width, markers) : "");
   }
   const StreamEnd end = stream.End(frames());
   if (!end.failure.empty()) throw Error(end.failure);

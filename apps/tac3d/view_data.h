@@ -17,14 +17,16 @@ namespace tac3d::cli {
 /// GET /api/... requests:
 /// - /api/frames: {"sn","source","count","t":[s...],"F":[[x,y,z]...],"M":[[...]...],"images"}
 /// - /api/frame/N: frame N as the live stream's frame message (FrameToJson)
-/// - /api/image/N: frame N's camera image as the live image message (404 without one)
+/// - /api/image/N: frame N's camera image as the live image message, with the tracker's markers
+///   drawn on it when the stream gave them (a dataset's; a recording has none); 404 without one
 /// - /api/friction-map: {"vertices":[x,y,z,...] (mm),"triangles":[i,j,k,...],"mu":[...]
 ///   (null unknown),"confidence":[...],"colors":[r,g,b,...] (0-255, the paper's bands),
 ///   "bands":{"unknown","low","medium","high"} (vertices per band)}; 404 without a map.
 class ViewData {
  public:
   /// Reads every frame `stream` gives (as fast as it gives them), keeping each one's image
-  /// downscaled to `image_width` px as JPEG. @throws Error if the stream fails.
+  /// downscaled to `image_width` px as JPEG, its markers drawn on it when the stream gives
+  /// them. @throws Error if the stream fails.
   void LoadFrames(SensorStream& stream, const std::string& source, int image_width = 320);
 
   /// A friction map as `tac3d friction-map` writes it: map.ply, or the folder holding it.

@@ -13,7 +13,9 @@
 #include "tac3d/frame/synthetic_frame.h"
 #include "tac3d/friction/friction_output.h"
 #include "tac3d/record/recording.h"
+#include "tac3d/testing/image_message.h"
 #include "tac3d/testing/testing.h"
+#include "tac3d/tracking/marker_tracker.h"
 #include "tac3d/util/error.h"
 
 namespace tac3d::cli {
@@ -85,6 +87,71 @@ TEST(ViewData, ServesTheImagesTheRecordingHas) {
   EXPECT_EQ(image["w"], 320);  // downscaled from 640
   EXPECT_FALSE(image["jpeg"].get<std::string>().empty());
   EXPECT_FALSE(view.Handle("/api/image/1"));
+}
+
+// A pipeline's stream as ViewData sees it: two frames with a grey image and the tracker's
+// markers (a 1 x 2 grid a half: marker 0 tracked, marker 1 lost), without a pipeline.
+class MarkedStream final : public SensorStream {
+ public:
+  MarkedStream() {
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    observation_.rows = 1;
+    observation_.cols = 2;
+    for (int h = 0; h < 2; ++h) {
+      HalfObservation& half = observation_.halves[h];
+      half.uv = {At(2 * h), Eigen::Vector2d(nan, nan)};
+      half.estimate_uv = {At(2 * h), At(2 * h + 1)};
+      half.state = {MarkerState::kValid, MarkerState::kNotFound};
+    }
+  }
+  // Marker k (left 0, left 1, right 0, right 1) in the full image, px.
+  static Eigen::Vector2d At(int k) { return {100.0 + 300.0 * (k / 2) + 60.0 * (k % 2), 200.0 + 40.0 * (k % 2)}; }
+
+  void Start(const StreamClock&) override {}
+  Produced Next(const std::atomic<bool>&, ProducedFrame& out) override {
+    if (next_ == 2) return Produced::kEnd;
+    frame_ = MakeSyntheticTactileFrame("MARKED", next_++);
+    out.frame = &frame_;
+    out.image = &image_;
+    out.markers = &observation_;
+    return Produced::kFrame;
+  }
+  void Zero() override {}
+  StreamEnd End(long) const override { return {}; }
+  std::string Describe() const override { return "marked"; }
+
+ private:
+  int next_ = 0;
+  TactileFrame frame_;
+  cv::Mat image_ = cv::Mat(480, 640, CV_8UC1, cv::Scalar(128));
+  MarkerObservation observation_;
+};
+
+// `tac3d view --dataset`: each frame's image with its markers drawn, tracked green, lost red;
+// a recording's images (no marker pixels recorded) plain.
+TEST(ViewData, DrawsTheMarkersOnADatasetsImagesNotOnARecordings) {
+  MarkedStream stream;
+  ViewData view;
+  view.LoadFrames(stream, "marked");
+  ASSERT_EQ(view.frames(), 2);
+  for (int i = 0; i < 2; ++i) {
+    const std::optional<WebReply> reply = view.Handle("/api/image/" + std::to_string(i));
+    ASSERT_TRUE(reply);
+    const cv::Mat image = testing::DecodeImageMessage(reply->body);
+    ASSERT_EQ(image.size(), cv::Size(320, 240));
+    for (int k = 0; k < 4; ++k) {
+      const Eigen::Vector2d at = ((MarkedStream::At(k).array() + 0.5) * 0.5 - 0.5).matrix();
+      const bool tracked = k % 2 == 0;
+      EXPECT_GE(testing::CountPixelsNear(image, at, 4, tracked ? testing::IsMarkerGreen : testing::IsMarkerRed), 4)
+          << "frame " << i << " marker " << k;
+      EXPECT_EQ(testing::CountPixelsNear(image, at, 4, tracked ? testing::IsMarkerRed : testing::IsMarkerGreen), 0)
+          << "frame " << i << " marker " << k;
+    }
+  }
+  const ViewData recorded = RecordedView();
+  const cv::Mat plain = testing::DecodeImageMessage(recorded.Handle("/api/image/2")->body);
+  ASSERT_FALSE(plain.empty());
+  EXPECT_EQ(testing::CountMarkerPixels(plain), 0);
 }
 
 TEST(ViewData, ColoursTheFrictionMapInThePapersBands) {

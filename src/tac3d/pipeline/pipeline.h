@@ -69,6 +69,11 @@ class Pipeline {
   /// @throws Error if the image is empty or not the camera's size and type.
   void Process(const Frame& frame, TactileFrame& out);
 
+  /// The tracker's markers in the image the last Process call was given (both halves' pixels,
+  /// states and estimates): for a caller that draws them (the viewer), read after Process and
+  /// valid until the next call; no copy is made for it.
+  const MarkerObservation& observation() const { return observation_; }
+
   /// Takes the next reference_frames frames as the new reference (`$C`).
   void RequestZero();
   bool initializing() const;

@@ -175,6 +175,29 @@ TEST(Pipeline, BlackFramesAreFlaggedNeverCrashOrGiveNaNForces) {
   EXPECT_FALSE(back.has(FrameFlag::kMarkersLost));
 }
 
+// The viewer reads the tracker's markers of the frame just processed from the pipeline, in
+// place: they are what a tracker of the same images measures, frame after frame.
+TEST(Pipeline, ExposesTheLastFramesMarkersInPlace) {
+  TwinStream run(FiveReferenceFrames());
+  MarkerTracker tracker(Sensor(), run.pipeline.options().tracking);
+  const MarkerObservation* const exposed = &run.pipeline.observation();
+  std::vector<Eigen::Vector3d> markers = Sensor().MarkerPositions();
+  for (int k = 0; k < 8; ++k) {
+    for (auto& p : markers) p.x() += 0.05;  // a slow shear: the markers move from frame to frame
+    const cv::Mat image = k == 6 ? cv::Mat(480, 640, CV_8UC1, cv::Scalar(0)) : run.renderer.Render(markers, k);
+    run.StepImage(image);
+    const MarkerObservation expected = tracker.Track(image);
+    const MarkerObservation& got = run.pipeline.observation();
+    EXPECT_EQ(&got, exposed);
+    EXPECT_EQ(got.summary.grid_lost, k == 6) << "frame " << k;
+    EXPECT_EQ(got.summary.paired_markers, expected.summary.paired_markers) << "frame " << k;
+    for (int h = 0; h < 2; ++h) {
+      EXPECT_EQ(got.halves[h].state, expected.halves[h].state) << "frame " << k;
+      EXPECT_EQ(got.halves[h].estimate_uv, expected.halves[h].estimate_uv) << "frame " << k;
+    }
+  }
+}
+
 TEST(Pipeline, LargeDisplacementIsFlaggedOutOfRange) {
   PipelineOptions options = FiveReferenceFrames();
   options.displacement_range_mm = 0.2;

@@ -394,6 +394,7 @@ void MarkerTracker::Track(const cv::Mat& image, MarkerObservation& observation) 
     }
     out.grid_lost = !half.tracking;
     out.uv.resize(n);
+    out.estimate_uv.resize(n);
     out.background_dn.resize(n);
     out.contrast_dn.resize(n);
     out.state.resize(n);
@@ -402,6 +403,7 @@ void MarkerTracker::Track(const cv::Mat& image, MarkerObservation& observation) 
       out.state[i] = out.grid_lost ? MarkerState::kGridLost : half.state[i];
       const bool valid = out.state[i] == MarkerState::kValid;
       out.uv[i] = valid ? half.found[i] : Eigen::Vector2d(nan, nan);
+      out.estimate_uv[i] = out.grid_lost ? half.nominal[i] : half.estimate[i];
       out.background_dn[i] = valid ? half.levels[i].x() : nan;
       out.contrast_dn[i] = valid ? half.levels[i].y() : nan;
       ++out.state_counts[static_cast<int>(out.state[i])];

@@ -56,6 +56,10 @@ struct HalfObservation {
   /// Per marker, row-major (index = row * cols + col): the sub-pixel centroid in the full
   /// image (px), NaN unless valid.
   std::vector<Eigen::Vector2d> uv;
+  /// Per marker, where the tracker takes it to be (px), for display, not a measurement: `uv`
+  /// if valid, else its position predicted from its grid neighbours' motion (where it was
+  /// looked for), or the nominal sensor's pixel while the half's grid is lost.
+  std::vector<Eigen::Vector2d> estimate_uv;
   /// Per marker, its blob's local background (the film around it) and contrast (DN,
   /// MeasureBlob), NaN unless valid: the lighting where the markers are.
   std::vector<double> background_dn;

@@ -247,6 +247,14 @@ TEST(MarkerTracker, TenPercentOfMarkersHiddenAreFlaggedAndTheRestMeasured) {
       }
       EXPECT_EQ(observation.halves[h].valid_markers, 360);
       EXPECT_FALSE(observation.halves[h].grid_lost);
+      // The viewer draws a hidden marker where the tracker takes it to be: within 1 px of its
+      // true pixel (a pitch is at least 9 px); a measured one at its centroid.
+      const HalfObservation& half = observation.halves[h];
+      ASSERT_EQ(half.estimate_uv.size(), markers.size());
+      for (int i : hidden) EXPECT_LT((half.estimate_uv[i] - truth[h][i]).norm(), 1.0) << "marker " << i;
+      for (int i = 0; i < static_cast<int>(markers.size()); ++i) {
+        if (half.valid(i)) EXPECT_EQ(half.estimate_uv[i], half.uv[i]) << "marker " << i;
+      }
     }
     const Errors e = Compare(observation, truth);
     EXPECT_EQ(e.valid, 720);
@@ -337,7 +345,10 @@ TEST(MarkerTracker, PureNoiseFrameIsFlaggedAndTrackingRecovers) {
 TEST(MarkerTracker, BlackFrameIsFlaggedAndTrackingRecovers) {
   const auto markers = Sensor().MarkerPositions();
   MarkerTracker tracker(Sensor());
-  ExpectGridLost(tracker.Track(cv::Mat::zeros(480, 640, CV_8UC1)));
+  const MarkerObservation black = tracker.Track(cv::Mat::zeros(480, 640, CV_8UC1));
+  ExpectGridLost(black);
+  // With no grid, every marker is taken to be at its nominal pixel (where the viewer draws it).
+  for (ImageHalf h : kImageHalves) EXPECT_EQ(black.half(h).estimate_uv, tracker.nominal_uv(h));
   const MarkerObservation back = tracker.Track(Renderer().Render(markers, 7));
   EXPECT_TRUE(back.summary.acquired);
   EXPECT_EQ(back.summary.paired_markers, 400);

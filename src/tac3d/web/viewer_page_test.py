@@ -6,8 +6,9 @@ the page twice in headless Chromium (Debian's `chromium`, installed by scripts/s
 dump the DOM (frames received > 0, the sensor's panel made) and once for a screenshot, whose
 3D canvas must hold drawn (non-background) pixels. Then serves that recording and a small
 friction map with `tac3d view`: the page must show the time slider over every recorded frame,
-the first frame fetched by index, the map's band counts and a drawn friction canvas. Exits
-non-zero on any failure.
+the first frame fetched by index, the map's band counts and a drawn friction canvas. Last,
+serves the dataset with `tac3d view --dataset`: the camera image in the page must show the
+tracked markers (green). Exits non-zero on any failure.
 
 usage: viewer_page_test.py TAC3D_BINARY WORK_DIR
 """
@@ -80,6 +81,20 @@ def read_png_rgb(path):
         rows.append(bytes(line if channels == 3 else bytes(v for k, v in enumerate(line) if k % 4 != 3)))
         previous = line
     return width, height, rows
+
+
+def marker_pixels(path, left, top, width, height):
+    """Pixels of the camera image clearly green (a tracked marker's ring) and clearly red (a
+    lost marker's cross), as the server draws them (src/tac3d/web/camera_image.cc)."""
+    w, h, rows = read_png_rgb(path)
+    green = red = 0
+    for y in range(int(top), int(min(h, top + height))):
+        row = rows[y]
+        for x in range(int(left), int(min(w, left + width))):
+            r, g, b = row[3 * x:3 * x + 3]
+            green += g >= r + 40 and g >= b + 40
+            red += r >= g + 40 and r >= b + 40
+    return green, red
 
 
 def drawn_share(path, left, top, width, height):
@@ -173,6 +188,33 @@ def check_view(tac3d, work, recording):
         view.wait(timeout=10)
 
 
+def check_view_dataset(tac3d, work, dataset):
+    """`tac3d view --dataset`: the dataset's images through the pipeline, each with the
+    tracker's markers drawn on it; the twin at rest and sliding tracks every marker, so the
+    camera image shows hundreds of green ring pixels. (Served from memory, so unlike the live
+    stream no image can be missed for want of a client at the moment it was published.)"""
+    port = free_port()
+    url = "http://127.0.0.1:%d/" % port
+    view = subprocess.Popen([tac3d, "view", "--dataset", dataset, "--web", "127.0.0.1:%d" % port,
+                             "--web-hold", "60"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        wait_for_page(url, view)
+        dom = dump_dom_until(url, r'data-camera="', "frame 0's camera image")
+        left, top, width, height = json.loads(re.search(r'data-camera="([^"]+)"', dom).group(1).replace("&quot;", '"'))
+        shot = os.path.join(work, "view_dataset.png")
+        for attempt in range(5):
+            chromium(["--screenshot=" + shot, url], timeout=60, window=VIEW_WINDOW)
+            green, red = marker_pixels(shot, left, top, width, height)
+            if green >= 500:
+                break
+        print("tac3d view --dataset: camera image with %d green (tracked) and %d red (lost) marker pixels" % (green, red))
+        if green < 500:
+            fail("the camera image shows no tracked markers: %d green pixels" % green)
+    finally:
+        view.terminate()
+        view.wait(timeout=10)
+
+
 def main():
     tac3d, work = sys.argv[1], sys.argv[2]
     shutil.rmtree(work, ignore_errors=True)
@@ -228,6 +270,7 @@ def main():
         except subprocess.TimeoutExpired:
             run.kill()
     check_view(tac3d, work, recording)
+    check_view_dataset(tac3d, work, dataset)
     print("PASS")
 
 

@@ -125,11 +125,9 @@ std::string JsonSafe(std::string s) {
 
 }  // namespace
 
-std::string ImageToJson(const std::string& sn, std::int64_t index, const cv::Mat& image, int width) {
-  TAC3D_DEMAND(!image.empty());
-  cv::Mat small;
-  const double scale = std::min(1.0, width / static_cast<double>(image.cols));
-  cv::resize(image, small, cv::Size(), scale, scale, cv::INTER_AREA);
+std::string ImageToJson(const std::string& sn, std::int64_t index, const cv::Mat& image, int width,
+                        const std::vector<ImageMarker>& markers) {
+  const cv::Mat small = DrawCameraImage(image, markers, width);
   std::vector<uchar> jpeg;
   cv::imencode(".jpg", small, jpeg, {cv::IMWRITE_JPEG_QUALITY, 70});
   return fmt::format("{{\"type\":\"image\",\"sn\":\"{}\",\"index\":{},\"w\":{},\"h\":{},\"jpeg\":\"{}\"}}",
@@ -172,7 +170,7 @@ class WebServerImpl {
   explicit WebServerImpl(const WebServerOptions& options);
   ~WebServerImpl();
 
-  void Publish(const TactileFrame& frame, const cv::Mat& image);
+  void Publish(const TactileFrame& frame, const cv::Mat& image, const MarkerObservation* markers);
   void Register(const std::shared_ptr<WsSession>& session);
   void Unregister(const WsSession* session);
   void Accept();
@@ -200,6 +198,7 @@ class WebServerImpl {
     double fps = 0.0;
     Clock::time_point last_publish{};
     cv::Mat image;
+    std::vector<ImageMarker> markers;  // the image's, drawn on it
     std::int64_t image_index = 0;
     std::uint64_t image_seq = 0;
     Clock::time_point last_image{};
@@ -220,6 +219,7 @@ class WebServerImpl {
   std::map<std::string, std::shared_ptr<const std::string>> last_messages_;
   TactileFrame scratch_frame_;                        // server thread only
   cv::Mat scratch_image_;                             // server thread only
+  std::vector<ImageMarker> scratch_markers_;          // server thread only
 };
 
 // One WebSocket client. Holds at most one message in flight and, per key (a sensor's frame
@@ -471,7 +471,7 @@ bool WebServerImpl::TakeZeroRequest(const std::string& sn) {
   return requested;
 }
 
-void WebServerImpl::Publish(const TactileFrame& frame, const cv::Mat& image) {
+void WebServerImpl::Publish(const TactileFrame& frame, const cv::Mat& image, const MarkerObservation* markers) {
   const Clock::time_point now = Clock::now();
   std::lock_guard lock(mutex_);
   auto it = slots_.find(frame.sn);
@@ -488,6 +488,12 @@ void WebServerImpl::Publish(const TactileFrame& frame, const cv::Mat& image) {
                          now - slot.last_image >= std::chrono::duration<double>(1.0 / options_.image_hz);
   if (image_due) {
     image.copyTo(slot.image);
+    // At the image's rate only; the slot's storage is reused.
+    if (markers != nullptr) {
+      ImageMarkersOf(*markers, slot.markers);
+    } else {
+      slot.markers.clear();
+    }
     slot.image_index = frame.index;
     ++slot.image_seq;
     slot.last_image = now;
@@ -528,6 +534,7 @@ void WebServerImpl::Tick() {
           }
           if (slot.image_seq != slot.sent_image_seq) {
             slot.image.copyTo(scratch_image_);
+            scratch_markers_ = slot.markers;
             image_index = slot.image_index;
             slot.sent_image_seq = slot.image_seq;
             have_image = true;
@@ -537,7 +544,7 @@ void WebServerImpl::Tick() {
         if (frame_message) frame_message = std::make_shared<const std::string>(FrameToJson(scratch_frame_, fps));
         if (have_image) {
           image_message = std::make_shared<const std::string>(
-              ImageToJson(sn, image_index, scratch_image_, options_.image_width));
+              ImageToJson(sn, image_index, scratch_image_, options_.image_width, scratch_markers_));
         }
         if (frame_message) last_messages_["frame:" + sn] = frame_message;
         if (image_message) last_messages_["image:" + sn] = image_message;
@@ -558,7 +565,9 @@ WebServer::~WebServer() = default;
 
 std::uint16_t WebServer::port() const { return impl_->port_; }
 
-void WebServer::Publish(const TactileFrame& frame, const cv::Mat& image) { impl_->Publish(frame, image); }
+void WebServer::Publish(const TactileFrame& frame, const cv::Mat& image, const MarkerObservation* markers) {
+  impl_->Publish(frame, image, markers);
+}
 
 bool WebServer::TakeZeroRequest(const std::string& sn) { return impl_->TakeZeroRequest(sn); }
 

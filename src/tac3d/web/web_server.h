@@ -10,12 +10,23 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
+#include <Eigen/Core>
 #include <opencv2/core.hpp>
 
 #include "tac3d/frame/tactile_frame.h"
 
 namespace tac3d {
+
+struct MarkerObservation;  // tac3d/tracking/marker_tracker.h
+
+/// A marker as the viewer draws it on the camera image.
+struct ImageMarker {
+  Eigen::Vector2f uv_px = Eigen::Vector2f::Zero();  ///< in the full-size camera image, px
+  /// Measured in this frame; else lost, and drawn where the tracker takes it to be.
+  bool tracked = false;
+};
 
 /// A reply to an HTTP GET the server's `api` handler answered.
 struct WebReply {
@@ -77,8 +88,11 @@ class WebServer {
   std::uint16_t port() const;
 
   /// Makes `frame` its sensor's latest frame. `image` (CV_8UC1 or empty) is copied only when
-  /// an image is due (image_hz) and a client is connected. Never blocks on the network.
-  void Publish(const TactileFrame& frame, const cv::Mat& image = cv::Mat());
+  /// an image is due (image_hz) and a client is connected, and so are the pixels of `markers`
+  /// (the tracker's in `image`, or null), which are drawn on it (DrawCameraImage). Never
+  /// blocks on the network.
+  void Publish(const TactileFrame& frame, const cv::Mat& image = cv::Mat(),
+               const MarkerObservation* markers = nullptr);
 
   /// True once for each zero request for sensor `sn` a client sent since the last call with
   /// this `sn`: the message "zero" asks every sensor, "zero SN" the one sensor SN (a sensor
@@ -97,9 +111,21 @@ class WebServer {
 /// "init", "slip", "slip_fraction", "mu", "mu_sigma", "fps"}.
 std::string FrameToJson(const TactileFrame& frame, double fps);
 
+/// Both halves' markers of an observation into `markers` (its storage reused): each valid one
+/// tracked at its centroid (HalfObservation::uv), each other one lost at the tracker's estimate
+/// (HalfObservation::estimate_uv; left out where there is none).
+void ImageMarkersOf(const MarkerObservation& observation, std::vector<ImageMarker>& markers);
+
+/// The camera image as the page shows it: downscaled to at most `width` px wide (INTER_AREA;
+/// never enlarged), CV_8UC1 without markers; with markers, CV_8UC3 (BGR) with each tracked
+/// marker a green ring and each lost one a red cross, 4 camera px in radius (at least 2 px).
+/// @pre image is CV_8UC1 and not empty, width > 0.
+cv::Mat DrawCameraImage(const cv::Mat& image, const std::vector<ImageMarker>& markers, int width);
+
 /// The camera image as the page's message: {"type":"image","sn","index","w","h","jpeg"
-/// (base64)}, downscaled to at most `width` px wide. @pre image is CV_8UC1 and not empty.
-std::string ImageToJson(const std::string& sn, std::int64_t index, const cv::Mat& image, int width);
+/// (base64)}, DrawCameraImage's picture of `image` and `markers`. @pre as DrawCameraImage.
+std::string ImageToJson(const std::string& sn, std::int64_t index, const cv::Mat& image, int width,
+                        const std::vector<ImageMarker>& markers = {});
 
 /// The file under `root` a request target names, or "" when it names none: the path part
 /// (query dropped) percent-decoded, "/" as index.html; "" for "..", a NUL, a backslash, a bad

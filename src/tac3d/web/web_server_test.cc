@@ -10,20 +10,26 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <random>
 #include <set>
 #include <functional>
 #include <algorithm>
+#include <limits>
+#include <map>
 #include <thread>
 
 #include <boost/asio.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/websocket.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "tac3d/frame/synthetic_frame.h"
+#include "tac3d/testing/image_message.h"
 #include "tac3d/testing/testing.h"
+#include "tac3d/tracking/marker_tracker.h"
 #include "tac3d/util/error.h"
 
 namespace tac3d {
@@ -470,6 +476,111 @@ TEST(WebServer, FiftyClientsComeAndGoWhilePublishing) {
   EXPECT_EQ(got_frame.load(), 150);
   EXPECT_TRUE(WaitFor([&] { return server.stats().clients == 0; })) << server.stats().clients;
   ExpectPublishBounded(publish_s);
+}
+
+// A 1 x 2 marker grid in each half of a 640 x 480 image: marker 0 tracked in both halves,
+// marker 1 lost in both (not found on the left, a neighbour's blob on the right), with the
+// tracker's estimate of where it is. kAt: left 0, left 1, right 0, right 1 (px).
+const std::array<Eigen::Vector2d, 4> kAt = {Eigen::Vector2d(120.4, 200.6), Eigen::Vector2d(180.2, 260.8),
+                                            Eigen::Vector2d(440.0, 180.0), Eigen::Vector2d(520.5, 300.5)};
+
+MarkerObservation TwoMarkersEachHalf() {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  MarkerObservation o;
+  o.rows = 1;
+  o.cols = 2;
+  for (int h = 0; h < 2; ++h) {
+    HalfObservation& half = o.halves[h];
+    half.uv = {kAt[2 * h], Eigen::Vector2d(nan, nan)};
+    half.estimate_uv = {kAt[2 * h], kAt[2 * h + 1]};
+    half.state = {MarkerState::kValid, h == 0 ? MarkerState::kNotFound : MarkerState::kConflict};
+  }
+  return o;
+}
+
+// A full-image pixel where the image downscaled by `scale` (INTER_AREA, pixel centres) shows it.
+Eigen::Vector2d Downscaled(const Eigen::Vector2d& uv, double scale) {
+  return ((uv.array() + 0.5) * scale - 0.5).matrix();
+}
+
+// Around each of kAt's markers in `bgr` (downscaled by `scale`): tracked ones green and no
+// red, lost ones red and no green; and no marker colour anywhere else.
+void ExpectMarkersDrawn(const cv::Mat& bgr, double scale) {
+  ASSERT_EQ(bgr.type(), CV_8UC3);
+  // px: the drawn ring or cross (4 camera px in radius, at least 2 px) and its anti-aliasing.
+  const int kNear = static_cast<int>(std::ceil(std::max(2.0, 4.0 * scale))) + 2;
+  cv::Mat rest = bgr.clone();
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector2d at = Downscaled(kAt[k], scale);
+    const bool tracked = k % 2 == 0;
+    const int green = testing::CountPixelsNear(bgr, at, kNear, testing::IsMarkerGreen);
+    const int red = testing::CountPixelsNear(bgr, at, kNear, testing::IsMarkerRed);
+    EXPECT_GE(tracked ? green : red, 4) << "marker " << k << " not drawn in its colour";
+    EXPECT_EQ(tracked ? red : green, 0) << "marker " << k << " drawn in the other colour";
+    cv::rectangle(rest, cv::Point(std::lround(at.x()) - kNear, std::lround(at.y()) - kNear),
+                  cv::Point(std::lround(at.x()) + kNear, std::lround(at.y()) + kNear), cv::Scalar::all(128), -1);
+  }
+  EXPECT_EQ(testing::CountMarkerPixels(rest), 0) << "marker colours away from the markers";
+}
+
+TEST(ImageMarkersOf, TrackedAtTheirCentroidsLostWhereTheTrackerExpectsThem) {
+  MarkerObservation observation = TwoMarkersEachHalf();
+  std::vector<ImageMarker> markers;
+  ImageMarkersOf(observation, markers);
+  ASSERT_EQ(markers.size(), 4u);
+  for (int k = 0; k < 4; ++k) {
+    EXPECT_NEAR(markers[k].uv_px.x(), kAt[k].x(), 1e-4) << k;
+    EXPECT_NEAR(markers[k].uv_px.y(), kAt[k].y(), 1e-4) << k;
+    EXPECT_EQ(markers[k].tracked, k % 2 == 0) << k;
+  }
+  // A lost marker without an estimate (an observation made by hand) is left out.
+  observation.halves[1].estimate_uv.clear();
+  ImageMarkersOf(observation, markers);
+  ASSERT_EQ(markers.size(), 3u);
+  EXPECT_FALSE(markers[1].tracked);
+  EXPECT_TRUE(markers[2].tracked);
+  EXPECT_NEAR(markers[2].uv_px.x(), kAt[2].x(), 1e-4);
+}
+
+TEST(DrawCameraImage, TrackedMarkersGreenLostOnesRedNothingElse) {
+  const cv::Mat image(480, 640, CV_8UC1, cv::Scalar(128));
+  std::vector<ImageMarker> markers;
+  ImageMarkersOf(TwoMarkersEachHalf(), markers);
+  const cv::Mat drawn = DrawCameraImage(image, markers, 320);
+  ASSERT_EQ(drawn.size(), cv::Size(320, 240));
+  ExpectMarkersDrawn(drawn, 0.5);
+  // Not upscaled past the camera's size: the markers at their own pixels.
+  ExpectMarkersDrawn(DrawCameraImage(image, markers, 1000), 1.0);
+  // Without markers, the grey image downscaled as before.
+  const cv::Mat plain = DrawCameraImage(image, {}, 320);
+  ASSERT_EQ(plain.type(), CV_8UC1);
+  ASSERT_EQ(plain.size(), cv::Size(320, 240));
+  EXPECT_EQ(cv::countNonZero(plain != 128), 0);
+}
+
+// The image a client receives carries the markers Publish was given, and only those.
+TEST(WebServer, DrawsTheTrackedMarkersOnThePublishedImage) {
+  PageDir page;
+  WebServerOptions options = Options(page.root);
+  options.image_hz = 30;
+  WebServer server(options);
+  WsClient client(server.port());
+  ASSERT_TRUE(WaitFor([&] { return server.stats().clients == 1; }));
+  const cv::Mat image(480, 640, CV_8UC1, cv::Scalar(128));
+  const MarkerObservation observation = TwoMarkersEachHalf();
+  server.Publish(MakeSyntheticTactileFrame("MARKED", 1), image, &observation);
+  server.Publish(MakeSyntheticTactileFrame("PLAIN", 1), image);
+  std::map<std::string, cv::Mat> images;
+  for (int i = 0; i < 4; ++i) {
+    const std::string m = client.Read();
+    if (m.rfind("{\"type\":\"image\"", 0) != 0) continue;
+    const bool marked = m.find("\"sn\":\"MARKED\"") != std::string::npos;
+    images[marked ? "MARKED" : "PLAIN"] = testing::DecodeImageMessage(m);
+  }
+  ASSERT_EQ(images.size(), 2u);
+  ASSERT_EQ(images["MARKED"].size(), cv::Size(320, 240));
+  ExpectMarkersDrawn(images["MARKED"], 0.5);  // through JPEG
+  EXPECT_EQ(testing::CountMarkerPixels(images["PLAIN"]), 0);
 }
 
 TEST(FrameToJson, CarriesEveryFieldCompactly) {

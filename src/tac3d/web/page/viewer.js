@@ -230,7 +230,15 @@ function onFrame(m) {
 
 function onImage(m) {
   const panel = sensors.get(m.sn);
-  if (panel) panel.$('camera').src = 'data:image/jpeg;base64,' + m.jpeg;
+  if (!panel) return;
+  const camera = panel.$('camera');
+  // Where the first camera image is, once shown, for the headless test's marker check.
+  camera.onload = () => {
+    if (document.body.dataset.camera) return;
+    const r = camera.getBoundingClientRect();
+    document.body.dataset.camera = JSON.stringify([r.left, r.top, r.width, r.height]);
+  };
+  camera.src = 'data:image/jpeg;base64,' + m.jpeg;
 }
 
 function connect() {
