@@ -253,7 +253,9 @@ TEST(MarkerTracker, TenPercentOfMarkersHiddenAreFlaggedAndTheRestMeasured) {
       ASSERT_EQ(half.estimate_uv.size(), markers.size());
       for (int i : hidden) EXPECT_LT((half.estimate_uv[i] - truth[h][i]).norm(), 1.0) << "marker " << i;
       for (int i = 0; i < static_cast<int>(markers.size()); ++i) {
-        if (half.valid(i)) EXPECT_EQ(half.estimate_uv[i], half.uv[i]) << "marker " << i;
+        if (half.valid(i)) {
+          EXPECT_EQ(half.estimate_uv[i], half.uv[i]) << "marker " << i;
+        }
       }
     }
     const Errors e = Compare(observation, truth);
