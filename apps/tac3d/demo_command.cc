@@ -173,12 +173,15 @@ class Demo {
     Step(4, "measuring the markers: the twin's perturbed sensor calibrated from 21 rendered\n"
             "      board views, then its marker layer under shear, dent and twist tracked,\n"
             "      triangulated and corrected for refraction");
-    const nlohmann::json markers = EvaluateMarkers({});
-    report_["markers"] = markers;
-    for (const char* model : {"polynomial", "exact", "none"}) {
-      const nlohmann::json& m = markers.at("by_model").at(model);
+    const MarkerEvaluation markers = EvaluateMarkers({});
+    report_["markers"] = ToJson(markers);
+    const std::pair<const char*, const MarkerErrors&> models[] = {
+        {"polynomial", markers.by_model.polynomial},
+        {"exact", markers.by_model.exact},
+        {"none", markers.by_model.none}};
+    for (const auto& [model, errors] : models) {
       std::printf("      refraction %-10s position RMSE %.4f mm, displacement RMSE %.4f mm\n", model,
-                  m.at("position_rmse_mm").get<double>(), m.at("displacement_rmse_mm").get<double>());
+                  errors.position_rmse_mm, errors.displacement_rmse_mm);
     }
   }
 

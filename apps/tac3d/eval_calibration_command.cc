@@ -37,12 +37,14 @@ TwinCalibrationOptions Prepare(Args& a) {
   return a.calibration;
 }
 
-void Print(const nlohmann::json& j, bool json, const char* keys[], int count) {
+// The JSON or the report of an evaluation.
+template <typename Evaluation>
+void Print(const Evaluation& evaluation, bool json) {
   if (json) {
-    std::printf("%s\n", j.dump(2).c_str());
+    std::printf("%s\n", ToJson(evaluation).dump(2).c_str());
     return;
   }
-  for (int i = 0; i < count; ++i) std::printf("%s: %s\n", keys[i], j.at(keys[i]).dump().c_str());
+  std::printf("%s", evaluation.Report().c_str());
 }
 
 }  // namespace
@@ -53,12 +55,7 @@ void RegisterEvalCalibration(CLI::App& eval) {
       "calibration", "Calibrate from rendered board images of a perturbed sensor; compare with its truth");
   AddCommon(c, *calibration);
   c->callback([calibration] {
-    const nlohmann::json j = EvaluateCalibration(Prepare(*calibration));
-    const char* keys[] = {"views_used", "reprojection_rms_px", "camera_position_error_mm",
-                          "camera_rotation_error_deg", "nominal_camera_position_error_mm",
-                          "nominal_camera_rotation_error_deg", "focal_length_error_px",
-                          "principal_point_error_px", "acceptance", "pass"};
-    Print(j, calibration->json, keys, std::size(keys));
+    Print(EvaluateCalibration(Prepare(*calibration)), calibration->json);
   });
 
   auto displacement = std::make_shared<Args>();
@@ -68,10 +65,7 @@ void RegisterEvalCalibration(CLI::App& eval) {
   d->callback([displacement] {
     DisplacementEvaluationOptions options;
     options.calibration = Prepare(*displacement);
-    const nlohmann::json j = EvaluateDisplacement(options);
-    const char* keys[] = {"step_mm", "dots_per_move", "rmse_mm", "rmse_mm_true_rig",
-                          "calibration_reprojection_rms_px", "acceptance_mm", "pass"};
-    Print(j, displacement->json, keys, std::size(keys));
+    Print(EvaluateDisplacement(options), displacement->json);
   });
 
   auto markers = std::make_shared<Args>();
@@ -85,11 +79,7 @@ void RegisterEvalCalibration(CLI::App& eval) {
     MarkerEvaluationOptions options;
     options.calibration = Prepare(*markers);
     options.calibrate = !*known_sensor;
-    const nlohmann::json j = EvaluateMarkers(options);
-    const char* keys[] = {"position_rmse_mm", "displacement_rmse_mm", "by_model",
-                          "undeformed_position_rmse_mm", "min_valid_markers", "calibration",
-                          "acceptance", "pass"};
-    Print(j, markers->json, keys, std::size(keys));
+    Print(EvaluateMarkers(options), markers->json);
   });
 }
 

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <nlohmann/json.hpp>
+
 #include "tac3d/calib/dot_grid_detector.h"
 #include "tac3d/design/light_path_design.h"
 #include "tac3d/stereo/stereo_rig.h"
@@ -12,9 +14,24 @@
 namespace tac3d {
 namespace {
 
-// Left, right and the worse of the two.
-nlohmann::json LeftRightMax(double left, double right) {
-  return {{"left", left}, {"right", right}, {"max", std::max(left, right)}};
+constexpr double kReprojectionAcceptancePx = 0.1;
+constexpr double kCameraPositionAcceptanceMm = 0.3;
+constexpr double kCameraRotationAcceptanceDeg = 0.1;
+constexpr double kDisplacementAcceptanceMm = 0.01;
+
+nlohmann::json Json(const LeftRight& figure) {
+  return {{"left", figure.left}, {"right", figure.right}, {"max", figure.max()}};
+}
+
+std::string Format(const LeftRight& figure, const char* unit) {
+  return fmt::format("left {:.4g} {}, right {:.4g} {}", figure.left, unit, figure.right, unit);
+}
+
+// {check name: tolerance}.
+nlohmann::json Acceptance(const std::vector<EvalCheck>& checks) {
+  nlohmann::json json = nlohmann::json::object();
+  for (const EvalCheck& check : checks) json[check.name] = check.tolerance;
+  return json;
 }
 
 const VirtualCameraConfig& Camera(const SensorConfig& config, ImageHalf half) {
@@ -62,21 +79,57 @@ TwinCalibration CalibrateInTwin(const TwinCalibrationOptions& options) {
   return out;
 }
 
-nlohmann::json EvaluateCalibration(const TwinCalibrationOptions& options) {
+std::string CalibrationEvaluation::Report() const {
+  std::string text;
+  for (const EvalCheck& check : checks) text += check.Format() + "\n";
+  text += fmt::format("views used: {} of {} images ({} refused)\n", summary.views_used,
+                      summary.images, summary.views_refused);
+  text += fmt::format("camera position error: {}\n", Format(camera_position_error_mm, "mm"));
+  text += fmt::format("camera rotation error: {}\n", Format(camera_rotation_error_deg, "deg"));
+  text += fmt::format("nominal design's camera position error: {}\n",
+                      Format(nominal_camera_position_error_mm, "mm"));
+  text += fmt::format("nominal design's camera rotation error: {}\n",
+                      Format(nominal_camera_rotation_error_deg, "deg"));
+  text += fmt::format("focal length error: {}\n", Format(focal_length_error_px, "px"));
+  text += fmt::format("principal point error: {}\n", Format(principal_point_error_px, "px"));
+  return text + fmt::format("all pass: {}\n", all_pass ? "yes" : "no");
+}
+
+nlohmann::json ToJson(const CalibrationEvaluation& e) {
+  const VirtualStereoCalibration::Summary& s = e.summary;
+  return {{"checks", ToJson(e.checks)},
+          {"all_pass", e.all_pass},
+          {"images", s.images},
+          {"views_used", s.views_used},
+          {"views_refused", s.views_refused},
+          {"reprojection_rms_px", s.rms_px},
+          {"mono_rms_px", {s.mono_rms_px[0], s.mono_rms_px[1]}},
+          {"reference_rms_px", s.reference_rms_px},
+          {"camera_position_error_mm", Json(e.camera_position_error_mm)},
+          {"camera_rotation_error_deg", Json(e.camera_rotation_error_deg)},
+          {"focal_length_error_px", Json(e.focal_length_error_px)},
+          {"principal_point_error_px", Json(e.principal_point_error_px)},
+          {"nominal_camera_position_error_mm", Json(e.nominal_camera_position_error_mm)},
+          {"nominal_camera_rotation_error_deg", Json(e.nominal_camera_rotation_error_deg)},
+          {"acceptance", Acceptance(e.checks)},
+          {"pass", e.all_pass},
+          {"calibration_seconds", s.seconds}};
+}
+
+CalibrationEvaluation EvaluateCalibration(const TwinCalibrationOptions& options) {
   const TwinCalibration twin = CalibrateInTwin(options);
-  const VirtualStereoCalibration::Summary& s = twin.calibration.summary;
-  auto errors = [&](const SensorConfig& estimate) {
-    std::array<double, 2> position{}, rotation{};
+  CalibrationEvaluation e;
+  e.summary = twin.calibration.summary;
+  auto errors = [&](const SensorConfig& estimate, LeftRight& position, LeftRight& rotation) {
     for (ImageHalf half : kImageHalves) {
       const Rigid3& a = Camera(estimate, half).sensor_from_vcam;
       const Rigid3& b = Camera(twin.truth, half).sensor_from_vcam;
-      position[static_cast<int>(half)] = (a.translation() - b.translation()).norm();
-      rotation[static_cast<int>(half)] = RotationAngleDeg(a.linear(), b.linear());
+      (half == ImageHalf::kLeft ? position.left : position.right) = (a.translation() - b.translation()).norm();
+      (half == ImageHalf::kLeft ? rotation.left : rotation.right) = RotationAngleDeg(a.linear(), b.linear());
     }
-    return std::pair{LeftRightMax(position[0], position[1]), LeftRightMax(rotation[0], rotation[1])};
   };
-  const auto [position, rotation] = errors(twin.calibrated);
-  const auto [nominal_position, nominal_rotation] = errors(twin.nominal);
+  errors(twin.calibrated, e.camera_position_error_mm, e.camera_rotation_error_deg);
+  errors(twin.nominal, e.nominal_camera_position_error_mm, e.nominal_camera_rotation_error_deg);
   const CameraIntrinsics& true_camera = twin.truth.camera.intrinsics;
   std::array<double, 2> focal{}, principal{};
   for (int h = 0; h < 2; ++h) {
@@ -84,28 +137,48 @@ nlohmann::json EvaluateCalibration(const TwinCalibrationOptions& options) {
     focal[h] = std::max(std::abs(c.fx - true_camera.fx), std::abs(c.fy - true_camera.fy));
     principal[h] = std::hypot(c.cx - true_camera.cx, c.cy - true_camera.cy);
   }
-  const bool pass = s.rms_px <= 0.1 && position["max"].get<double>() <= 0.3 &&
-                    rotation["max"].get<double>() <= 0.1;
-  return {{"images", s.images},
-          {"views_used", s.views_used},
-          {"views_refused", s.views_refused},
-          {"reprojection_rms_px", s.rms_px},
-          {"mono_rms_px", {s.mono_rms_px[0], s.mono_rms_px[1]}},
-          {"reference_rms_px", s.reference_rms_px},
-          {"camera_position_error_mm", position},
-          {"camera_rotation_error_deg", rotation},
-          {"focal_length_error_px", LeftRightMax(focal[0], focal[1])},
-          {"principal_point_error_px", LeftRightMax(principal[0], principal[1])},
-          {"nominal_camera_position_error_mm", nominal_position},
-          {"nominal_camera_rotation_error_deg", nominal_rotation},
-          {"acceptance",
-           {{"reprojection_rms_px", 0.1}, {"camera_position_error_mm", 0.3},
-            {"camera_rotation_error_deg", 0.1}}},
-          {"pass", pass},
-          {"calibration_seconds", s.seconds}};
+  e.focal_length_error_px = {focal[0], focal[1]};
+  e.principal_point_error_px = {principal[0], principal[1]};
+  e.checks = {
+      EvalCheck::AtMost("reprojection_rms_px", e.summary.rms_px, kReprojectionAcceptancePx, "px"),
+      EvalCheck::AtMost("camera_position_error_mm", e.camera_position_error_mm.max(),
+                        kCameraPositionAcceptanceMm, "mm"),
+      EvalCheck::AtMost("camera_rotation_error_deg", e.camera_rotation_error_deg.max(),
+                        kCameraRotationAcceptanceDeg, "deg")};
+  e.all_pass = AllPass(e.checks);
+  return e;
 }
 
-nlohmann::json EvaluateDisplacement(const DisplacementEvaluationOptions& options) {
+std::string DisplacementEvaluation::Report() const {
+  std::string text;
+  for (const EvalCheck& check : checks) text += check.Format() + "\n";
+  text += fmt::format("{} dots moved {:.4g} mm along x, y, z from ({:.4g}, {:.4g}, {:.4g}) mm\n",
+                      dots_per_move, step_mm, start_mm.x(), start_mm.y(), start_mm.z());
+  text += fmt::format("RMSE x / y / z: {:.4g} / {:.4g} / {:.4g} mm; with the true rig {:.4g} / "
+                      "{:.4g} / {:.4g} mm\n",
+                      rmse_mm.x(), rmse_mm.y(), rmse_mm.z(), rmse_mm_true_rig.x(),
+                      rmse_mm_true_rig.y(), rmse_mm_true_rig.z());
+  text += fmt::format("calibration reprojection RMS: {:.4g} px\n", calibration_reprojection_rms_px);
+  return text + fmt::format("all pass: {}\n", all_pass ? "yes" : "no");
+}
+
+nlohmann::json ToJson(const DisplacementEvaluation& e) {
+  const auto xyz = [](const Eigen::Vector3d& v) {
+    return nlohmann::json{{"x", v.x()}, {"y", v.y()}, {"z", v.z()}};
+  };
+  return {{"checks", ToJson(e.checks)},
+          {"all_pass", e.all_pass},
+          {"step_mm", e.step_mm},
+          {"dots_per_move", e.dots_per_move},
+          {"start_mm", {e.start_mm.x(), e.start_mm.y(), e.start_mm.z()}},
+          {"rmse_mm", xyz(e.rmse_mm)},
+          {"rmse_mm_true_rig", xyz(e.rmse_mm_true_rig)},
+          {"calibration_reprojection_rms_px", e.calibration_reprojection_rms_px},
+          {"acceptance_mm", kDisplacementAcceptanceMm},
+          {"pass", e.all_pass}};
+}
+
+DisplacementEvaluation EvaluateDisplacement(const DisplacementEvaluationOptions& options) {
   options.Validate();
   const TwinCalibration twin = CalibrateInTwin(options.calibration);
   const CalibrationBoard& board = options.calibration.board;
@@ -151,29 +224,28 @@ nlohmann::json EvaluateDisplacement(const DisplacementEvaluationOptions& options
     }
   }
 
-  std::array<nlohmann::json, 2> rmse;
-  bool pass = true;
-  const char* axes[] = {"x", "y", "z"};
+  DisplacementEvaluation e;
+  e.step_mm = options.step_mm;
+  e.start_mm = options.start_mm;
+  e.dots_per_move = board.rows * board.cols;
+  e.calibration_reprojection_rms_px = twin.calibration.summary.rms_px;
   for (int r = 0; r < 2; ++r) {
+    Eigen::Vector3d& rmse = r == 0 ? e.rmse_mm : e.rmse_mm_true_rig;
     for (int axis = 0; axis < 3; ++axis) {
       const Eigen::Vector3d truth = centres[axis + 1] - centres[axis];
       double sum = 0;
       const auto& before = measured[r][axis];
       const auto& after = measured[r][axis + 1];
       for (size_t i = 0; i < before.size(); ++i) sum += (after[i] - before[i] - truth).squaredNorm();
-      const double value = std::sqrt(sum / before.size());
-      rmse[r][axes[axis]] = value;
-      if (r == 0) pass = pass && value <= 0.01;
+      rmse[axis] = std::sqrt(sum / before.size());
     }
   }
-  return {{"step_mm", options.step_mm},
-          {"dots_per_move", board.rows * board.cols},
-          {"start_mm", {options.start_mm.x(), options.start_mm.y(), options.start_mm.z()}},
-          {"rmse_mm", rmse[0]},
-          {"rmse_mm_true_rig", rmse[1]},
-          {"calibration_reprojection_rms_px", twin.calibration.summary.rms_px},
-          {"acceptance_mm", 0.01},
-          {"pass", pass}};
+  const char* names[] = {"rmse_x_mm", "rmse_y_mm", "rmse_z_mm"};
+  for (int axis = 0; axis < 3; ++axis) {
+    e.checks.push_back(EvalCheck::AtMost(names[axis], e.rmse_mm[axis], kDisplacementAcceptanceMm, "mm"));
+  }
+  e.all_pass = AllPass(e.checks);
+  return e;
 }
 
 }  // namespace tac3d

@@ -1,6 +1,9 @@
 #include <cstdio>
+#include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "tac3d/eval/marker_evaluation.h"
 
@@ -14,12 +17,21 @@ TEST(EvaluateMarkers, MeetsTheAcceptanceOnThreeCalibratedSensors) {
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
     MarkerEvaluationOptions options;
     options.calibration.seed = seed;
-    const nlohmann::json j = EvaluateMarkers(options);
-    std::printf("seed %d: %s\n", static_cast<int>(seed), j.dump().c_str());
-    EXPECT_EQ(j["min_valid_markers"].get<int>(), 400);
-    EXPECT_LE(j["position_rmse_mm"].get<double>(), 0.02);
-    EXPECT_LE(j["displacement_rmse_mm"].get<double>(), 0.01);
-    EXPECT_TRUE(j["pass"].get<bool>());
+    const MarkerEvaluation e = EvaluateMarkers(options);
+    std::printf("seed %d: %s\n%s", static_cast<int>(seed), ToJson(e).dump().c_str(), e.Report().c_str());
+    // Every check the evaluation promises is there: a loop over nothing would pass.
+    std::vector<std::string> names;
+    for (const EvalCheck& check : e.checks) {
+      names.push_back(check.name);
+      EXPECT_TRUE(check.pass) << check.Format();
+    }
+    EXPECT_EQ(names, (std::vector<std::string>{"position_rmse_mm", "displacement_rmse_mm"}));
+    EXPECT_EQ(e.min_valid_markers, 400);
+    EXPECT_LE(e.by_model.polynomial.position_rmse_mm, 0.02);
+    EXPECT_LE(e.by_model.polynomial.displacement_rmse_mm, 0.01);
+    ASSERT_TRUE(e.calibration.has_value());
+    EXPECT_EQ(e.calibration_seed, seed);
+    EXPECT_TRUE(e.all_pass);
   }
 }
 

@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <type_traits>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 
 #include "tac3d/design/light_path_design.h"
 #include "tac3d/stereo/marker_field.h"
@@ -19,6 +21,8 @@ constexpr std::array<RefractionModel, 3> kModels = {RefractionModel::kNone, Refr
                                                    RefractionModel::kExact};
 constexpr std::array<const char*, 3> kModelNames = {"none", "polynomial", "exact"};
 constexpr int kPolynomial = 1;
+static_assert(kModels[0] == RefractionModel::kNone && kModels[kPolynomial] == RefractionModel::kPolynomial &&
+              kModels[2] == RefractionModel::kExact);  // the order Of() and kModelNames assume
 // A motion is applied over this many frames, as a press or a slide is, so the tracker sees
 // at most a third of it between two frames.
 constexpr int kMotionSteps = 3;
@@ -49,11 +53,39 @@ struct ModelStats {
   ErrorStats position, displacement;
 };
 
-nlohmann::json ToJson(const ModelStats& s) {
-  return {{"position_rmse_mm", s.position.rms()},
-          {"position_max_mm", s.position.max},
-          {"displacement_rmse_mm", s.displacement.rms()},
-          {"displacement_max_mm", s.displacement.max}};
+MarkerErrors Errors(const ModelStats& s) {
+  return {s.position.rms(), s.position.max, s.displacement.rms(), s.displacement.max};
+}
+
+// The figure of model kModels[m].
+template <typename T>
+T& Of(PerRefractionModel<T>& figures, size_t m) {
+  return m == 0 ? figures.none : m == 1 ? figures.polynomial : figures.exact;
+}
+template <typename T>
+const T& Of(const PerRefractionModel<T>& figures, size_t m) {
+  return m == 0 ? figures.none : m == 1 ? figures.polynomial : figures.exact;
+}
+
+nlohmann::json Json(const MarkerErrors& e) {
+  return {{"position_rmse_mm", e.position_rmse_mm},
+          {"position_max_mm", e.position_max_mm},
+          {"displacement_rmse_mm", e.displacement_rmse_mm},
+          {"displacement_max_mm", e.displacement_max_mm}};
+}
+
+// {model name: Json(figure)} or {model name: figure}.
+template <typename T>
+nlohmann::json Json(const PerRefractionModel<T>& figures) {
+  nlohmann::json json;
+  for (size_t m = 0; m < kModels.size(); ++m) {
+    if constexpr (std::is_same_v<T, MarkerErrors>) {
+      json[kModelNames[m]] = Json(Of(figures, m));
+    } else {
+      json[kModelNames[m]] = Of(figures, m);
+    }
+  }
+  return json;
 }
 
 std::vector<Eigen::Vector3d> Interpolate(const std::vector<Eigen::Vector3d>& from,
@@ -115,16 +147,65 @@ void MarkerEvaluationOptions::Validate() const {
   }
 }
 
-nlohmann::json EvaluateMarkers(const MarkerEvaluationOptions& options) {
+std::string MarkerEvaluation::Report() const {
+  std::string text;
+  for (const EvalCheck& check : checks) text += check.Format() + "\n";
+  for (size_t m = 0; m < kModels.size(); ++m) {
+    const MarkerErrors& errors = Of(by_model, m);
+    text += fmt::format("refraction {:<10} position RMSE {:.4f} mm (max {:.4f}), displacement RMSE "
+                        "{:.4f} mm (max {:.4f}); undeformed position RMSE {:.4f} mm\n",
+                        kModelNames[m], errors.position_rmse_mm, errors.position_max_mm,
+                        errors.displacement_rmse_mm, errors.displacement_max_mm,
+                        Of(undeformed_position_rmse_mm, m));
+  }
+  text += fmt::format("valid markers: at least {} of {} in every motion\n", min_valid_markers, markers);
+  if (calibration) {
+    text += fmt::format("calibrated rig: seed {}, reprojection RMS {:.4g} px\n", calibration_seed,
+                        calibration->rms_px);
+  } else {
+    text += "known sensor: no calibration\n";
+  }
+  return text + fmt::format("all pass: {}\n", all_pass ? "yes" : "no");
+}
+
+nlohmann::json ToJson(const MarkerEvaluation& e) {
+  nlohmann::json motions = nlohmann::json::array();
+  for (const MarkerMotionErrors& motion : e.motions) {
+    motions.push_back(
+        {{"name", motion.name}, {"valid_markers", motion.valid_markers}, {"by_model", Json(motion.by_model)}});
+  }
+  nlohmann::json acceptance = nlohmann::json::object();
+  for (const EvalCheck& check : e.checks) acceptance[check.name] = check.tolerance;
+  nlohmann::json calibration = nullptr;
+  if (e.calibration) {
+    calibration = {{"seed", e.calibration_seed}, {"reprojection_rms_px", e.calibration->rms_px}};
+  }
+  return {{"checks", ToJson(e.checks)},
+          {"all_pass", e.all_pass},
+          {"position_rmse_mm", e.by_model.polynomial.position_rmse_mm},
+          {"displacement_rmse_mm", e.by_model.polynomial.displacement_rmse_mm},
+          {"by_model", Json(e.by_model)},
+          {"undeformed_position_rmse_mm", Json(e.undeformed_position_rmse_mm)},
+          {"motions", motions},
+          {"markers", e.markers},
+          {"min_valid_markers", e.min_valid_markers},
+          {"reference_frames", e.reference_frames},
+          {"calibrated", e.calibration.has_value()},
+          {"calibration", calibration},
+          {"acceptance", acceptance},
+          {"pass", e.all_pass}};
+}
+
+MarkerEvaluation EvaluateMarkers(const MarkerEvaluationOptions& options) {
   options.Validate();
+  MarkerEvaluation e;
   SensorConfig truth, measured;
-  nlohmann::json calibration_json = nullptr;
   if (options.calibrate) {
     const TwinCalibration twin = CalibrateInTwin(options.calibration);
     truth = twin.truth;
     measured = twin.calibrated;
-    calibration_json = {{"seed", options.calibration.seed},
-                        {"reprojection_rms_px", twin.calibration.summary.rms_px}};
+    e.calibration_seed = options.calibration.seed;
+    e.calibration = twin.calibration.summary;
   } else {
     truth = measured = DefaultSensorConfig();
   }
@@ -149,7 +230,6 @@ nlohmann::json EvaluateMarkers(const MarkerEvaluationOptions& options) {
   for (size_t m = 0; m < kModels.size(); ++m) references[m].Set(reference_fields[m]);
 
   std::array<ModelStats, 3> total = undeformed;
-  nlohmann::json motions = nlohmann::json::array();
   int min_valid = static_cast<int>(rest.size());
   for (const MarkerMotion& motion : options.motions) {
     const std::vector<Eigen::Vector3d> moved = motion.Apply(rest);
@@ -163,7 +243,8 @@ nlohmann::json EvaluateMarkers(const MarkerEvaluationOptions& options) {
           motion.name);
     }
     std::array<ModelStats, 3> stats;
-    nlohmann::json by_model;
+    MarkerMotionErrors& errors = e.motions.emplace_back();
+    errors.name = motion.name;
     for (size_t m = 0; m < kModels.size(); ++m) {
       references[m].Apply(fields[m]);
       AddPositionErrors(fields[m], moved, stats[m].position);
@@ -172,33 +253,25 @@ nlohmann::json EvaluateMarkers(const MarkerEvaluationOptions& options) {
       }
       total[m].position.Add(stats[m].position);
       total[m].displacement.Add(stats[m].displacement);
-      by_model[kModelNames[m]] = ToJson(stats[m]);
+      Of(errors.by_model, m) = Errors(stats[m]);
     }
-    const int valid = fields[kPolynomial].CountValid();
-    min_valid = std::min(min_valid, valid);
-    motions.push_back({{"name", motion.name}, {"valid_markers", valid}, {"by_model", by_model}});
+    errors.valid_markers = fields[kPolynomial].CountValid();
+    min_valid = std::min(min_valid, errors.valid_markers);
   }
 
-  nlohmann::json by_model, undeformed_json;
   for (size_t m = 0; m < kModels.size(); ++m) {
-    by_model[kModelNames[m]] = ToJson(total[m]);
-    undeformed_json[kModelNames[m]] = undeformed[m].position.rms();
+    Of(e.by_model, m) = Errors(total[m]);
+    Of(e.undeformed_position_rmse_mm, m) = undeformed[m].position.rms();
   }
-  const double position = total[kPolynomial].position.rms();
-  const double displacement = total[kPolynomial].displacement.rms();
-  return {{"position_rmse_mm", position},
-          {"displacement_rmse_mm", displacement},
-          {"by_model", by_model},
-          {"undeformed_position_rmse_mm", undeformed_json},
-          {"motions", motions},
-          {"markers", rest.size()},
-          {"min_valid_markers", min_valid},
-          {"reference_frames", options.reference_frames},
-          {"calibrated", options.calibrate},
-          {"calibration", calibration_json},
-          {"acceptance", {{"position_rmse_mm", kPositionAcceptanceMm},
-                          {"displacement_rmse_mm", kDisplacementAcceptanceMm}}},
-          {"pass", position <= kPositionAcceptanceMm && displacement <= kDisplacementAcceptanceMm}};
+  e.markers = static_cast<int>(rest.size());
+  e.min_valid_markers = min_valid;
+  e.reference_frames = options.reference_frames;
+  e.checks = {EvalCheck::AtMost("position_rmse_mm", e.by_model.polynomial.position_rmse_mm,
+                                kPositionAcceptanceMm, "mm"),
+              EvalCheck::AtMost("displacement_rmse_mm", e.by_model.polynomial.displacement_rmse_mm,
+                                kDisplacementAcceptanceMm, "mm")};
+  e.all_pass = AllPass(e.checks);
+  return e;
 }
 
 }  // namespace tac3d

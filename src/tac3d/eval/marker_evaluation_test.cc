@@ -1,8 +1,11 @@
 #include "tac3d/eval/marker_evaluation.h"
 
 #include <cstdio>
+#include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "tac3d/util/error.h"
 
@@ -15,19 +18,32 @@ namespace {
 TEST(EvaluateMarkers, TrackingAndCompensatedStereoMeetTheAcceptanceOnTheKnownSensor) {
   MarkerEvaluationOptions options;
   options.calibrate = false;
-  const nlohmann::json j = EvaluateMarkers(options);
-  std::printf("%s\n", j.dump().c_str());
-  EXPECT_EQ(j["min_valid_markers"].get<int>(), 400);
-  ASSERT_EQ(j["motions"].size(), 3u);
-  for (const char* model : {"polynomial", "exact"}) {
-    EXPECT_LE(j["by_model"][model]["position_rmse_mm"].get<double>(), 0.02) << model;
-    EXPECT_LE(j["by_model"][model]["displacement_rmse_mm"].get<double>(), 0.01) << model;
+  const MarkerEvaluation e = EvaluateMarkers(options);
+  std::printf("%s\n%s", ToJson(e).dump().c_str(), e.Report().c_str());
+  // Every check the evaluation promises is there: a loop over nothing would pass.
+  std::vector<std::string> names;
+  for (const EvalCheck& check : e.checks) {
+    names.push_back(check.name);
+    EXPECT_TRUE(check.pass) << check.Format();
   }
-  EXPECT_DOUBLE_EQ(j["position_rmse_mm"].get<double>(),
-                   j["by_model"]["polynomial"]["position_rmse_mm"].get<double>());
+  EXPECT_EQ(names, (std::vector<std::string>{"position_rmse_mm", "displacement_rmse_mm"}));
+  EXPECT_EQ(e.markers, 400);
+  EXPECT_EQ(e.min_valid_markers, 400);
+  EXPECT_FALSE(e.calibration.has_value());
+  ASSERT_EQ(e.motions.size(), 3u);
+  for (size_t i = 0; i < e.motions.size(); ++i) {
+    EXPECT_EQ(e.motions[i].name, options.motions[i].name);
+    EXPECT_EQ(e.motions[i].valid_markers, 400) << e.motions[i].name;
+  }
+  for (const MarkerErrors* model : {&e.by_model.polynomial, &e.by_model.exact}) {
+    EXPECT_LE(model->position_rmse_mm, 0.02);
+    EXPECT_LE(model->displacement_rmse_mm, 0.01);
+  }
+  EXPECT_DOUBLE_EQ(e.checks[0].value, e.by_model.polynomial.position_rmse_mm);
+  EXPECT_DOUBLE_EQ(e.checks[1].value, e.by_model.polynomial.displacement_rmse_mm);
   // Without compensation the glass and silicone shift every marker by millimetres.
-  EXPECT_GT(j["by_model"]["none"]["position_rmse_mm"].get<double>(), 0.5);
-  EXPECT_TRUE(j["pass"].get<bool>());
+  EXPECT_GT(e.by_model.none.position_rmse_mm, 0.5);
+  EXPECT_TRUE(e.all_pass);
 }
 
 TEST(MarkerEvaluationOptions, RefusesNoMotionsAndBadReferenceCounts) {
