@@ -1,4 +1,5 @@
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <cstdio>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -17,24 +18,19 @@ namespace {
 
 // One line a true material: the resultant error (max % FS per axis) after the fit, and with
 // --calibrate-material the fitted material and the gains-only figure beside it.
-void PrintMaterialGrid(const std::vector<ForceEvaluation>& points) {
+void PrintMaterialPoint(const ForceEvaluation& point) {
   const auto xyz = [](const Eigen::Vector3d& v) {
     return fmt::format("{:.2f} / {:.2f} / {:.2f}", v.x(), v.y(), v.z());
   };
-  bool all_pass = true;
-  for (const ForceEvaluation& point : points) {
-    std::string line = fmt::format("true E {:.4g} MPa, nu {:.4f}: resultant error max {} % FS",
-                                   point.true_material.youngs_modulus_mpa,
-                                   point.true_material.poisson_ratio,
-                                   xyz(point.resultant_error_max_pct_fs));
-    if (point.material) {
-      line += fmt::format("; {}; gains only {} % FS", point.material->fit.message,
-                          xyz(point.material->gains_only_max_pct_fs));
-    }
-    std::printf("%s; all checks %s\n", line.c_str(), point.all_pass ? "pass" : "FAIL");
-    all_pass = all_pass && point.all_pass;
+  std::string line = fmt::format("true E {:.4g} MPa, nu {:.4f}: resultant error max {} % FS",
+                                 point.true_material.youngs_modulus_mpa,
+                                 point.true_material.poisson_ratio,
+                                 xyz(point.resultant_error_max_pct_fs));
+  if (point.material) {
+    line += fmt::format("; {}; gains only {} % FS", point.material->fit.message,
+                        xyz(point.material->gains_only_max_pct_fs));
   }
-  std::printf("all pass: %s\n", all_pass ? "yes" : "no");
+  WriteLineFlushed(stdout, line + fmt::format("; all checks {}", point.all_pass ? "pass" : "FAIL"));
 }
 
 }  // namespace
@@ -114,13 +110,20 @@ void RegisterEvalForce(CLI::App& eval) {
     options.show_progress = !args->model.json;
     MakeDirectory(options.cache_dir);
     if (args->material_grid) {
-      const std::vector<ForceEvaluation> points = EvaluateForceOverMaterials(options, args->grid);
-      if (args->model.json) {
-        nlohmann::json json = nlohmann::json::array();
-        for (const ForceEvaluation& point : points) json.push_back(ToJson(point));
-        std::printf("%s\n", json.dump(2).c_str());
-      } else {
-        PrintMaterialGrid(points);
+      // A line a point as it is done (JSON with --json): a later solve failing loses none.
+      const bool json = args->model.json;
+      const std::vector<ForceEvaluation> points =
+          EvaluateForceOverMaterials(options, args->grid, [json](const ForceEvaluation& point) {
+            if (json) {
+              WriteLineFlushed(stdout, ToJson(point).dump());
+            } else {
+              PrintMaterialPoint(point);
+            }
+          });
+      if (!json) {
+        const bool all_pass = std::all_of(points.begin(), points.end(),
+                                          [](const ForceEvaluation& p) { return p.all_pass; });
+        std::printf("all pass: %s\n", all_pass ? "yes" : "no");
       }
       return;
     }

@@ -641,8 +641,10 @@ void MaterialGrid::Validate() const {
   }
 }
 
-std::vector<ForceEvaluation> EvaluateForceOverMaterials(const EvalForceOptions& options,
-                                                        const MaterialGrid& grid) {
+std::vector<ForceEvaluation> EvaluateForceOverMaterials(
+    const EvalForceOptions& options,
+    const MaterialGrid& grid,
+    const std::function<void(const ForceEvaluation&)>& on_point) {
   grid.Validate();
   const double nominal_e = options.body.material.youngs_modulus_mpa;
   std::vector<EvalForceOptions> point_options;
@@ -680,6 +682,7 @@ std::vector<ForceEvaluation> EvaluateForceOverMaterials(const EvalForceOptions& 
       MakeForceCases(point_option, nominal.marker_positions, &point_rng);
       points.push_back(EvaluateOnResponses(point_option, nominal, family ? &*family : nullptr,
                                            cases, truth, &point_rng, truth_timing));
+      if (on_point) on_point(points.back());
     }
   }
   return points;
