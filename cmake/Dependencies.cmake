@@ -5,6 +5,8 @@ find_package(yaml-cpp REQUIRED)
 find_package(nlohmann_json 3 REQUIRED)
 find_package(fmt REQUIRED)
 find_package(Threads REQUIRED)
+# LAPACK's SVD for the force inverse's compliance spectrum (OpenBLAS's, libopenblas-dev).
+find_package(LAPACK REQUIRED)
 # The viewer's HTTP + WebSocket server: Boost.Beast, header-only in Boost 1.74 (libboost-dev).
 find_package(Boost 1.74 REQUIRED)
 # Normals, Poisson reconstruction and kd-trees for the friction map (only tac3d::friction links

@@ -112,17 +112,12 @@ void RunCalibrate(CalibrateArgs a) {
       cameras[std::string(ToString(half))] = {{"sensor_from_vcam", PoseJson(result.sensor_from_vcam[h])},
                                               {"intrinsics", IntrinsicsJson(result.intrinsics[h])}};
     }
-    const nlohmann::json j = {{"views", views},
-                              {"images", s.images},
-                              {"views_used", s.views_used},
-                              {"views_refused", s.views_refused},
-                              {"reprojection_rms_px", s.rms_px},
-                              {"mono_rms_px", {s.mono_rms_px[0], s.mono_rms_px[1]}},
-                              {"reference_rms_px", s.reference_rms_px},
-                              {"cameras", cameras},
-                              {"right_from_left", PoseJson(result.right_from_left)},
-                              {"seconds", s.seconds},
-                              {"out", a.out}};
+    nlohmann::json j = ToJson(s);
+    j.update({{"views", views},
+              {"cameras", cameras},
+              {"right_from_left", PoseJson(result.right_from_left)},
+              {"seconds", s.seconds},
+              {"out", a.out}});
     std::printf("%s\n", j.dump(2).c_str());
     return;
   }

@@ -14,26 +14,6 @@
 #include "tac3d/util/file_io.h"
 
 namespace tac3d::cli {
-namespace {
-
-// One line a true material: the resultant error (max % FS per axis) after the fit, and with
-// --calibrate-material the fitted material and the gains-only figure beside it.
-void PrintMaterialPoint(const ForceEvaluation& point) {
-  const auto xyz = [](const Eigen::Vector3d& v) {
-    return fmt::format("{:.2f} / {:.2f} / {:.2f}", v.x(), v.y(), v.z());
-  };
-  std::string line = fmt::format("true E {:.4g} MPa, nu {:.4f}: resultant error max {} % FS",
-                                 point.true_material.youngs_modulus_mpa,
-                                 point.true_material.poisson_ratio,
-                                 xyz(point.resultant_error_max_pct_fs));
-  if (point.material) {
-    line += fmt::format("; {}; gains only {} % FS", point.material->fit.message,
-                        xyz(point.material->gains_only_max_pct_fs));
-  }
-  WriteLineFlushed(stdout, line + fmt::format("; all checks {}", point.all_pass ? "pass" : "FAIL"));
-}
-
-}  // namespace
 
 void RegisterEvalForce(CLI::App& eval) {
   struct Args {
@@ -117,7 +97,7 @@ void RegisterEvalForce(CLI::App& eval) {
             if (json) {
               WriteLineFlushed(stdout, ToJson(point).dump());
             } else {
-              PrintMaterialPoint(point);
+              WriteLineFlushed(stdout, point.GridLine());
             }
           });
       if (!json) {

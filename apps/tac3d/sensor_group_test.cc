@@ -22,6 +22,7 @@
 #include "tac3d/force/synthetic_compliance.h"
 #include "tac3d/protocol/client.h"
 #include "tac3d/sensor/default_sensor.h"
+#include "tac3d/sensor/test_sensor.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/twin/camera_renderer.h"
 #include "tac3d/util/error.h"
@@ -29,23 +30,22 @@
 namespace tac3d::cli {
 namespace {
 
+using testing::DefaultSensor;
+
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
 constexpr int kSteps = 30;
 constexpr double kFps = 30.0;
 
-const SensorConfig& Sensor() {
-  static const SensorConfig config = DefaultSensorConfig();
-  return config;
-}
-
 // A twin dataset of undeformed frames at `times_s` (three rendered noise seeds, reused).
 std::string MakeDataset(const std::string& dir, const std::vector<double>& times_s) {
   static const std::vector<cv::Mat> images = [] {
-    MarkerImageRenderer renderer(Sensor());
+    MarkerImageRenderer renderer(DefaultSensor());
     std::vector<cv::Mat> out;
-    for (int k = 0; k < 3; ++k) out.push_back(renderer.Render(Sensor().MarkerPositions(), k));
+    for (int k = 0; k < 3; ++k) {
+      out.push_back(renderer.Render(DefaultSensor().MarkerPositions(), k));
+    }
     return out;
   }();
   TwinDatasetWriter writer(dir, {{"name", "sensor_group_test"}});

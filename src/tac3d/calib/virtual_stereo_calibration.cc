@@ -9,6 +9,7 @@
 #include <optional>
 
 #include <Eigen/Cholesky>
+#include <nlohmann/json.hpp>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -454,6 +455,15 @@ std::vector<CalibrationImage> LoadCalibrationImages(const std::string& dir, int 
     images.push_back({p.filename().string(), DecodeGrayImage(bytes, max_width, max_height).image});
   }
   return images;
+}
+
+nlohmann::json ToJson(const VirtualStereoCalibration::Summary& s) {
+  return {{"images", s.images},
+          {"views_used", s.views_used},
+          {"views_refused", s.views_refused},
+          {"reprojection_rms_px", s.rms_px},
+          {"mono_rms_px", {s.mono_rms_px[0], s.mono_rms_px[1]}},
+          {"reference_rms_px", s.reference_rms_px}};
 }
 
 }  // namespace tac3d

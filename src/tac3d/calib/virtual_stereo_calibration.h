@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json_fwd.hpp>
 #include <opencv2/core.hpp>
 
 #include "tac3d/calib/calibration_board.h"
@@ -75,6 +76,10 @@ struct VirtualStereoCalibration {
   /// @throws Error if `nominal` has no virtual cameras.
   SensorConfig ApplyTo(const SensorConfig& nominal) const;
 };
+
+/// {"images", "views_used", "views_refused", "reprojection_rms_px", "mono_rms_px" [left, right],
+///  "reference_rms_px"}: the summary's figures but its time, which each caller names itself.
+nlohmann::json ToJson(const VirtualStereoCalibration::Summary& summary);
 
 /// Calibrates the two virtual cameras of a mirror-stereo sensor from images of a dot
 /// board (paper section IV.A, before the elastic body is mounted):

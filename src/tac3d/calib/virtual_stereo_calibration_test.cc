@@ -7,6 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "tac3d/design/light_path_design.h"
+#include "tac3d/sensor/test_sensor.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
 
@@ -16,10 +17,7 @@
 namespace tac3d {
 namespace {
 
-const SensorConfig& Nominal() {
-  static const SensorConfig config = DefaultSensorConfig();
-  return config;
-}
+using testing::DefaultSensor;
 
 CalibrationBoardFile Board() {
   CalibrationBoardFile file;
@@ -68,21 +66,22 @@ TEST(LoadCalibrationImages, ListsImagesByNameAndKeepsCorruptOnesEmpty) {
 TEST(CalibrateVirtualStereo, RefusedReferenceViewIsAnErrorWithTheReason) {
   const cv::Mat grey(480, 640, CV_8UC1, cv::Scalar(128));
   std::vector<CalibrationImage> images = {{"reference.png", grey}};
-  EXPECT_NE(ErrorMessage(images, Nominal()).find(
+  EXPECT_NE(ErrorMessage(images, DefaultSensor()).find(
                 "reference view 'reference.png' is refused: grid not found in the left and right halves"),
             std::string::npos);
   images[0].image = cv::Mat();
-  EXPECT_NE(ErrorMessage(images, Nominal()).find("unreadable or corrupt file"), std::string::npos);
+  EXPECT_NE(ErrorMessage(images, DefaultSensor()).find("unreadable or corrupt file"),
+            std::string::npos);
   images[0].image = cv::Mat(240, 320, CV_8UC1, cv::Scalar(128));
-  EXPECT_NE(ErrorMessage(images, Nominal()).find("image is 320x240, the camera's is 640x480"),
+  EXPECT_NE(ErrorMessage(images, DefaultSensor()).find("image is 320x240, the camera's is 640x480"),
             std::string::npos);
   images[0].image = cv::Mat(480, 640, CV_16UC1, cv::Scalar(128));
-  EXPECT_NE(ErrorMessage(images, Nominal()).find("not an 8-bit"), std::string::npos);
+  EXPECT_NE(ErrorMessage(images, DefaultSensor()).find("not an 8-bit"), std::string::npos);
 }
 
 TEST(CalibrateVirtualStereo, MissingReferenceViewIsAnError) {
   const std::vector<CalibrationImage> images = {{"other.png", cv::Mat()}};
-  EXPECT_NE(ErrorMessage(images, Nominal()).find("reference view 'reference.png' is not among"),
+  EXPECT_NE(ErrorMessage(images, DefaultSensor()).find("reference view 'reference.png' is not among"),
             std::string::npos);
 }
 
@@ -104,20 +103,20 @@ TEST(VirtualStereoCalibrationOptions, Validate) {
   o = {};
   o.bias_correction_rounds = -1;
   EXPECT_THROW(o.Validate(), Error);
-  EXPECT_NE(ErrorMessage({}, Nominal(), o).find("bias_correction_rounds"), std::string::npos);
+  EXPECT_NE(ErrorMessage({}, DefaultSensor(), o).find("bias_correction_rounds"), std::string::npos);
 }
 
 TEST(VirtualStereoCalibration, ApplyToKeepsNamesAndColumnRanges) {
   VirtualStereoCalibration c;
   c.sensor_from_vcam[1].translation() = Eigen::Vector3d(1, 2, 3);
   c.intrinsics[1].fx = 700;
-  const SensorConfig out = c.ApplyTo(Nominal());
+  const SensorConfig out = c.ApplyTo(DefaultSensor());
   ASSERT_EQ(out.virtual_cameras.size(), 2u);
   for (size_t i = 0; i < 2; ++i) {
     const VirtualCameraConfig& v = out.virtual_cameras[i];
-    EXPECT_EQ(v.name, Nominal().virtual_cameras[i].name);
-    EXPECT_EQ(v.column_begin, Nominal().virtual_cameras[i].column_begin);
-    EXPECT_EQ(v.column_end, Nominal().virtual_cameras[i].column_end);
+    EXPECT_EQ(v.name, DefaultSensor().virtual_cameras[i].name);
+    EXPECT_EQ(v.column_begin, DefaultSensor().virtual_cameras[i].column_begin);
+    EXPECT_EQ(v.column_end, DefaultSensor().virtual_cameras[i].column_end);
     EXPECT_THAT(v.sensor_from_vcam.translation(),
                 EigenNear(c.sensor_from_vcam[static_cast<int>(v.half)].translation(), 0.0));
     EXPECT_EQ(v.intrinsics.fx, c.intrinsics[static_cast<int>(v.half)].fx);

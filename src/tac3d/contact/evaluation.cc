@@ -347,8 +347,7 @@ void EvalContactOptions::Validate() const {
 }
 
 std::string EvalContactResult::Report() const {
-  std::string text;
-  for (const EvalCheck& check : checks) text += check.Format() + "\n";
+  std::string text = FormatChecks(checks);
   return text + fmt::format("all pass: {}\n", all_pass ? "yes" : "no");
 }
 

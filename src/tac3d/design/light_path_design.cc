@@ -49,8 +49,6 @@ bool SegmentsCross(const Vec2& a, const Vec2& b, const Vec2& c, const Vec2& e,
   return t > ta && t < 1.0 - ta && u > tc && u < 1.0 - tc;
 }
 
-Vec2 MirrorX(const Vec2& p) { return {-p.x(), p.y()}; }
-
 // The forward model: every point of the light path for given unknowns, and the residuals.
 struct Geometry {
   const LightPathDesignOptions& o;

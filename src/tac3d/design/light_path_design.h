@@ -29,6 +29,9 @@ struct LightPathDesignOptions {
   void Validate() const;
 };
 
+/// A point of the left half's x-z plane mirrored into the right half's (x -> -x).
+inline Eigen::Vector2d MirrorX(const Eigen::Vector2d& p) { return {-p.x(), p.y()}; }
+
 /// One root of the four design equations, with everything it implies (x, z in mm).
 struct LightPathRoot {
   /// Unknowns: height of mirror 2's apex B2 on the axis, direction of mirror 2, and mirror

@@ -13,8 +13,6 @@
 namespace tac3d {
 namespace {
 
-Eigen::Vector2d MirrorX(const Eigen::Vector2d& p) { return {-p.x(), p.y()}; }
-
 cv::Scalar ToBgr(const std::string& hex) {
   const unsigned value = std::stoul(hex.substr(1), nullptr, 16);
   return cv::Scalar(value & 0xff, (value >> 8) & 0xff, (value >> 16) & 0xff);

@@ -17,7 +17,7 @@ namespace {
 constexpr double kReprojectionAcceptancePx = 0.1;
 constexpr double kCameraPositionAcceptanceMm = 0.3;
 constexpr double kCameraRotationAcceptanceDeg = 0.1;
-constexpr double kDisplacementAcceptanceMm = 0.01;
+constexpr double kDotDisplacementAcceptanceMm = 0.01;
 
 nlohmann::json Json(const LeftRight& figure) {
   return {{"left", figure.left}, {"right", figure.right}, {"max", figure.max()}};
@@ -80,8 +80,7 @@ TwinCalibration CalibrateInTwin(const TwinCalibrationOptions& options) {
 }
 
 std::string CalibrationEvaluation::Report() const {
-  std::string text;
-  for (const EvalCheck& check : checks) text += check.Format() + "\n";
+  std::string text = FormatChecks(checks);
   text += fmt::format("views used: {} of {} images ({} refused)\n", summary.views_used,
                       summary.images, summary.views_refused);
   text += fmt::format("camera position error: {}\n", Format(camera_position_error_mm, "mm"));
@@ -96,24 +95,19 @@ std::string CalibrationEvaluation::Report() const {
 }
 
 nlohmann::json ToJson(const CalibrationEvaluation& e) {
-  const VirtualStereoCalibration::Summary& s = e.summary;
-  return {{"checks", ToJson(e.checks)},
-          {"all_pass", e.all_pass},
-          {"images", s.images},
-          {"views_used", s.views_used},
-          {"views_refused", s.views_refused},
-          {"reprojection_rms_px", s.rms_px},
-          {"mono_rms_px", {s.mono_rms_px[0], s.mono_rms_px[1]}},
-          {"reference_rms_px", s.reference_rms_px},
-          {"camera_position_error_mm", Json(e.camera_position_error_mm)},
-          {"camera_rotation_error_deg", Json(e.camera_rotation_error_deg)},
-          {"focal_length_error_px", Json(e.focal_length_error_px)},
-          {"principal_point_error_px", Json(e.principal_point_error_px)},
-          {"nominal_camera_position_error_mm", Json(e.nominal_camera_position_error_mm)},
-          {"nominal_camera_rotation_error_deg", Json(e.nominal_camera_rotation_error_deg)},
-          {"acceptance", Acceptance(e.checks)},
-          {"pass", e.all_pass},
-          {"calibration_seconds", s.seconds}};
+  nlohmann::json json = ToJson(e.summary);
+  json.update({{"checks", ToJson(e.checks)},
+               {"all_pass", e.all_pass},
+               {"camera_position_error_mm", Json(e.camera_position_error_mm)},
+               {"camera_rotation_error_deg", Json(e.camera_rotation_error_deg)},
+               {"focal_length_error_px", Json(e.focal_length_error_px)},
+               {"principal_point_error_px", Json(e.principal_point_error_px)},
+               {"nominal_camera_position_error_mm", Json(e.nominal_camera_position_error_mm)},
+               {"nominal_camera_rotation_error_deg", Json(e.nominal_camera_rotation_error_deg)},
+               {"acceptance", Acceptance(e.checks)},
+               {"pass", e.all_pass},
+               {"calibration_seconds", e.summary.seconds}});
+  return json;
 }
 
 CalibrationEvaluation EvaluateCalibration(const TwinCalibrationOptions& options) {
@@ -150,8 +144,7 @@ CalibrationEvaluation EvaluateCalibration(const TwinCalibrationOptions& options)
 }
 
 std::string DisplacementEvaluation::Report() const {
-  std::string text;
-  for (const EvalCheck& check : checks) text += check.Format() + "\n";
+  std::string text = FormatChecks(checks);
   text += fmt::format("{} dots moved {:.4g} mm along x, y, z from ({:.4g}, {:.4g}, {:.4g}) mm\n",
                       dots_per_move, step_mm, start_mm.x(), start_mm.y(), start_mm.z());
   text += fmt::format("RMSE x / y / z: {:.4g} / {:.4g} / {:.4g} mm; with the true rig {:.4g} / "
@@ -174,7 +167,7 @@ nlohmann::json ToJson(const DisplacementEvaluation& e) {
           {"rmse_mm", xyz(e.rmse_mm)},
           {"rmse_mm_true_rig", xyz(e.rmse_mm_true_rig)},
           {"calibration_reprojection_rms_px", e.calibration_reprojection_rms_px},
-          {"acceptance_mm", kDisplacementAcceptanceMm},
+          {"acceptance_mm", kDotDisplacementAcceptanceMm},
           {"pass", e.all_pass}};
 }
 
@@ -242,7 +235,8 @@ DisplacementEvaluation EvaluateDisplacement(const DisplacementEvaluationOptions&
   }
   const char* names[] = {"rmse_x_mm", "rmse_y_mm", "rmse_z_mm"};
   for (int axis = 0; axis < 3; ++axis) {
-    e.checks.push_back(EvalCheck::AtMost(names[axis], e.rmse_mm[axis], kDisplacementAcceptanceMm, "mm"));
+    e.checks.push_back(
+        EvalCheck::AtMost(names[axis], e.rmse_mm[axis], kDotDisplacementAcceptanceMm, "mm"));
   }
   e.all_pass = AllPass(e.checks);
   return e;

@@ -9,6 +9,7 @@
 #include "tac3d/design/light_path_design.h"
 #include "tac3d/force/synthetic_compliance.h"
 #include "tac3d/pipeline/pipeline.h"
+#include "tac3d/sensor/test_sensor.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/twin/calibration_set.h"
 #include "tac3d/twin/camera_renderer.h"
@@ -20,13 +21,10 @@
 namespace tac3d {
 namespace {
 
-const SensorConfig& Nominal() {
-  static const SensorConfig config = DefaultSensorConfig();
-  return config;
-}
+using testing::DefaultSensor;
 
 const SensorConfig& Truth() {
-  static const SensorConfig config = PerturbSensor(Nominal(), {});
+  static const SensorConfig config = PerturbSensor(DefaultSensor(), {});
   return config;
 }
 
@@ -169,7 +167,8 @@ double RotationError(const VirtualStereoCalibration& c, ImageHalf half) {
 
 TEST(CalibrateVirtualStereo, RecoversTheTrueVirtualCamerasFromASmallRenderedSet) {
   const CalibrationSet set = SmallSet();
-  const VirtualStereoCalibration c = CalibrateVirtualStereo(set.images, set.board_file, Nominal());
+  const VirtualStereoCalibration c =
+      CalibrateVirtualStereo(set.images, set.board_file, DefaultSensor());
   EXPECT_EQ(c.summary.views_used, 9);
   EXPECT_LT(c.summary.rms_px, 0.1);
   for (ImageHalf half : kImageHalves) {
@@ -183,7 +182,7 @@ TEST(CalibrateVirtualStereo, RecoversTheTrueVirtualCamerasFromASmallRenderedSet)
                 std::string(ToString(half)).c_str(), PositionError(c, half), RotationError(c, half),
                 c.intrinsics[static_cast<int>(half)].fx, t.fx);
   }
-  EXPECT_GT(RotationAngleDeg(Nominal().virtual_cameras[0].sensor_from_vcam.linear(),
+  EXPECT_GT(RotationAngleDeg(DefaultSensor().virtual_cameras[0].sensor_from_vcam.linear(),
                              Truth().virtual_cameras[0].sensor_from_vcam.linear()),
             0.1);
   for (const CalibrationViewReport& v : c.views) {
@@ -213,7 +212,8 @@ TEST(CalibrateVirtualStereo, RefusesBadImagesWithTheReasonAndCalibratesWithTheRe
   cv::Mat colour;
   cv::cvtColor(good, colour, cv::COLOR_GRAY2BGR);
   set.images.push_back({"colour.png", colour});  // usable: converted to grey
-  const VirtualStereoCalibration c = CalibrateVirtualStereo(set.images, set.board_file, Nominal());
+  const VirtualStereoCalibration c =
+      CalibrateVirtualStereo(set.images, set.board_file, DefaultSensor());
   EXPECT_EQ(c.summary.views_used, 10);
   EXPECT_EQ(c.summary.views_refused, 6);
   auto refusal = [&](const std::string& name) {
@@ -242,7 +242,7 @@ TEST(CalibrateVirtualStereo, TooFewGoodViewsIsAnError) {
   CalibrationSet set = SmallSet();
   set.images.resize(5);  // the reference and four views: one short of six
   try {
-    CalibrateVirtualStereo(set.images, set.board_file, Nominal());
+    CalibrateVirtualStereo(set.images, set.board_file, DefaultSensor());
     ADD_FAILURE() << "calibrated from 5 views";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("too few good views: 5 of 5 images, at least 6 needed"),
@@ -251,7 +251,7 @@ TEST(CalibrateVirtualStereo, TooFewGoodViewsIsAnError) {
   }
   VirtualStereoCalibrationOptions fewer;
   fewer.min_views = 5;
-  EXPECT_NO_THROW(CalibrateVirtualStereo(set.images, set.board_file, Nominal(), fewer));
+  EXPECT_NO_THROW(CalibrateVirtualStereo(set.images, set.board_file, DefaultSensor(), fewer));
 }
 
 // Sensor-to-sensor spread (issue 15): a twin built at the manufacturing tolerances (mirrors
@@ -268,9 +268,9 @@ SpreadErrors MarkerErrorsThrough(const SensorConfig& truth, const SensorConfig& 
   static const Eigen::MatrixXd h = CalcSyntheticCompliance({}).h;
   PipelineOptions options;
   options.reference_frames = 3;
-  Pipeline pipeline(pipeline_config, h, Nominal().MarkerPositions(), options);
+  Pipeline pipeline(pipeline_config, h, DefaultSensor().MarkerPositions(), options);
   const MarkerImageRenderer renderer(truth);
-  const std::vector<Eigen::Vector3d> rest = Nominal().MarkerPositions();
+  const std::vector<Eigen::Vector3d> rest = DefaultSensor().MarkerPositions();
   std::vector<Eigen::Vector3d> dented = rest;
   for (Eigen::Vector3d& p : dented) p.z() -= 0.2 * std::exp(-p.head<2>().squaredNorm() / (2 * 16.0));
   TactileFrame out;
@@ -291,13 +291,13 @@ SpreadErrors MarkerErrorsThrough(const SensorConfig& truth, const SensorConfig& 
 
 TEST(ManufacturingSpread, TheCalibrationRecoversTheMarkersOfASensorBuiltAtTolerance) {
   const SensorConfig truth =
-      PerturbSensor(Nominal(), SensorPerturbationOptions::ManufacturingSpread(2));
+      PerturbSensor(DefaultSensor(), SensorPerturbationOptions::ManufacturingSpread(2));
   CalibrationSetOptions o;
   o.views = 8;
   const CalibrationSet set = RenderCalibrationSet(truth, o);
   const SensorConfig calibrated =
-      CalibrateVirtualStereo(set.images, set.board_file, Nominal()).ApplyTo(Nominal());
-  const SpreadErrors nominal = MarkerErrorsThrough(truth, Nominal());
+      CalibrateVirtualStereo(set.images, set.board_file, DefaultSensor()).ApplyTo(DefaultSensor());
+  const SpreadErrors nominal = MarkerErrorsThrough(truth, DefaultSensor());
   const SpreadErrors fixed = MarkerErrorsThrough(truth, calibrated);
   std::printf("spread (seed 2): nominal design: %d markers valid, position RMSE %.4f mm, displacement "
               "RMSE %.4f mm; calibrated: %d valid, %.4f mm, %.4f mm\n",

@@ -6,6 +6,8 @@
 #include <optional>
 #include <random>
 
+#include <fmt/format.h>
+
 #include "tac3d/fem/compliance.h"
 #include "tac3d/fem/compliance_family.h"
 #include "tac3d/force/force_gains.h"
@@ -572,14 +574,29 @@ std::optional<fem::ComplianceFamily> MakeFamily(const EvalForceOptions& options)
       std::in_place, options.body, options.poisson_nodes, options.cache_dir, options.show_progress);
 }
 
+// "x / y / z", each formatted with `spec` (a format string for one double).
+std::string FormatXyz(const Eigen::Vector3d& v, const char* spec) {
+  return fmt::format("{} / {} / {}", fmt::format(fmt::runtime(spec), v.x()),
+                     fmt::format(fmt::runtime(spec), v.y()), fmt::format(fmt::runtime(spec), v.z()));
+}
+
 }  // namespace
 
+std::string ForceEvaluation::GridLine() const {
+  const auto xyz = [](const Eigen::Vector3d& v) { return FormatXyz(v, "{:.2f}"); };
+  std::string line = fmt::format("true E {:.4g} MPa, nu {:.4f}: resultant error max {} % FS",
+                                 true_material.youngs_modulus_mpa, true_material.poisson_ratio,
+                                 xyz(resultant_error_max_pct_fs));
+  if (material) {
+    line += fmt::format("; {}; gains only {} % FS", material->fit.message,
+                        xyz(material->gains_only_max_pct_fs));
+  }
+  return line + fmt::format("; all checks {}", all_pass ? "pass" : "FAIL");
+}
+
 std::string ForceEvaluation::Report() const {
-  std::string text;
-  for (const EvalCheck& check : checks) text += check.Format() + "\n";
-  const auto xyz = [](const Eigen::Vector3d& v) {
-    return fmt::format("{:.3g} / {:.3g} / {:.3g}", v.x(), v.y(), v.z());
-  };
+  std::string text = FormatChecks(checks);
+  const auto xyz = [](const Eigen::Vector3d& v) { return FormatXyz(v, "{:.3g}"); };
   text += fmt::format("true material: E {:.4g} MPa, nu {:.4f}\n", true_material.youngs_modulus_mpa,
                       true_material.poisson_ratio);
   text += fmt::format("resultant error, % of full scale, x / y / z: max {}, rms {}\n",

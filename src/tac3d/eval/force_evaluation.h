@@ -111,6 +111,9 @@ struct ForceEvaluation {
 
   /// The figures as the CLI prints them: the checks, the resultant errors, the material fit.
   std::string Report() const;
+  /// One line for a point of the material grid: the true material, the resultant error (max
+  /// % FS per axis), the fitted material and the gains-only error beside it if fitted.
+  std::string GridLine() const;
 };
 
 /// {"checks", "all_pass", "resultant_error_pct_fs", "resultant_error_max_pct_fs_xyz",

@@ -26,8 +26,8 @@ static_assert(kModels[0] == RefractionModel::kNone && kModels[kPolynomial] == Re
 // A motion is applied over this many frames, as a press or a slide is, so the tracker sees
 // at most a third of it between two frames.
 constexpr int kMotionSteps = 3;
-constexpr double kPositionAcceptanceMm = 0.02;
-constexpr double kDisplacementAcceptanceMm = 0.01;
+constexpr double kMarkerPositionAcceptanceMm = 0.02;
+constexpr double kMarkerDisplacementAcceptanceMm = 0.01;
 
 // RMS and maximum of error-vector lengths.
 struct ErrorStats {
@@ -148,8 +148,7 @@ void MarkerEvaluationOptions::Validate() const {
 }
 
 std::string MarkerEvaluation::Report() const {
-  std::string text;
-  for (const EvalCheck& check : checks) text += check.Format() + "\n";
+  std::string text = FormatChecks(checks);
   for (size_t m = 0; m < kModels.size(); ++m) {
     const MarkerErrors& errors = Of(by_model, m);
     text += fmt::format("refraction {:<10} position RMSE {:.4f} mm (max {:.4f}), displacement RMSE "
@@ -267,9 +266,9 @@ MarkerEvaluation EvaluateMarkers(const MarkerEvaluationOptions& options) {
   e.min_valid_markers = min_valid;
   e.reference_frames = options.reference_frames;
   e.checks = {EvalCheck::AtMost("position_rmse_mm", e.by_model.polynomial.position_rmse_mm,
-                                kPositionAcceptanceMm, "mm"),
+                                kMarkerPositionAcceptanceMm, "mm"),
               EvalCheck::AtMost("displacement_rmse_mm", e.by_model.polynomial.displacement_rmse_mm,
-                                kDisplacementAcceptanceMm, "mm")};
+                                kMarkerDisplacementAcceptanceMm, "mm")};
   e.all_pass = AllPass(e.checks);
   return e;
 }

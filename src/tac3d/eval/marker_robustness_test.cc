@@ -14,6 +14,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "tac3d/design/light_path_design.h"
+#include "tac3d/sensor/test_sensor.h"
 #include "tac3d/source/frame_source.h"
 #include "tac3d/stereo/marker_field.h"
 #include "tac3d/testing/testing.h"
@@ -25,6 +26,8 @@
 namespace tac3d {
 namespace {
 
+using testing::DefaultSensor;
+
 using ::testing::HasSubstr;
 
 // Per-marker 3D error of a valid marker against the rendered truth, polynomial compensation
@@ -33,13 +36,8 @@ using ::testing::HasSubstr;
 // mismatched by one pitch would be 1.27 mm off.
 constexpr double kPositionToleranceMm = 0.02;
 
-const SensorConfig& Sensor() {
-  static const SensorConfig config = DefaultSensorConfig();
-  return config;
-}
-
 const MarkerImageRenderer& Renderer() {
-  static const MarkerImageRenderer renderer(Sensor());
+  static const MarkerImageRenderer renderer(DefaultSensor());
   return renderer;
 }
 
@@ -48,7 +46,7 @@ const MarkerImageRenderer& Renderer() {
 const std::vector<Eigen::Vector3d>& Deformed() {
   static const std::vector<Eigen::Vector3d> markers = [] {
     const std::vector<MarkerMotion> motions = StandardMarkerMotions();
-    std::vector<Eigen::Vector3d> m = Sensor().MarkerPositions();
+    std::vector<Eigen::Vector3d> m = DefaultSensor().MarkerPositions();
     for (const MarkerMotion& motion : motions) {
       if (motion.kind != MarkerMotionKind::kTwist) m = motion.Apply(m);
     }
@@ -59,7 +57,7 @@ const std::vector<Eigen::Vector3d>& Deformed() {
 
 // The exact pixels of the markers in a half.
 std::vector<Eigen::Vector2d> TruePixels(ImageHalf half, const std::vector<Eigen::Vector3d>& markers) {
-  const OpticalLayout layout = Sensor().MakeOpticalLayout(true);
+  const OpticalLayout layout = DefaultSensor().MakeOpticalLayout(true);
   std::vector<Eigen::Vector2d> uv;
   for (const auto& p : markers) uv.push_back(ProjectPoint(layout, half, p).value());
   return uv;
@@ -67,14 +65,14 @@ std::vector<Eigen::Vector2d> TruePixels(ImageHalf half, const std::vector<Eigen:
 
 // The film without markers, to paint markers out with.
 cv::Mat FilmOnly() {
-  const std::vector<Eigen::Vector3d> away(Sensor().MarkerPositions().size(), Eigen::Vector3d(0, 0, -1000));
+  const std::vector<Eigen::Vector3d> away(DefaultSensor().MarkerPositions().size(), Eigen::Vector3d(0, 0, -1000));
   return Renderer().Render(away, 77);
 }
 
 // Tracks and triangulates frames as the pipeline does.
 class Measurement {
  public:
-  Measurement() : tracker_(Sensor()), triangulator_(Sensor()) {}
+  Measurement() : tracker_(DefaultSensor()), triangulator_(DefaultSensor()) {}
 
   const MarkerField& Measure(const cv::Mat& image) {
     tracker_.Track(image, observation_);

@@ -8,6 +8,7 @@
 
 #include "tac3d/design/light_path_design.h"
 #include "tac3d/force/synthetic_compliance.h"
+#include "tac3d/sensor/test_sensor.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/twin/camera_renderer.h"
 #include "tac3d/util/error.h"
@@ -19,12 +20,9 @@
 namespace tac3d {
 namespace {
 
-using ::testing::HasSubstr;
+using testing::DefaultSensor;
 
-const SensorConfig& Sensor() {
-  static const SensorConfig config = DefaultSensorConfig();
-  return config;
-}
+using ::testing::HasSubstr;
 
 const Eigen::MatrixXd& H() {
   static const Eigen::MatrixXd h = CalcSyntheticCompliance({}).h;
@@ -33,7 +31,7 @@ const Eigen::MatrixXd& H() {
 
 // A Gaussian press (sigma 2 mm about (2, -1) mm) of total force `total_n` on the rest grid.
 std::vector<Eigen::Vector3d> PressForces(const Eigen::Vector3d& total_n) {
-  const std::vector<Eigen::Vector3d> markers = Sensor().MarkerPositions();
+  const std::vector<Eigen::Vector3d> markers = DefaultSensor().MarkerPositions();
   std::vector<double> weights;
   double sum = 0.0;
   for (const Eigen::Vector3d& p : markers) {
@@ -49,8 +47,8 @@ std::vector<Eigen::Vector3d> PressForces(const Eigen::Vector3d& total_n) {
 std::string WriteDataset(const std::string& name, int reference, const std::vector<Eigen::Vector3d>& loads) {
   const std::string dir = testing::MakeTempDir("replay") + "/" + name;
   TwinDatasetWriter writer(dir, {{"name", name}, {"scene", "pins"}});
-  const MarkerImageRenderer renderer(Sensor());
-  const std::vector<Eigen::Vector3d> rest = Sensor().MarkerPositions();
+  const MarkerImageRenderer renderer(DefaultSensor());
+  const std::vector<Eigen::Vector3d> rest = DefaultSensor().MarkerPositions();
   const int n = static_cast<int>(rest.size());
   std::vector<Eigen::Vector3d> all(reference, Eigen::Vector3d::Zero());
   all.insert(all.end(), loads.begin(), loads.end());
@@ -89,7 +87,7 @@ TEST(ReplayEvaluation, RecoversTheTruthOfASyntheticDatasetAndItsGains) {
   const TwinDatasetReader dataset(WriteDataset("press", 5, loads));
   const SensorConfig sensor = DatasetSensor(dataset);
   int calls = 0;
-  const ReplayResult r = ReplayTwinDataset(dataset, sensor, H(), Sensor().MarkerPositions(),
+  const ReplayResult r = ReplayTwinDataset(dataset, sensor, H(), DefaultSensor().MarkerPositions(),
                                            FiveReferenceFrames(), [&calls](int done, int all) {
                                              ++calls;
                                              EXPECT_EQ(all, 9);
@@ -125,7 +123,7 @@ TEST(ReplayEvaluation, RecoversTheTruthOfASyntheticDatasetAndItsGains) {
 
   ReplayOptions doubled = FiveReferenceFrames();
   doubled.pipeline.force.gains = {1, 1, 2};
-  const ReplayResult off = ReplayTwinDataset(dataset, sensor, H(), Sensor().MarkerPositions(), doubled);
+  const ReplayResult off = ReplayTwinDataset(dataset, sensor, H(), DefaultSensor().MarkerPositions(), doubled);
   EXPECT_NEAR(off.frames[3].measured_force_n.z(), 2 * r.frames[3].measured_force_n.z(), 1e-9);
   EXPECT_GT(off.summary.force_error_max_pct_fs.z(), 40.0);  // 4.5 N too much of 10 N
   EXPECT_EQ(off.summary.worst_force_step, 8);
@@ -141,7 +139,7 @@ TEST(ReplayEvaluation, RecoversTheTruthOfASyntheticDatasetAndItsGains) {
 TEST(ReplayEvaluation, RefusesADatasetLoadedDuringTheReference) {
   const TwinDatasetReader dataset(WriteDataset("early", 3, {{0, 0, -2}, {0, 0, -2}, {0, 0, -2}}));
   try {
-    ReplayTwinDataset(dataset, Sensor(), H(), Sensor().MarkerPositions(), FiveReferenceFrames());
+    ReplayTwinDataset(dataset, DefaultSensor(), H(), DefaultSensor().MarkerPositions(), FiveReferenceFrames());
     FAIL() << "a dataset loaded at step 3 of a 5-frame reference was replayed";
   } catch (const Error& e) {
     EXPECT_THAT(e.what(), HasSubstr("step 3 carries a force of 2 N"));
@@ -164,7 +162,7 @@ TEST(ConditionsEvaluation, EachNuisanceAndAllTogetherHoldTheBoundsOnlyWithTheDri
   options.levels.session_s = 60.0;  // the 0.02 mm creep 10 x faster than over 10 minutes
   options.rest_frame_s = 2.0;
   options.calibration_views = 8;
-  const ConditionsEvaluation e = EvaluateConditions(dataset, Sensor(), H(), Sensor().MarkerPositions(), options);
+  const ConditionsEvaluation e = EvaluateConditions(dataset, DefaultSensor(), H(), DefaultSensor().MarkerPositions(), options);
   ASSERT_EQ(e.cases.size(), 9u);  // nominal, six nuisances, all, spread
   for (const ConditionsCase& c : e.cases) {
     const ReplaySummary& s = c.summary;
@@ -182,7 +180,7 @@ TEST(ConditionsEvaluation, EachNuisanceAndAllTogetherHoldTheBoundsOnlyWithTheDri
   ConditionsEvaluationOptions untracked = options;
   untracked.replay.pipeline.drift.mode = DriftMode::kFlag;
   untracked.spread = false;
-  const ConditionsEvaluation raw = EvaluateConditions(dataset, Sensor(), H(), Sensor().MarkerPositions(), untracked);
+  const ConditionsEvaluation raw = EvaluateConditions(dataset, DefaultSensor(), H(), DefaultSensor().MarkerPositions(), untracked);
   const ConditionsCase& creep = raw.cases[6];
   ASSERT_EQ(creep.name, "creep");
   std::printf("creep flagged, not re-zeroed: displacement RMSE %.4f mm, Fz error %.2f %% FS, drift_at_rest on %d of 3 frames\n",

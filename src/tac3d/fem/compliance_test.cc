@@ -14,7 +14,7 @@ namespace tac3d::fem {
 namespace {
 
 // The shared small dome with 3 x 3 markers.
-BodyModelOptions SmallDome() { return testing::SmallDome(3, 3); }
+BodyModelOptions SmallDome3x3() { return testing::SmallDome(3, 3); }
 
 void ExpectSameModel(const ComplianceModel& a, const ComplianceModel& b) {
   EXPECT_TRUE(a.h == b.h);  // bit for bit
@@ -40,11 +40,11 @@ void FlipByte(const std::string& path, long offset) {
 
 TEST(ComplianceCache, BuildsOnceThenLoads) {
   const std::string dir = testing::MakeTempDir("cache");
-  const ComplianceCacheResult built = LoadOrBuildComplianceModel(SmallDome(), dir, false);
+  const ComplianceCacheResult built = LoadOrBuildComplianceModel(SmallDome3x3(), dir, false);
   EXPECT_EQ(built.status, ComplianceCacheStatus::kBuiltMissing);
   EXPECT_TRUE(std::filesystem::exists(built.path));
   EXPECT_EQ(built.model.h.rows(), 27);
-  const ComplianceCacheResult loaded = LoadOrBuildComplianceModel(SmallDome(), dir, false);
+  const ComplianceCacheResult loaded = LoadOrBuildComplianceModel(SmallDome3x3(), dir, false);
   EXPECT_EQ(loaded.status, ComplianceCacheStatus::kLoaded);
   EXPECT_EQ(loaded.path, built.path);
   ExpectSameModel(loaded.model, built.model);
@@ -54,26 +54,26 @@ TEST(ComplianceCache, BuildsOnceThenLoads) {
 
 TEST(ComplianceCache, StaleKeyIsRebuiltNotUsed) {
   const std::string dir = testing::MakeTempDir("cache");
-  BodyModelOptions stiffer = SmallDome();
+  BodyModelOptions stiffer = SmallDome3x3();
   stiffer.material.youngs_modulus_mpa = 2.0;
   const ComplianceCacheResult other = LoadOrBuildComplianceModel(stiffer, dir, false);
   // Put the stiffer body's file where the nominal body's belongs.
   const std::string path =
       (std::filesystem::path(dir) /
-       fmt::format("compliance_{:016x}.bin", CalcComplianceCacheKey(SmallDome())))
+       fmt::format("compliance_{:016x}.bin", CalcComplianceCacheKey(SmallDome3x3())))
           .string();
   std::filesystem::copy_file(other.path, path);
-  const ComplianceCacheResult result = LoadOrBuildComplianceModel(SmallDome(), dir, false);
+  const ComplianceCacheResult result = LoadOrBuildComplianceModel(SmallDome3x3(), dir, false);
   EXPECT_EQ(result.status, ComplianceCacheStatus::kRebuiltStale) << result.reason;
   // H scales as 1 / E: the rebuilt H is twice the stiffer one, so it is not the stale file's.
   EXPECT_LT((result.model.h - 2.0 * other.model.h).norm(), 1e-9 * result.model.h.norm());
-  EXPECT_EQ(LoadOrBuildComplianceModel(SmallDome(), dir, false).status,
+  EXPECT_EQ(LoadOrBuildComplianceModel(SmallDome3x3(), dir, false).status,
             ComplianceCacheStatus::kLoaded);
 }
 
 TEST(ComplianceCache, CorruptOrTruncatedFileIsRebuiltNotUsed) {
   const std::string dir = testing::MakeTempDir("cache");
-  const ComplianceCacheResult built = LoadOrBuildComplianceModel(SmallDome(), dir, false);
+  const ComplianceCacheResult built = LoadOrBuildComplianceModel(SmallDome3x3(), dir, false);
   // The file's size changes with each rebuild (its provenance holds timings).
   long size = 0;
   const std::vector<std::function<void()>> damages = {
@@ -91,7 +91,7 @@ TEST(ComplianceCache, CorruptOrTruncatedFileIsRebuiltNotUsed) {
     size = static_cast<long>(std::filesystem::file_size(built.path));
     damages[d]();
     EXPECT_THROW(LoadComplianceModel(built.path), Error) << "damage " << d;
-    const ComplianceCacheResult result = LoadOrBuildComplianceModel(SmallDome(), dir, false);
+    const ComplianceCacheResult result = LoadOrBuildComplianceModel(SmallDome3x3(), dir, false);
     EXPECT_EQ(result.status, ComplianceCacheStatus::kRebuiltCorrupt) << "damage " << d;
     EXPECT_FALSE(result.reason.empty());
     EXPECT_TRUE(result.model.h == built.model.h) << "damage " << d;
@@ -101,7 +101,7 @@ TEST(ComplianceCache, CorruptOrTruncatedFileIsRebuiltNotUsed) {
 
 TEST(ComplianceCache, SaveLoadRoundTripAndMissingFile) {
   const std::string dir = testing::MakeTempDir("files");
-  const ComplianceModel model = CalcComplianceModel(SmallDome());
+  const ComplianceModel model = CalcComplianceModel(SmallDome3x3());
   const std::string path = dir + "/h.bin";
   SaveComplianceModel(model, path);
   ExpectSameModel(LoadComplianceModel(path), model);

@@ -316,8 +316,7 @@ void EvalFemOptions::Validate() const {
 }
 
 std::string EvalFemResult::Report() const {
-  std::string text;
-  for (const EvalCheck& check : checks) text += check.Format() + "\n";
+  std::string text = FormatChecks(checks);
   return text + fmt::format("model: {}\nall pass: {}\n", model.dump(), all_pass ? "yes" : "no");
 }
 

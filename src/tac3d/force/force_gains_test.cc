@@ -131,8 +131,8 @@ TEST(ForcePairCsv, LoadsAFile) {
 
 TEST(CalibrationPressCsv, RoundTripsExactly) {
   const std::vector<CalibrationPress> presses = {
-      {Eigen::VectorXd::LinSpaced(6, -0.1, 0.35), Eigen::Vector3d(0.1, -1.0 / 3.0, -4.9)},
-      {Eigen::VectorXd::Constant(6, 1e-5), Eigen::Vector3d(0, 0, -1)}};
+      {Eigen::VectorXd::LinSpaced(6, -0.1, 0.35), Eigen::Vector3d(0.1, -1.0 / 3.0, -4.9), std::nullopt},
+      {Eigen::VectorXd::Constant(6, 1e-5), Eigen::Vector3d(0, 0, -1), std::nullopt}};
   const std::vector<CalibrationPress> parsed =
       ParseCalibrationPresses(CalibrationPressesToCsv(presses), 2);
   ASSERT_EQ(parsed.size(), 2u);

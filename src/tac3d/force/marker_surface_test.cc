@@ -142,7 +142,9 @@ TEST(MarkerSurface, BadInputThrows) {
   EXPECT_THROW(MarkerSurface(1, kRows * kCols, rest), Error);
   EXPECT_THROW(MarkerSurface(kRows, kCols + 1, rest), Error);
   EXPECT_THROW(MarkerSurface(kRows, kCols, rest, {.contact_threshold_n = -0.1}), Error);
-  EXPECT_THROW(MarkerSurface(kRows, kCols, std::vector<Eigen::Vector3d>(kRows * kCols)), Error);
+  // Every marker at one point: no normal anywhere (Eigen leaves a vector uninitialised).
+  const std::vector<Eigen::Vector3d> collapsed(kRows * kCols, Eigen::Vector3d::Zero());
+  EXPECT_THROW(MarkerSurface(kRows, kCols, collapsed), Error);
   const MarkerSurface surface(kRows, kCols, rest);
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(3 * kRows * kCols);
   EXPECT_THROW(surface.CalcNormals(Eigen::VectorXd::Zero(6), {}), Error);

@@ -12,14 +12,9 @@
 namespace tac3d {
 namespace {
 
-using ::testing::HasSubstr;
+using testing::LoadNpy;
 
-testing::NpyArray Read(const std::string& path) {
-  testing::NpyArray array;
-  std::string error;
-  EXPECT_TRUE(testing::ReadNpy(path, &array, &error)) << path << ": " << error;
-  return array;
-}
+using ::testing::HasSubstr;
 
 // What numpy 1.24's np.save writes for the same arrays (it pads to 128 bytes, leaving room to
 // grow the first axis): the bytes must agree exactly at that size.
@@ -71,7 +66,7 @@ TEST(NpyWriter, RoundTripsEveryType) {
   const std::vector<std::uint8_t> b = {1, 0, 0, 1, 1};
   WriteNpy(dir + "/b.npy", NpyType::kBool, {5}, b.data());
 
-  const auto fa = Read(dir + "/f.npy");
+  const auto fa = LoadNpy(dir + "/f.npy");
   EXPECT_EQ(fa.descr, "<f8");
   EXPECT_FALSE(fa.fortran_order);
   EXPECT_EQ(fa.shape, (std::vector<std::int64_t>{4, 2, 3}));
@@ -86,19 +81,19 @@ TEST(NpyWriter, RoundTripsEveryType) {
   }
   EXPECT_TRUE(std::signbit(fa.at<double>(6)));
 
-  const auto ia = Read(dir + "/i.npy");
+  const auto ia = LoadNpy(dir + "/i.npy");
   EXPECT_EQ(ia.descr, "<i8");
   EXPECT_EQ(ia.shape, (std::vector<std::int64_t>{3}));
   ASSERT_EQ(ia.data.size(), 24u);
   for (std::size_t i = 0; i < 3; ++i) EXPECT_EQ(ia.at<std::int64_t>(i), i64[i]);
 
-  const auto ua = Read(dir + "/u.npy");
+  const auto ua = LoadNpy(dir + "/u.npy");
   EXPECT_EQ(ua.descr, "<u4");
   EXPECT_EQ(ua.shape, (std::vector<std::int64_t>{2, 3}));
   ASSERT_EQ(ua.data.size(), 24u);
   for (std::size_t i = 0; i < 6; ++i) EXPECT_EQ(ua.at<std::uint32_t>(i), u32[i]);
 
-  const auto ba = Read(dir + "/b.npy");
+  const auto ba = LoadNpy(dir + "/b.npy");
   EXPECT_EQ(ba.descr, "|b1");
   EXPECT_EQ(ba.shape, (std::vector<std::int64_t>{5}));
   EXPECT_EQ(ba.data, std::string("\x01\x00\x00\x01\x01", 5));
@@ -115,7 +110,7 @@ TEST(NpyWriter, StreamedRowsGiveTheFinalShapeInTheSameHeaderSpace) {
   EXPECT_EQ(writer.rows(), 1000);
   writer.Close();
   EXPECT_THROW(writer.Append(row.data()), Error);  // closed
-  const auto a = Read(path);
+  const auto a = LoadNpy(path);
   EXPECT_EQ(a.shape, (std::vector<std::int64_t>{1000, 2, 3}));
   EXPECT_EQ(a.header_bytes % 64, 0u);
   ASSERT_EQ(a.data.size(), 1000 * 6 * 8u);
@@ -129,7 +124,7 @@ TEST(NpyWriter, EmptyArrayAndUnwritablePath) {
     NpyWriter writer(dir + "/empty.npy", NpyType::kBool, {400});
     writer.Close();
   }
-  const auto a = Read(dir + "/empty.npy");
+  const auto a = LoadNpy(dir + "/empty.npy");
   EXPECT_EQ(a.shape, (std::vector<std::int64_t>{0, 400}));
   EXPECT_TRUE(a.data.empty());
   EXPECT_THROW(NpyWriter(dir + "/no/such/folder/x.npy", NpyType::kFloat64, {}), Error);

@@ -18,6 +18,8 @@
 namespace tac3d {
 namespace {
 
+using testing::LoadNpy;
+
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
@@ -44,13 +46,6 @@ std::string WriteRecording(const std::string& path, int frames) {
     writer.Write(Frame(t), t % 2 == 0 ? cv::Mat(6, 8, CV_8UC1, cv::Scalar(t)) : cv::Mat());
   }
   return path;
-}
-
-testing::NpyArray Read(const std::string& path) {
-  testing::NpyArray array;
-  std::string error;
-  EXPECT_TRUE(testing::ReadNpy(path, &array, &error)) << path << ": " << error;
-  return array;
 }
 
 // Bit-exact equality, NaN equal to NaN.
@@ -109,22 +104,22 @@ TEST(RecordingExport, NpyHoldsEveryFieldExactly) {
   EXPECT_EQ(Listing(dir + "/out"), names);  // and no .tmp left
 
   const std::string out = dir + "/out/";
-  ExpectVectors(Read(out + "positions_mm.npy"), 7, &TactileFrame::positions_mm, "positions");
+  ExpectVectors(LoadNpy(out + "positions_mm.npy"), 7, &TactileFrame::positions_mm, "positions");
   ExpectVectors(
-      Read(out + "displacements_mm.npy"), 7, &TactileFrame::displacements_mm, "displacements");
-  ExpectVectors(Read(out + "forces_n.npy"), 7, &TactileFrame::forces_n, "forces");
-  ExpectVectors(Read(out + "normals.npy"), 7, &TactileFrame::normals, "normals");
-  const auto valid = Read(out + "valid.npy");
-  const auto contact = Read(out + "contact.npy");
+      LoadNpy(out + "displacements_mm.npy"), 7, &TactileFrame::displacements_mm, "displacements");
+  ExpectVectors(LoadNpy(out + "forces_n.npy"), 7, &TactileFrame::forces_n, "forces");
+  ExpectVectors(LoadNpy(out + "normals.npy"), 7, &TactileFrame::normals, "normals");
+  const auto valid = LoadNpy(out + "valid.npy");
+  const auto contact = LoadNpy(out + "contact.npy");
   EXPECT_EQ(valid.descr, "|b1");
   EXPECT_EQ(valid.shape, (std::vector<std::int64_t>{7, kMarkers}));
   EXPECT_EQ(contact.shape, (std::vector<std::int64_t>{7, kMarkers}));
-  const auto timestamp = Read(out + "timestamp_s.npy");
-  const auto index = Read(out + "index.npy");
-  const auto flags = Read(out + "flags.npy");
-  const auto progress = Read(out + "initialize_progress.npy");
-  const auto force = Read(out + "resultant_force_n.npy");
-  const auto moment = Read(out + "resultant_moment_nmm.npy");
+  const auto timestamp = LoadNpy(out + "timestamp_s.npy");
+  const auto index = LoadNpy(out + "index.npy");
+  const auto flags = LoadNpy(out + "flags.npy");
+  const auto progress = LoadNpy(out + "initialize_progress.npy");
+  const auto force = LoadNpy(out + "resultant_force_n.npy");
+  const auto moment = LoadNpy(out + "resultant_moment_nmm.npy");
   EXPECT_EQ(timestamp.descr, "<f8");
   EXPECT_EQ(index.descr, "<i8");
   EXPECT_EQ(flags.descr, "<u4");
@@ -226,8 +221,9 @@ TEST(RecordingExport, TruncatedRecordingExportsItsGoodFrames) {
   EXPECT_EQ(result.frames, 4);
   EXPECT_EQ(result.status, RecordingStatus::kTruncated);
   EXPECT_THAT(result.message, HasSubstr("truncated after 4 frames"));
-  EXPECT_EQ(Read(dir + "/out/positions_mm.npy").shape, (std::vector<std::int64_t>{4, kMarkers, 3}));
-  EXPECT_EQ(Read(dir + "/out/index.npy").at<std::int64_t>(3), 103);
+  EXPECT_EQ(LoadNpy(dir + "/out/positions_mm.npy").shape,
+            (std::vector<std::int64_t>{4, kMarkers, 3}));
+  EXPECT_EQ(LoadNpy(dir + "/out/index.npy").at<std::int64_t>(3), 103);
 }
 
 TEST(RecordingExport, ChecksTheFolderBeforeWritingAndLeavesNoPartialFile) {

@@ -6,26 +6,21 @@
 #include "tac3d/util/error.h"
 
 namespace tac3d {
-namespace {
-
-void Require(bool ok, const char* field, const char* bound, double value) {
-  if (!ok || std::isnan(value))
-    throw Error(fmt::format("drift: {} = {} must be {}", field, value, bound));
-}
-
-}  // namespace
 
 void DriftOptions::Validate() const {
-  Require(mode == DriftMode::kOff || mode == DriftMode::kFlag || mode == DriftMode::kRezero,
+  const auto require = [](bool ok, const char* field, const char* bound, double value) {
+    RequireOption(ok, "drift", field, bound, value);
+  };
+  require(mode == DriftMode::kOff || mode == DriftMode::kFlag || mode == DriftMode::kRezero,
           "mode",
           "off, flag or rezero",
           static_cast<int>(mode));
-  Require(time_constant_s > 0 && std::isfinite(time_constant_s),
+  require(time_constant_s > 0 && std::isfinite(time_constant_s),
           "time_constant_s",
           "> 0 and finite",
           time_constant_s);
-  Require(rest_band_mm > 0, "rest_band_mm", "> 0", rest_band_mm);
-  Require(flag_mm > 0, "flag_mm", "> 0", flag_mm);
+  require(rest_band_mm > 0, "rest_band_mm", "> 0", rest_band_mm);
+  require(flag_mm > 0, "flag_mm", "> 0", flag_mm);
 }
 
 DriftMonitor::DriftMonitor(const DriftOptions& options) : options_((options.Validate(), options)) {}

@@ -9,30 +9,28 @@
 namespace tac3d {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// A figure that could not be measured (no marker, no reference).
+constexpr double kUnmeasured = std::numeric_limits<double>::quiet_NaN();
 
 // The value at fraction q (0..1) of `values` by rank (reorders them); NaN if empty.
 double Quantile(std::vector<double>& values, double q) {
-  if (values.empty()) return kNaN;
+  if (values.empty()) return kUnmeasured;
   const auto k = static_cast<std::ptrdiff_t>(std::lround(q * (values.size() - 1)));
   std::nth_element(values.begin(), values.begin() + k, values.end());
   return values[k];
 }
 
-void Require(bool ok, const char* field, const char* bound, double value) {
-  if (!ok || std::isnan(value)) {
-    throw Error(fmt::format("lighting monitor: {} = {} must be {}", field, value, bound));
-  }
-}
-
 }  // namespace
 
 void LightingMonitorOptions::Validate() const {
-  Require(min_contrast_ratio > 0 && min_contrast_ratio < 1,
+  const auto require = [](bool ok, const char* field, const char* bound, double value) {
+    RequireOption(ok, "lighting monitor", field, bound, value);
+  };
+  require(min_contrast_ratio > 0 && min_contrast_ratio < 1,
           "min_contrast_ratio",
           "in (0, 1)",
           min_contrast_ratio);
-  Require(quantile >= 0 && quantile <= 0.5, "quantile", "in [0, 0.5]", quantile);
+  require(quantile >= 0 && quantile <= 0.5, "quantile", "in [0, 0.5]", quantile);
 }
 
 LightingMonitor::LightingMonitor(const LightingMonitorOptions& options)
@@ -65,15 +63,15 @@ void LightingMonitor::AddReference(const MarkerObservation& observation) {
 
 void LightingMonitor::FinishReference() {
   for (std::size_t k = 0; k < count_.size(); ++k) {
-    background_[k] = count_[k] > 0 ? background_[k] / count_[k] : kNaN;
-    contrast_[k] = count_[k] > 0 ? contrast_[k] / count_[k] : kNaN;
+    background_[k] = count_[k] > 0 ? background_[k] / count_[k] : kUnmeasured;
+    contrast_[k] = count_[k] > 0 ? contrast_[k] / count_[k] : kUnmeasured;
   }
   has_reference_ = !count_.empty();
 }
 
 LightingChange LightingMonitor::Compare(const MarkerObservation& observation) {
   const std::size_t n = static_cast<std::size_t>(observation.rows) * observation.cols;
-  if (!has_reference_ || count_.size() != 2 * n) return {kNaN, kNaN, false};
+  if (!has_reference_ || count_.size() != 2 * n) return {kUnmeasured, kUnmeasured, false};
   level_ratios_.clear();
   contrast_ratios_.clear();
   for (int h = 0; h < 2; ++h) {

@@ -14,18 +14,17 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-void Require(bool ok, const char* field, const char* bound, double value) {
-  if (!ok || std::isnan(value)) throw Error(fmt::format("pipeline: {} = {} must be {}", field, value, bound));
-}
-
 }  // namespace
 
 void PipelineOptions::Validate() const {
+  const auto require = [](bool ok, const char* field, const char* bound, double value) {
+    RequireOption(ok, "pipeline", field, bound, value);
+  };
   if (sn.empty()) throw Error("pipeline: sn must not be empty");
-  Require(reference_frames >= 2 && reference_frames <= 10000, "reference_frames", "in [2, 10000]",
+  require(reference_frames >= 2 && reference_frames <= 10000, "reference_frames", "in [2, 10000]",
           reference_frames);
-  Require(displacement_range_mm > 0, "displacement_range_mm", "> 0", displacement_range_mm);
-  Require(force_range_n > 0, "force_range_n", "> 0", force_range_n);
+  require(displacement_range_mm > 0, "displacement_range_mm", "> 0", displacement_range_mm);
+  require(force_range_n > 0, "force_range_n", "> 0", force_range_n);
   force.Validate();
   lighting.Validate();
   drift.Validate();

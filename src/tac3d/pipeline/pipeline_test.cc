@@ -7,6 +7,7 @@
 
 #include "tac3d/design/light_path_design.h"
 #include "tac3d/force/synthetic_compliance.h"
+#include "tac3d/sensor/test_sensor.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/twin/camera_renderer.h"
 #include "tac3d/util/error.h"
@@ -18,10 +19,7 @@
 namespace tac3d {
 namespace {
 
-const SensorConfig& Sensor() {
-  static const SensorConfig config = DefaultSensorConfig();
-  return config;
-}
+using testing::DefaultSensor;
 
 const Eigen::MatrixXd& H() {
   static const Eigen::MatrixXd h = CalcSyntheticCompliance({}).h;
@@ -30,7 +28,7 @@ const Eigen::MatrixXd& H() {
 
 // A smooth press: 3 N into the body and 0.8 N along +x, Gaussian (sigma 2 mm) about (2, -1) mm.
 Eigen::VectorXd TrueForces() {
-  const std::vector<Eigen::Vector3d> markers = Sensor().MarkerPositions();
+  const std::vector<Eigen::Vector3d> markers = DefaultSensor().MarkerPositions();
   const int n = static_cast<int>(markers.size());
   Eigen::VectorXd weights(n);
   for (int i = 0; i < n; ++i) {
@@ -50,7 +48,8 @@ struct TwinStream {
   double frame_s = 0.01;  ///< time between frames
 
   explicit TwinStream(PipelineOptions options = {})
-      : pipeline(Sensor(), H(), Sensor().MarkerPositions(), options), renderer(Sensor()) {}
+      : pipeline(DefaultSensor(), H(), DefaultSensor().MarkerPositions(), options),
+        renderer(DefaultSensor()) {}
 
   double time_s() const { return frame_s * index; }
   /// The next frame, of markers at `markers` under the session's `conditions` (its truth).
@@ -80,7 +79,7 @@ PipelineOptions FiveReferenceFrames() {
 
 TEST(Pipeline, InitialisesThenRecoversAKnownForceDistribution) {
   TwinStream run(FiveReferenceFrames());
-  const std::vector<Eigen::Vector3d> rest = Sensor().MarkerPositions();
+  const std::vector<Eigen::Vector3d> rest = DefaultSensor().MarkerPositions();
   for (int k = 0; k < 4; ++k) {
     const TactileFrame f = run.Step(rest);
     EXPECT_EQ(f.initialize_progress, 20 * (k + 1));
@@ -136,7 +135,7 @@ TEST(Pipeline, InitialisesThenRecoversAKnownForceDistribution) {
 
 TEST(Pipeline, ZeroingTakesANewReference) {
   TwinStream run(FiveReferenceFrames());
-  std::vector<Eigen::Vector3d> markers = Sensor().MarkerPositions();
+  std::vector<Eigen::Vector3d> markers = DefaultSensor().MarkerPositions();
   for (int k = 0; k < 5; ++k) run.Step(markers);
   // A drift of 0.05 mm along x, then zeroing: after five frames the displacements are ~0 again.
   for (auto& p : markers) p.x() += 0.05;
@@ -159,7 +158,7 @@ TEST(Pipeline, BlackFramesAreFlaggedNeverCrashOrGiveNaNForces) {
     EXPECT_TRUE(f.has(FrameFlag::kInitializing));
     EXPECT_TRUE(f.has(FrameFlag::kMarkersLost));
   }
-  const std::vector<Eigen::Vector3d> rest = Sensor().MarkerPositions();
+  const std::vector<Eigen::Vector3d> rest = DefaultSensor().MarkerPositions();
   for (int k = 0; k < 5; ++k) run.Step(rest);
   EXPECT_FALSE(run.Step(rest).has(FrameFlag::kInitializing));
   // A black frame while running: every marker lost, forces finite.
@@ -179,9 +178,9 @@ TEST(Pipeline, BlackFramesAreFlaggedNeverCrashOrGiveNaNForces) {
 // place: they are what a tracker of the same images measures, frame after frame.
 TEST(Pipeline, ExposesTheLastFramesMarkersInPlace) {
   TwinStream run(FiveReferenceFrames());
-  MarkerTracker tracker(Sensor(), run.pipeline.options().tracking);
+  MarkerTracker tracker(DefaultSensor(), run.pipeline.options().tracking);
   const MarkerObservation* const exposed = &run.pipeline.observation();
-  std::vector<Eigen::Vector3d> markers = Sensor().MarkerPositions();
+  std::vector<Eigen::Vector3d> markers = DefaultSensor().MarkerPositions();
   for (int k = 0; k < 8; ++k) {
     for (auto& p : markers) p.x() += 0.05;  // a slow shear: the markers move from frame to frame
     const cv::Mat image = k == 6 ? cv::Mat(480, 640, CV_8UC1, cv::Scalar(0)) : run.renderer.Render(markers, k);
@@ -202,7 +201,7 @@ TEST(Pipeline, LargeDisplacementIsFlaggedOutOfRange) {
   PipelineOptions options = FiveReferenceFrames();
   options.displacement_range_mm = 0.2;
   TwinStream run(options);
-  std::vector<Eigen::Vector3d> markers = Sensor().MarkerPositions();
+  std::vector<Eigen::Vector3d> markers = DefaultSensor().MarkerPositions();
   for (int k = 0; k < 5; ++k) run.Step(markers);
   for (auto& p : markers) p.x() += 0.3;
   EXPECT_TRUE(run.Step(markers).has(FrameFlag::kDisplacementOutOfRange));
@@ -213,12 +212,12 @@ TEST(Pipeline, BadInputAndMismatchedModelsAreErrors) {
   TactileFrame out;
   EXPECT_THROW(run.pipeline.Process(Frame{cv::Mat(100, 100, CV_8UC1), 0, 0}, out), Error);
   EXPECT_THROW(run.pipeline.Process(Frame{}, out), Error);
-  std::vector<Eigen::Vector3d> elsewhere = Sensor().MarkerPositions();
+  std::vector<Eigen::Vector3d> elsewhere = DefaultSensor().MarkerPositions();
   elsewhere[7].z() += 0.1;
-  EXPECT_THROW(Pipeline(Sensor(), H(), elsewhere), Error);
+  EXPECT_THROW(Pipeline(DefaultSensor(), H(), elsewhere), Error);
   PipelineOptions bad;
   bad.reference_frames = 1;
-  EXPECT_THROW(Pipeline(Sensor(), H(), Sensor().MarkerPositions(), bad), Error);
+  EXPECT_THROW(Pipeline(DefaultSensor(), H(), DefaultSensor().MarkerPositions(), bad), Error);
 }
 
 }  // namespace
@@ -230,7 +229,7 @@ namespace {
 // Hertz pressure over radius 4 mm about (1, 0) mm, 3 N in all, with a tangential traction of
 // mu_x times the pressure: Coulomb saturation everywhere, i.e. gross slip along +x.
 Eigen::VectorXd SlidingForces(double mu_x) {
-  const std::vector<Eigen::Vector3d> markers = Sensor().MarkerPositions();
+  const std::vector<Eigen::Vector3d> markers = DefaultSensor().MarkerPositions();
   const int n = static_cast<int>(markers.size());
   Eigen::VectorXd p(n);
   for (int i = 0; i < n; ++i) {
@@ -246,7 +245,7 @@ Eigen::VectorXd SlidingForces(double mu_x) {
 
 TEST(Pipeline, EveryFrameCarriesTheSlipStateAndGrossSlipsMu) {
   TwinStream run(FiveReferenceFrames());
-  const std::vector<Eigen::Vector3d> rest = Sensor().MarkerPositions();
+  const std::vector<Eigen::Vector3d> rest = DefaultSensor().MarkerPositions();
   for (int k = 0; k < 5; ++k) {
     const TactileFrame f = run.Step(rest);
     EXPECT_EQ(f.slip.state, SlipState::kNone) << k;  // initialising, then no contact
@@ -278,7 +277,7 @@ namespace {
 
 // The markers of TrueForces' press, and their true displacements.
 std::vector<Eigen::Vector3d> PressedMarkers(std::vector<Eigen::Vector3d>* displacements) {
-  const std::vector<Eigen::Vector3d> rest = Sensor().MarkerPositions();
+  const std::vector<Eigen::Vector3d> rest = DefaultSensor().MarkerPositions();
   const Eigen::VectorXd d = H() * TrueForces();
   const int n = static_cast<int>(rest.size());
   std::vector<Eigen::Vector3d> pressed = rest;
@@ -321,7 +320,7 @@ TEST(PipelineConditions, DisplacementAccuracyHoldsUnderEachRealisticLightingNuis
   const std::vector<Eigen::Vector3d> pressed = PressedMarkers(&truth);
   for (const auto& [name, conditions] : LightingNuisances()) {
     TwinStream run(FiveReferenceFrames());
-    for (int k = 0; k < 5; ++k) run.Step(Sensor().MarkerPositions());
+    for (int k = 0; k < 5; ++k) run.Step(DefaultSensor().MarkerPositions());
     double worst = 0, sum = 0;
     for (int k = 0; k < 4; ++k) {  // four noise draws
       const TactileFrame f = run.Step(pressed, conditions);
@@ -338,7 +337,7 @@ TEST(PipelineConditions, DisplacementAccuracyHoldsUnderEachRealisticLightingNuis
 // Why kLightingChanged watches the contrast: the tracker cancels the light level, not the
 // noise, which grows as the markers' contrast falls (by fading or by dimmer light).
 TEST(PipelineConditions, DisplacementNoiseGrowsAsTheMarkersContrastFalls) {
-  const std::vector<Eigen::Vector3d> rest = Sensor().MarkerPositions();
+  const std::vector<Eigen::Vector3d> rest = DefaultSensor().MarkerPositions();
   const std::vector<Eigen::Vector3d> none(rest.size(), Eigen::Vector3d::Zero());
   auto noise = [&](const FrameConditions& c, bool* flagged) {
     TwinStream run(FiveReferenceFrames());
@@ -376,7 +375,7 @@ TEST(PipelineConditions, DisplacementNoiseGrowsAsTheMarkersContrastFalls) {
 
 TEST(PipelineConditions, ALightingStepIsFlaggedAndItsEndIsNot) {
   TwinStream run(FiveReferenceFrames());
-  const std::vector<Eigen::Vector3d> rest = Sensor().MarkerPositions();
+  const std::vector<Eigen::Vector3d> rest = DefaultSensor().MarkerPositions();
   for (int k = 0; k < 5; ++k) run.Step(rest);
   EXPECT_FALSE(run.Step(rest).has(FrameFlag::kLightingChanged));
   FrameConditions dim;  // an LED dropping to half
@@ -406,7 +405,7 @@ TEST(PipelineConditions, ACreepAtRestIsFlaggedWithinTheTimeConstant) {
   TwinStream run(options);
   run.frame_s = 0.25;
   const SessionConditions creep = Creep();
-  const std::vector<Eigen::Vector3d> rest = Sensor().MarkerPositions();
+  const std::vector<Eigen::Vector3d> rest = DefaultSensor().MarkerPositions();
   double flagged_s = -1;
   while (run.time_s() <= 40 && flagged_s < 0) {
     const double t = run.time_s();
@@ -429,7 +428,7 @@ TEST(PipelineConditions, ACreepAtRestIsRezeroedWithinTheTimeConstant) {
   TwinStream flagging(FiveReferenceFrames());  // the same frames, not re-zeroed
   flagging.frame_s = 0.25;
   const SessionConditions creep = Creep();
-  const std::vector<Eigen::Vector3d> rest = Sensor().MarkerPositions();
+  const std::vector<Eigen::Vector3d> rest = DefaultSensor().MarkerPositions();
   const std::vector<Eigen::Vector3d> none(rest.size(), Eigen::Vector3d::Zero());
   TactileFrame f, g;
   while (run.time_s() <= creep.session_s) {

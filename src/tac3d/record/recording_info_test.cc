@@ -18,7 +18,7 @@ using ::testing::Not;
 // Ten frames of a 20 x 20 grid: a 24 x 32 image with frames 0, 3, 6, 9; frames 0-1
 // initializing, frame 2 zeroed, frame 7 missing (an index gap); every synthetic frame has
 // markers_lost.
-std::string WriteRecording(const std::string& path) {
+std::string WriteFlaggedRecording(const std::string& path) {
   RecordingWriter writer(path);
   for (int i = 0; i < 11; ++i) {
     if (i == 7) continue;
@@ -41,7 +41,7 @@ std::int64_t FlagFrames(const RecordingInfo& info, FrameFlag flag) {
 }
 
 TEST(RecordingInfo, SummarisesACompleteRecording) {
-  const std::string path = WriteRecording(testing::MakeTempDir("info") + "/rec.tac3d");
+  const std::string path = WriteFlaggedRecording(testing::MakeTempDir("info") + "/rec.tac3d");
   const RecordingInfo info = ReadRecordingInfo(path);
   EXPECT_EQ(info.frames, 10);
   EXPECT_EQ(info.first_index, 0);
@@ -71,7 +71,7 @@ TEST(RecordingInfo, SummarisesACompleteRecording) {
 }
 
 TEST(RecordingInfo, ReportsATruncatedRecordingsGoodFramesAndTail) {
-  const std::string path = WriteRecording(testing::MakeTempDir("info") + "/rec.tac3d");
+  const std::string path = WriteFlaggedRecording(testing::MakeTempDir("info") + "/rec.tac3d");
   const RecordingInfo whole = ReadRecordingInfo(path);
   std::int64_t end_of_sixth = 0;
   {

@@ -11,8 +11,10 @@
 #include <thread>
 
 #include "tac3d/frame/synthetic_frame.h"
+#include "tac3d/record/test_recordings.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
+#include "tac3d/util/seconds_since.h"
 
 namespace tac3d {
 namespace {
@@ -20,24 +22,9 @@ namespace {
 using ::testing::HasSubstr;
 using Clock = std::chrono::steady_clock;
 
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
-
-cv::Mat TestImage(int seed) {
-  cv::Mat image(24, 32, CV_8UC1);
-  cv::theRNG().state = seed;
-  cv::randu(image, 0, 256);
-  return image;
-}
-
-// Frames 0..n-1 (timestamps i / 90 s), an image with every third; returns the file's path.
-std::string WriteRecording(const std::string& path, int n) {
-  RecordingWriter writer(path);
-  for (int i = 0; i < n; ++i) {
-    writer.Write(MakeSyntheticTactileFrame("AD2-0065L", i), i % 3 == 0 ? TestImage(i) : cv::Mat());
-  }
-  return path;
+// Frames 0..n-1 (timestamps i / 90 s), a 24 x 32 image with every third; returns the path.
+std::string WriteReplayRecording(const std::string& path, int n) {
+  return testing::WriteSyntheticRecording(path, n, 24, 32);
 }
 
 std::vector<RecordedFrame> ReplayAll(RecordingReplay* replay) {
@@ -47,7 +34,7 @@ std::vector<RecordedFrame> ReplayAll(RecordingReplay* replay) {
 }
 
 TEST(RecordingReplay, GivesEveryFrameExactlyAsRecorded) {
-  const std::string path = WriteRecording(testing::MakeTempDir("replay") + "/rec.tac3d", 12);
+  const std::string path = WriteReplayRecording(testing::MakeTempDir("replay") + "/rec.tac3d", 12);
   RecordingReplay replay(path, {.speed = 0.0});
   const auto frames = ReplayAll(&replay);
   ASSERT_EQ(frames.size(), 12u) << replay.message();
@@ -55,7 +42,7 @@ TEST(RecordingReplay, GivesEveryFrameExactlyAsRecorded) {
     EXPECT_EQ(frames[i].frame, MakeSyntheticTactileFrame("AD2-0065L", i)) << i;
     if (i % 3 == 0) {
       ASSERT_EQ(frames[i].image.size(), cv::Size(32, 24)) << i;
-      EXPECT_EQ(cv::norm(frames[i].image, TestImage(i), cv::NORM_INF), 0.0) << i;
+      EXPECT_EQ(cv::norm(frames[i].image, testing::RandomImage(i, 24, 32), cv::NORM_INF), 0.0) << i;
     } else {
       EXPECT_TRUE(frames[i].image.empty()) << i;
     }
@@ -68,7 +55,7 @@ TEST(RecordingReplay, GivesEveryFrameExactlyAsRecorded) {
 
 TEST(RecordingReplay, KeepsTheRecordedPace) {
   // 12 frames at 90 fps: 11 / 90 = 0.122 s from the first to the last.
-  const std::string path = WriteRecording(testing::MakeTempDir("replay") + "/rec.tac3d", 12);
+  const std::string path = WriteReplayRecording(testing::MakeTempDir("replay") + "/rec.tac3d", 12);
   for (const double speed : {1.0, 2.0}) {
     RecordingReplay replay(path, {.speed = speed});
     const auto start = Clock::now();
@@ -83,7 +70,7 @@ TEST(RecordingReplay, KeepsTheRecordedPace) {
 
 TEST(RecordingReplay, TruncatedFileGivesItsGoodFramesThenTheReason) {
   const std::string dir = testing::MakeTempDir("replay");
-  const std::string path = WriteRecording(dir + "/rec.tac3d", 5);
+  const std::string path = WriteReplayRecording(dir + "/rec.tac3d", 5);
   // Cut in the middle of the fourth record.
   std::int64_t cut = 0;
   {
@@ -102,7 +89,7 @@ TEST(RecordingReplay, TruncatedFileGivesItsGoodFramesThenTheReason) {
 }
 
 TEST(RecordingReplay, CorruptRecordEndsTheReplayThere) {
-  const std::string path = WriteRecording(testing::MakeTempDir("replay") + "/rec.tac3d", 5);
+  const std::string path = WriteReplayRecording(testing::MakeTempDir("replay") + "/rec.tac3d", 5);
   std::int64_t at = 0;
   {
     RecordingReader reader(path);
@@ -123,7 +110,7 @@ TEST(RecordingReplay, CorruptRecordEndsTheReplayThere) {
 
 TEST(RecordingReplay, RefusesBadSpeedsAndFiles) {
   const std::string dir = testing::MakeTempDir("replay");
-  const std::string path = WriteRecording(dir + "/rec.tac3d", 1);
+  const std::string path = WriteReplayRecording(dir + "/rec.tac3d", 1);
   for (const double speed : {-1.0, std::nan(""), std::numeric_limits<double>::infinity()}) {
     try {
       RecordingReplay replay(path, {.speed = speed});

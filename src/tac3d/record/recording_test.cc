@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "tac3d/frame/synthetic_frame.h"
+#include "tac3d/record/test_recordings.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
 
@@ -25,20 +26,12 @@ namespace fs = std::filesystem;
 constexpr std::size_t kFileHeaderBytes = 12;
 
 cv::Mat TestImage(int seed, int rows = 30, int cols = 40) {
-  cv::Mat image(rows, cols, CV_8UC1);
-  cv::theRNG().state = seed;
-  cv::randu(image, 0, 256);
-  return image;
+  return testing::RandomImage(seed, rows, cols);
 }
 
-// Writes frames 0..n-1 (an image with every third) and returns the path.
+// Writes frames 0..n-1 (an image with every third) into `dir` and returns the path.
 std::string WriteRecording(const std::string& dir, int n) {
-  const std::string path = dir + "/rec.tac3d";
-  RecordingWriter writer(path);
-  for (int i = 0; i < n; ++i) {
-    writer.Write(MakeSyntheticTactileFrame("AD2-0065L", i), i % 3 == 0 ? TestImage(i) : cv::Mat());
-  }
-  return path;
+  return testing::WriteSyntheticRecording(dir + "/rec.tac3d", n, 30, 40);
 }
 
 std::vector<RecordedFrame> ReadAll(RecordingReader* reader) {

@@ -256,7 +256,7 @@ ReferenceJoin JoinRecordingWithReference(const std::string& recording_path,
       continue;
     }
     join.pairs.push_back({frame.resultant_force_n.cwiseQuotient(options.gains_used), *force});
-    join.presses.push_back({PaperOrderDisplacements(frame), *force});
+    join.presses.push_back({PaperOrderDisplacements(frame), *force, std::nullopt});
     join.frame_indices.push_back(frame.index);
   }
   join.recording_status = RecordingStatusName(reader.status());

@@ -22,7 +22,7 @@ std::string Write(const std::string& name, const std::string& bytes) {
   return path;
 }
 
-std::string ErrorOf(const std::string& path) {
+std::string PlyErrorOf(const std::string& path) {
   try {
     ReadPly(path);
   } catch (const Error& e) {
@@ -152,16 +152,16 @@ TEST(Ply, MalformedFilesAreRefusedWithTheReason) {
   const std::string header =
       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
       "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
-  EXPECT_THAT(ErrorOf(Write("a.ply", "solid cube\n")), HasSubstr("not a PLY file"));
-  EXPECT_THAT(ErrorOf(Write("b.ply", header + "0 0 0\n1 0 0\n")), HasSubstr("truncated"));
-  EXPECT_THAT(ErrorOf(Write("c.ply", header + "0 0 0\n1 0 0\n0 1 0\n3 0 1 9\n")), HasSubstr("outside 0..2"));
-  EXPECT_THAT(ErrorOf(Write("d.ply", header + "0 0 0\n1 zero 0\n0 1 0\n3 0 1 2\n")), HasSubstr("'zero'"));
-  EXPECT_THAT(ErrorOf(Write("e.ply", "ply\nformat binary_middle_endian 1.0\nend_header\n")),
+  EXPECT_THAT(PlyErrorOf(Write("a.ply", "solid cube\n")), HasSubstr("not a PLY file"));
+  EXPECT_THAT(PlyErrorOf(Write("b.ply", header + "0 0 0\n1 0 0\n")), HasSubstr("truncated"));
+  EXPECT_THAT(PlyErrorOf(Write("c.ply", header + "0 0 0\n1 0 0\n0 1 0\n3 0 1 9\n")), HasSubstr("outside 0..2"));
+  EXPECT_THAT(PlyErrorOf(Write("d.ply", header + "0 0 0\n1 zero 0\n0 1 0\n3 0 1 2\n")), HasSubstr("'zero'"));
+  EXPECT_THAT(PlyErrorOf(Write("e.ply", "ply\nformat binary_middle_endian 1.0\nend_header\n")),
               HasSubstr("unsupported format"));
-  EXPECT_THAT(ErrorOf(Write("f.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n0\n")),
+  EXPECT_THAT(PlyErrorOf(Write("f.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n0\n")),
               HasSubstr("lacks x, y or z"));
-  EXPECT_THAT(ErrorOf(Write("g.ply", "ply\nformat ascii 1.0\nelement vertex 0\n")), HasSubstr("no end_header"));
-  EXPECT_THAT(ErrorOf("/no/such/file.ply"), HasSubstr("cannot be opened"));
+  EXPECT_THAT(PlyErrorOf(Write("g.ply", "ply\nformat ascii 1.0\nelement vertex 0\n")), HasSubstr("no end_header"));
+  EXPECT_THAT(PlyErrorOf("/no/such/file.ply"), HasSubstr("cannot be opened"));
 }
 
 }  // namespace

@@ -37,7 +37,7 @@ trajectory:
     - {t_s: 5, position_mm: [8, 0, 1.3], rpy_deg: [0, 0, 90]}
 )";
 
-std::string ErrorOf(const std::string& yaml) {
+std::string SceneErrorOf(const std::string& yaml) {
   try {
     ParseScene(yaml, "test.yaml", "");
   } catch (const Error& e) {
@@ -92,9 +92,9 @@ TEST(Scene, ConditionsAndSpreadAreOptionsWithTheirDefaults) {
   EXPECT_DOUBLE_EQ(scene.spread->camera_tilt_max_deg, 0.2);
   EXPECT_DOUBLE_EQ(scene.spread->camera_shift_max_mm,
                    SensorPerturbationOptions::ManufacturingSpread(4).camera_shift_max_mm);
-  EXPECT_THAT(ErrorOf(Replace(with, "levels: realistic", "levels: harsh")), HasSubstr("conditions.levels"));
-  EXPECT_THAT(ErrorOf(Replace(with, "creep_mm: 0.05", "creep_mm: -1")), HasSubstr("creep_mm"));
-  EXPECT_THAT(ErrorOf(Replace(with, "creep_mm: 0.05", "glare: 1")), HasSubstr("unknown key"));
+  EXPECT_THAT(SceneErrorOf(Replace(with, "levels: realistic", "levels: harsh")), HasSubstr("conditions.levels"));
+  EXPECT_THAT(SceneErrorOf(Replace(with, "creep_mm: 0.05", "creep_mm: -1")), HasSubstr("creep_mm"));
+  EXPECT_THAT(SceneErrorOf(Replace(with, "creep_mm: 0.05", "glare: 1")), HasSubstr("unknown key"));
 }
 
 TEST(Trajectory, InterpolatesPositionLinearlyAndRotationBySlerp) {
@@ -110,17 +110,17 @@ TEST(Trajectory, InterpolatesPositionLinearlyAndRotationBySlerp) {
 }
 
 TEST(Scene, BadValuesNameTheFieldAndTheBound) {
-  EXPECT_THAT(ErrorOf(Replace(kSlide, "default: 0.4", "default: -0.1")), HasSubstr("friction.default"));
-  EXPECT_THAT(ErrorOf(Replace(kSlide, "shape: box", "shape: torus")), HasSubstr("'torus' is not one of"));
-  EXPECT_THAT(ErrorOf(Replace(kSlide, "t_s: 5", "t_s: 0.5")), HasSubstr("keyframes[2].t_s"));
-  EXPECT_THAT(ErrorOf(Replace(kSlide, "steps: 11", "steps: 1")), HasSubstr("trajectory.steps"));
-  EXPECT_THAT(ErrorOf(Replace(kSlide, "size_mm: [60, 40, 10]", "size_mm: [60, 0, 10]")), HasSubstr("size_mm"));
-  EXPECT_THAT(ErrorOf(Replace(kSlide, "ball_radius_mm: 2", "ball_radius_mm: 0")), HasSubstr("ball_radius_mm"));
-  EXPECT_THAT(ErrorOf(Replace(kSlide, "youngs_modulus_factor: 1.1", "poisson_ratio_factor: 1.1")),
+  EXPECT_THAT(SceneErrorOf(Replace(kSlide, "default: 0.4", "default: -0.1")), HasSubstr("friction.default"));
+  EXPECT_THAT(SceneErrorOf(Replace(kSlide, "shape: box", "shape: torus")), HasSubstr("'torus' is not one of"));
+  EXPECT_THAT(SceneErrorOf(Replace(kSlide, "t_s: 5", "t_s: 0.5")), HasSubstr("keyframes[2].t_s"));
+  EXPECT_THAT(SceneErrorOf(Replace(kSlide, "steps: 11", "steps: 1")), HasSubstr("trajectory.steps"));
+  EXPECT_THAT(SceneErrorOf(Replace(kSlide, "size_mm: [60, 40, 10]", "size_mm: [60, 0, 10]")), HasSubstr("size_mm"));
+  EXPECT_THAT(SceneErrorOf(Replace(kSlide, "ball_radius_mm: 2", "ball_radius_mm: 0")), HasSubstr("ball_radius_mm"));
+  EXPECT_THAT(SceneErrorOf(Replace(kSlide, "youngs_modulus_factor: 1.1", "poisson_ratio_factor: 1.1")),
               HasSubstr("poisson_ratio_factor"));
-  EXPECT_THAT(ErrorOf(Replace(kSlide, "name: block", "name: block\n    colour: red")), HasSubstr("unknown key"));
-  EXPECT_THAT(ErrorOf(Replace(kSlide, "sensor: default", "sensor: nowhere.yaml")), HasSubstr("nowhere.yaml"));
-  EXPECT_THAT(ErrorOf("name: [unclosed"), HasSubstr("not valid YAML"));
+  EXPECT_THAT(SceneErrorOf(Replace(kSlide, "name: block", "name: block\n    colour: red")), HasSubstr("unknown key"));
+  EXPECT_THAT(SceneErrorOf(Replace(kSlide, "sensor: default", "sensor: nowhere.yaml")), HasSubstr("nowhere.yaml"));
+  EXPECT_THAT(SceneErrorOf("name: [unclosed"), HasSubstr("not valid YAML"));
 }
 
 TEST(Scene, MeshObjectWithPerVertexFrictionAndCsvTrajectory) {
@@ -202,7 +202,7 @@ TEST(BuiltInScenes, AreValidAndTouchTheirObjects) {
   const double phi = 20.0 * M_PI / 180.0;
   EXPECT_DOUBLE_EQ(cylinder.FrictionAt({-30 * std::sin(phi), 0, -30 * std::cos(phi)}), 1.2);
   EXPECT_DOUBLE_EQ(cylinder.FrictionAt({0, 0, -30}), 0.3);
-  EXPECT_THAT(ErrorOf("name: x"), HasSubstr("objects"));
+  EXPECT_THAT(SceneErrorOf("name: x"), HasSubstr("objects"));
   EXPECT_THROW(BuiltInScene("nope"), Error);
 }
 

@@ -6,14 +6,12 @@
 #include "tac3d/twin/camera_renderer.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/progress.h"
+#include "tac3d/util/seconds_since.h"
 
 namespace tac3d::simulation {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double Seconds(Clock::time_point since) {
-  return std::chrono::duration<double>(Clock::now() - since).count();
-}
 
 tac3d::ContactState ToDatasetState(contact::NodeState state) {
   switch (state) {
@@ -160,30 +158,30 @@ TwinStep TwinSimulation::Step() {
 
   auto start = Clock::now();
   const GapField gaps = caster_->Cast(out.world_from_sensor);
-  timings.gap_s += Seconds(start);
+  timings.gap_s += SecondsSince(start);
 
   const Eigen::Vector2d increment = TakeTangentialIncrement(out.world_from_sensor);
 
   start = Clock::now();
   const std::vector<contact::NodeState> node_state = SolveContact(gaps, increment, &out.solver);
-  timings.contact_s += Seconds(start);
+  timings.contact_s += SecondsSince(start);
 
   start = Clock::now();
   WriteContactTruth(node_state, &out);
-  timings.response_s += Seconds(start);
+  timings.response_s += SecondsSince(start);
 
   const FrameConditions conditions =
       scene_.conditions.At(out.t_s - scene_.trajectory.keyframes.front().t_s);
   if (renderer_) {
     start = Clock::now();
     out.image = renderer_->Render(out.marker_positions_mm, static_cast<std::uint64_t>(k), conditions);
-    timings.render_s += Seconds(start);
+    timings.render_s += SecondsSince(start);
   }
   // The truth: the markers where the renderer drew them, crept.
   for (Eigen::Vector3d& p : out.marker_positions_mm) p += conditions.creep_mm;
   if (!IsNominal(conditions)) out.conditions = ConditionsJson(conditions);
   ++summary_.steps;
-  timings.total_s += Seconds(step_start);
+  timings.total_s += SecondsSince(step_start);
   return out;
 }
 
@@ -283,7 +281,7 @@ SimulationSummary TwinSimulation::Run(const std::function<void(const TwinStep&)>
     if (sink) {
       const auto start = Clock::now();
       sink(step);
-      const double write_s = Seconds(start);
+      const double write_s = SecondsSince(start);
       summary_.timings.write_s += write_s;
       summary_.timings.total_s += write_s;
     }

@@ -6,6 +6,7 @@
 
 #include "tac3d/util/cache_file.h"
 #include "tac3d/util/error.h"
+#include "tac3d/util/seconds_since.h"
 
 namespace tac3d::simulation {
 namespace {
@@ -16,9 +17,6 @@ constexpr char kMagic[] = "TAC3DTWN";
 constexpr std::uint32_t kFormatVersion = 1;
 
 using Clock = std::chrono::steady_clock;
-double Seconds(Clock::time_point since) {
-  return std::chrono::duration<double>(Clock::now() - since).count();
-}
 
 void Require(bool ok, const char* field, const char* bound, double value) {
   if (!ok) throw Error(fmt::format("TwinBodyOptions.{} must be {}, got {}", field, bound, value));
@@ -398,7 +396,7 @@ TwinBodyModel CalcTwinBodyModel(const fem::BodyModelOptions& body,
   p.num_elements = fem_model.mesh().num_elements();
   p.factorization_s =
       fem_model.solver().summary().assembly_s + fem_model.solver().summary().factorization_s;
-  p.mesh_s = Seconds(mesh_start) - p.factorization_s;
+  p.mesh_s = SecondsSince(mesh_start) - p.factorization_s;
   model.marker_positions = fem_model.marker_positions();
 
   const auto kernel_start = Clock::now();
@@ -409,12 +407,12 @@ TwinBodyModel CalcTwinBodyModel(const fem::BodyModelOptions& body,
   p.kernel_asymmetry = reciprocal.asymmetry / reciprocal.largest;
   p.kernel_truncation_ratio =
       LargestAtOuterRing(model.kernel, samples, model.grid) / reciprocal.largest;
-  p.kernel_s = Seconds(kernel_start);
+  p.kernel_s = SecondsSince(kernel_start);
 
   const auto response_start = Clock::now();
   model.marker_response = CalcMarkerResponse(model, fem_model, show_progress);
-  p.response_s = Seconds(response_start);
-  p.build_s = Seconds(start);
+  p.response_s = SecondsSince(response_start);
+  p.build_s = SecondsSince(start);
   p.built_utc = UtcNow();
   p.code_version = TwinCodeVersion();
   return model;
@@ -512,7 +510,7 @@ TwinBodyCacheResult LoadOrBuildTwinBodyModel(const fem::BodyModelOptions& body,
       result.path, key, ReadTwinBodyFile,
       [&] { return CalcTwinBodyModel(body, options, show_progress); }, SaveTwinBodyModel,
       &result.model, &result.reason);
-  result.elapsed_s = Seconds(start);
+  result.elapsed_s = SecondsSince(start);
   return result;
 }
 

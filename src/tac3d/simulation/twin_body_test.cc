@@ -49,7 +49,7 @@ std::vector<Eigen::Vector3d> CellQuadraturePoints(const TwinBodyModel& model, in
   return points;
 }
 
-const TwinBodyModel& SmallModel() {
+const TwinBodyModel& SmallBodyModel() {
   static const TwinBodyModel model = CalcTwinBodyModel(SmallBody(), SmallOptions());
   return model;
 }
@@ -88,7 +88,7 @@ TEST(TwinBodyModelOptions, AppliesTheDeviation) {
 }
 
 TEST(TwinBody, KernelIsReciprocalAndPositiveDefinite) {
-  const TwinBodyModel& model = SmallModel();
+  const TwinBodyModel& model = SmallBodyModel();
   // FEM reciprocity before symmetrisation: the cell load and the point readout differ only by
   // the quadrature, so the two halves agree to a few percent.
   EXPECT_LT(model.provenance.kernel_asymmetry, 0.05);
@@ -119,7 +119,7 @@ TEST(TwinBody, KernelIsReciprocalAndPositiveDefinite) {
 // The kernel against FEM solves of the same cell loads: exact at the centre node up to the
 // symmetrisation, approximate elsewhere (the dome is not translation invariant).
 TEST(TwinBody, KernelAgreesWithDirectFemColumns) {
-  const TwinBodyModel& model = SmallModel();
+  const TwinBodyModel& model = SmallBodyModel();
   const contact::SurfaceGrid& grid = model.grid;
   const fem::BodyModel fem_model(model.body);
   const std::vector<Eigen::Vector3d> nodes = model.CalcNodeSurfacePoints();
@@ -166,7 +166,7 @@ TEST(TwinBody, KernelAgreesWithDirectFemColumns) {
 }
 
 TEST(TwinBody, MarkerResponseMatchesForwardSolves) {
-  const TwinBodyModel& model = SmallModel();
+  const TwinBodyModel& model = SmallBodyModel();
   const fem::BodyModel fem_model(model.body);
   const Eigen::SparseMatrix<double> markers =
       fem_model.CalcPointInterpolation(model.marker_positions);

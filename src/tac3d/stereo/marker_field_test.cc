@@ -3,16 +3,14 @@
 #include <gtest/gtest.h>
 
 #include "tac3d/design/light_path_design.h"
+#include "tac3d/sensor/test_sensor.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
 
 namespace tac3d {
 namespace {
 
-const SensorConfig& Sensor() {
-  static const SensorConfig config = DefaultSensorConfig();
-  return config;
-}
+using testing::DefaultSensor;
 
 // Exact pixels of the undeformed markers pushed in by a smooth dent.
 struct Views {
@@ -21,7 +19,7 @@ struct Views {
 };
 Views ExactViews(const StereoRig& rig) {
   Views v;
-  v.truth = Sensor().MarkerPositions();
+  v.truth = DefaultSensor().MarkerPositions();
   for (auto& p : v.truth) p.z() -= 0.8 * std::exp(-p.head<2>().squaredNorm() / 16.0);
   for (const auto& p : v.truth) {
     v.left.push_back(*rig.Project(ImageHalf::kLeft, p));
@@ -41,11 +39,11 @@ double WorstError(const MarkerField& f, const std::vector<Eigen::Vector3d>& trut
 TEST(MarkerTriangulator, RefractionModelsFromNoneToExact) {
   MarkerTriangulatorOptions options;
   options.model = RefractionModel::kNone;
-  const MarkerTriangulator none(Sensor(), options);
+  const MarkerTriangulator none(DefaultSensor(), options);
   options.model = RefractionModel::kPolynomial;
-  const MarkerTriangulator polynomial(Sensor(), options);
+  const MarkerTriangulator polynomial(DefaultSensor(), options);
   options.model = RefractionModel::kExact;
-  const MarkerTriangulator exact(Sensor(), options);
+  const MarkerTriangulator exact(DefaultSensor(), options);
   const Views v = ExactViews(polynomial.rig());
   MarkerField f_none, f_poly, f_exact;
   none.Triangulate(v.left, v.right, f_none);
@@ -59,7 +57,7 @@ TEST(MarkerTriangulator, RefractionModelsFromNoneToExact) {
 }
 
 TEST(MarkerTriangulator, LostAndMismatchedMarkersAreFlagged) {
-  const MarkerTriangulator triangulator(Sensor());
+  const MarkerTriangulator triangulator(DefaultSensor());
   Views v = ExactViews(triangulator.rig());
   const double nan = std::numeric_limits<double>::quiet_NaN();
   v.left[7] = Eigen::Vector2d(nan, nan);

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "tac3d/design/light_path_design.h"
+#include "tac3d/sensor/test_sensor.h"
 #include "tac3d/stereo/refraction_compensation.h"
 #include "tac3d/stereo/stereo_rig.h"
 #include "tac3d/testing/testing.h"
@@ -11,27 +12,25 @@
 namespace tac3d {
 namespace {
 
-const SensorConfig& Sensor() {
-  static const SensorConfig config = DefaultSensorConfig();
-  return config;
-}
+using testing::DefaultSensor;
 
 std::vector<Eigen::Vector3d> RandomMarkerVolumePoints(int count) {
   std::mt19937 rng(testing::kRandomSeed);
   std::uniform_real_distribution<double> xy(-12.0, 12.0), dz(-2.5, 0.3);
-  const auto reference = Sensor().MarkerPositions();
+  const auto reference = DefaultSensor().MarkerPositions();
   std::vector<Eigen::Vector3d> points;
   for (int i = 0; i < count; ++i) {
     Eigen::Vector3d p(xy(rng), xy(rng), 0.0);
-    const double r = Sensor().elastic_body.outer_radius_mm - Sensor().markers.depth_mm;
-    p.z() = Sensor().SphereCenter().z() + std::sqrt(r * r - p.head<2>().squaredNorm()) + dz(rng);
+    const SensorConfig& sensor = DefaultSensor();
+    const double r = sensor.elastic_body.outer_radius_mm - sensor.markers.depth_mm;
+    p.z() = sensor.SphereCenter().z() + std::sqrt(r * r - p.head<2>().squaredNorm()) + dz(rng);
     points.push_back(p);
   }
   return points;
 }
 
 TEST(StereoRig, MidpointRecoversPointsSeenThroughAir) {
-  const StereoRig rig = StereoRig::FromSensorConfig(Sensor(), /*with_gel=*/false);
+  const StereoRig rig = StereoRig::FromSensorConfig(DefaultSensor(), /*with_gel=*/false);
   for (const auto& p : RandomMarkerVolumePoints(200)) {
     const Triangulation t = TriangulateMidpoint(rig, *rig.Project(ImageHalf::kLeft, p),
                                                 *rig.Project(ImageHalf::kRight, p));
@@ -42,7 +41,7 @@ TEST(StereoRig, MidpointRecoversPointsSeenThroughAir) {
 }
 
 TEST(StereoRig, RefractedTriangulationRecoversPointsInTheSilicone) {
-  const StereoRig rig = StereoRig::FromSensorConfig(Sensor(), /*with_gel=*/true);
+  const StereoRig rig = StereoRig::FromSensorConfig(DefaultSensor(), /*with_gel=*/true);
   double uncorrected_worst = 0.0;
   for (const auto& p : RandomMarkerVolumePoints(100)) {
     const Eigen::Vector2d l = *rig.Project(ImageHalf::kLeft, p), r = *rig.Project(ImageHalf::kRight, p);
@@ -59,8 +58,8 @@ TEST(StereoRig, RefractedTriangulationRecoversPointsInTheSilicone) {
 }
 
 TEST(RefractionCompensation, PolynomialCorrectsTheRefractionShift) {
-  const StereoRig rig = StereoRig::FromSensorConfig(Sensor(), true);
-  const RefractionCompensation compensation = RefractionCompensation::Fit(rig, Sensor());
+  const StereoRig rig = StereoRig::FromSensorConfig(DefaultSensor(), true);
+  const RefractionCompensation compensation = RefractionCompensation::Fit(rig, DefaultSensor());
   const auto& s = compensation.summary();
   EXPECT_GT(s.max_deviation_mm, 1.0);
   EXPECT_LT(s.validation_rms_mm, 0.002);

@@ -1,4 +1,9 @@
+#include <cstdio>
+#include <cstring>
 #include <filesystem>
+#include <set>
+#include <sstream>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -16,10 +21,47 @@ std::string MakeTempDir(const std::string& name) {
   return dir.string();
 }
 
+namespace {
+
+constexpr char kTestSourcesFlag[] = "--test_sources=";
+
+// The GoogleTest filter selecting the tests defined in the files named by `list` (comma-separated
+// file names, as tac3d_add_test registers them); empty if none is.
+std::string FilterOfSources(const std::string& list) {
+  std::set<std::string> names;
+  std::stringstream stream(list);
+  for (std::string name; std::getline(stream, name, ',');) names.insert(name);
+  std::string filter;
+  const ::testing::UnitTest& unit = *::testing::UnitTest::GetInstance();
+  for (int i = 0; i < unit.total_test_suite_count(); ++i) {
+    const ::testing::TestSuite& suite = *unit.GetTestSuite(i);
+    for (int j = 0; j < suite.total_test_count(); ++j) {
+      const ::testing::TestInfo& test = *suite.GetTestInfo(j);
+      if (names.count(std::filesystem::path(test.file()).filename().string()) == 0) continue;
+      if (!filter.empty()) filter += ':';
+      filter += std::string(suite.name()) + "." + test.name();
+    }
+  }
+  return filter;
+}
+
+}  // namespace
 }  // namespace tac3d::testing
 
 int main(int argc, char** argv) {
   ::testing::InitGoogleTest(&argc, argv);
   ::testing::GTEST_FLAG(random_seed) = static_cast<int>(tac3d::testing::kRandomSeed % 99999);
+  // A module's test files share one program; CTest runs one file's tests at a time.
+  for (int i = 1; i < argc; ++i) {
+    const char* flag = tac3d::testing::kTestSourcesFlag;
+    if (std::strncmp(argv[i], flag, std::strlen(flag)) != 0) continue;
+    const std::string sources = argv[i] + std::strlen(flag);
+    const std::string filter = tac3d::testing::FilterOfSources(sources);
+    if (filter.empty()) {
+      std::fprintf(stderr, "no test is defined in %s\n", sources.c_str());
+      return 1;
+    }
+    ::testing::GTEST_FLAG(filter) = filter;
+  }
   return RUN_ALL_TESTS();
 }

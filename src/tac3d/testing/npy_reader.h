@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include <gtest/gtest.h>
+
 namespace tac3d::testing {
 
 struct NpyArray {
@@ -59,6 +61,14 @@ inline bool ReadNpy(const std::string& path, NpyArray* array, std::string* error
   }
   array->data = bytes.substr(array->header_bytes);
   return true;
+}
+
+/// ReadNpy in a test: a file that does not parse fails the test (and gives an empty array).
+inline NpyArray LoadNpy(const std::string& path) {
+  NpyArray array;
+  std::string error;
+  EXPECT_TRUE(ReadNpy(path, &array, &error)) << path << ": " << error;
+  return array;
 }
 
 }  // namespace tac3d::testing

@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "tac3d/design/light_path_design.h"
+#include "tac3d/sensor/test_sensor.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/twin/camera_renderer.h"
 #include "tac3d/util/error.h"
@@ -17,19 +18,16 @@
 namespace tac3d {
 namespace {
 
+using testing::DefaultSensor;
+
 // Centroid accuracy on twin frames: the darkness-weighted centroid of a dot's image against
 // the exact ray-traced projection of its centre. The twin's noise (about 3 DN on a film of
 // 150-210 DN) alone moves a centroid by a few hundredths of a pixel; 0.1 px is a fifth of
 // the smallest dot's radius, and a swapped identity would be off by a pitch (>= 9 px).
 constexpr double kCentroidTolerancePx = 0.1;
 
-const SensorConfig& Sensor() {
-  static const SensorConfig config = DefaultSensorConfig();
-  return config;
-}
-
 const MarkerImageRenderer& Renderer() {
-  static const MarkerImageRenderer renderer(Sensor());
+  static const MarkerImageRenderer renderer(DefaultSensor());
   return renderer;
 }
 
@@ -74,7 +72,7 @@ Errors Compare(const MarkerObservation& observation,
 // Smooth fields on the marker layer (mm): a lateral shift with a Gaussian profile about the
 // centre (shear under a rubbing object), and a dent pushed in along -z.
 std::vector<Eigen::Vector3d> Sheared(const Eigen::Vector2d& shift_mm, double sigma_mm) {
-  auto markers = Sensor().MarkerPositions();
+  auto markers = DefaultSensor().MarkerPositions();
   for (auto& p : markers) {
     const double g = sigma_mm > 0 ? std::exp(-p.head<2>().squaredNorm() / (2 * sigma_mm * sigma_mm)) : 1.0;
     p.head<2>() += g * shift_mm;
@@ -83,22 +81,22 @@ std::vector<Eigen::Vector3d> Sheared(const Eigen::Vector2d& shift_mm, double sig
 }
 
 std::vector<Eigen::Vector3d> Dented(double depth_mm, double sigma_mm) {
-  auto markers = Sensor().MarkerPositions();
+  auto markers = DefaultSensor().MarkerPositions();
   for (auto& p : markers) p.z() -= depth_mm * std::exp(-p.head<2>().squaredNorm() / (2 * sigma_mm * sigma_mm));
   return markers;
 }
 
 // The film without markers (the twin's markers moved behind the camera): paints markers out.
 cv::Mat FilmOnly() {
-  std::vector<Eigen::Vector3d> away(Sensor().MarkerPositions().size(), Eigen::Vector3d(0, 0, -1000));
+  std::vector<Eigen::Vector3d> away(DefaultSensor().MarkerPositions().size(), Eigen::Vector3d(0, 0, -1000));
   return Renderer().Render(away, 77);
 }
 
 TEST(MarkerTracker, UndeformedFrameEveryMarkerFoundWithinTolerance) {
-  const auto markers = Sensor().MarkerPositions();
-  MarkerTracker tracker(Sensor());
+  const auto markers = DefaultSensor().MarkerPositions();
+  MarkerTracker tracker(DefaultSensor());
   const MarkerObservation observation = tracker.Track(Renderer().Render(markers));
-  const Errors e = Compare(observation, TruePixels(Sensor(), markers));
+  const Errors e = Compare(observation, TruePixels(DefaultSensor(), markers));
   EXPECT_EQ(e.valid, 800);
   EXPECT_EQ(observation.summary.paired_markers, 400);
   EXPECT_TRUE(observation.summary.acquired);
@@ -110,13 +108,13 @@ TEST(MarkerTracker, UndeformedFrameEveryMarkerFoundWithinTolerance) {
 // A real sensor is not the nominal one: the twin's camera is turned 1 deg about its axis and
 // moved 0.3 mm sideways; the tracker still indexes against the nominal sensor.
 TEST(MarkerTracker, AcquiresGridOfAMiscalibratedSensor) {
-  SensorConfig truth = Sensor();
+  SensorConfig truth = DefaultSensor();
   truth.camera.sensor_from_cam.rotate(Eigen::AngleAxisd(DegToRad(1.0), Eigen::Vector3d::UnitZ()));
   truth.camera.sensor_from_cam.pretranslate(Eigen::Vector3d(0.3, -0.2, 0.0));
   const MarkerImageRenderer renderer(truth);
-  const auto markers = Sensor().MarkerPositions();
+  const auto markers = DefaultSensor().MarkerPositions();
   const auto true_uv = TruePixels(truth, markers);
-  MarkerTracker tracker(Sensor());
+  MarkerTracker tracker(DefaultSensor());
   // How far the real grid is from the nominal one.
   double offset = 0;
   for (ImageHalf h : kImageHalves) {
@@ -141,9 +139,9 @@ TEST(MarkerTracker, AcquiresShearedAndDentedFrames) {
       {"dent 1 mm", Dented(1.0, 4.0)},
   };
   for (const auto& [name, markers] : cases) {
-    MarkerTracker tracker(Sensor());
+    MarkerTracker tracker(DefaultSensor());
     const MarkerObservation observation = tracker.Track(Renderer().Render(markers));
-    const Errors e = Compare(observation, TruePixels(Sensor(), markers));
+    const Errors e = Compare(observation, TruePixels(DefaultSensor(), markers));
     EXPECT_EQ(e.valid, 800) << name;
     EXPECT_LT(e.max_px, kCentroidTolerancePx) << name;
     std::printf("%s: rms %.4f px, max %.4f px\n", name, e.rms_px, e.max_px);
@@ -155,15 +153,15 @@ TEST(MarkerTracker, AcquiresShearedAndDentedFrames) {
 // centre, to two pitches either way (a strain of up to 0.26), turning back abruptly:
 // identities are kept by tracking alone (no re-acquisition).
 TEST(MarkerTracker, SequenceMovingUpToOnePitchPerFrameKeepsIdentities) {
-  const double pitch = Sensor().markers.pitch_mm;
+  const double pitch = DefaultSensor().markers.pitch_mm;
   const std::vector<double> amplitude_pitches = {0, 0.5, 1.5, 2, 1, 0, -1, -2, -1, 0};
   const Eigen::Vector2d direction(std::cos(DegToRad(30)), std::sin(DegToRad(30)));
-  MarkerTracker tracker(Sensor());
+  MarkerTracker tracker(DefaultSensor());
   MarkerObservation observation;
   for (size_t k = 0; k < amplitude_pitches.size(); ++k) {
     const auto markers = Sheared(amplitude_pitches[k] * pitch * direction, 6.0);
     tracker.Track(Renderer().Render(markers, k), observation);
-    const Errors e = Compare(observation, TruePixels(Sensor(), markers));
+    const Errors e = Compare(observation, TruePixels(DefaultSensor(), markers));
     EXPECT_EQ(e.valid, 800) << "frame " << k;
     EXPECT_LT(e.max_px, kCentroidTolerancePx) << "frame " << k;
     EXPECT_EQ(observation.summary.acquired, k == 0) << "frame " << k;
@@ -176,15 +174,15 @@ TEST(MarkerTracker, SequenceMovingUpToOnePitchPerFrameKeepsIdentities) {
 // the grid that looks like no motion with every identity one off; the border tells. Every
 // marker keeps its identity (a swapped one would be a pitch, >= 9 px, off) or is flagged.
 TEST(MarkerTracker, WholeGridJumpOfOnePitchIsNotMisindexed) {
-  const double pitch = Sensor().markers.pitch_mm;
+  const double pitch = DefaultSensor().markers.pitch_mm;
   for (const Eigen::Vector2d& jump : {Eigen::Vector2d(pitch, 0), Eigen::Vector2d(-pitch, 0),
                                       Eigen::Vector2d(0, pitch), Eigen::Vector2d(pitch, pitch)}) {
-    MarkerTracker tracker(Sensor());
-    tracker.Track(Renderer().Render(Sensor().MarkerPositions(), 8));
-    auto markers = Sensor().MarkerPositions();
+    MarkerTracker tracker(DefaultSensor());
+    tracker.Track(Renderer().Render(DefaultSensor().MarkerPositions(), 8));
+    auto markers = DefaultSensor().MarkerPositions();
     for (auto& p : markers) p.head<2>() += jump;
     const MarkerObservation observation = tracker.Track(Renderer().Render(markers, 9));
-    const Errors e = Compare(observation, TruePixels(Sensor(), markers));
+    const Errors e = Compare(observation, TruePixels(DefaultSensor(), markers));
     EXPECT_LT(e.max_px, kCentroidTolerancePx) << "jump " << jump.transpose();
     EXPECT_TRUE(observation.summary.acquired) << "jump " << jump.transpose();
     std::printf("jump (%+.2f, %+.2f) mm: %d valid, rms %.4f px, max %.4f px\n", jump.x(), jump.y(),
@@ -195,9 +193,9 @@ TEST(MarkerTracker, WholeGridJumpOfOnePitchIsNotMisindexed) {
 // A border side hidden (not a jump: nothing appears beyond the opposite side) is flagged
 // while tracking goes on, without re-acquisition.
 TEST(MarkerTracker, HiddenBorderSideIsNotTakenForAJump) {
-  const auto markers = Sensor().MarkerPositions();
-  const auto truth = TruePixels(Sensor(), markers);
-  const int cols = Sensor().markers.cols;
+  const auto markers = DefaultSensor().MarkerPositions();
+  const auto truth = TruePixels(DefaultSensor(), markers);
+  const int cols = DefaultSensor().markers.cols;
   const cv::Mat film = FilmOnly();
   cv::Mat image = Renderer().Render(markers, 10);
   for (int h = 0; h < 2; ++h) {
@@ -207,19 +205,19 @@ TEST(MarkerTracker, HiddenBorderSideIsNotTakenForAJump) {
       film.copyTo(image, mask);
     }
   }
-  MarkerTracker tracker(Sensor());
+  MarkerTracker tracker(DefaultSensor());
   tracker.Track(Renderer().Render(markers, 11));
   const MarkerObservation observation = tracker.Track(image);
   EXPECT_FALSE(observation.summary.acquired);
   const Errors e = Compare(observation, truth);
-  EXPECT_EQ(e.valid, 800 - 2 * Sensor().markers.rows);
+  EXPECT_EQ(e.valid, 800 - 2 * DefaultSensor().markers.rows);
   EXPECT_LT(e.max_px, kCentroidTolerancePx);
 }
 
 // Markers hidden (painted over with the film), in the first frame and while tracking.
 TEST(MarkerTracker, TenPercentOfMarkersHiddenAreFlaggedAndTheRestMeasured) {
-  const auto markers = Sensor().MarkerPositions();
-  const auto truth = TruePixels(Sensor(), markers);
+  const auto markers = DefaultSensor().MarkerPositions();
+  const auto truth = TruePixels(DefaultSensor(), markers);
   const cv::Mat film = FilmOnly();
   std::mt19937 rng(testing::kRandomSeed);
   std::vector<int> order(markers.size());
@@ -234,7 +232,7 @@ TEST(MarkerTracker, TenPercentOfMarkersHiddenAreFlaggedAndTheRestMeasured) {
       film.copyTo(image, mask);
     }
   }
-  MarkerTracker tracker(Sensor());
+  MarkerTracker tracker(DefaultSensor());
   for (const bool first_frame : {true, false}) {
     if (!first_frame) {
       tracker.Reset();
@@ -271,9 +269,9 @@ TEST(MarkerTracker, TenPercentOfMarkersHiddenAreFlaggedAndTheRestMeasured) {
 // dot makes a slightly bigger dot whose centroid it pulls by about a pixel: that cannot be
 // told from the shape, so it may stay valid, but never as another marker.
 TEST(MarkerTracker, FiveSpuriousBlobsAreFlaggedAndTheRestMeasured) {
-  const auto markers = Sensor().MarkerPositions();
-  const auto truth = TruePixels(Sensor(), markers);
-  MarkerTracker tracker(Sensor());
+  const auto markers = DefaultSensor().MarkerPositions();
+  const auto truth = TruePixels(DefaultSensor(), markers);
+  MarkerTracker tracker(DefaultSensor());
   std::mt19937 rng(testing::kRandomSeed);
   std::array<std::vector<Eigen::Vector2d>, 2> specks;
   cv::Mat image = Renderer().Render(markers, 3);
@@ -330,8 +328,8 @@ void ExpectGridLost(const MarkerObservation& observation) {
 }
 
 TEST(MarkerTracker, PureNoiseFrameIsFlaggedAndTrackingRecovers) {
-  const auto markers = Sensor().MarkerPositions();
-  MarkerTracker tracker(Sensor());
+  const auto markers = DefaultSensor().MarkerPositions();
+  MarkerTracker tracker(DefaultSensor());
   tracker.Track(Renderer().Render(markers, 5));
   cv::Mat noise(480, 640, CV_8UC1);
   cv::RNG rng(testing::kRandomSeed);
@@ -341,12 +339,12 @@ TEST(MarkerTracker, PureNoiseFrameIsFlaggedAndTrackingRecovers) {
   const MarkerObservation back = tracker.Track(Renderer().Render(markers, 6));
   EXPECT_TRUE(back.summary.acquired);
   EXPECT_EQ(back.summary.paired_markers, 400);
-  EXPECT_LT(Compare(back, TruePixels(Sensor(), markers)).max_px, kCentroidTolerancePx);
+  EXPECT_LT(Compare(back, TruePixels(DefaultSensor(), markers)).max_px, kCentroidTolerancePx);
 }
 
 TEST(MarkerTracker, BlackFrameIsFlaggedAndTrackingRecovers) {
-  const auto markers = Sensor().MarkerPositions();
-  MarkerTracker tracker(Sensor());
+  const auto markers = DefaultSensor().MarkerPositions();
+  MarkerTracker tracker(DefaultSensor());
   const MarkerObservation black = tracker.Track(cv::Mat::zeros(480, 640, CV_8UC1));
   ExpectGridLost(black);
   // With no grid, every marker is taken to be at its nominal pixel (where the viewer draws it).
@@ -354,23 +352,23 @@ TEST(MarkerTracker, BlackFrameIsFlaggedAndTrackingRecovers) {
   const MarkerObservation back = tracker.Track(Renderer().Render(markers, 7));
   EXPECT_TRUE(back.summary.acquired);
   EXPECT_EQ(back.summary.paired_markers, 400);
-  EXPECT_LT(Compare(back, TruePixels(Sensor(), markers)).max_px, kCentroidTolerancePx);
+  EXPECT_LT(Compare(back, TruePixels(DefaultSensor(), markers)).max_px, kCentroidTolerancePx);
   ExpectGridLost(tracker.Track(cv::Mat::zeros(480, 640, CV_8UC1)));  // while tracking
 }
 
 TEST(MarkerTracker, ImageOfWrongSizeTypeOrEmptyThrows) {
-  MarkerTracker tracker(Sensor());
+  MarkerTracker tracker(DefaultSensor());
   EXPECT_THROW(tracker.Track(cv::Mat::zeros(240, 320, CV_8UC1)), Error);
   EXPECT_THROW(tracker.Track(cv::Mat::zeros(480, 640, CV_8UC3)), Error);
   EXPECT_THROW(tracker.Track(cv::Mat::zeros(480, 640, CV_16UC1)), Error);
   EXPECT_THROW(tracker.Track(cv::Mat()), Error);
   // A bad frame changes nothing: the next good one is acquired as usual.
-  EXPECT_EQ(tracker.Track(Renderer().Render(Sensor().MarkerPositions())).summary.paired_markers, 400);
+  EXPECT_EQ(tracker.Track(Renderer().Render(DefaultSensor().MarkerPositions())).summary.paired_markers, 400);
 }
 
 TEST(MarkerTracker, CorruptPngFileThrows) {
   std::vector<std::uint8_t> png;
-  cv::imencode(".png", Renderer().Render(Sensor().MarkerPositions()), png);
+  cv::imencode(".png", Renderer().Render(DefaultSensor().MarkerPositions()), png);
   // Keep the signature and header, garble the compressed data, cut the end off.
   for (size_t k = 64; k < png.size(); k += 7) png[k] ^= 0x5A;
   png.resize(png.size() / 2);
@@ -378,7 +376,7 @@ TEST(MarkerTracker, CorruptPngFileThrows) {
   std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(png.data()), png.size());
   const cv::Mat image = cv::imread(path, cv::IMREAD_GRAYSCALE);
   ASSERT_TRUE(image.empty());
-  MarkerTracker tracker(Sensor());
+  MarkerTracker tracker(DefaultSensor());
   EXPECT_THROW(tracker.Track(image), Error);
   EXPECT_THROW(tracker.Track(cv::imdecode(png, cv::IMREAD_GRAYSCALE)), Error);
 }
@@ -386,16 +384,16 @@ TEST(MarkerTracker, CorruptPngFileThrows) {
 TEST(MarkerTracker, InvalidOptionsOrSensorThrow) {
   MarkerTrackerOptions options;
   options.search_radius = 0.6;
-  EXPECT_THROW(MarkerTracker(Sensor(), options), Error);
+  EXPECT_THROW(MarkerTracker(DefaultSensor(), options), Error);
   options = {};
   options.min_valid_fraction = 0.0;
-  EXPECT_THROW(MarkerTracker(Sensor(), options), Error);
+  EXPECT_THROW(MarkerTracker(DefaultSensor(), options), Error);
   options = {};
   options.blob.background_kernel_px = 10;
-  EXPECT_THROW(MarkerTracker(Sensor(), options), Error);
+  EXPECT_THROW(MarkerTracker(DefaultSensor(), options), Error);
   options = {};
   options.index.match_gate = 0.5;
-  EXPECT_THROW(MarkerTracker(Sensor(), options), Error);
+  EXPECT_THROW(MarkerTracker(DefaultSensor(), options), Error);
   EXPECT_THROW(MarkerTracker(SensorConfig{}), Error);  // no mirrors designed
 }
 

@@ -5,16 +5,14 @@
 #include <gtest/gtest.h>
 
 #include "tac3d/design/light_path_design.h"
+#include "tac3d/sensor/test_sensor.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
 
 namespace tac3d {
 namespace {
 
-const SensorConfig& Nominal() {
-  static const SensorConfig config = DefaultSensorConfig();
-  return config;
-}
+using testing::DefaultSensor;
 
 SensorPerturbationOptions Seeded(std::uint64_t seed) {
   SensorPerturbationOptions o;
@@ -23,19 +21,19 @@ SensorPerturbationOptions Seeded(std::uint64_t seed) {
 }
 
 TEST(PerturbSensor, SameSeedSameSensorOtherSeedOtherSensor) {
-  const SensorConfig a = PerturbSensor(Nominal(), Seeded(7));
-  const SensorConfig b = PerturbSensor(Nominal(), Seeded(7));
-  const SensorConfig c = PerturbSensor(Nominal(), Seeded(8));
+  const SensorConfig a = PerturbSensor(DefaultSensor(), Seeded(7));
+  const SensorConfig b = PerturbSensor(DefaultSensor(), Seeded(7));
+  const SensorConfig c = PerturbSensor(DefaultSensor(), Seeded(8));
   EXPECT_EQ(SensorConfigToYaml(a), SensorConfigToYaml(b));
   EXPECT_NE(SensorConfigToYaml(a), SensorConfigToYaml(c));
 }
 
 TEST(PerturbSensor, StaysWithinItsBoundsAndItsVirtualCamerasAreTheMirrors) {
   const SensorPerturbationOptions bounds;
-  const CameraIntrinsics& nominal = Nominal().camera.intrinsics;
+  const CameraIntrinsics& nominal = DefaultSensor().camera.intrinsics;
   double largest_tilt = 0, largest_shift = 0;
   for (std::uint64_t seed = 1; seed <= 50; ++seed) {
-    const SensorConfig truth = PerturbSensor(Nominal(), Seeded(seed));
+    const SensorConfig truth = PerturbSensor(DefaultSensor(), Seeded(seed));
     const CameraIntrinsics& c = truth.camera.intrinsics;
     EXPECT_LE(std::abs(c.fx / nominal.fx - 1.0), bounds.focal_error_max + 1e-15);
     EXPECT_DOUBLE_EQ(c.fx / nominal.fx, c.fy / nominal.fy);
@@ -49,7 +47,7 @@ TEST(PerturbSensor, StaysWithinItsBoundsAndItsVirtualCamerasAreTheMirrors) {
     EXPECT_LE(std::abs(c.distortion[3]), bounds.tangential_max);
     ASSERT_EQ(truth.mirrors.size(), 4u);
     for (size_t m = 0; m < 4; ++m) {
-      const Rectangle3& a = Nominal().mirrors[m].surface;
+      const Rectangle3& a = DefaultSensor().mirrors[m].surface;
       const Rectangle3& b = truth.mirrors[m].surface;
       const double tilt = RadToDeg(std::acos(std::min(1.0, a.normal().dot(b.normal()))));
       const double shift = (a.center - b.center).norm();
@@ -73,10 +71,10 @@ TEST(PerturbSensor, RefusesBadOptionsAndAnUndesignedSensor) {
   SensorPerturbationOptions o;
   o.k1_min = 0.1;
   o.k1_max = 0.0;
-  EXPECT_THROW(PerturbSensor(Nominal(), o), Error);
+  EXPECT_THROW(PerturbSensor(DefaultSensor(), o), Error);
   o = {};
   o.mirror_tilt_max_deg = -1;
-  EXPECT_THROW(PerturbSensor(Nominal(), o), Error);
+  EXPECT_THROW(PerturbSensor(DefaultSensor(), o), Error);
   EXPECT_THROW(PerturbSensor(SensorConfig{}, {}), Error);
 }
 
@@ -93,7 +91,7 @@ TEST(DotBoard, CentredPlacementIsTheCalibrationReferencePlacement) {
 }
 
 TEST(RenderCalibrationSet, PosesStayInTheirRangesAndTheSetIsReproducible) {
-  const SensorConfig truth = PerturbSensor(Nominal(), {});
+  const SensorConfig truth = PerturbSensor(DefaultSensor(), {});
   CalibrationSetOptions o;
   o.views = 4;
   const CalibrationSet set = RenderCalibrationSet(truth, o);
@@ -122,14 +120,14 @@ TEST(RenderCalibrationSet, RefusesABoardTooLargeToBeSeenWhole) {
   CalibrationSetOptions o;
   o.views = 1;
   o.board.rows = o.board.cols = 15;
-  EXPECT_THROW(RenderCalibrationSet(Nominal(), o), Error);
+  EXPECT_THROW(RenderCalibrationSet(DefaultSensor(), o), Error);
   o = {};
   o.views = 0;
-  EXPECT_THROW(RenderCalibrationSet(Nominal(), o), Error);
+  EXPECT_THROW(RenderCalibrationSet(DefaultSensor(), o), Error);
 }
 
 TEST(WriteCalibrationSet, WritesTheFolderLayoutCalibrateReads) {
-  const SensorConfig truth = PerturbSensor(Nominal(), {});
+  const SensorConfig truth = PerturbSensor(DefaultSensor(), {});
   CalibrationSetOptions o;
   o.views = 2;
   const CalibrationSet set = RenderCalibrationSet(truth, o);

@@ -8,19 +8,17 @@
 #include <opencv2/calib3d.hpp>
 
 #include "tac3d/design/light_path_design.h"
+#include "tac3d/sensor/test_sensor.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
 
 namespace tac3d {
 namespace {
 
-const SensorConfig& Sensor() {
-  static const SensorConfig config = DefaultSensorConfig();
-  return config;
-}
+using testing::DefaultSensor;
 
 TEST(MarkerImageRenderer, WholeGridIsSeenAndDotsLandWhereTheRayTracerSaysInEachHalf) {
-  const RenderEvaluation e = EvaluateRender(Sensor(), /*timing_frames=*/0);
+  const RenderEvaluation e = EvaluateRender(DefaultSensor(), /*timing_frames=*/0);
   // Plain OpenCV blob detection finds the whole 20 x 20 grid in each half.
   EXPECT_EQ(e.blobs_per_half[0], 400);
   EXPECT_EQ(e.blobs_per_half[1], 400);
@@ -32,16 +30,16 @@ TEST(MarkerImageRenderer, WholeGridIsSeenAndDotsLandWhereTheRayTracerSaysInEachH
 }
 
 TEST(MarkerImageRenderer, ImageHasTheCamerasSize) {
-  const MarkerImageRenderer renderer(Sensor());
-  const cv::Mat image = renderer.Render(Sensor().MarkerPositions());
+  const MarkerImageRenderer renderer(DefaultSensor());
+  const cv::Mat image = renderer.Render(DefaultSensor().MarkerPositions());
   EXPECT_EQ(image.type(), CV_8UC1);
   EXPECT_EQ(image.cols, 640);
   EXPECT_EQ(image.rows, 480);
 }
 
 TEST(MarkerImageRenderer, SameSeedSameImageOtherFrameOtherNoise) {
-  const MarkerImageRenderer renderer(Sensor());
-  const auto markers = Sensor().MarkerPositions();
+  const MarkerImageRenderer renderer(DefaultSensor());
+  const auto markers = DefaultSensor().MarkerPositions();
   const cv::Mat a = renderer.Render(markers, 3), b = renderer.Render(markers, 3);
   const cv::Mat c = renderer.Render(markers, 4);
   EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0);
@@ -51,8 +49,8 @@ TEST(MarkerImageRenderer, SameSeedSameImageOtherFrameOtherNoise) {
 TEST(MarkerImageRenderer, MovedMarkersMoveTheirImage) {
   RenderOptions options;
   options.noise = false;
-  const MarkerImageRenderer renderer(Sensor(), options);
-  auto markers = Sensor().MarkerPositions();
+  const MarkerImageRenderer renderer(DefaultSensor(), options);
+  auto markers = DefaultSensor().MarkerPositions();
   const cv::Mat before = renderer.Render(markers);
   for (auto& p : markers) p.x() += 0.5;
   const cv::Mat after = renderer.Render(markers);
@@ -60,7 +58,7 @@ TEST(MarkerImageRenderer, MovedMarkersMoveTheirImage) {
 }
 
 TEST(MarkerImageRenderer, RefusesAWrongMarkerCount) {
-  const MarkerImageRenderer renderer(Sensor());
+  const MarkerImageRenderer renderer(DefaultSensor());
   EXPECT_THROW(renderer.Render({Eigen::Vector3d::Zero()}), Error);
 }
 
@@ -82,9 +80,9 @@ TEST(BoardImageRenderer, OpenCvFindsTheCircleGridInBothHalves) {
     board.grid.layout = layout;
     board.grid.rows = layout == CalibrationBoard::Layout::kSymmetric ? 7 : 9;
     board.grid.cols = layout == CalibrationBoard::Layout::kSymmetric ? 7 : 4;
-    const BoardImageRenderer renderer(Sensor());
+    const BoardImageRenderer renderer(DefaultSensor());
     const cv::Mat image = renderer.Render(board, board.SensorFromBoard(Eigen::Vector3d::Zero()));
-    const int split = Sensor().virtual_cameras[1].column_begin;
+    const int split = DefaultSensor().virtual_cameras[1].column_begin;
     for (const cv::Rect roi : {cv::Rect(0, 0, split, 480), cv::Rect(split, 0, 640 - split, 480)}) {
       std::vector<cv::Point2f> centres;
       const int flags = layout == CalibrationBoard::Layout::kSymmetric ? cv::CALIB_CB_SYMMETRIC_GRID

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "tac3d/design/light_path_design.h"
+#include "tac3d/sensor/test_sensor.h"
 #include "tac3d/twin/calibration_set.h"
 #include "tac3d/twin/camera_renderer.h"
 #include "tac3d/util/error.h"
@@ -12,10 +13,7 @@
 namespace tac3d {
 namespace {
 
-const SensorConfig& Sensor() {
-  static const SensorConfig config = DefaultSensorConfig();
-  return config;
-}
+using testing::DefaultSensor;
 
 TEST(SessionConditions, RampsFromNothingToItsLevelsAndHolds) {
   const SessionConditions s = SessionConditions::Realistic();
@@ -73,8 +71,8 @@ TEST(SessionConditions, BadLevelsThrowNamingTheField) {
 
 // Each nuisance in the rendered light is what its truth says (linear light, no noise).
 TEST(SessionConditions, TheRendererAppliesEachNuisance) {
-  const MarkerImageRenderer renderer(Sensor());
-  const std::vector<Eigen::Vector3d> markers = Sensor().MarkerPositions();
+  const MarkerImageRenderer renderer(DefaultSensor());
+  const std::vector<Eigen::Vector3d> markers = DefaultSensor().MarkerPositions();
   const cv::Mat nominal = renderer.RenderIrradiance(markers);
   // A film pixel left and right of the centre, and the darkest pixel of marker 210's dot.
   const cv::Point left(100, 240), right(540, 240);
@@ -86,7 +84,7 @@ TEST(SessionConditions, TheRendererAppliesEachNuisance) {
                       static_cast<int>(std::lround(uv->y())));
   // The film behind the dot: RenderOptions' film level with its vignetting.
   const RenderOptions render;
-  const CameraIntrinsics& k = Sensor().camera.intrinsics;
+  const CameraIntrinsics& k = DefaultSensor().camera.intrinsics;
   const double r2 =
       (std::pow(dot.x - k.cx, 2) + std::pow(dot.y - k.cy, 2)) / (k.cx * k.cx + k.cy * k.cy);
   const double film_at_dot = render.film_level * (1.0 - render.vignetting * r2);
@@ -103,7 +101,7 @@ TEST(SessionConditions, TheRendererAppliesEachNuisance) {
   FrameConditions gradient;
   gradient.illumination_gradient = 0.2;
   const cv::Mat tilted = renderer.RenderIrradiance(markers, gradient);
-  const double cx = Sensor().camera.intrinsics.cx;
+  const double cx = DefaultSensor().camera.intrinsics.cx;
   EXPECT_NEAR(
       tilted.at<float>(left) / nominal.at<float>(left), 1 + 0.2 * (left.x - cx) / 639, 1e-6);
   EXPECT_NEAR(
@@ -135,8 +133,8 @@ TEST(SessionConditions, ManufacturingSpreadMovesTheCameraWithinItsTolerances) {
   for (std::uint64_t seed = 1; seed <= 20; ++seed) {
     SensorPerturbationOptions o = spread;
     o.seed = seed;
-    const SensorConfig truth = PerturbSensor(Sensor(), o);
-    const Rigid3& a = Sensor().camera.sensor_from_cam;
+    const SensorConfig truth = PerturbSensor(DefaultSensor(), o);
+    const Rigid3& a = DefaultSensor().camera.sensor_from_cam;
     const Rigid3& b = truth.camera.sensor_from_cam;
     const double tilt = RadToDeg(Eigen::AngleAxisd(a.linear().transpose() * b.linear()).angle());
     EXPECT_LE(tilt, spread.camera_tilt_max_deg + 1e-9);
@@ -150,8 +148,8 @@ TEST(SessionConditions, ManufacturingSpreadMovesTheCameraWithinItsTolerances) {
   }
   EXPECT_GT(largest_tilt, 0.5 * spread.camera_tilt_max_deg);
   // Without camera tolerances (the default) the camera stays where the design put it.
-  EXPECT_TRUE(PerturbSensor(Sensor(), SensorPerturbationOptions{})
-                  .camera.sensor_from_cam.isApprox(Sensor().camera.sensor_from_cam, 0.0));
+  EXPECT_TRUE(PerturbSensor(DefaultSensor(), SensorPerturbationOptions{})
+                  .camera.sensor_from_cam.isApprox(DefaultSensor().camera.sensor_from_cam, 0.0));
 }
 
 }  // namespace

@@ -1,7 +1,18 @@
 #include "tac3d/util/error.h"
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
+
+namespace tac3d {
+
+void RequireOption(bool ok, const char* what, const char* field, const char* bound, double value) {
+  if (!ok || std::isnan(value)) {
+    throw Error(fmt::format("{}: {} = {} must be {}", what, field, value, bound));
+  }
+}
+
+}  // namespace tac3d
 
 namespace tac3d::internal {
 

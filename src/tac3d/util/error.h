@@ -14,6 +14,10 @@ class Error : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// The check an options struct's Validate() makes of each number: throws
+/// Error("<what>: <field> = <value> must be <bound>") unless `ok` holds and `value` is not NaN.
+void RequireOption(bool ok, const char* what, const char* field, const char* bound, double value);
+
 namespace internal {
 [[noreturn]] void DemandFailed(const char* condition, const char* file, int line);
 }  // namespace internal

@@ -77,6 +77,12 @@ EvalCheck EvalCheckFromJson(const nlohmann::json& json) {
   }
 }
 
+std::string FormatChecks(const std::vector<EvalCheck>& checks) {
+  std::string text;
+  for (const EvalCheck& check : checks) text += check.Format() + "\n";
+  return text;
+}
+
 bool AllPass(const std::vector<EvalCheck>& checks) {
   if (checks.empty()) return false;
   for (const EvalCheck& check : checks) {

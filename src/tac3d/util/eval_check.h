@@ -42,6 +42,9 @@ nlohmann::json ToJson(const std::vector<EvalCheck>& checks);
 /// @throws tac3d::Error naming the missing field.
 EvalCheck EvalCheckFromJson(const nlohmann::json& json);
 
+/// Every check's Format(), a line each: the head of every evaluation's report.
+std::string FormatChecks(const std::vector<EvalCheck>& checks);
+
 /// True when every check passes (and there is at least one).
 bool AllPass(const std::vector<EvalCheck>& checks);
 

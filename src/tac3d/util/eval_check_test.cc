@@ -39,6 +39,9 @@ TEST(EvalCheck, RoundTripsThroughJsonAndPrintsOneWay) {
   EXPECT_EQ(checks[1].Format(), "FAIL coverage                             0.7 (>= 0.8)");
   EXPECT_EQ(checks[2].Format(), "ok   boundary_error                       n/a (<= 1.27 mm)");
   EXPECT_TRUE(ToJson(checks[2]).at("value").is_null());
+  EXPECT_EQ(FormatChecks({checks[0], checks[1]}),
+            checks[0].Format() + "\n" + checks[1].Format() + "\n");
+  EXPECT_EQ(FormatChecks({}), "");
 }
 
 }  // namespace
