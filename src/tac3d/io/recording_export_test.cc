@@ -27,7 +27,7 @@ constexpr int kRows = 4, kCols = 5, kMarkers = kRows * kCols;
 
 // Frame t of the test recording: synthetic 4 x 5, the lost marker's position and
 // displacement NaN (as the pipeline leaves them), some flags, progress 50 on frame 0.
-TactileFrame Frame(int t) {
+TactileFrame ExportFrame(int t) {
   TactileFrame f = MakeSyntheticTactileFrame("AD2-0065L", 100 + t, kRows, kCols);
   const std::size_t lost = static_cast<std::size_t>(f.index % kMarkers);
   f.positions_mm[lost] = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
@@ -43,7 +43,7 @@ TactileFrame Frame(int t) {
 std::string WriteRecording(const std::string& path, int frames) {
   RecordingWriter writer(path);
   for (int t = 0; t < frames; ++t) {
-    writer.Write(Frame(t), t % 2 == 0 ? cv::Mat(6, 8, CV_8UC1, cv::Scalar(t)) : cv::Mat());
+    writer.Write(ExportFrame(t), t % 2 == 0 ? cv::Mat(6, 8, CV_8UC1, cv::Scalar(t)) : cv::Mat());
   }
   return path;
 }
@@ -59,7 +59,7 @@ void ExpectVectors(const testing::NpyArray& a,
   EXPECT_FALSE(a.fortran_order) << name;
   ASSERT_EQ(a.shape, (std::vector<std::int64_t>{frames, kMarkers, 3})) << name;
   for (int t = 0; t < frames; ++t) {
-    const TactileFrame f = Frame(t);
+    const TactileFrame f = ExportFrame(t);
     for (int i = 0; i < kMarkers; ++i) {
       for (int k = 0; k < 3; ++k) {
         ASSERT_TRUE(Same(a.at<double>((t * kMarkers + i) * 3 + k), (f.*field)[i][k]))
@@ -130,7 +130,7 @@ TEST(RecordingExport, NpyHoldsEveryFieldExactly) {
   EXPECT_EQ(force.shape, (std::vector<std::int64_t>{7, 3}));
   EXPECT_EQ(moment.shape, (std::vector<std::int64_t>{7, 3}));
   for (int t = 0; t < 7; ++t) {
-    const TactileFrame f = Frame(t);
+    const TactileFrame f = ExportFrame(t);
     for (int i = 0; i < kMarkers; ++i) {
       EXPECT_EQ(valid.data[t * kMarkers + i], f.valid[i] ? 1 : 0) << t << " " << i;
       EXPECT_EQ(contact.data[t * kMarkers + i], f.contact[i] ? 1 : 0) << t << " " << i;
@@ -164,7 +164,7 @@ TEST(RecordingExport, CsvHasOneRowPerFrameAndPerFrameAndMarker) {
             "mz_nmm");
   const auto f0 = Split(frames[1]);
   ASSERT_EQ(f0.size(), 19u);
-  const TactileFrame first = Frame(0);
+  const TactileFrame first = ExportFrame(0);
   EXPECT_EQ(f0[0], "0");
   EXPECT_EQ(f0[1], "100");
   EXPECT_EQ(std::stod(f0[2]), first.timestamp_s);  // shortest round-trip text
@@ -185,7 +185,7 @@ TEST(RecordingExport, CsvHasOneRowPerFrameAndPerFrameAndMarker) {
             "frame,index,timestamp_s,marker,row,col,valid,contact,x_mm,y_mm,z_mm,dx_mm,dy_mm,"
             "dz_mm,fx_n,fy_n,fz_n,nx,ny,nz");
   // Frame 2, marker 13 (row 2, col 3); and frame 2's lost marker, NaN where the pipeline leaves it.
-  const TactileFrame f2 = Frame(2);
+  const TactileFrame f2 = ExportFrame(2);
   const auto m = Split(markers[1 + 2 * kMarkers + 13]);
   ASSERT_EQ(m.size(), 20u);
   EXPECT_EQ(m[0], "2");
@@ -290,7 +290,7 @@ TEST(RecordingExport, NumpyLoadsTheArrays) {
   const std::string rec = WriteRecording(dir + "/rec.tac3d", 5);
   ExportRecording(rec, dir + "/npy");
   ExportRecording(rec, dir + "/csv", {.format = RecordingExportFormat::kCsv});
-  const TactileFrame f3 = Frame(3);
+  const TactileFrame f3 = ExportFrame(3);
   const int m = 7;  // a valid marker of frame 3 (its lost one is 103 % 20 = 3)
   ASSERT_TRUE(f3.valid[m]);
   const std::string script = fmt::format(
@@ -340,7 +340,7 @@ print('numpy', np.__version__, 'ok')
       fmt::arg("n", kMarkers),
       fmt::arg("m", m),
       fmt::arg("t3", f3.timestamp_s),
-      fmt::arg("fl0", Frame(0).flags),
+      fmt::arg("fl0", ExportFrame(0).flags),
       fmt::arg("fl3", f3.flags),
       fmt::arg("px", f3.positions_mm[m].x()),
       fmt::arg("pz", f3.positions_mm[m].z()),
@@ -350,7 +350,7 @@ print('numpy', np.__version__, 'ok')
                [] {
                  int n = 0;
                  for (int t = 0; t < 5; ++t) {
-                   for (const bool b : Frame(t).contact) n += b;
+                   for (const bool b : ExportFrame(t).contact) n += b;
                  }
                  return n;
                }()),

@@ -40,7 +40,7 @@ std::vector<RecordedFrame> ReadAll(RecordingReader* reader) {
   return frames;
 }
 
-std::string Bytes(const std::string& path) {
+std::string FileBytes(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   return std::string(std::istreambuf_iterator<char>(in), {});
 }
@@ -77,7 +77,7 @@ TEST(Recording, RoundTripKeepsEveryFieldAndImage) {
 
 TEST(Recording, EveryTruncationYieldsTheCompleteRecordsBeforeIt) {
   const std::string dir = testing::MakeTempDir("rec");
-  const std::string bytes = Bytes(WriteRecording(dir, 4));
+  const std::string bytes = FileBytes(WriteRecording(dir, 4));
   // Record boundaries, from a reader of the intact file.
   std::vector<std::size_t> ends;
   {
@@ -101,7 +101,7 @@ TEST(Recording, EveryTruncationYieldsTheCompleteRecordsBeforeIt) {
 
 TEST(Recording, CorruptionStopsTheReaderAtTheDamagedRecord) {
   const std::string dir = testing::MakeTempDir("rec");
-  const std::string bytes = Bytes(WriteRecording(dir, 5));
+  const std::string bytes = FileBytes(WriteRecording(dir, 5));
   std::vector<std::size_t> ends = {kFileHeaderBytes};
   {
     RecordingReader reader(dir + "/rec.tac3d");
@@ -147,7 +147,7 @@ TEST(Recording, RefusesWhatItCannotWriteOrRead) {
 
   EXPECT_THROW(RecordingReader(dir + "/missing"), Error);
   EXPECT_THROW(RecordingReader(WriteBytes(dir + "/text", "hello, world")), Error);
-  std::string future = Bytes(path);
+  std::string future = FileBytes(path);
   future[8] = 3;
   try {
     RecordingReader reader(WriteBytes(dir + "/v3", future));
@@ -189,7 +189,7 @@ std::string ToVersion1(const std::string& v2, const std::vector<TactileFrame>& f
 TEST(Recording, SlipEstimateRoundTripsAtItsDocumentedOffset) {
   const std::string dir = testing::MakeTempDir("slip");
   const std::string path = WriteRecording(dir, 5);
-  const std::string bytes = Bytes(path);
+  const std::string bytes = FileBytes(path);
   RecordingReader reader(path);
   EXPECT_EQ(reader.version(), 2u);
   std::size_t at = kFileHeaderBytes;
@@ -221,7 +221,7 @@ TEST(Recording, SlipEstimateRoundTripsAtItsDocumentedOffset) {
 
 TEST(Recording, ReadsVersion1FilesWithTheSlipUnknown) {
   const std::string dir = testing::MakeTempDir("v1");
-  const std::string v2 = Bytes(WriteRecording(dir, 7));
+  const std::string v2 = FileBytes(WriteRecording(dir, 7));
   std::vector<TactileFrame> frames;
   for (int i = 0; i < 7; ++i) frames.push_back(MakeSyntheticTactileFrame("AD2-0065L", i));
   RecordingReader reader(WriteBytes(dir + "/v1.tac3d", ToVersion1(v2, frames)));

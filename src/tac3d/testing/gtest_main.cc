@@ -1,9 +1,10 @@
+#include <algorithm>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <set>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -25,19 +26,25 @@ namespace {
 
 constexpr char kTestSourcesFlag[] = "--test_sources=";
 
-// The GoogleTest filter selecting the tests defined in the files named by `list` (comma-separated
-// file names, as tac3d_add_test registers them); empty if none is.
+// The GoogleTest filter selecting the tests defined in the files of `list` (comma-separated paths
+// relative to the project's root, as tac3d_add_test registers them); empty if none is.
 std::string FilterOfSources(const std::string& list) {
-  std::set<std::string> names;
+  std::vector<std::string> sources;
   std::stringstream stream(list);
-  for (std::string name; std::getline(stream, name, ',');) names.insert(name);
+  for (std::string source; std::getline(stream, source, ',');) sources.push_back(source);
   std::string filter;
   const ::testing::UnitTest& unit = *::testing::UnitTest::GetInstance();
   for (int i = 0; i < unit.total_test_suite_count(); ++i) {
     const ::testing::TestSuite& suite = *unit.GetTestSuite(i);
     for (int j = 0; j < suite.total_test_count(); ++j) {
       const ::testing::TestInfo& test = *suite.GetTestInfo(j);
-      if (names.count(std::filesystem::path(test.file()).filename().string()) == 0) continue;
+      // test.file() is the path the compiler was given: absolute, ending in the source's.
+      const std::string file = test.file();
+      if (std::none_of(sources.begin(), sources.end(), [&](const std::string& source) {
+            return file.ends_with("/" + source);
+          })) {
+        continue;
+      }
       if (!filter.empty()) filter += ':';
       filter += std::string(suite.name()) + "." + test.name();
     }
@@ -51,7 +58,7 @@ std::string FilterOfSources(const std::string& list) {
 int main(int argc, char** argv) {
   ::testing::InitGoogleTest(&argc, argv);
   ::testing::GTEST_FLAG(random_seed) = static_cast<int>(tac3d::testing::kRandomSeed % 99999);
-  // A module's test files share one program; CTest runs one file's tests at a time.
+  // Every test file is in this one program; CTest runs one file's tests at a time.
   for (int i = 1; i < argc; ++i) {
     const char* flag = tac3d::testing::kTestSourcesFlag;
     if (std::strncmp(argv[i], flag, std::strlen(flag)) != 0) continue;
