@@ -97,9 +97,7 @@ class Section {
 
 void CalibrationBoard::Validate() const {
   auto require = [](bool ok, const char* field, const char* bound, double value) {
-    if (!ok || std::isnan(value)) {
-      throw Error(fmt::format("calibration board: {} = {} must be {}", field, value, bound));
-    }
+    RequireOption(ok, "calibration board", field, bound, value);
   };
   require(rows >= 3 && rows <= kMaxDotsPerSide, "rows", "in [3, 1000]", rows);
   require(cols >= 3 && cols <= kMaxDotsPerSide, "cols", "in [3, 1000]", cols);

@@ -351,9 +351,7 @@ void PlaceRigInSensor(const GoodView& ref,
 
 void VirtualStereoCalibrationOptions::Validate() const {
   auto require = [](bool ok, const char* field, const char* bound, double value) {
-    if (!ok || std::isnan(value)) {
-      throw Error(fmt::format("calibration options: {} = {} must be {}", field, value, bound));
-    }
+    RequireOption(ok, "calibration options", field, bound, value);
   };
   require(min_views >= 3, "min_views", ">= 3", min_views);
   require(max_edge_width_px > 0, "max_edge_width_px", "> 0", max_edge_width_px);

@@ -84,9 +84,7 @@ void ConditionsEvaluationOptions::Validate() const {
   levels.Validate();
   render.Validate();
   auto require = [](bool ok, const char* field, const char* bound, double value) {
-    if (!ok || std::isnan(value)) {
-      throw Error(fmt::format("conditions evaluation: {} = {} must be {}", field, value, bound));
-    }
+    RequireOption(ok, "conditions evaluation", field, bound, value);
   };
   require(rest_frame_s > 0 && rest_frame_s <= levels.session_s,
           "rest_frame_s",

@@ -31,9 +31,7 @@ std::optional<Eigen::Vector3d> Observe(const StereoRig& rig, const Eigen::Vector
 
 void RefractionCompensationOptions::Validate() const {
   auto require = [](bool ok, const char* field, const char* bound, double value) {
-    if (!ok || std::isnan(value)) {
-      throw Error(fmt::format("refraction compensation: {} = {} must be {}", field, value, bound));
-    }
+    RequireOption(ok, "refraction compensation", field, bound, value);
   };
   require(degree >= 1 && degree <= 6, "degree", "in [1, 6]", degree);
   require(samples_per_axis >= degree + 2 && samples_per_axis <= 60, "samples_per_axis",

@@ -361,9 +361,7 @@ double CoreDarkness(const cv::Mat& image,
 
 void BlobOptions::Validate() const {
   auto require = [](bool ok, const char* field, const char* bound, double value) {
-    if (!ok || std::isnan(value)) {
-      throw Error(fmt::format("blob options: {} = {} must be {}", field, value, bound));
-    }
+    RequireOption(ok, "blob options", field, bound, value);
   };
   require(min_contrast_dn > 0 && min_contrast_dn < 255, "min_contrast_dn", "in (0, 255)",
           min_contrast_dn);

@@ -147,9 +147,7 @@ bool FitAffine(const std::vector<Eigen::Vector2d>& predicted,
 
 void GridIndexOptions::Validate() const {
   auto require = [](bool ok, const char* field, const char* bound, double value) {
-    if (!ok || std::isnan(value)) {
-      throw Error(fmt::format("grid index options: {} = {} must be {}", field, value, bound));
-    }
+    RequireOption(ok, "grid index options", field, bound, value);
   };
   require(max_offset_px > 0, "max_offset_px", "> 0", max_offset_px);
   require(hypotheses >= 1, "hypotheses", ">= 1", hypotheses);

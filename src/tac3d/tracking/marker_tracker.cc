@@ -20,9 +20,7 @@ void MarkerTrackerOptions::Validate() const {
   blob.Validate();
   index.Validate();
   auto require = [](bool ok, const char* field, const char* bound, double value) {
-    if (!ok || std::isnan(value)) {
-      throw Error(fmt::format("marker tracker options: {} = {} must be {}", field, value, bound));
-    }
+    RequireOption(ok, "marker tracker options", field, bound, value);
   };
   require(search_radius > 0 && search_radius < 0.5, "search_radius", "in (0, 0.5) pitch",
           search_radius);

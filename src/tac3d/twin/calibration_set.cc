@@ -12,10 +12,6 @@
 namespace tac3d {
 namespace {
 
-void Require(bool ok, const char* what, const char* field, const char* bound, double value) {
-  if (!ok || std::isnan(value)) throw Error(fmt::format("{}: {} = {} must be {}", what, field, value, bound));
-}
-
 // A unit vector uniformly distributed on the sphere.
 Eigen::Vector3d RandomDirection(std::mt19937_64& rng) {
   std::normal_distribution<double> normal;
@@ -48,21 +44,21 @@ bool SeenWhole(const OpticalLayout& layout, const SensorConfig& truth,
 
 void SensorPerturbationOptions::Validate() const {
   const char* what = "sensor perturbation";
-  Require(focal_error_max >= 0 && focal_error_max < 0.5, what, "focal_error_max", "in [0, 0.5)",
-          focal_error_max);
-  Require(principal_point_error_max_px >= 0, what, "principal_point_error_max_px", ">= 0",
-          principal_point_error_max_px);
-  Require(k1_min <= k1_max, what, "k1_min", "<= k1_max", k1_min);
-  Require(k2_max >= 0, what, "k2_max", ">= 0", k2_max);
-  Require(tangential_max >= 0, what, "tangential_max", ">= 0", tangential_max);
-  Require(mirror_tilt_max_deg >= 0 && mirror_tilt_max_deg <= 10, what, "mirror_tilt_max_deg",
-          "in [0, 10]", mirror_tilt_max_deg);
-  Require(mirror_shift_max_mm >= 0 && mirror_shift_max_mm <= 5, what, "mirror_shift_max_mm",
-          "in [0, 5]", mirror_shift_max_mm);
-  Require(camera_tilt_max_deg >= 0 && camera_tilt_max_deg <= 10, what, "camera_tilt_max_deg",
-          "in [0, 10]", camera_tilt_max_deg);
-  Require(camera_shift_max_mm >= 0 && camera_shift_max_mm <= 5, what, "camera_shift_max_mm",
-          "in [0, 5]", camera_shift_max_mm);
+  RequireOption(focal_error_max >= 0 && focal_error_max < 0.5, what, "focal_error_max",
+                "in [0, 0.5)", focal_error_max);
+  RequireOption(principal_point_error_max_px >= 0, what, "principal_point_error_max_px", ">= 0",
+                principal_point_error_max_px);
+  RequireOption(k1_min <= k1_max, what, "k1_min", "<= k1_max", k1_min);
+  RequireOption(k2_max >= 0, what, "k2_max", ">= 0", k2_max);
+  RequireOption(tangential_max >= 0, what, "tangential_max", ">= 0", tangential_max);
+  RequireOption(mirror_tilt_max_deg >= 0 && mirror_tilt_max_deg <= 10, what, "mirror_tilt_max_deg",
+                "in [0, 10]", mirror_tilt_max_deg);
+  RequireOption(mirror_shift_max_mm >= 0 && mirror_shift_max_mm <= 5, what, "mirror_shift_max_mm",
+                "in [0, 5]", mirror_shift_max_mm);
+  RequireOption(camera_tilt_max_deg >= 0 && camera_tilt_max_deg <= 10, what, "camera_tilt_max_deg",
+                "in [0, 10]", camera_tilt_max_deg);
+  RequireOption(camera_shift_max_mm >= 0 && camera_shift_max_mm <= 5, what, "camera_shift_max_mm",
+                "in [0, 5]", camera_shift_max_mm);
 }
 
 SensorPerturbationOptions SensorPerturbationOptions::ManufacturingSpread(std::uint64_t seed) {
@@ -118,12 +114,14 @@ SensorConfig PerturbSensor(const SensorConfig& nominal, const SensorPerturbation
 
 void CalibrationSetOptions::Validate() const {
   const char* what = "calibration set";
-  Require(views >= 1, what, "views", ">= 1", views);
+  RequireOption(views >= 1, what, "views", ">= 1", views);
   board.Validate();
-  Require(position_range_mm >= 0, what, "position_range_mm", ">= 0", position_range_mm);
-  Require(max_tilt_deg >= 0 && max_tilt_deg < 60, what, "max_tilt_deg", "in [0, 60)", max_tilt_deg);
-  Require(max_spin_deg >= 0 && max_spin_deg <= 180, what, "max_spin_deg", "in [0, 180]", max_spin_deg);
-  Require(edge_margin_px >= 0, what, "edge_margin_px", ">= 0", edge_margin_px);
+  RequireOption(position_range_mm >= 0, what, "position_range_mm", ">= 0", position_range_mm);
+  RequireOption(max_tilt_deg >= 0 && max_tilt_deg < 60, what, "max_tilt_deg", "in [0, 60)",
+                max_tilt_deg);
+  RequireOption(max_spin_deg >= 0 && max_spin_deg <= 180, what, "max_spin_deg", "in [0, 180]",
+                max_spin_deg);
+  RequireOption(edge_margin_px >= 0, what, "edge_margin_px", ">= 0", edge_margin_px);
   render.Validate();
 }
 

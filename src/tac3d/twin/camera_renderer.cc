@@ -174,9 +174,7 @@ std::vector<Eigen::Vector3d> GridNormals(const std::vector<Eigen::Vector3d>& p, 
 
 void RenderOptions::Validate() const {
   auto require = [](bool ok, const char* field, const char* bound, double value) {
-    if (!ok || std::isnan(value)) {
-      throw Error(fmt::format("render options: {} = {} must be {}", field, value, bound));
-    }
+    RequireOption(ok, "render options", field, bound, value);
   };
   require(film_level > 0 && film_level <= 1, "film_level", "in (0, 1]", film_level);
   require(dot_reflectance >= 0 && dot_reflectance < 1, "dot_reflectance", "in [0, 1)", dot_reflectance);

@@ -10,9 +10,7 @@ namespace tac3d {
 namespace {
 
 void Require(bool ok, const char* field, const char* bound, double value) {
-  if (!ok || std::isnan(value)) {
-    throw Error(fmt::format("session conditions: {} = {} must be {}", field, value, bound));
-  }
+  RequireOption(ok, "session conditions", field, bound, value);
 }
 
 }  // namespace
