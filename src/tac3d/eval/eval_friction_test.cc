@@ -18,7 +18,7 @@ namespace {
 // figures, to pass.
 void ExpectEveryCheckPasses(const std::string& name, const std::string& scenes) {
   const std::string out = ::testing::TempDir() + "/eval_friction_" + name;
-  std::string command = std::string(TAC3D_CLI) + " eval friction --scenes " + scenes + " --out " + out;
+  std::string command = std::string(TAC3D_CLI_PATH) + " eval friction --scenes " + scenes + " --out " + out;
   if (const char* datasets = std::getenv("TAC3D_EVAL_FRICTION_DATASETS")) {
     command += std::string(" --datasets ") + datasets;
   }
