@@ -16,21 +16,16 @@
 #include <unistd.h>
 
 #include <benchmark/benchmark.h>
-#include <boost/asio.hpp>
-#include <boost/beast/core.hpp>
-#include <boost/beast/websocket.hpp>
 
 #include "tac3d/design/light_path_design.h"
 #include "tac3d/force/synthetic_compliance.h"
 #include "tac3d/pipeline/pipeline.h"
 #include "tac3d/twin/camera_renderer.h"
+#include "tac3d/web/test_websocket_client.h"
 #include "tac3d/web/web_server.h"
 
 namespace tac3d {
 namespace {
-
-namespace net = boost::asio;
-namespace websocket = boost::beast::websocket;
 
 // A pipeline past its reference and 16 twin frames of a press coming and going.
 struct Press {
@@ -57,32 +52,28 @@ struct Press {
   }
 };
 
-// A WebSocket client on its own thread that reads every message until the server goes.
+// A WebSocket client on its own thread that reads every message until it is destroyed.
 class ReadingClient {
  public:
-  explicit ReadingClient(std::uint16_t port) {
-    ws_.next_layer().connect({net::ip::make_address("127.0.0.1"), port});
-    ws_.handshake("127.0.0.1", "/ws");
+  explicit ReadingClient(std::uint16_t port) : client_(port, 0.0) {
     thread_ = std::thread([this] {
-      boost::beast::flat_buffer buffer;
-      boost::beast::error_code ec;
-      while (!ec) {
-        ws_.read(buffer, ec);
-        buffer.consume(buffer.size());
-        ++messages_;
+      try {
+        for (;;) {
+          client_.Read();
+          ++messages_;
+        }
+      } catch (const std::runtime_error&) {
       }
     });
   }
   ~ReadingClient() {
-    boost::beast::error_code ec;
-    ws_.next_layer().shutdown(net::ip::tcp::socket::shutdown_both, ec);
+    client_.Disconnect();
     thread_.join();
   }
   long messages() const { return messages_; }
 
  private:
-  net::io_context io_;
-  websocket::stream<net::ip::tcp::socket> ws_{io_};
+  testing::WebSocketClient client_;
   std::thread thread_;
   std::atomic<long> messages_{0};
 };

@@ -64,9 +64,15 @@ function(tac3d_add_test)
     ENVIRONMENT "OMP_WAIT_POLICY=PASSIVE")
 endfunction()
 
-# tac3d_add_benchmark(NAME <x> SRCS ... DEPS ...)
+# tac3d_add_benchmark(NAME <x> SRCS ... DEPS ...): compiled as the libraries are (-O3,
+# position-independent rather than PIE code, which links into the executable all the same), so
+# it reuses their precompiled headers.
 function(tac3d_add_benchmark)
   cmake_parse_arguments(ARG "" "NAME" "SRCS;DEPS" ${ARGN})
-  add_executable(bench_${ARG_NAME} ${ARG_SRCS})
-  target_link_libraries(bench_${ARG_NAME} PRIVATE ${ARG_DEPS} benchmark::benchmark)
+  set(target bench_${ARG_NAME})
+  add_executable(${target} ${ARG_SRCS})
+  target_link_libraries(${target} PRIVATE ${ARG_DEPS} benchmark::benchmark)
+  set_target_properties(${target} PROPERTIES POSITION_INDEPENDENT_CODE OFF)
+  target_compile_options(${target} PRIVATE -fPIC)
+  tac3d_reuse_precompiled_headers(${target} library)
 endfunction()

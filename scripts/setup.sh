@@ -5,7 +5,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 packages=(
-  cmake g++ make pkg-config
+  cmake g++ make ninja-build pkg-config
   libopencv-dev libeigen3-dev libsuitesparse-dev libopenblas-dev
   libyaml-cpp-dev nlohmann-json3-dev libfmt-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev
@@ -32,5 +32,12 @@ fi
 
 build_dir=${BUILD_DIR:-build}
 jobs=${JOBS:-$(nproc)}
-cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release
+# A new build folder gets Ninja (it starts a target's compiles before the targets it links are
+# done, which keeps both cores busy); an existing one keeps its generator, as does a
+# CMAKE_GENERATOR set by the caller.
+generator=()
+if [ ! -f "$build_dir/CMakeCache.txt" ] && [ -z "${CMAKE_GENERATOR:-}" ]; then
+  generator=(-G Ninja)
+fi
+cmake -S . -B "$build_dir" "${generator[@]}" -DCMAKE_BUILD_TYPE=Release
 cmake --build "$build_dir" -j "$jobs"

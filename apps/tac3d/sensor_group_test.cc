@@ -19,7 +19,7 @@
 
 #include "run_file.h"
 #include "tac3d/dataset/twin_dataset.h"
-#include "tac3d/force/synthetic_compliance.h"
+#include "tac3d/force/test_compliance.h"
 #include "tac3d/protocol/client.h"
 #include "tac3d/sensor/default_sensor.h"
 #include "tac3d/sensor/test_sensor.h"
@@ -73,7 +73,7 @@ const std::string& Dataset() {
 ModelLoader SyntheticModel() {
   return [](const SensorConfig& config) {
     auto model = std::make_shared<fem::ComplianceModel>();
-    model->h = CalcSyntheticCompliance({}).h;
+    model->h = testing::DefaultSyntheticCompliance();
     model->marker_positions = config.MarkerPositions();
     return std::shared_ptr<const fem::ComplianceModel>(model);
   };

@@ -7,7 +7,7 @@
 
 #include "tac3d/calib/dot_grid_detector.h"
 #include "tac3d/design/light_path_design.h"
-#include "tac3d/force/synthetic_compliance.h"
+#include "tac3d/force/test_compliance.h"
 #include "tac3d/pipeline/pipeline.h"
 #include "tac3d/sensor/test_sensor.h"
 #include "tac3d/testing/testing.h"
@@ -265,10 +265,9 @@ struct SpreadErrors {
 };
 
 SpreadErrors MarkerErrorsThrough(const SensorConfig& truth, const SensorConfig& pipeline_config) {
-  static const Eigen::MatrixXd h = CalcSyntheticCompliance({}).h;
   PipelineOptions options;
   options.reference_frames = 3;
-  Pipeline pipeline(pipeline_config, h, DefaultSensor().MarkerPositions(), options);
+  Pipeline pipeline(pipeline_config, testing::DefaultSyntheticCompliance(), DefaultSensor().MarkerPositions(), options);
   const MarkerImageRenderer renderer(truth);
   const std::vector<Eigen::Vector3d> rest = DefaultSensor().MarkerPositions();
   std::vector<Eigen::Vector3d> dented = rest;

@@ -7,7 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "tac3d/design/light_path_design.h"
-#include "tac3d/force/synthetic_compliance.h"
+#include "tac3d/force/test_compliance.h"
 #include "tac3d/sensor/test_sensor.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/twin/camera_renderer.h"
@@ -21,13 +21,9 @@ namespace tac3d {
 namespace {
 
 using testing::DefaultSensor;
+using testing::DefaultSyntheticCompliance;
 
 using ::testing::HasSubstr;
-
-const Eigen::MatrixXd& H() {
-  static const Eigen::MatrixXd h = CalcSyntheticCompliance({}).h;
-  return h;
-}
 
 // A Gaussian press (sigma 2 mm about (2, -1) mm) of total force `total_n` on the rest grid.
 std::vector<Eigen::Vector3d> PressForces(const Eigen::Vector3d& total_n) {
@@ -61,7 +57,7 @@ std::string WriteDataset(const std::string& name, int reference, const std::vect
     for (int i = 0; i < n; ++i) {
       for (int a = 0; a < 3; ++a) f[a * n + i] = step.marker_forces_n[i][a];
     }
-    const Eigen::VectorXd d = H() * f;
+    const Eigen::VectorXd d = DefaultSyntheticCompliance() * f;
     for (int i = 0; i < n; ++i) {
       const Eigen::Vector3d p = rest[i] + Eigen::Vector3d(d[i], d[n + i], d[2 * n + i]);
       step.marker_positions_mm.push_back(p);
@@ -76,7 +72,7 @@ std::string WriteDataset(const std::string& name, int reference, const std::vect
   return dir;
 }
 
-ReplayOptions FiveReferenceFrames() {
+ReplayOptions ReplayWithFiveReferenceFrames() {
   ReplayOptions options;
   options.pipeline.reference_frames = 5;
   return options;
@@ -87,8 +83,8 @@ TEST(ReplayEvaluation, RecoversTheTruthOfASyntheticDatasetAndItsGains) {
   const TwinDatasetReader dataset(WriteDataset("press", 5, loads));
   const SensorConfig sensor = DatasetSensor(dataset);
   int calls = 0;
-  const ReplayResult r = ReplayTwinDataset(dataset, sensor, H(), DefaultSensor().MarkerPositions(),
-                                           FiveReferenceFrames(), [&calls](int done, int all) {
+  const ReplayResult r = ReplayTwinDataset(dataset, sensor, DefaultSyntheticCompliance(), DefaultSensor().MarkerPositions(),
+                                           ReplayWithFiveReferenceFrames(), [&calls](int done, int all) {
                                              ++calls;
                                              EXPECT_EQ(all, 9);
                                              EXPECT_EQ(done, calls);
@@ -111,7 +107,7 @@ TEST(ReplayEvaluation, RecoversTheTruthOfASyntheticDatasetAndItsGains) {
   EXPECT_LT(s.displacement_rmse_mm, 0.01);
   EXPECT_LT(s.position_rmse_mm, 0.05);
   EXPECT_GT(s.contact_agreement, 0.8);
-  EXPECT_TRUE(ToJson(s, FiveReferenceFrames()).at("all_pass").get<bool>());
+  EXPECT_TRUE(ToJson(s, ReplayWithFiveReferenceFrames()).at("all_pass").get<bool>());
 
   // Pairs over the loaded frames fit unit gains; doubled gains are seen in the pairs'
   // measured side as the unit-gain resultant again.
@@ -121,9 +117,9 @@ TEST(ReplayEvaluation, RecoversTheTruthOfASyntheticDatasetAndItsGains) {
   const ForceGainFit fit = FitForceGains(ParseForcePairs(ForcePairsToCsv(pairs)));
   EXPECT_THAT(fit.gains, EigenNear(Eigen::Vector3d::Ones(), 0.05));
 
-  ReplayOptions doubled = FiveReferenceFrames();
+  ReplayOptions doubled = ReplayWithFiveReferenceFrames();
   doubled.pipeline.force.gains = {1, 1, 2};
-  const ReplayResult off = ReplayTwinDataset(dataset, sensor, H(), DefaultSensor().MarkerPositions(), doubled);
+  const ReplayResult off = ReplayTwinDataset(dataset, sensor, DefaultSyntheticCompliance(), DefaultSensor().MarkerPositions(), doubled);
   EXPECT_NEAR(off.frames[3].measured_force_n.z(), 2 * r.frames[3].measured_force_n.z(), 1e-9);
   EXPECT_GT(off.summary.force_error_max_pct_fs.z(), 40.0);  // 4.5 N too much of 10 N
   EXPECT_EQ(off.summary.worst_force_step, 8);
@@ -139,13 +135,13 @@ TEST(ReplayEvaluation, RecoversTheTruthOfASyntheticDatasetAndItsGains) {
 TEST(ReplayEvaluation, RefusesADatasetLoadedDuringTheReference) {
   const TwinDatasetReader dataset(WriteDataset("early", 3, {{0, 0, -2}, {0, 0, -2}, {0, 0, -2}}));
   try {
-    ReplayTwinDataset(dataset, DefaultSensor(), H(), DefaultSensor().MarkerPositions(), FiveReferenceFrames());
+    ReplayTwinDataset(dataset, DefaultSensor(), DefaultSyntheticCompliance(), DefaultSensor().MarkerPositions(), ReplayWithFiveReferenceFrames());
     FAIL() << "a dataset loaded at step 3 of a 5-frame reference was replayed";
   } catch (const Error& e) {
     EXPECT_THAT(e.what(), HasSubstr("step 3 carries a force of 2 N"));
     EXPECT_THAT(e.what(), HasSubstr("first 5 steps"));
   }
-  ReplayOptions too_short = FiveReferenceFrames();
+  ReplayOptions too_short = ReplayWithFiveReferenceFrames();
   too_short.max_steps = 5;
   EXPECT_THROW(too_short.Validate(), Error);
 }
@@ -157,12 +153,12 @@ TEST(ReplayEvaluation, RefusesADatasetLoadedDuringTheReference) {
 TEST(ConditionsEvaluation, EachNuisanceAndAllTogetherHoldTheBoundsOnlyWithTheDriftHandled) {
   const TwinDatasetReader dataset(WriteDataset("conditions", 5, {{0.4, 0, -1.5}, {0.8, -0.3, -3}, {-0.5, 0.6, -4.5}}));
   ConditionsEvaluationOptions options;
-  options.replay = FiveReferenceFrames();
+  options.replay = ReplayWithFiveReferenceFrames();
   options.replay.pipeline.drift.mode = DriftMode::kRezero;
   options.levels.session_s = 60.0;  // the 0.02 mm creep 10 x faster than over 10 minutes
   options.rest_frame_s = 2.0;
   options.calibration_views = 8;
-  const ConditionsEvaluation e = EvaluateConditions(dataset, DefaultSensor(), H(), DefaultSensor().MarkerPositions(), options);
+  const ConditionsEvaluation e = EvaluateConditions(dataset, DefaultSensor(), DefaultSyntheticCompliance(), DefaultSensor().MarkerPositions(), options);
   ASSERT_EQ(e.cases.size(), 9u);  // nominal, six nuisances, all, spread
   for (const ConditionsCase& c : e.cases) {
     const ReplaySummary& s = c.summary;
@@ -180,7 +176,7 @@ TEST(ConditionsEvaluation, EachNuisanceAndAllTogetherHoldTheBoundsOnlyWithTheDri
   ConditionsEvaluationOptions untracked = options;
   untracked.replay.pipeline.drift.mode = DriftMode::kFlag;
   untracked.spread = false;
-  const ConditionsEvaluation raw = EvaluateConditions(dataset, DefaultSensor(), H(), DefaultSensor().MarkerPositions(), untracked);
+  const ConditionsEvaluation raw = EvaluateConditions(dataset, DefaultSensor(), DefaultSyntheticCompliance(), DefaultSensor().MarkerPositions(), untracked);
   const ConditionsCase& creep = raw.cases[6];
   ASSERT_EQ(creep.name, "creep");
   std::printf("creep flagged, not re-zeroed: displacement RMSE %.4f mm, Fz error %.2f %% FS, drift_at_rest on %d of 3 frames\n",

@@ -23,13 +23,13 @@ using testing::LoadNpy;
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-constexpr int kRows = 4, kCols = 5, kMarkers = kRows * kCols;
+constexpr int kExportRows = 4, kExportCols = 5, kExportMarkers = kExportRows * kExportCols;
 
 // Frame t of the test recording: synthetic 4 x 5, the lost marker's position and
 // displacement NaN (as the pipeline leaves them), some flags, progress 50 on frame 0.
 TactileFrame ExportFrame(int t) {
-  TactileFrame f = MakeSyntheticTactileFrame("AD2-0065L", 100 + t, kRows, kCols);
-  const std::size_t lost = static_cast<std::size_t>(f.index % kMarkers);
+  TactileFrame f = MakeSyntheticTactileFrame("AD2-0065L", 100 + t, kExportRows, kExportCols);
+  const std::size_t lost = static_cast<std::size_t>(f.index % kExportMarkers);
   f.positions_mm[lost] = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
   f.displacements_mm[lost] = f.positions_mm[lost];
   if (t == 0) {
@@ -57,12 +57,12 @@ void ExpectVectors(const testing::NpyArray& a,
                    const char* name) {
   EXPECT_EQ(a.descr, "<f8") << name;
   EXPECT_FALSE(a.fortran_order) << name;
-  ASSERT_EQ(a.shape, (std::vector<std::int64_t>{frames, kMarkers, 3})) << name;
+  ASSERT_EQ(a.shape, (std::vector<std::int64_t>{frames, kExportMarkers, 3})) << name;
   for (int t = 0; t < frames; ++t) {
     const TactileFrame f = ExportFrame(t);
-    for (int i = 0; i < kMarkers; ++i) {
+    for (int i = 0; i < kExportMarkers; ++i) {
       for (int k = 0; k < 3; ++k) {
-        ASSERT_TRUE(Same(a.at<double>((t * kMarkers + i) * 3 + k), (f.*field)[i][k]))
+        ASSERT_TRUE(Same(a.at<double>((t * kExportMarkers + i) * 3 + k), (f.*field)[i][k]))
             << name << "[" << t << "][" << i << "][" << k << "]";
       }
     }
@@ -95,8 +95,8 @@ TEST(RecordingExport, NpyHoldsEveryFieldExactly) {
   const std::string rec = WriteRecording(dir + "/rec.tac3d", 7);
   const RecordingExportResult result = ExportRecording(rec, dir + "/out");
   EXPECT_EQ(result.frames, 7);
-  EXPECT_EQ(result.rows, kRows);
-  EXPECT_EQ(result.cols, kCols);
+  EXPECT_EQ(result.rows, kExportRows);
+  EXPECT_EQ(result.cols, kExportCols);
   EXPECT_EQ(result.status, RecordingStatus::kComplete);
   ASSERT_EQ(result.files.size(), 12u);
   auto names = RecordingExportFileNames(RecordingExportFormat::kNpy);
@@ -112,8 +112,8 @@ TEST(RecordingExport, NpyHoldsEveryFieldExactly) {
   const auto valid = LoadNpy(out + "valid.npy");
   const auto contact = LoadNpy(out + "contact.npy");
   EXPECT_EQ(valid.descr, "|b1");
-  EXPECT_EQ(valid.shape, (std::vector<std::int64_t>{7, kMarkers}));
-  EXPECT_EQ(contact.shape, (std::vector<std::int64_t>{7, kMarkers}));
+  EXPECT_EQ(valid.shape, (std::vector<std::int64_t>{7, kExportMarkers}));
+  EXPECT_EQ(contact.shape, (std::vector<std::int64_t>{7, kExportMarkers}));
   const auto timestamp = LoadNpy(out + "timestamp_s.npy");
   const auto index = LoadNpy(out + "index.npy");
   const auto flags = LoadNpy(out + "flags.npy");
@@ -131,9 +131,9 @@ TEST(RecordingExport, NpyHoldsEveryFieldExactly) {
   EXPECT_EQ(moment.shape, (std::vector<std::int64_t>{7, 3}));
   for (int t = 0; t < 7; ++t) {
     const TactileFrame f = ExportFrame(t);
-    for (int i = 0; i < kMarkers; ++i) {
-      EXPECT_EQ(valid.data[t * kMarkers + i], f.valid[i] ? 1 : 0) << t << " " << i;
-      EXPECT_EQ(contact.data[t * kMarkers + i], f.contact[i] ? 1 : 0) << t << " " << i;
+    for (int i = 0; i < kExportMarkers; ++i) {
+      EXPECT_EQ(valid.data[t * kExportMarkers + i], f.valid[i] ? 1 : 0) << t << " " << i;
+      EXPECT_EQ(contact.data[t * kExportMarkers + i], f.contact[i] ? 1 : 0) << t << " " << i;
     }
     EXPECT_EQ(timestamp.at<double>(t), f.timestamp_s);
     EXPECT_EQ(index.at<std::int64_t>(t), f.index);
@@ -171,7 +171,7 @@ TEST(RecordingExport, CsvHasOneRowPerFrameAndPerFrameAndMarker) {
   EXPECT_EQ(f0[3], "AD2-0065L");
   EXPECT_EQ(f0[6], "50");
   EXPECT_EQ(f0[8], "markers_lost initializing");
-  EXPECT_EQ(f0[9], std::to_string(kMarkers - 1));
+  EXPECT_EQ(f0[9], std::to_string(kExportMarkers - 1));
   EXPECT_EQ(f0[11], "6");  // image 6 x 8 on even frames
   EXPECT_EQ(Split(frames[2])[11], "0");
   for (int k = 0; k < 3; ++k) {
@@ -180,13 +180,13 @@ TEST(RecordingExport, CsvHasOneRowPerFrameAndPerFrameAndMarker) {
   }
 
   const auto markers = Lines(dir + "/csv/markers.csv");
-  ASSERT_EQ(markers.size(), 1u + 3 * kMarkers);
+  ASSERT_EQ(markers.size(), 1u + 3 * kExportMarkers);
   EXPECT_EQ(markers[0],
             "frame,index,timestamp_s,marker,row,col,valid,contact,x_mm,y_mm,z_mm,dx_mm,dy_mm,"
             "dz_mm,fx_n,fy_n,fz_n,nx,ny,nz");
   // Frame 2, marker 13 (row 2, col 3); and frame 2's lost marker, NaN where the pipeline leaves it.
   const TactileFrame f2 = ExportFrame(2);
-  const auto m = Split(markers[1 + 2 * kMarkers + 13]);
+  const auto m = Split(markers[1 + 2 * kExportMarkers + 13]);
   ASSERT_EQ(m.size(), 20u);
   EXPECT_EQ(m[0], "2");
   EXPECT_EQ(m[1], "102");
@@ -201,8 +201,8 @@ TEST(RecordingExport, CsvHasOneRowPerFrameAndPerFrameAndMarker) {
     EXPECT_EQ(std::stod(m[14 + k]), f2.forces_n[13][k]);
     EXPECT_EQ(std::stod(m[17 + k]), f2.normals[13][k]);
   }
-  const int lost = static_cast<int>(f2.index % kMarkers);
-  const auto l = Split(markers[1 + 2 * kMarkers + lost]);
+  const int lost = static_cast<int>(f2.index % kExportMarkers);
+  const auto l = Split(markers[1 + 2 * kExportMarkers + lost]);
   EXPECT_EQ(l[6], "0");
   EXPECT_EQ(l[8], "nan");
 }
@@ -222,7 +222,7 @@ TEST(RecordingExport, TruncatedRecordingExportsItsGoodFrames) {
   EXPECT_EQ(result.status, RecordingStatus::kTruncated);
   EXPECT_THAT(result.message, HasSubstr("truncated after 4 frames"));
   EXPECT_EQ(LoadNpy(dir + "/out/positions_mm.npy").shape,
-            (std::vector<std::int64_t>{4, kMarkers, 3}));
+            (std::vector<std::int64_t>{4, kExportMarkers, 3}));
   EXPECT_EQ(LoadNpy(dir + "/out/index.npy").at<std::int64_t>(3), 103);
 }
 
@@ -337,7 +337,7 @@ assert np.array_equal(rows[:, 17:20], nn.reshape(-1, 3))
 assert np.array_equal(rows[:, 6].astype(bool), v.reshape(-1))
 print('numpy', np.__version__, 'ok')
 )",
-      fmt::arg("n", kMarkers),
+      fmt::arg("n", kExportMarkers),
       fmt::arg("m", m),
       fmt::arg("t3", f3.timestamp_s),
       fmt::arg("fl0", ExportFrame(0).flags),

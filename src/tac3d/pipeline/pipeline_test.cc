@@ -6,7 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "tac3d/design/light_path_design.h"
-#include "tac3d/force/synthetic_compliance.h"
+#include "tac3d/force/test_compliance.h"
 #include "tac3d/sensor/test_sensor.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/twin/camera_renderer.h"
@@ -20,11 +20,7 @@ namespace tac3d {
 namespace {
 
 using testing::DefaultSensor;
-
-const Eigen::MatrixXd& H() {
-  static const Eigen::MatrixXd h = CalcSyntheticCompliance({}).h;
-  return h;
-}
+using testing::DefaultSyntheticCompliance;
 
 // A smooth press: 3 N into the body and 0.8 N along +x, Gaussian (sigma 2 mm) about (2, -1) mm.
 Eigen::VectorXd TrueForces() {
@@ -48,7 +44,7 @@ struct TwinStream {
   double frame_s = 0.01;  ///< time between frames
 
   explicit TwinStream(PipelineOptions options = {})
-      : pipeline(DefaultSensor(), H(), DefaultSensor().MarkerPositions(), options),
+      : pipeline(DefaultSensor(), DefaultSyntheticCompliance(), DefaultSensor().MarkerPositions(), options),
         renderer(DefaultSensor()) {}
 
   double time_s() const { return frame_s * index; }
@@ -95,7 +91,7 @@ TEST(Pipeline, InitialisesThenRecoversAKnownForceDistribution) {
   EXPECT_LT(run.pipeline.noise_variance()->maxCoeff(), 1e-4);  // sigma below 0.01 mm
 
   const Eigen::VectorXd f_true = TrueForces();
-  const Eigen::VectorXd d_true = H() * f_true;
+  const Eigen::VectorXd d_true = DefaultSyntheticCompliance() * f_true;
   const int n = static_cast<int>(rest.size());
   std::vector<Eigen::Vector3d> pressed = rest;
   for (int i = 0; i < n; ++i) pressed[i] += Eigen::Vector3d(d_true[i], d_true[n + i], d_true[2 * n + i]);
@@ -214,10 +210,10 @@ TEST(Pipeline, BadInputAndMismatchedModelsAreErrors) {
   EXPECT_THROW(run.pipeline.Process(Frame{}, out), Error);
   std::vector<Eigen::Vector3d> elsewhere = DefaultSensor().MarkerPositions();
   elsewhere[7].z() += 0.1;
-  EXPECT_THROW(Pipeline(DefaultSensor(), H(), elsewhere), Error);
+  EXPECT_THROW(Pipeline(DefaultSensor(), DefaultSyntheticCompliance(), elsewhere), Error);
   PipelineOptions bad;
   bad.reference_frames = 1;
-  EXPECT_THROW(Pipeline(DefaultSensor(), H(), DefaultSensor().MarkerPositions(), bad), Error);
+  EXPECT_THROW(Pipeline(DefaultSensor(), DefaultSyntheticCompliance(), DefaultSensor().MarkerPositions(), bad), Error);
 }
 
 }  // namespace
@@ -252,7 +248,7 @@ TEST(Pipeline, EveryFrameCarriesTheSlipStateAndGrossSlipsMu) {
     EXPECT_TRUE(std::isnan(f.slip.friction));
   }
   constexpr double kMu = 0.4;
-  const Eigen::VectorXd d = H() * SlidingForces(kMu);
+  const Eigen::VectorXd d = DefaultSyntheticCompliance() * SlidingForces(kMu);
   const int n = static_cast<int>(rest.size());
   std::vector<Eigen::Vector3d> pressed = rest;
   for (int i = 0; i < n; ++i) pressed[i] += Eigen::Vector3d(d[i], d[n + i], d[2 * n + i]);
@@ -278,7 +274,7 @@ namespace {
 // The markers of TrueForces' press, and their true displacements.
 std::vector<Eigen::Vector3d> PressedMarkers(std::vector<Eigen::Vector3d>* displacements) {
   const std::vector<Eigen::Vector3d> rest = DefaultSensor().MarkerPositions();
-  const Eigen::VectorXd d = H() * TrueForces();
+  const Eigen::VectorXd d = DefaultSyntheticCompliance() * TrueForces();
   const int n = static_cast<int>(rest.size());
   std::vector<Eigen::Vector3d> pressed = rest;
   displacements->resize(n);

@@ -41,7 +41,7 @@ std::vector<ReferenceSample> MakeLog() {
 constexpr double kOffsetS = 2.3456;      // recording time = reference time + this
 constexpr double kSensorScale = 0.9;     // the sensor reads 10% low with unit gains
 const Eigen::Vector3d kGainsUsed(1.1, 1.2, 0.95);
-constexpr int kRows = 3, kCols = 4;
+constexpr int kLogRows = 3, kLogCols = 4;
 
 // A recording at 30 fps of a sensor whose resultant is kSensorScale x the force (times the
 // gains it was run with) and whose displacements are a fixed pattern times the force.
@@ -50,12 +50,12 @@ std::string WriteRecording(const std::string& dir, const std::function<void(Tact
   const std::string path = dir + "/session.t3r";
   RecordingWriter writer(path);
   for (int k = 0; k < 540; ++k) {
-    TactileFrame frame = TactileFrame::Sized(kRows, kCols);
+    TactileFrame frame = TactileFrame::Sized(kLogRows, kLogCols);
     frame.index = k;
     frame.timestamp_s = kOffsetS + 0.2 + k / 30.0;
     const Eigen::Vector3d force = TrueForce(frame.timestamp_s - kOffsetS);
     frame.resultant_force_n = kSensorScale * force.cwiseProduct(kGainsUsed);
-    for (int i = 0; i < kRows * kCols; ++i) {
+    for (int i = 0; i < kLogRows * kLogCols; ++i) {
       frame.displacements_mm[i] = 0.01 * (i + 1) * force;
     }
     damage(&frame);
@@ -91,8 +91,8 @@ TEST(JoinRecordingWithReference, FindsTheOffsetAndPairsTheSteadyPresses) {
     EXPECT_LT((join.pairs[k].measured_n - kSensorScale * TrueForce(t)).norm(), 1e-9);
     // Displacements in the presses' order: dx of every marker, then dy, then dz.
     const Eigen::VectorXd& d = join.presses[k].displacement_mm;
-    ASSERT_EQ(d.size(), 3 * kRows * kCols);
-    EXPECT_NEAR(d(kRows * kCols + 2), 0.03 * TrueForce(t).y(), 1e-12);
+    ASSERT_EQ(d.size(), 3 * kLogRows * kLogCols);
+    EXPECT_NEAR(d(kLogRows * kLogCols + 2), 0.03 * TrueForce(t).y(), 1e-12);
   }
   // The gains the pairs give undo the sensor's 10% shortfall.
   const ForceGainFit fit = FitForceGains(join.pairs);

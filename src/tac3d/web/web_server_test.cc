@@ -21,9 +21,6 @@
 #include <map>
 #include <thread>
 
-#include <boost/asio.hpp>
-#include <boost/beast/core.hpp>
-#include <boost/beast/websocket.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "tac3d/frame/synthetic_frame.h"
@@ -31,14 +28,12 @@
 #include "tac3d/testing/testing.h"
 #include "tac3d/tracking/marker_tracker.h"
 #include "tac3d/util/error.h"
+#include "tac3d/web/test_websocket_client.h"
 
 namespace tac3d {
 namespace {
 
 namespace fs = std::filesystem;
-namespace net = boost::asio;
-namespace websocket = boost::beast::websocket;
-using tcp = net::ip::tcp;
 using Clock = std::chrono::steady_clock;
 
 // A page folder with index.html and app.js, and a secret file beside (outside) it.
@@ -224,20 +219,7 @@ TEST(WebServer, SurvivesFuzzedRequests) {
   EXPECT_GT(server.stats().bad_requests, 50);
 }
 
-// A synchronous WebSocket client (Beast) for the tests.
-struct WsClient {
-  net::io_context io;
-  websocket::stream<tcp::socket> ws{io};
-  explicit WsClient(std::uint16_t port) {
-    ws.next_layer().connect(tcp::endpoint(net::ip::make_address("127.0.0.1"), port));
-    ws.handshake("127.0.0.1", "/ws");
-  }
-  std::string Read() {
-    boost::beast::flat_buffer buffer;
-    ws.read(buffer);
-    return boost::beast::buffers_to_string(buffer.data());
-  }
-};
+using testing::WebSocketClient;
 
 bool WaitFor(const std::function<bool()>& condition, double seconds = 5.0) {
   const Clock::time_point end = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
@@ -251,7 +233,7 @@ bool WaitFor(const std::function<bool()>& condition, double seconds = 5.0) {
 TEST(WebServer, StreamsThePublishedFrame) {
   PageDir page;
   WebServer server(Options(page.root));
-  WsClient client(server.port());
+  WebSocketClient client(server.port());
   ASSERT_TRUE(WaitFor([&] { return server.stats().clients == 1; }));
   const TactileFrame frame = MakeSyntheticTactileFrame("SN-A", 42);
   server.Publish(frame);
@@ -270,11 +252,11 @@ TEST(WebServer, StreamsThePublishedFrame) {
 TEST(WebServer, LateClientGetsTheLastFrame) {
   PageDir page;
   WebServer server(Options(page.root));
-  WsClient first(server.port());
+  WebSocketClient first(server.port());
   ASSERT_TRUE(WaitFor([&] { return server.stats().clients == 1; }));
   server.Publish(MakeSyntheticTactileFrame("SN-A", 9));
   EXPECT_NE(first.Read().find("\"index\":9"), std::string::npos);
-  WsClient late(server.port());
+  WebSocketClient late(server.port());
   EXPECT_NE(late.Read().find("\"index\":9"), std::string::npos);
 }
 
@@ -283,7 +265,7 @@ TEST(WebServer, SendsEachSensorsLatestFrameAndImages) {
   WebServerOptions options = Options(page.root);
   options.image_hz = 30;
   WebServer server(options);
-  WsClient client(server.port());
+  WebSocketClient client(server.port());
   ASSERT_TRUE(WaitFor([&] { return server.stats().clients == 1; }));
   cv::Mat image(480, 640, CV_8UC1, cv::Scalar(128));
   server.Publish(MakeSyntheticTactileFrame("LEFT", 1), image);
@@ -328,12 +310,12 @@ TEST(WebServer, ZeroRequestReachesTheCaller) {
   PageDir page;
   WebServer server(Options(page.root));
   EXPECT_FALSE(server.TakeZeroRequest("A"));
-  WsClient client(server.port());
-  client.ws.write(net::buffer(std::string("zero")));
+  WebSocketClient client(server.port());
+  client.Write("zero");
   EXPECT_TRUE(WaitFor([&] { return server.TakeZeroRequest("A"); }));
   EXPECT_FALSE(server.TakeZeroRequest("A"));  // once per request
   EXPECT_TRUE(server.TakeZeroRequest("B"));   // "zero" asks every sensor
-  client.ws.write(net::buffer(std::string("something else")));
+  client.Write("something else");
   std::this_thread::sleep_for(std::chrono::milliseconds(50));
   EXPECT_FALSE(server.TakeZeroRequest("A"));
 }
@@ -365,9 +347,9 @@ TEST(WebServer, ZeroRequestForOneSensorReachesOnlyIt) {
   WebServer server(Options(page.root));
   server.Publish(MakeSyntheticTactileFrame("A", 0));
   server.Publish(MakeSyntheticTactileFrame("B", 0));
-  WsClient client(server.port());
-  client.ws.write(net::buffer(std::string("zero C")));  // never published: ignored
-  client.ws.write(net::buffer(std::string("zero B")));
+  WebSocketClient client(server.port());
+  client.Write("zero C");  // never published: ignored
+  client.Write("zero B");
   EXPECT_TRUE(WaitFor([&] { return server.TakeZeroRequest("B"); }));
   EXPECT_FALSE(server.TakeZeroRequest("B"));
   EXPECT_FALSE(server.TakeZeroRequest("A"));
@@ -387,7 +369,7 @@ TEST(WebServer, StalledClientDoesNotBlockPublishing) {
   stalled.Send("GET /ws HTTP/1.1\r\nHost: x\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
                "Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n");
   ASSERT_TRUE(WaitFor([&] { return server.stats().clients == 1; }));
-  WsClient reader(server.port());
+  WebSocketClient reader(server.port());
   ASSERT_TRUE(WaitFor([&] { return server.stats().clients == 2; }));
   std::atomic<int> received{0};
   std::thread reading([&] {
@@ -414,7 +396,7 @@ TEST(WebServer, StalledClientDoesNotBlockPublishing) {
   EXPECT_EQ(server.stats().clients_dropped, 1);
   // The dropped session leaves once its cancelled operations have completed.
   EXPECT_TRUE(WaitFor([&] { return server.stats().clients == 1; })) << server.stats().clients;
-  reader.ws.next_layer().close();
+  reader.Disconnect();
   reading.join();
 }
 
@@ -434,7 +416,7 @@ TEST(WebServer, SurvivesFuzzedWebSocketFrames) {
     client.ReadAll();
   }
   ASSERT_TRUE(WaitFor([&] { return server.stats().clients == 0; }));
-  WsClient good(server.port());
+  WebSocketClient good(server.port());
   server.Publish(MakeSyntheticTactileFrame("SN", 7));
   EXPECT_NE(good.Read().find("\"index\":7"), std::string::npos);
   EXPECT_EQ(Status(Get(server.port(), "/")), 200);
@@ -460,12 +442,12 @@ TEST(WebServer, FiftyClientsComeAndGoWhilePublishing) {
   for (int c = 0; c < 50; ++c) {
     clients.emplace_back([&, c] {
       for (int round = 0; round < 3; ++round) {
-        WsClient client(server.port());
+        WebSocketClient client(server.port());
         if (client.Read().find("\"type\":\"frame\"") != std::string::npos) ++got_frame;
         if ((c + round) % 2 == 0) {
-          client.ws.close(websocket::close_code::normal);
+          client.Close();
         } else {
-          client.ws.next_layer().close();  // gone without a close frame
+          client.Disconnect();  // gone without a close frame
         }
       }
     });
@@ -564,7 +546,7 @@ TEST(WebServer, DrawsTheTrackedMarkersOnThePublishedImage) {
   WebServerOptions options = Options(page.root);
   options.image_hz = 30;
   WebServer server(options);
-  WsClient client(server.port());
+  WebSocketClient client(server.port());
   ASSERT_TRUE(WaitFor([&] { return server.stats().clients == 1; }));
   const cv::Mat image(480, 640, CV_8UC1, cv::Scalar(128));
   const MarkerObservation observation = TwoMarkersEachHalf();
