@@ -19,14 +19,16 @@
 #include "tac3d/stereo/marker_field.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/tracking/marker_tracker.h"
-#include "tac3d/twin/camera_renderer.h"
+#include "tac3d/twin/test_renderer.h"
 #include "tac3d/twin/marker_motion.h"
 #include "tac3d/util/error.h"
 
 namespace tac3d {
 namespace {
 
+using testing::DefaultRenderer;
 using testing::DefaultSensor;
+using testing::RenderFilmOnly;
 
 using ::testing::HasSubstr;
 
@@ -35,11 +37,6 @@ using ::testing::HasSubstr;
 // is the position acceptance, taken here as a bound on every marker. A marker
 // mismatched by one pitch would be 1.27 mm off.
 constexpr double kPositionToleranceMm = 0.02;
-
-const MarkerImageRenderer& Renderer() {
-  static const MarkerImageRenderer renderer(DefaultSensor());
-  return renderer;
-}
 
 // The dent (1 mm, 10 mm sphere) on top of its 0.5 mm shear: markers off the grid's
 // rest positions in all three axes.
@@ -63,12 +60,6 @@ std::vector<Eigen::Vector2d> TruePixels(ImageHalf half, const std::vector<Eigen:
   return uv;
 }
 
-// The film without markers, to paint markers out with.
-cv::Mat FilmOnly() {
-  const std::vector<Eigen::Vector3d> away(DefaultSensor().MarkerPositions().size(), Eigen::Vector3d(0, 0, -1000));
-  return Renderer().Render(away, 77);
-}
-
 // Tracks and triangulates frames as the pipeline does.
 class Measurement {
  public:
@@ -90,15 +81,15 @@ class Measurement {
   MarkerField field_;
 };
 
-struct Errors {
+struct PositionErrors {
   int valid = 0;
   double max_mm = 0.0;
   double rms_mm = 0.0;
   int non_finite = 0;  // valid markers with a NaN or infinite position
 };
 
-Errors Compare(const MarkerField& field, const std::vector<Eigen::Vector3d>& truth) {
-  Errors e;
+PositionErrors Compare(const MarkerField& field, const std::vector<Eigen::Vector3d>& truth) {
+  PositionErrors e;
   for (size_t i = 0; i < truth.size(); ++i) {
     if (!field.valid[i]) continue;
     if (!field.positions[i].allFinite()) {
@@ -123,7 +114,7 @@ void ExpectNothingMeasured(const MarkerField& field, const MarkerObservation& ob
 // The nominal case the others are held to: every marker measured.
 TEST(MarkerMeasurementRobustness, DeformedFrameEveryMarkerMeasured) {
   Measurement m;
-  const Errors e = Compare(m.Measure(Renderer().Render(Deformed(), 1)), Deformed());
+  const PositionErrors e = Compare(m.Measure(DefaultRenderer().Render(Deformed(), 1)), Deformed());
   EXPECT_EQ(e.valid, 400);
   EXPECT_LT(e.max_mm, kPositionToleranceMm);
   std::printf("deformed: rms %.4f mm, max %.4f mm\n", e.rms_mm, e.max_mm);
@@ -132,12 +123,12 @@ TEST(MarkerMeasurementRobustness, DeformedFrameEveryMarkerMeasured) {
 // 10% of the markers (40) hidden in both halves, and another 40 in one half only (a marker
 // seen by one virtual camera cannot be triangulated): all 80 invalid, the other 320 measured.
 TEST(MarkerMeasurementRobustness, TenPercentOfMarkersHiddenAreInvalidAndTheRestMeasured) {
-  const cv::Mat film = FilmOnly();
+  const cv::Mat film = RenderFilmOnly();
   std::mt19937 rng(testing::kRandomSeed);
   std::vector<int> order(Deformed().size());
   std::iota(order.begin(), order.end(), 0);
   std::shuffle(order.begin(), order.end(), rng);
-  cv::Mat image = Renderer().Render(Deformed(), 2);
+  cv::Mat image = DefaultRenderer().Render(Deformed(), 2);
   auto hide = [&](ImageHalf half, int i) {
     const Eigen::Vector2d uv = TruePixels(half, {Deformed()[i]})[0];
     cv::Mat mask = cv::Mat::zeros(image.size(), CV_8UC1);
@@ -150,10 +141,10 @@ TEST(MarkerMeasurementRobustness, TenPercentOfMarkersHiddenAreInvalidAndTheRestM
   for (int k = 40; k < 80; ++k) hide(kImageHalves[k % 2], order[k]);
   for (const bool first_frame : {true, false}) {
     Measurement m;
-    if (!first_frame) m.Measure(Renderer().Render(Deformed(), 3));
+    if (!first_frame) m.Measure(DefaultRenderer().Render(Deformed(), 3));
     const MarkerField& field = m.Measure(image);
     for (int k = 0; k < 80; ++k) EXPECT_FALSE(field.valid[order[k]]) << "hidden marker " << order[k];
-    const Errors e = Compare(field, Deformed());
+    const PositionErrors e = Compare(field, Deformed());
     EXPECT_EQ(e.valid, 320) << (first_frame ? "acquisition" : "tracking");
     EXPECT_EQ(e.non_finite, 0);
     EXPECT_LT(e.max_mm, kPositionToleranceMm);
@@ -169,7 +160,7 @@ TEST(MarkerMeasurementRobustness, FiveSpuriousBlobsAreFlaggedAndTheRestMeasured)
                                                                 TruePixels(ImageHalf::kRight, Deformed())};
   std::mt19937 rng(testing::kRandomSeed + 1);
   std::array<std::vector<Eigen::Vector2d>, 2> specks;
-  cv::Mat image = Renderer().Render(Deformed(), 4);
+  cv::Mat image = DefaultRenderer().Render(Deformed(), 4);
   for (int k = 0; k < 5; ++k) {
     const int h = k % 2;
     std::uniform_int_distribution<int> pick(0, static_cast<int>(Deformed().size()) - 2);
@@ -182,7 +173,7 @@ TEST(MarkerMeasurementRobustness, FiveSpuriousBlobsAreFlaggedAndTheRestMeasured)
   for (const bool first_frame : {true, false}) {
     if (!first_frame) {
       m.tracker().Reset();
-      m.Measure(Renderer().Render(Deformed(), 5));
+      m.Measure(DefaultRenderer().Render(Deformed(), 5));
     }
     const MarkerField& field = m.Measure(image);
     int untouched = 0, touched_valid = 0;
@@ -213,12 +204,12 @@ TEST(MarkerMeasurementRobustness, FiveSpuriousBlobsAreFlaggedAndTheRestMeasured)
 
 TEST(MarkerMeasurementRobustness, PureNoiseFrameMeasuresNothingAndTheNextFrameIsMeasured) {
   Measurement m;
-  m.Measure(Renderer().Render(Deformed(), 6));
+  m.Measure(DefaultRenderer().Render(Deformed(), 6));
   cv::Mat noise(480, 640, CV_8UC1);
   cv::RNG rng(testing::kRandomSeed);
   rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
   ExpectNothingMeasured(m.Measure(noise), m.observation());
-  const Errors e = Compare(m.Measure(Renderer().Render(Deformed(), 7)), Deformed());
+  const PositionErrors e = Compare(m.Measure(DefaultRenderer().Render(Deformed(), 7)), Deformed());
   EXPECT_TRUE(m.observation().summary.acquired);
   EXPECT_EQ(e.valid, 400);
   EXPECT_LT(e.max_mm, kPositionToleranceMm);
@@ -228,9 +219,9 @@ TEST(MarkerMeasurementRobustness, BlackFrameMeasuresNothingAndTheNextFrameIsMeas
   Measurement m;
   const cv::Mat black = cv::Mat::zeros(480, 640, CV_8UC1);
   ExpectNothingMeasured(m.Measure(black), m.observation());  // as the first frame
-  EXPECT_EQ(Compare(m.Measure(Renderer().Render(Deformed(), 8)), Deformed()).valid, 400);
+  EXPECT_EQ(Compare(m.Measure(DefaultRenderer().Render(Deformed(), 8)), Deformed()).valid, 400);
   ExpectNothingMeasured(m.Measure(black), m.observation());  // while tracking
-  const Errors e = Compare(m.Measure(Renderer().Render(Deformed(), 9)), Deformed());
+  const PositionErrors e = Compare(m.Measure(DefaultRenderer().Render(Deformed(), 9)), Deformed());
   EXPECT_EQ(e.valid, 400);
   EXPECT_LT(e.max_mm, kPositionToleranceMm);
 }
@@ -239,11 +230,11 @@ TEST(MarkerMeasurementRobustness, BlackFrameMeasuresNothingAndTheNextFrameIsMeas
 // tac3d::Error naming the sizes, and leaves the tracked state as it was.
 TEST(MarkerMeasurementRobustness, ImageOfWrongSizeIsAnErrorAndTrackingGoesOn) {
   Measurement m;
-  m.Measure(Renderer().Render(Deformed(), 10));
+  m.Measure(DefaultRenderer().Render(Deformed(), 10));
   cv::Mat larger;
-  cv::resize(Renderer().Render(Deformed(), 11), larger, cv::Size(800, 600));
+  cv::resize(DefaultRenderer().Render(Deformed(), 11), larger, cv::Size(800, 600));
   for (const cv::Mat& wrong : {larger, cv::Mat(cv::Mat::zeros(480, 320, CV_8UC1)),
-                               cv::Mat(Renderer().Render(Deformed(), 11).t())}) {
+                               cv::Mat(DefaultRenderer().Render(Deformed(), 11).t())}) {
     try {
       m.Measure(wrong);
       ADD_FAILURE() << "a " << wrong.cols << "x" << wrong.rows << " frame was measured";
@@ -251,7 +242,7 @@ TEST(MarkerMeasurementRobustness, ImageOfWrongSizeIsAnErrorAndTrackingGoesOn) {
       EXPECT_THAT(e.what(), HasSubstr("640"));
     }
   }
-  const Errors e = Compare(m.Measure(Renderer().Render(Deformed(), 12)), Deformed());
+  const PositionErrors e = Compare(m.Measure(DefaultRenderer().Render(Deformed(), 12)), Deformed());
   EXPECT_FALSE(m.observation().summary.acquired);  // still tracking
   EXPECT_EQ(e.valid, 400);
   EXPECT_LT(e.max_mm, kPositionToleranceMm);
@@ -263,8 +254,8 @@ TEST(MarkerMeasurementRobustness, ImageOfWrongSizeIsAnErrorAndTrackingGoesOn) {
 TEST(MarkerMeasurementRobustness, CorruptFilesInAnImageFolderAreBadFramesAndTheRestMeasured) {
   const std::string dir = testing::MakeTempDir("corrupt_frames");
   std::vector<std::uint8_t> png;
-  ASSERT_TRUE(cv::imencode(".png", Renderer().Render(Deformed(), 13), png));
-  ASSERT_TRUE(cv::imwrite(dir + "/frame_000.png", Renderer().Render(Deformed(), 14)));
+  ASSERT_TRUE(cv::imencode(".png", DefaultRenderer().Render(Deformed(), 13), png));
+  ASSERT_TRUE(cv::imwrite(dir + "/frame_000.png", DefaultRenderer().Render(Deformed(), 14)));
   auto write = [&](const std::string& name, const std::vector<std::uint8_t>& bytes) {
     std::ofstream(dir + "/" + name, std::ios::binary)
         .write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
@@ -275,7 +266,7 @@ TEST(MarkerMeasurementRobustness, CorruptFilesInAnImageFolderAreBadFramesAndTheR
   write("frame_001.png", garbled);
   write("frame_002.png", std::vector<std::uint8_t>(png.begin(), png.begin() + 20));
   write("frame_003.png", {});
-  ASSERT_TRUE(cv::imwrite(dir + "/frame_004.png", Renderer().Render(Deformed(), 15)));
+  ASSERT_TRUE(cv::imwrite(dir + "/frame_004.png", DefaultRenderer().Render(Deformed(), 15)));
 
   const auto source = OpenFrameSource(dir);
   Measurement m;
@@ -288,7 +279,7 @@ TEST(MarkerMeasurementRobustness, CorruptFilesInAnImageFolderAreBadFramesAndTheR
   }
   ASSERT_EQ(source->Read(frame), ReadStatus::kOk) << source->last_error();
   EXPECT_EQ(frame.index, 4);
-  const Errors e = Compare(m.Measure(frame.image), Deformed());
+  const PositionErrors e = Compare(m.Measure(frame.image), Deformed());
   EXPECT_EQ(e.valid, 400);
   EXPECT_LT(e.max_mm, kPositionToleranceMm);
   EXPECT_EQ(source->Read(frame), ReadStatus::kEnd);
@@ -300,7 +291,7 @@ TEST(MarkerMeasurementRobustness, CorruptFilesInAnImageFolderAreBadFramesAndTheR
 TEST(MarkerMeasurementRobustness, TruncatedJpegIsABadFrame) {
   const std::string dir = testing::MakeTempDir("truncated_jpeg");
   std::vector<std::uint8_t> jpeg;
-  ASSERT_TRUE(cv::imencode(".jpg", Renderer().Render(Deformed(), 16), jpeg, {cv::IMWRITE_JPEG_QUALITY, 98}));
+  ASSERT_TRUE(cv::imencode(".jpg", DefaultRenderer().Render(Deformed(), 16), jpeg, {cv::IMWRITE_JPEG_QUALITY, 98}));
   auto write = [&](const std::string& name, size_t size) {
     std::ofstream(dir + "/" + name, std::ios::binary)
         .write(reinterpret_cast<const char*>(jpeg.data()), static_cast<std::streamsize>(size));
@@ -312,7 +303,7 @@ TEST(MarkerMeasurementRobustness, TruncatedJpegIsABadFrame) {
   Frame frame;
   ASSERT_EQ(source->Read(frame), ReadStatus::kOk) << source->last_error();
   Measurement m;
-  const Errors e = Compare(m.Measure(frame.image), Deformed());
+  const PositionErrors e = Compare(m.Measure(frame.image), Deformed());
   EXPECT_EQ(e.valid, 400);
   EXPECT_LT(e.max_mm, kPositionToleranceMm);
   for (const char* bad : {"frame_001.jpg", "frame_002.jpg"}) {

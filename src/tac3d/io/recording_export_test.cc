@@ -40,7 +40,7 @@ TactileFrame ExportFrame(int t) {
   return f;
 }
 
-std::string WriteRecording(const std::string& path, int frames) {
+std::string WriteExportRecording(const std::string& path, int frames) {
   RecordingWriter writer(path);
   for (int t = 0; t < frames; ++t) {
     writer.Write(ExportFrame(t), t % 2 == 0 ? cv::Mat(6, 8, CV_8UC1, cv::Scalar(t)) : cv::Mat());
@@ -92,7 +92,7 @@ std::vector<std::string> Listing(const std::string& dir) {
 
 TEST(RecordingExport, NpyHoldsEveryFieldExactly) {
   const std::string dir = testing::MakeTempDir("export");
-  const std::string rec = WriteRecording(dir + "/rec.tac3d", 7);
+  const std::string rec = WriteExportRecording(dir + "/rec.tac3d", 7);
   const RecordingExportResult result = ExportRecording(rec, dir + "/out");
   EXPECT_EQ(result.frames, 7);
   EXPECT_EQ(result.rows, kExportRows);
@@ -151,7 +151,7 @@ TEST(RecordingExport, NpyHoldsEveryFieldExactly) {
 
 TEST(RecordingExport, CsvHasOneRowPerFrameAndPerFrameAndMarker) {
   const std::string dir = testing::MakeTempDir("export");
-  const std::string rec = WriteRecording(dir + "/rec.tac3d", 3);
+  const std::string rec = WriteExportRecording(dir + "/rec.tac3d", 3);
   const auto result = ExportRecording(rec, dir + "/csv", {.format = RecordingExportFormat::kCsv});
   EXPECT_EQ(Listing(dir + "/csv"), (std::vector<std::string>{"frames.csv", "markers.csv"}));
   EXPECT_EQ(result.frames, 3);
@@ -209,7 +209,7 @@ TEST(RecordingExport, CsvHasOneRowPerFrameAndPerFrameAndMarker) {
 
 TEST(RecordingExport, TruncatedRecordingExportsItsGoodFrames) {
   const std::string dir = testing::MakeTempDir("export");
-  const std::string rec = WriteRecording(dir + "/rec.tac3d", 6);
+  const std::string rec = WriteExportRecording(dir + "/rec.tac3d", 6);
   std::int64_t cut = 0;
   {
     RecordingReader reader(rec);
@@ -228,7 +228,7 @@ TEST(RecordingExport, TruncatedRecordingExportsItsGoodFrames) {
 
 TEST(RecordingExport, ChecksTheFolderBeforeWritingAndLeavesNoPartialFile) {
   const std::string dir = testing::MakeTempDir("export");
-  const std::string rec = WriteRecording(dir + "/rec.tac3d", 2);
+  const std::string rec = WriteExportRecording(dir + "/rec.tac3d", 2);
   // A file the export would replace: refused, the folder left as it was.
   fs::create_directories(dir + "/out");
   std::ofstream(dir + "/out/flags.npy") << "mine";
@@ -287,7 +287,7 @@ TEST(RecordingExport, NumpyLoadsTheArrays) {
     GTEST_SKIP() << "/usr/bin/python3 with numpy is not installed (apt-get install python3-numpy)";
   }
   const std::string dir = testing::MakeTempDir("numpy");
-  const std::string rec = WriteRecording(dir + "/rec.tac3d", 5);
+  const std::string rec = WriteExportRecording(dir + "/rec.tac3d", 5);
   ExportRecording(rec, dir + "/npy");
   ExportRecording(rec, dir + "/csv", {.format = RecordingExportFormat::kCsv});
   const TactileFrame f3 = ExportFrame(3);

@@ -12,24 +12,21 @@
 #include "tac3d/design/light_path_design.h"
 #include "tac3d/sensor/test_sensor.h"
 #include "tac3d/testing/testing.h"
-#include "tac3d/twin/camera_renderer.h"
+#include "tac3d/twin/test_renderer.h"
 #include "tac3d/util/error.h"
 
 namespace tac3d {
 namespace {
 
+using testing::DefaultRenderer;
 using testing::DefaultSensor;
+using testing::RenderFilmOnly;
 
 // Centroid accuracy on twin frames: the darkness-weighted centroid of a dot's image against
 // the exact ray-traced projection of its centre. The twin's noise (about 3 DN on a film of
 // 150-210 DN) alone moves a centroid by a few hundredths of a pixel; 0.1 px is a fifth of
 // the smallest dot's radius, and a swapped identity would be off by a pitch (>= 9 px).
 constexpr double kCentroidTolerancePx = 0.1;
-
-const MarkerImageRenderer& Renderer() {
-  static const MarkerImageRenderer renderer(DefaultSensor());
-  return renderer;
-}
 
 // The exact pixels of the markers, per half, through a sensor's optics.
 std::array<std::vector<Eigen::Vector2d>, 2> TruePixels(const SensorConfig& sensor,
@@ -42,16 +39,16 @@ std::array<std::vector<Eigen::Vector2d>, 2> TruePixels(const SensorConfig& senso
   return uv;
 }
 
-struct Errors {
+struct PixelErrors {
   int valid = 0;
   double max_px = 0.0;
   double rms_px = 0.0;
 };
 
 // Centroid errors of the valid markers against the truth (over both halves).
-Errors Compare(const MarkerObservation& observation,
+PixelErrors Compare(const MarkerObservation& observation,
                const std::array<std::vector<Eigen::Vector2d>, 2>& truth) {
-  Errors e;
+  PixelErrors e;
   for (int h = 0; h < 2; ++h) {
     const HalfObservation& half = observation.halves[h];
     for (size_t i = 0; i < half.uv.size(); ++i) {
@@ -86,17 +83,11 @@ std::vector<Eigen::Vector3d> Dented(double depth_mm, double sigma_mm) {
   return markers;
 }
 
-// The film without markers (the twin's markers moved behind the camera): paints markers out.
-cv::Mat FilmOnly() {
-  std::vector<Eigen::Vector3d> away(DefaultSensor().MarkerPositions().size(), Eigen::Vector3d(0, 0, -1000));
-  return Renderer().Render(away, 77);
-}
-
 TEST(MarkerTracker, UndeformedFrameEveryMarkerFoundWithinTolerance) {
   const auto markers = DefaultSensor().MarkerPositions();
   MarkerTracker tracker(DefaultSensor());
-  const MarkerObservation observation = tracker.Track(Renderer().Render(markers));
-  const Errors e = Compare(observation, TruePixels(DefaultSensor(), markers));
+  const MarkerObservation observation = tracker.Track(DefaultRenderer().Render(markers));
+  const PixelErrors e = Compare(observation, TruePixels(DefaultSensor(), markers));
   EXPECT_EQ(e.valid, 800);
   EXPECT_EQ(observation.summary.paired_markers, 400);
   EXPECT_TRUE(observation.summary.acquired);
@@ -124,7 +115,7 @@ TEST(MarkerTracker, AcquiresGridOfAMiscalibratedSensor) {
   }
   EXPECT_GT(offset, 4.0);
   const MarkerObservation observation = tracker.Track(renderer.Render(markers));
-  const Errors e = Compare(observation, true_uv);
+  const PixelErrors e = Compare(observation, true_uv);
   EXPECT_EQ(e.valid, 800);
   EXPECT_LT(e.max_px, kCentroidTolerancePx);
   std::printf("miscalibrated by up to %.1f px: rms %.4f px, max %.4f px\n", offset, e.rms_px, e.max_px);
@@ -140,8 +131,8 @@ TEST(MarkerTracker, AcquiresShearedAndDentedFrames) {
   };
   for (const auto& [name, markers] : cases) {
     MarkerTracker tracker(DefaultSensor());
-    const MarkerObservation observation = tracker.Track(Renderer().Render(markers));
-    const Errors e = Compare(observation, TruePixels(DefaultSensor(), markers));
+    const MarkerObservation observation = tracker.Track(DefaultRenderer().Render(markers));
+    const PixelErrors e = Compare(observation, TruePixels(DefaultSensor(), markers));
     EXPECT_EQ(e.valid, 800) << name;
     EXPECT_LT(e.max_px, kCentroidTolerancePx) << name;
     std::printf("%s: rms %.4f px, max %.4f px\n", name, e.rms_px, e.max_px);
@@ -160,8 +151,8 @@ TEST(MarkerTracker, SequenceMovingUpToOnePitchPerFrameKeepsIdentities) {
   MarkerObservation observation;
   for (size_t k = 0; k < amplitude_pitches.size(); ++k) {
     const auto markers = Sheared(amplitude_pitches[k] * pitch * direction, 6.0);
-    tracker.Track(Renderer().Render(markers, k), observation);
-    const Errors e = Compare(observation, TruePixels(DefaultSensor(), markers));
+    tracker.Track(DefaultRenderer().Render(markers, k), observation);
+    const PixelErrors e = Compare(observation, TruePixels(DefaultSensor(), markers));
     EXPECT_EQ(e.valid, 800) << "frame " << k;
     EXPECT_LT(e.max_px, kCentroidTolerancePx) << "frame " << k;
     EXPECT_EQ(observation.summary.acquired, k == 0) << "frame " << k;
@@ -178,11 +169,11 @@ TEST(MarkerTracker, WholeGridJumpOfOnePitchIsNotMisindexed) {
   for (const Eigen::Vector2d& jump : {Eigen::Vector2d(pitch, 0), Eigen::Vector2d(-pitch, 0),
                                       Eigen::Vector2d(0, pitch), Eigen::Vector2d(pitch, pitch)}) {
     MarkerTracker tracker(DefaultSensor());
-    tracker.Track(Renderer().Render(DefaultSensor().MarkerPositions(), 8));
+    tracker.Track(DefaultRenderer().Render(DefaultSensor().MarkerPositions(), 8));
     auto markers = DefaultSensor().MarkerPositions();
     for (auto& p : markers) p.head<2>() += jump;
-    const MarkerObservation observation = tracker.Track(Renderer().Render(markers, 9));
-    const Errors e = Compare(observation, TruePixels(DefaultSensor(), markers));
+    const MarkerObservation observation = tracker.Track(DefaultRenderer().Render(markers, 9));
+    const PixelErrors e = Compare(observation, TruePixels(DefaultSensor(), markers));
     EXPECT_LT(e.max_px, kCentroidTolerancePx) << "jump " << jump.transpose();
     EXPECT_TRUE(observation.summary.acquired) << "jump " << jump.transpose();
     std::printf("jump (%+.2f, %+.2f) mm: %d valid, rms %.4f px, max %.4f px\n", jump.x(), jump.y(),
@@ -196,8 +187,8 @@ TEST(MarkerTracker, HiddenBorderSideIsNotTakenForAJump) {
   const auto markers = DefaultSensor().MarkerPositions();
   const auto truth = TruePixels(DefaultSensor(), markers);
   const int cols = DefaultSensor().markers.cols;
-  const cv::Mat film = FilmOnly();
-  cv::Mat image = Renderer().Render(markers, 10);
+  const cv::Mat film = RenderFilmOnly();
+  cv::Mat image = DefaultRenderer().Render(markers, 10);
   for (int h = 0; h < 2; ++h) {
     for (int i = 0; i < static_cast<int>(markers.size()); i += cols) {
       cv::Mat mask = cv::Mat::zeros(image.size(), CV_8UC1);
@@ -206,10 +197,10 @@ TEST(MarkerTracker, HiddenBorderSideIsNotTakenForAJump) {
     }
   }
   MarkerTracker tracker(DefaultSensor());
-  tracker.Track(Renderer().Render(markers, 11));
+  tracker.Track(DefaultRenderer().Render(markers, 11));
   const MarkerObservation observation = tracker.Track(image);
   EXPECT_FALSE(observation.summary.acquired);
-  const Errors e = Compare(observation, truth);
+  const PixelErrors e = Compare(observation, truth);
   EXPECT_EQ(e.valid, 800 - 2 * DefaultSensor().markers.rows);
   EXPECT_LT(e.max_px, kCentroidTolerancePx);
 }
@@ -218,13 +209,13 @@ TEST(MarkerTracker, HiddenBorderSideIsNotTakenForAJump) {
 TEST(MarkerTracker, TenPercentOfMarkersHiddenAreFlaggedAndTheRestMeasured) {
   const auto markers = DefaultSensor().MarkerPositions();
   const auto truth = TruePixels(DefaultSensor(), markers);
-  const cv::Mat film = FilmOnly();
+  const cv::Mat film = RenderFilmOnly();
   std::mt19937 rng(testing::kRandomSeed);
   std::vector<int> order(markers.size());
   std::iota(order.begin(), order.end(), 0);
   std::shuffle(order.begin(), order.end(), rng);
   const std::vector<int> hidden(order.begin(), order.begin() + 40);
-  cv::Mat image = Renderer().Render(markers, 1);
+  cv::Mat image = DefaultRenderer().Render(markers, 1);
   for (int h = 0; h < 2; ++h) {
     for (int i : hidden) {
       cv::Mat mask = cv::Mat::zeros(image.size(), CV_8UC1);
@@ -236,7 +227,7 @@ TEST(MarkerTracker, TenPercentOfMarkersHiddenAreFlaggedAndTheRestMeasured) {
   for (const bool first_frame : {true, false}) {
     if (!first_frame) {
       tracker.Reset();
-      tracker.Track(Renderer().Render(markers, 2));
+      tracker.Track(DefaultRenderer().Render(markers, 2));
     }
     const MarkerObservation observation = tracker.Track(image);
     for (int h = 0; h < 2; ++h) {
@@ -256,7 +247,7 @@ TEST(MarkerTracker, TenPercentOfMarkersHiddenAreFlaggedAndTheRestMeasured) {
         }
       }
     }
-    const Errors e = Compare(observation, truth);
+    const PixelErrors e = Compare(observation, truth);
     EXPECT_EQ(e.valid, 720);
     EXPECT_LT(e.max_px, kCentroidTolerancePx);
     EXPECT_EQ(observation.summary.acquired, first_frame);
@@ -274,7 +265,7 @@ TEST(MarkerTracker, FiveSpuriousBlobsAreFlaggedAndTheRestMeasured) {
   MarkerTracker tracker(DefaultSensor());
   std::mt19937 rng(testing::kRandomSeed);
   std::array<std::vector<Eigen::Vector2d>, 2> specks;
-  cv::Mat image = Renderer().Render(markers, 3);
+  cv::Mat image = DefaultRenderer().Render(markers, 3);
   for (int k = 0; k < 5; ++k) {
     const int h = k % 2;
     const auto& nominal = tracker.nominal_uv(kImageHalves[h]);
@@ -288,7 +279,7 @@ TEST(MarkerTracker, FiveSpuriousBlobsAreFlaggedAndTheRestMeasured) {
   for (const bool first_frame : {true, false}) {
     if (!first_frame) {
       tracker.Reset();
-      tracker.Track(Renderer().Render(markers, 4));
+      tracker.Track(DefaultRenderer().Render(markers, 4));
     }
     const MarkerObservation observation = tracker.Track(image);
     int touched = 0, flagged = 0;
@@ -330,13 +321,13 @@ void ExpectGridLost(const MarkerObservation& observation) {
 TEST(MarkerTracker, PureNoiseFrameIsFlaggedAndTrackingRecovers) {
   const auto markers = DefaultSensor().MarkerPositions();
   MarkerTracker tracker(DefaultSensor());
-  tracker.Track(Renderer().Render(markers, 5));
+  tracker.Track(DefaultRenderer().Render(markers, 5));
   cv::Mat noise(480, 640, CV_8UC1);
   cv::RNG rng(testing::kRandomSeed);
   rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
   ExpectGridLost(tracker.Track(noise));
   ExpectGridLost(tracker.Track(noise));  // as the first frame after a loss, too
-  const MarkerObservation back = tracker.Track(Renderer().Render(markers, 6));
+  const MarkerObservation back = tracker.Track(DefaultRenderer().Render(markers, 6));
   EXPECT_TRUE(back.summary.acquired);
   EXPECT_EQ(back.summary.paired_markers, 400);
   EXPECT_LT(Compare(back, TruePixels(DefaultSensor(), markers)).max_px, kCentroidTolerancePx);
@@ -349,7 +340,7 @@ TEST(MarkerTracker, BlackFrameIsFlaggedAndTrackingRecovers) {
   ExpectGridLost(black);
   // With no grid, every marker is taken to be at its nominal pixel (where the viewer draws it).
   for (ImageHalf h : kImageHalves) EXPECT_EQ(black.half(h).estimate_uv, tracker.nominal_uv(h));
-  const MarkerObservation back = tracker.Track(Renderer().Render(markers, 7));
+  const MarkerObservation back = tracker.Track(DefaultRenderer().Render(markers, 7));
   EXPECT_TRUE(back.summary.acquired);
   EXPECT_EQ(back.summary.paired_markers, 400);
   EXPECT_LT(Compare(back, TruePixels(DefaultSensor(), markers)).max_px, kCentroidTolerancePx);
@@ -363,12 +354,12 @@ TEST(MarkerTracker, ImageOfWrongSizeTypeOrEmptyThrows) {
   EXPECT_THROW(tracker.Track(cv::Mat::zeros(480, 640, CV_16UC1)), Error);
   EXPECT_THROW(tracker.Track(cv::Mat()), Error);
   // A bad frame changes nothing: the next good one is acquired as usual.
-  EXPECT_EQ(tracker.Track(Renderer().Render(DefaultSensor().MarkerPositions())).summary.paired_markers, 400);
+  EXPECT_EQ(tracker.Track(DefaultRenderer().Render(DefaultSensor().MarkerPositions())).summary.paired_markers, 400);
 }
 
 TEST(MarkerTracker, CorruptPngFileThrows) {
   std::vector<std::uint8_t> png;
-  cv::imencode(".png", Renderer().Render(DefaultSensor().MarkerPositions()), png);
+  cv::imencode(".png", DefaultRenderer().Render(DefaultSensor().MarkerPositions()), png);
   // Keep the signature and header, garble the compressed data, cut the end off.
   for (size_t k = 64; k < png.size(); k += 7) png[k] ^= 0x5A;
   png.resize(png.size() / 2);
