@@ -1,10 +1,10 @@
 #pragma once
 
-#include <chrono>
 #include <nlohmann/json_fwd.hpp>
 #include <string>
 
 #include "tac3d/sensor/sensor_config.h"
+#include "tac3d/util/seconds_since.h"  // the commands' timings
 
 namespace CLI {
 class App;
@@ -47,7 +47,6 @@ SensorConfig LoadSensorOrDefault(const std::string& path);
 std::string DefaultCacheDir();
 
 /// Seconds from `since` to now on the steady clock, for the timings commands report.
-double SecondsSince(std::chrono::steady_clock::time_point since);
 
 /// Creates a directory (and its parents). @throws Error if it cannot.
 void MakeDirectory(const std::string& path);

@@ -30,10 +30,6 @@ void PrintChecks(const nlohmann::json& checks) {
   }
 }
 
-double SecondsSince(std::chrono::steady_clock::time_point since) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
-}
-
 void MakeDirectory(const std::string& path) {
   std::error_code ec;
   std::filesystem::create_directories(path, ec);

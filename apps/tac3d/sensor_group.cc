@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 
 #include "tac3d/util/error.h"
+#include "tac3d/util/seconds_since.h"
 
 namespace tac3d::cli {
 namespace {
@@ -44,7 +45,7 @@ void RunSensor(OpenSensor& sensor, const StreamClock& clock, long max_frames, co
         [&](const std::atomic<bool>& s, ProducedFrame& out) {
           const Produced produced = sensor.stream->Next(s, out);
           if (produced != Produced::kFrame) return produced;
-          const double now = std::chrono::duration<double>(Clock::now() - clock.epoch).count();
+          const double now = SecondsSince(clock.epoch);
           if (std::isnan(report.first_frame_s)) report.first_frame_s = now;
           if (!std::isnan(last)) report.max_gap_s = std::max(report.max_gap_s, now - last);
           last = report.last_frame_s = now;

@@ -9,15 +9,12 @@
 #include "tac3d/dataset/twin_dataset.h"
 #include "tac3d/record/recording_replay.h"
 #include "tac3d/util/error.h"
+#include "tac3d/util/seconds_since.h"
 
 namespace tac3d::cli {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double SecondsSinceEpoch(const StreamClock& clock) {
-  return std::chrono::duration<double>(Clock::now() - clock.epoch).count();
-}
 
 std::unique_ptr<FrameSource> OpenImageSource(const SensorRunSpec& spec, const SensorConfig& config) {
   if (spec.source.rfind("dataset:", 0) == 0) return OpenTwinDataset(spec.source.substr(8));
@@ -64,7 +61,7 @@ class PipelineStream final : public SensorStream {
       std::this_thread::sleep_until(clock_.epoch + std::chrono::duration_cast<Clock::duration>(
                                                        std::chrono::duration<double>(frame_.timestamp_s / *spec_.speed)));
     }
-    if (clock_.common) frame_.timestamp_s = SecondsSinceEpoch(clock_);
+    if (clock_.common) frame_.timestamp_s = SecondsSince(clock_.epoch);
     try {
       pipeline_->Process(frame_, out_);
     } catch (const Error& e) {
@@ -117,7 +114,7 @@ class RecordingStream final : public SensorStream {
     current_ = replay_.Next(&stop);
     if (!current_) return Produced::kEnd;
     if (sn_) current_->frame.sn = *sn_;
-    if (clock_.common) current_->frame.timestamp_s = SecondsSinceEpoch(clock_);
+    if (clock_.common) current_->frame.timestamp_s = SecondsSince(clock_.epoch);
     out.frame = &current_->frame;
     out.image = &current_->image;
     out.markers = nullptr;

@@ -17,6 +17,7 @@
 #include "arrays.h"
 #include "bindings.h"
 #include "tac3d/protocol/client.h"
+#include "tac3d/util/seconds_since.h"
 
 namespace tac3d::python {
 namespace {
@@ -119,8 +120,7 @@ class Sensor {
         if (cv_.wait_for(lock, std::chrono::milliseconds(100), seen)) return true;
       }
       if (PyErr_CheckSignals() != 0) throw py::error_already_set();
-      const double waited =
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      const double waited = SecondsSince(start);
       if (timeout_s && waited >= *timeout_s) return false;
     }
   }

@@ -16,6 +16,7 @@
 #include "tac3d/imagefile/image_decode.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/progress.h"
+#include "tac3d/util/seconds_since.h"
 
 namespace tac3d {
 namespace {
@@ -426,8 +427,7 @@ VirtualStereoCalibration CalibrateVirtualStereo(const std::vector<CalibrationIma
   out.summary.images = static_cast<int>(images.size());
   out.summary.views_used = static_cast<int>(good.views.size());
   out.summary.views_refused = out.summary.images - out.summary.views_used;
-  out.summary.seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
+  out.summary.seconds = SecondsSince(start_time);
   return out;
 }
 

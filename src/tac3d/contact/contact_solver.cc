@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "tac3d/util/error.h"
+#include "tac3d/util/seconds_since.h"
 
 namespace tac3d::contact {
 namespace {
@@ -733,7 +734,7 @@ ContactResult ContactSolver::Solve(const ContactStep& step, const ContactState& 
     summary.status = ContactStatus::kGrossSliding;
     summary.message = "the tangential force reaches the friction capacity";
   }
-  summary.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  summary.time_s = SecondsSince(start);
   return result;
 }
 

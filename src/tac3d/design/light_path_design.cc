@@ -9,6 +9,7 @@
 
 #include "tac3d/sensor/sensor_config.h"
 #include "tac3d/util/error.h"
+#include "tac3d/util/seconds_since.h"
 
 namespace tac3d {
 namespace {
@@ -342,8 +343,7 @@ LightPathDesign DesignLightPath(const LightPathDesignOptions& options, const Sen
     config.Validate();
     design.config = config;
   }
-  design.summary.seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start_time).count();
+  design.summary.seconds = SecondsSince(start_time);
   return design;
 }
 

@@ -15,6 +15,7 @@
 #include "tac3d/util/error.h"
 #include "tac3d/util/eval_check.h"
 #include "tac3d/util/progress.h"
+#include "tac3d/util/seconds_since.h"
 
 namespace tac3d {
 namespace {
@@ -45,10 +46,6 @@ struct DiscTraction {
 };
 
 using LoadCase = std::vector<DiscTraction>;
-
-double Seconds(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 nlohmann::json Json(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 
@@ -185,7 +182,7 @@ ForceMaterialFigures CalibrateMaterialOnPresses(const EvalForceOptions& options,
                                       {.weight = fit.weight,
                                        .gains = fit.gains.gains,
                                        .support_refinement = options.support_refinement});
-  (*timing)["material_calibration"] = Seconds(start);
+  (*timing)["material_calibration"] = SecondsSince(start);
   return {fit, options.TrueMaterial(), gains_only.max_pct_fs, gains_only.rms_pct_fs,
           gains_only_fit};
 }
@@ -331,7 +328,7 @@ TrueResponses CalcTrueResponses(const EvalForceOptions& options,
   truth_options.refinement *= options.truth_refinement;
   truth_options.material = options.TrueMaterial();
   const fem::BodyModel truth(truth_options, options.show_progress);
-  (*timing)["truth_model"] = Seconds(start);
+  (*timing)["truth_model"] = SecondsSince(start);
 
   start = std::chrono::steady_clock::now();
   const std::vector<const LoadCase*> all = cases.All();
@@ -348,7 +345,7 @@ TrueResponses CalcTrueResponses(const EvalForceOptions& options,
   TrueResponses responses;
   responses.clean = truth.solver().CalcResponse(
       truth.CalcPointInterpolation(markers), loads, options.show_progress, 100, &solves);
-  (*timing)["truth_responses"] = Seconds(start);
+  (*timing)["truth_responses"] = SecondsSince(start);
   const fem::ElasticSolverSummary& summary = truth.solver().summary();
   responses.model = {{"options", fem::ToJson(truth_options)},
                      {"free_dofs", summary.num_free_dofs},
@@ -490,7 +487,7 @@ ForceEvaluation EvaluateOnResponses(const EvalForceOptions& options,
   ForceReconstructor reconstructor(
       nominal.h, markers,
       {.weight = selection.weight, .support_refinement = options.support_refinement});
-  timing["inverse_setup"] = Seconds(start);
+  timing["inverse_setup"] = SecondsSince(start);
   std::vector<ForcePair> pairs;
   for (size_t k = 0; k < cases.calibration.size(); ++k) {
     pairs.push_back({reconstructor.Reconstruct(frames[k]).resultant_force_n,
@@ -564,7 +561,7 @@ fem::ComplianceModel LoadNominalModel(const EvalForceOptions& options, nlohmann:
           ? fem::CalcComplianceModel(options.body, options.show_progress)
           : fem::LoadOrBuildComplianceModel(options.body, options.cache_dir, options.show_progress)
                 .model;
-  (*timing)["nominal_h"] = Seconds(start);
+  (*timing)["nominal_h"] = SecondsSince(start);
   return nominal;
 }
 

@@ -9,6 +9,7 @@
 #include "tac3d/scene/scene.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/eval_check.h"
+#include "tac3d/util/seconds_since.h"
 
 namespace tac3d {
 
@@ -185,8 +186,7 @@ ReplayResult ReplayTwinDataset(const TwinDatasetReader& dataset, const SensorCon
   }
   result.summary = Summarise(result.frames, markers, options);
   result.summary.steps = count;
-  result.summary.seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.summary.seconds = SecondsSince(start);
   return result;
 }
 

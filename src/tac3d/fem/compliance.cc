@@ -5,6 +5,7 @@
 
 #include "tac3d/util/cache_file.h"
 #include "tac3d/util/error.h"
+#include "tac3d/util/seconds_since.h"
 
 namespace tac3d::fem {
 namespace {
@@ -63,7 +64,7 @@ ComplianceModel CalcComplianceModel(const BodyModel& model, bool show_progress) 
   p.num_free_dofs = summary.num_free_dofs;
   p.assembly_s = summary.assembly_s;
   p.factorization_s = summary.factorization_s;
-  p.solves_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  p.solves_s = SecondsSince(start);
   p.build_s = p.assembly_s + p.factorization_s + p.solves_s;
   p.built_utc = UtcNow();
   p.code_version = FemCodeVersion();
@@ -75,8 +76,7 @@ ComplianceModel CalcComplianceModel(const BodyModelOptions& options, bool show_p
   const BodyModel model(options, show_progress);
   ComplianceModel result = CalcComplianceModel(model, show_progress);
   // Meshing and point location count too.
-  result.provenance.build_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.provenance.build_s = SecondsSince(start);
   return result;
 }
 
@@ -150,8 +150,7 @@ ComplianceCacheResult LoadOrBuildComplianceModel(const BodyModelOptions& options
   result.status = LoadOrBuildCacheFile(
       result.path, key, ReadCacheFile, [&] { return CalcComplianceModel(options, show_progress); },
       SaveComplianceModel, &result.model, &result.reason);
-  result.elapsed_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.elapsed_s = SecondsSince(start);
   return result;
 }
 

@@ -6,13 +6,10 @@
 
 #include "tac3d/util/error.h"
 #include "tac3d/util/progress.h"
+#include "tac3d/util/seconds_since.h"
 
 namespace tac3d::fem {
 namespace {
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 // For each node, the sorted nodes it shares an element with (itself included).
 std::vector<std::vector<int>> NodeNeighbours(const HexMesh& mesh) {

@@ -12,6 +12,7 @@
 #include <unordered_map>
 
 #include "tac3d/util/error.h"
+#include "tac3d/util/seconds_since.h"
 
 namespace tac3d::friction {
 namespace {
@@ -19,9 +20,6 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 using Clock = std::chrono::steady_clock;
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 void Require(bool ok, const char* field, const char* bound, double value) {
   if (!ok || std::isnan(value)) {

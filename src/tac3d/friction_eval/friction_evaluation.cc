@@ -16,6 +16,7 @@
 #include "tac3d/scene/scene.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/eval_check.h"
+#include "tac3d/util/seconds_since.h"
 
 namespace tac3d {
 namespace {
@@ -364,7 +365,7 @@ FrictionEvaluation EvaluateFrictionMap(
     }
   }
   Finish(e);
-  e.evaluate_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  e.evaluate_s = SecondsSince(start);
   return e;
 }
 

@@ -10,6 +10,7 @@
 #include "tac3d/fem/compliance_family.h"
 #include "tac3d/force/force_reconstructor.h"
 #include "tac3d/util/error.h"
+#include "tac3d/util/seconds_since.h"
 
 namespace tac3d {
 namespace {
@@ -306,7 +307,7 @@ MaterialCalibration CalibrateMaterial(const fem::ComplianceFamily& family,
         {reconstructor.Reconstruct(press.displacement_mm).resultant_force_n, press.reference_n});
   }
   result.gains = FitForceGains(pairs);
-  result.time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.time_s = SecondsSince(start);
   result.message = fmt::format(
       "E {:.4g} MPa, nu {:.4f} (+-{:.4f}) from {} presses{} in {} evaluations{}",
       result.material.youngs_modulus_mpa,

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include "tac3d/protocol/udp_socket.h"
+#include "tac3d/util/seconds_since.h"
 
 namespace tac3d {
 namespace {
@@ -42,7 +43,7 @@ Client::~Client() = default;
 Endpoint Client::local_endpoint() const { return socket_->local_endpoint(); }
 
 double Client::Now() const {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  return SecondsSince(start_);
 }
 
 std::optional<ReceivedFrame> Client::Receive(double wait_s) {

@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "tac3d/util/error.h"
+#include "tac3d/util/seconds_since.h"
 
 namespace tac3d {
 namespace {
@@ -343,7 +344,7 @@ bool ReplayPacer::Wait(double timestamp_s, const std::atomic<bool>* stop) {
     }
     std::this_thread::sleep_for(std::min<std::chrono::steady_clock::duration>(due - t, kSlice));
   }
-  waited_s_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - now).count();
+  waited_s_ += SecondsSince(now);
   return true;
 }
 

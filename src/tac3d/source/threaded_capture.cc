@@ -8,6 +8,8 @@
 #include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
 
+#include "tac3d/util/seconds_since.h"
+
 namespace tac3d {
 
 struct ThreadedCapture::Shared {
@@ -47,7 +49,7 @@ ThreadedCapture::ThreadedCapture(std::string description, Grab grab, double time
     while (true) {
       std::string error;
       const bool ok = grab(image, error);
-      const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      const double t = SecondsSince(start);
       std::lock_guard lock(shared->mutex);
       if (shared->stop) break;
       if (!ok || image.empty() || image.depth() != CV_8U) {

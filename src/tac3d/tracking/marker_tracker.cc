@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "tac3d/util/error.h"
+#include "tac3d/util/seconds_since.h"
 
 namespace tac3d {
 namespace {
@@ -412,7 +413,7 @@ void MarkerTracker::Track(const cv::Mat& image, MarkerObservation& observation) 
     summary.grid_lost |= out.grid_lost;
   }
   for (int i = 0; i < n; ++i) summary.paired_markers += observation.paired(i);
-  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  summary.seconds = SecondsSince(start);
 }
 
 MarkerObservation MarkerTracker::Track(const cv::Mat& image) {

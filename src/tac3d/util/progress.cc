@@ -4,6 +4,8 @@
 
 #include <algorithm>
 
+#include "tac3d/util/seconds_since.h"
+
 namespace tac3d {
 
 ProgressBar::ProgressBar(std::string label, long total, bool enabled)
@@ -46,8 +48,7 @@ void ProgressBar::Finish() {
 void ProgressBar::Draw(long done) {
   constexpr int kWidth = 30;
   const double fraction = static_cast<double>(done) / static_cast<double>(total_);
-  const double elapsed_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  const double elapsed_s = SecondsSince(start_);
   const int filled = static_cast<int>(fraction * kWidth);
   std::string bar(filled, '#');
   bar.resize(kWidth, '.');
