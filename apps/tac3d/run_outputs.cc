@@ -14,6 +14,7 @@
 
 #include "tac3d/util/error.h"
 #include "tac3d/util/file_io.h"
+#include "tac3d/util/json_number.h"
 #include "tac3d/web/web_server.h"
 
 namespace tac3d::cli {
@@ -73,10 +74,6 @@ nlohmann::json Summary(const TactileFrame& f) {
     contact += f.contact[i];
   }
   const auto v = [](const Eigen::Vector3d& x) { return nlohmann::json{x.x(), x.y(), x.z()}; };
-  // NaN (no contact, not in gross slip) as null.
-  const auto number = [](double x) {
-    return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json();
-  };
   return {{"sn", f.sn},
           {"index", f.index},
           {"timestamp_s", f.timestamp_s},
@@ -87,9 +84,9 @@ nlohmann::json Summary(const TactileFrame& f) {
           {"resultant_force_n", v(f.resultant_force_n)},
           {"resultant_moment_nmm", v(f.resultant_moment_nmm)},
           {"slip_state", SlipStateName(f.slip.state)},
-          {"slip_fraction", number(f.slip.fraction)},
-          {"friction", number(f.slip.friction)},
-          {"friction_sigma", number(f.slip.friction_sigma)}};
+          {"slip_fraction", FiniteOrNull(f.slip.fraction)},
+          {"friction", FiniteOrNull(f.slip.friction)},
+          {"friction_sigma", FiniteOrNull(f.slip.friction_sigma)}};
 }
 
 }  // namespace

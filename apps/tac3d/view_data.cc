@@ -11,6 +11,7 @@
 
 #include "tac3d/friction/friction_output.h"
 #include "tac3d/util/error.h"
+#include "tac3d/util/json_number.h"
 
 namespace tac3d::cli {
 namespace {
@@ -75,7 +76,7 @@ void ViewData::LoadFrictionMap(const std::string& dir_or_ply) {
   for (size_t i = 0; i < mesh.vertices.size(); ++i) {
     for (int k = 0; k < 3; ++k) j["vertices"].push_back(mesh.vertices[i][k]);
     const double m = mu->second[i];
-    j["mu"].push_back(std::isfinite(m) ? nlohmann::json(m) : nlohmann::json());
+    j["mu"].push_back(FiniteOrNull(m));
     j["confidence"].push_back(confidence == mesh.vertex_properties.end() ? 0.0 : confidence->second[i]);
     const friction::FrictionBand band = friction::BandOf(m);
     ++bands[static_cast<int>(band)];

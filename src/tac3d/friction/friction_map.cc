@@ -12,6 +12,7 @@
 #include <unordered_map>
 
 #include "tac3d/util/error.h"
+#include "tac3d/util/json_number.h"
 #include "tac3d/util/seconds_since.h"
 
 namespace tac3d::friction {
@@ -239,10 +240,6 @@ std::string FrictionMapSummary::BriefReport() const {
 }
 
 nlohmann::json ToJson(const FrictionMapSummary& s) {
-  // NaN is not JSON: unknown values are null.
-  const auto number = [](double v) {
-    return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
-  };
   return {{"status", ToString(s.status)},
           {"message", s.message},
           {"frames", s.frames},
@@ -253,16 +250,16 @@ nlohmann::json ToJson(const FrictionMapSummary& s) {
           {"gross_slip_frames", s.gross_slip_frames},
           {"voting_slip_points", s.voting_slip_points},
           {"slip_threshold_mm", s.slip_threshold_mm},
-          {"estimated_noise_mm", number(s.estimated_noise_mm)},
+          {"estimated_noise_mm", FiniteOrNull(s.estimated_noise_mm)},
           {"resampled_points", s.resampled_points},
           {"poisson_vertices", s.poisson_vertices},
           {"vertices", s.vertices},
           {"triangles", s.triangles},
           {"unknown_vertices", s.unknown_vertices},
-          {"unknown_fraction", number(s.unknown_fraction)},
-          {"mu_min", number(s.mu_min)},
-          {"mu_median", number(s.mu_median)},
-          {"mu_max", number(s.mu_max)},
+          {"unknown_fraction", FiniteOrNull(s.unknown_fraction)},
+          {"mu_min", FiniteOrNull(s.mu_min)},
+          {"mu_median", FiniteOrNull(s.mu_median)},
+          {"mu_max", FiniteOrNull(s.mu_max)},
           {"resample_time_s", s.resample_time_s},
           {"poisson_time_s", s.poisson_time_s},
           {"trim_time_s", s.trim_time_s},

@@ -16,6 +16,7 @@
 #include "tac3d/scene/scene.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/eval_check.h"
+#include "tac3d/util/json_number.h"
 #include "tac3d/util/seconds_since.h"
 
 namespace tac3d {
@@ -436,9 +437,6 @@ std::string FrictionEvaluation::BriefReport() const {
 }
 
 nlohmann::json ToJson(const FrictionEvaluation& e, const FrictionTargets& targets) {
-  const auto num = [](double v) -> nlohmann::json {
-    return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json();
-  };
   nlohmann::json checks = nlohmann::json::array();
   bool all_pass = true;
   const auto check =
@@ -463,21 +461,21 @@ nlohmann::json ToJson(const FrictionEvaluation& e, const FrictionTargets& target
   check("slip_recall", e.slip_recall, "", targets.slip_recall, false);
   return {
       {"scene", e.scene},
-      {"mu_mae", num(e.mu_mae)},
+      {"mu_mae", FiniteOrNull(e.mu_mae)},
       {"mu_mae_weighting", "area (a third of each adjacent triangle), vertices with a known mu"},
-      {"band_agreement", num(e.band_agreement)},
-      {"boundary_error_mm", num(e.boundary_error_mm)},
-      {"boundary_error_median_mm", num(e.boundary_error_median_mm)},
-      {"boundary_error_p90_mm", num(e.boundary_error_p90_mm)},
-      {"boundary_error_max_mm", num(e.boundary_error_max_mm)},
+      {"band_agreement", FiniteOrNull(e.band_agreement)},
+      {"boundary_error_mm", FiniteOrNull(e.boundary_error_mm)},
+      {"boundary_error_median_mm", FiniteOrNull(e.boundary_error_median_mm)},
+      {"boundary_error_p90_mm", FiniteOrNull(e.boundary_error_p90_mm)},
+      {"boundary_error_max_mm", FiniteOrNull(e.boundary_error_max_mm)},
       {"boundary_levels", e.boundary_levels},
       {"boundary_contour_points", e.boundary_distances_mm.size()},
-      {"coverage", num(e.coverage)},
-      {"surface_rms_mm", num(e.surface_rms_mm)},
-      {"surface_max_mm", num(e.surface_max_mm)},
-      {"slip_precision", num(e.slip_precision)},
-      {"slip_recall", num(e.slip_recall)},
-      {"slip_recall_any_cell", num(e.slip_recall_any_cell)},
+      {"coverage", FiniteOrNull(e.coverage)},
+      {"surface_rms_mm", FiniteOrNull(e.surface_rms_mm)},
+      {"surface_max_mm", FiniteOrNull(e.surface_max_mm)},
+      {"slip_precision", FiniteOrNull(e.slip_precision)},
+      {"slip_recall", FiniteOrNull(e.slip_recall)},
+      {"slip_recall_any_cell", FiniteOrNull(e.slip_recall_any_cell)},
       {"slip_truth_min_force_n", e.slip_truth_min_force_n},
       {"vertices", e.vertices},
       {"known_vertices", e.known_vertices},

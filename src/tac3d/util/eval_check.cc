@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "tac3d/util/error.h"
+#include "tac3d/util/json_number.h"
 
 namespace tac3d {
 namespace {
@@ -45,7 +46,7 @@ std::string EvalCheck::Format() const {
 
 nlohmann::json ToJson(const EvalCheck& check) {
   return {{"name", check.name},
-          {"value", std::isfinite(check.value) ? nlohmann::json(check.value) : nlohmann::json()},
+          {"value", FiniteOrNull(check.value)},
           {"tolerance", check.tolerance},
           {"unit", check.unit},
           {"bound", check.bound == EvalCheck::Bound::kAtMost ? "max" : "min"},
