@@ -96,9 +96,7 @@ class Section {
 }  // namespace
 
 void CalibrationBoard::Validate() const {
-  auto require = [](bool ok, const char* field, const char* bound, double value) {
-    RequireOption(ok, "calibration board", field, bound, value);
-  };
+  const OptionCheck require("calibration board");
   require(rows >= 3 && rows <= kMaxDotsPerSide, "rows", "in [3, 1000]", rows);
   require(cols >= 3 && cols <= kMaxDotsPerSide, "cols", "in [3, 1000]", cols);
   require(spacing_mm > 0 && spacing_mm <= SensorLimits::kMaxLengthMm, "spacing_mm", "> 0 and <= 1000 mm",

@@ -351,9 +351,7 @@ void PlaceRigInSensor(const GoodView& ref,
 }  // namespace
 
 void VirtualStereoCalibrationOptions::Validate() const {
-  auto require = [](bool ok, const char* field, const char* bound, double value) {
-    RequireOption(ok, "calibration options", field, bound, value);
-  };
+  const OptionCheck require("calibration options");
   require(min_views >= 3, "min_views", ">= 3", min_views);
   require(max_edge_width_px > 0, "max_edge_width_px", "> 0", max_edge_width_px);
   require(max_view_rms_px > 0, "max_view_rms_px", "> 0", max_view_rms_px);

@@ -238,9 +238,7 @@ Rectangle3 MirrorAcrossYZ(const Rectangle3& m) {
 }  // namespace
 
 void LightPathDesignOptions::Validate() const {
-  auto require = [](bool ok, const char* field, const char* bound, double value) {
-    RequireOption(ok, "light path design", field, bound, value);
-  };
+  const OptionCheck require("light path design");
   const std::string length_bound = fmt::format("> 0 and <= {} mm", SensorLimits::kMaxLengthMm);
   for (const auto& [field, value] : {std::pair{"h_mm", h_mm}, {"l_mm", l_mm}, {"d_mm", d_mm}}) {
     require(value > 0 && value <= SensorLimits::kMaxLengthMm, field, length_bound.c_str(), value);

@@ -83,9 +83,7 @@ void ConditionsEvaluationOptions::Validate() const {
   replay.Validate();
   levels.Validate();
   render.Validate();
-  auto require = [](bool ok, const char* field, const char* bound, double value) {
-    RequireOption(ok, "conditions evaluation", field, bound, value);
-  };
+  const OptionCheck require("conditions evaluation");
   require(rest_frame_s > 0 && rest_frame_s <= levels.session_s,
           "rest_frame_s",
           "in (0, levels.session_s]",

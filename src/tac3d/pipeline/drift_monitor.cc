@@ -8,9 +8,7 @@
 namespace tac3d {
 
 void DriftOptions::Validate() const {
-  const auto require = [](bool ok, const char* field, const char* bound, double value) {
-    RequireOption(ok, "drift", field, bound, value);
-  };
+  const OptionCheck require("drift");
   require(mode == DriftMode::kOff || mode == DriftMode::kFlag || mode == DriftMode::kRezero,
           "mode",
           "off, flag or rezero",

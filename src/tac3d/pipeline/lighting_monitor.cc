@@ -23,9 +23,7 @@ double Quantile(std::vector<double>& values, double q) {
 }  // namespace
 
 void LightingMonitorOptions::Validate() const {
-  const auto require = [](bool ok, const char* field, const char* bound, double value) {
-    RequireOption(ok, "lighting monitor", field, bound, value);
-  };
+  const OptionCheck require("lighting monitor");
   require(min_contrast_ratio > 0 && min_contrast_ratio < 1,
           "min_contrast_ratio",
           "in (0, 1)",

@@ -17,9 +17,7 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 }  // namespace
 
 void PipelineOptions::Validate() const {
-  const auto require = [](bool ok, const char* field, const char* bound, double value) {
-    RequireOption(ok, "pipeline", field, bound, value);
-  };
+  const OptionCheck require("pipeline");
   if (sn.empty()) throw Error("pipeline: sn must not be empty");
   require(reference_frames >= 2 && reference_frames <= 10000, "reference_frames", "in [2, 10000]",
           reference_frames);

@@ -30,9 +30,7 @@ std::optional<Eigen::Vector3d> Observe(const StereoRig& rig, const Eigen::Vector
 }  // namespace
 
 void RefractionCompensationOptions::Validate() const {
-  auto require = [](bool ok, const char* field, const char* bound, double value) {
-    RequireOption(ok, "refraction compensation", field, bound, value);
-  };
+  const OptionCheck require("refraction compensation");
   require(degree >= 1 && degree <= 6, "degree", "in [1, 6]", degree);
   require(samples_per_axis >= degree + 2 && samples_per_axis <= 60, "samples_per_axis",
           "in [degree + 2, 60]", samples_per_axis);

@@ -360,9 +360,7 @@ double CoreDarkness(const cv::Mat& image,
 }  // namespace
 
 void BlobOptions::Validate() const {
-  auto require = [](bool ok, const char* field, const char* bound, double value) {
-    RequireOption(ok, "blob options", field, bound, value);
-  };
+  const OptionCheck require("blob options");
   require(min_contrast_dn > 0 && min_contrast_dn < 255, "min_contrast_dn", "in (0, 255)",
           min_contrast_dn);
   require(min_relative_contrast >= 0 && min_relative_contrast < 1, "min_relative_contrast",

@@ -146,9 +146,7 @@ bool FitAffine(const std::vector<Eigen::Vector2d>& predicted,
 }  // namespace
 
 void GridIndexOptions::Validate() const {
-  auto require = [](bool ok, const char* field, const char* bound, double value) {
-    RequireOption(ok, "grid index options", field, bound, value);
-  };
+  const OptionCheck require("grid index options");
   require(max_offset_px > 0, "max_offset_px", "> 0", max_offset_px);
   require(hypotheses >= 1, "hypotheses", ">= 1", hypotheses);
   require(match_gate > 0 && match_gate < 0.5, "match_gate", "in (0, 0.5)", match_gate);

@@ -20,9 +20,7 @@ constexpr int kMaxTries = 3;
 void MarkerTrackerOptions::Validate() const {
   blob.Validate();
   index.Validate();
-  auto require = [](bool ok, const char* field, const char* bound, double value) {
-    RequireOption(ok, "marker tracker options", field, bound, value);
-  };
+  const OptionCheck require("marker tracker options");
   require(search_radius > 0 && search_radius < 0.5, "search_radius", "in (0, 0.5) pitch",
           search_radius);
   require(gate > 0 && gate <= search_radius, "gate", "in (0, search_radius] pitch", gate);

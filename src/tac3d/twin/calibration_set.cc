@@ -43,22 +43,22 @@ bool SeenWhole(const OpticalLayout& layout, const SensorConfig& truth,
 }  // namespace
 
 void SensorPerturbationOptions::Validate() const {
-  const char* what = "sensor perturbation";
-  RequireOption(focal_error_max >= 0 && focal_error_max < 0.5, what, "focal_error_max",
-                "in [0, 0.5)", focal_error_max);
-  RequireOption(principal_point_error_max_px >= 0, what, "principal_point_error_max_px", ">= 0",
-                principal_point_error_max_px);
-  RequireOption(k1_min <= k1_max, what, "k1_min", "<= k1_max", k1_min);
-  RequireOption(k2_max >= 0, what, "k2_max", ">= 0", k2_max);
-  RequireOption(tangential_max >= 0, what, "tangential_max", ">= 0", tangential_max);
-  RequireOption(mirror_tilt_max_deg >= 0 && mirror_tilt_max_deg <= 10, what, "mirror_tilt_max_deg",
-                "in [0, 10]", mirror_tilt_max_deg);
-  RequireOption(mirror_shift_max_mm >= 0 && mirror_shift_max_mm <= 5, what, "mirror_shift_max_mm",
-                "in [0, 5]", mirror_shift_max_mm);
-  RequireOption(camera_tilt_max_deg >= 0 && camera_tilt_max_deg <= 10, what, "camera_tilt_max_deg",
-                "in [0, 10]", camera_tilt_max_deg);
-  RequireOption(camera_shift_max_mm >= 0 && camera_shift_max_mm <= 5, what, "camera_shift_max_mm",
-                "in [0, 5]", camera_shift_max_mm);
+  const OptionCheck require("sensor perturbation");
+  require(focal_error_max >= 0 && focal_error_max < 0.5, "focal_error_max",
+          "in [0, 0.5)", focal_error_max);
+  require(principal_point_error_max_px >= 0, "principal_point_error_max_px", ">= 0",
+          principal_point_error_max_px);
+  require(k1_min <= k1_max, "k1_min", "<= k1_max", k1_min);
+  require(k2_max >= 0, "k2_max", ">= 0", k2_max);
+  require(tangential_max >= 0, "tangential_max", ">= 0", tangential_max);
+  require(mirror_tilt_max_deg >= 0 && mirror_tilt_max_deg <= 10, "mirror_tilt_max_deg",
+          "in [0, 10]", mirror_tilt_max_deg);
+  require(mirror_shift_max_mm >= 0 && mirror_shift_max_mm <= 5, "mirror_shift_max_mm",
+          "in [0, 5]", mirror_shift_max_mm);
+  require(camera_tilt_max_deg >= 0 && camera_tilt_max_deg <= 10, "camera_tilt_max_deg",
+          "in [0, 10]", camera_tilt_max_deg);
+  require(camera_shift_max_mm >= 0 && camera_shift_max_mm <= 5, "camera_shift_max_mm",
+          "in [0, 5]", camera_shift_max_mm);
 }
 
 SensorPerturbationOptions SensorPerturbationOptions::ManufacturingSpread(std::uint64_t seed) {
@@ -113,15 +113,13 @@ SensorConfig PerturbSensor(const SensorConfig& nominal, const SensorPerturbation
 }
 
 void CalibrationSetOptions::Validate() const {
-  const char* what = "calibration set";
-  RequireOption(views >= 1, what, "views", ">= 1", views);
+  const OptionCheck require("calibration set");
+  require(views >= 1, "views", ">= 1", views);
   board.Validate();
-  RequireOption(position_range_mm >= 0, what, "position_range_mm", ">= 0", position_range_mm);
-  RequireOption(max_tilt_deg >= 0 && max_tilt_deg < 60, what, "max_tilt_deg", "in [0, 60)",
-                max_tilt_deg);
-  RequireOption(max_spin_deg >= 0 && max_spin_deg <= 180, what, "max_spin_deg", "in [0, 180]",
-                max_spin_deg);
-  RequireOption(edge_margin_px >= 0, what, "edge_margin_px", ">= 0", edge_margin_px);
+  require(position_range_mm >= 0, "position_range_mm", ">= 0", position_range_mm);
+  require(max_tilt_deg >= 0 && max_tilt_deg < 60, "max_tilt_deg", "in [0, 60)", max_tilt_deg);
+  require(max_spin_deg >= 0 && max_spin_deg <= 180, "max_spin_deg", "in [0, 180]", max_spin_deg);
+  require(edge_margin_px >= 0, "edge_margin_px", ">= 0", edge_margin_px);
   render.Validate();
 }
 

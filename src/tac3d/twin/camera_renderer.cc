@@ -173,9 +173,7 @@ std::vector<Eigen::Vector3d> GridNormals(const std::vector<Eigen::Vector3d>& p, 
 }  // namespace
 
 void RenderOptions::Validate() const {
-  auto require = [](bool ok, const char* field, const char* bound, double value) {
-    RequireOption(ok, "render options", field, bound, value);
-  };
+  const OptionCheck require("render options");
   require(film_level > 0 && film_level <= 1, "film_level", "in (0, 1]", film_level);
   require(dot_reflectance >= 0 && dot_reflectance < 1, "dot_reflectance", "in [0, 1)", dot_reflectance);
   require(board_level > 0 && board_level <= 1, "board_level", "in (0, 1]", board_level);

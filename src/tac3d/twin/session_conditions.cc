@@ -9,9 +9,7 @@
 namespace tac3d {
 namespace {
 
-void Require(bool ok, const char* field, const char* bound, double value) {
-  RequireOption(ok, "session conditions", field, bound, value);
-}
+constexpr OptionCheck Require("session conditions");
 
 }  // namespace
 

@@ -6,9 +6,9 @@
 
 namespace tac3d {
 
-void RequireOption(bool ok, const char* what, const char* field, const char* bound, double value) {
+void OptionCheck::operator()(bool ok, const char* field, const char* bound, double value) const {
   if (!ok || std::isnan(value)) {
-    throw Error(fmt::format("{}: {} = {} must be {}", what, field, value, bound));
+    throw Error(fmt::format("{}: {} = {} must be {}", what_, field, value, bound));
   }
 }
 

@@ -14,9 +14,17 @@ class Error : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// The check an options struct's Validate() makes of each number: throws
-/// Error("<what>: <field> = <value> must be <bound>") unless `ok` holds and `value` is not NaN.
-void RequireOption(bool ok, const char* what, const char* field, const char* bound, double value);
+/// The check an options struct's Validate() makes of each number, for the options named `what`:
+/// require(ok, field, bound, value) throws Error("<what>: <field> = <value> must be <bound>")
+/// unless `ok` holds and `value` is not NaN.
+class OptionCheck {
+ public:
+  constexpr explicit OptionCheck(const char* what) : what_(what) {}
+  void operator()(bool ok, const char* field, const char* bound, double value) const;
+
+ private:
+  const char* what_;
+};
 
 namespace internal {
 [[noreturn]] void DemandFailed(const char* condition, const char* file, int line);
