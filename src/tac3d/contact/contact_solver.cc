@@ -6,6 +6,8 @@
 #include <cmath>
 #include <limits>
 
+#include <nlohmann/json.hpp>
+
 #include "tac3d/util/error.h"
 #include "tac3d/util/seconds_since.h"
 

@@ -2,7 +2,7 @@
 
 #include <Eigen/Core>
 #include <memory>
-#include <nlohmann/json.hpp>
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
 

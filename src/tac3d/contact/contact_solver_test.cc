@@ -5,6 +5,8 @@
 #include <cmath>
 #include <numbers>
 
+#include <nlohmann/json.hpp>
+
 #include "tac3d/contact/indenter.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"

@@ -6,7 +6,7 @@
 #include <vector>
 
 #include <Eigen/Core>
-#include <nlohmann/json.hpp>
+#include <nlohmann/json_fwd.hpp>
 
 #include "tac3d/dataset/twin_dataset.h"
 #include "tac3d/force/force_gains.h"

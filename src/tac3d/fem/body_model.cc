@@ -5,6 +5,8 @@
 #include <cmath>
 #include <numbers>
 
+#include <nlohmann/json.hpp>
+
 #include "tac3d/util/error.h"
 
 namespace tac3d::fem {

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <nlohmann/json.hpp>
+
 #include "tac3d/util/error.h"
 #include "tac3d/util/file_io.h"
 #include "tac3d/util/number_csv.h"

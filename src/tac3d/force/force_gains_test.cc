@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
 

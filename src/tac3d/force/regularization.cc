@@ -4,6 +4,8 @@
 #include <cmath>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "tac3d/util/error.h"
 
 // LAPACK's divide-and-conquer SVD (OpenBLAS provides it). Eigen's BDCSVD computes the same

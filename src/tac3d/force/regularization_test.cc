@@ -6,6 +6,8 @@
 #include <Eigen/Cholesky>
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include "tac3d/force/synthetic_compliance.h"
 #include "tac3d/force/test_loads.h"
 #include "tac3d/testing/testing.h"
