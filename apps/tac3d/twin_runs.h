@@ -19,6 +19,10 @@ struct SimulateArgs {
   std::string cache_dir = DefaultCacheDir();
   bool no_images = false;
   int steps = 0;
+  /// The twin's FEM refinement instead of the scene's deviation.mesh_refinement (unset: the
+  /// scene's). Memory grows steeply with it: 1.25 builds the default dome's twin body in
+  /// ~3 GB, the scenes' 1.5 in ~7.3 GB (docs/simulation.md).
+  std::optional<double> twin_refinement;
   bool json = false;
 };
 
@@ -26,6 +30,9 @@ struct SimulateRun {
   simulation::SimulationSummary summary;
   nlohmann::json model;  ///< the twin body: cache file and status, body, grid, symbol
 };
+
+/// `--twin-refinement R` into `refinement` (SimulateArgs::twin_refinement).
+void AddTwinRefinementOption(CLI::App* cmd, std::optional<double>* refinement);
 
 /// Loads the scene (a file or a built-in name) and the twin body (from the cache, or built),
 /// simulates it with progress bars and writes the dataset to args.out.

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The viewer page in headless Chromium against a replayed twin dataset (docs/viewer.md).
 
-Simulates a short two_material_slide dataset, replays it with `tac3d run --web --record`, loads
+Simulates a short slide on a small twin sensor, replays it with `tac3d run --web --record`, loads
 the page twice in headless Chromium (Debian's `chromium`, installed by scripts/setup.sh): once to
 dump the DOM (frames received > 0, the sensor's panel made) and once for a screenshot, whose
 3D canvas must hold drawn (non-background) pixels. Then serves that recording and a small
@@ -188,14 +188,14 @@ def check_view(tac3d, work, recording):
         view.wait(timeout=10)
 
 
-def check_view_dataset(tac3d, work, dataset):
+def check_view_dataset(tac3d, work, dataset, sensor):
     """`tac3d view --dataset`: the dataset's images through the pipeline, each with the
     tracker's markers drawn on it; the twin at rest and sliding tracks every marker, so the
     camera image shows hundreds of green ring pixels. (Served from memory, so unlike the live
     stream no image can be missed for want of a client at the moment it was published.)"""
     port = free_port()
     url = "http://127.0.0.1:%d/" % port
-    view = subprocess.Popen([tac3d, "view", "--dataset", dataset, "--web", "127.0.0.1:%d" % port,
+    view = subprocess.Popen([tac3d, "view", "--dataset", dataset, "--config", sensor, "--web", "127.0.0.1:%d" % port,
                              "--web-hold", "60"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     try:
         wait_for_page(url, view)
@@ -215,18 +215,52 @@ def check_view_dataset(tac3d, work, dataset):
         view.wait(timeout=10)
 
 
+def write_small_scene(tac3d, work):
+    """A sphere pressed into and slid over a small fingertip (6 x 6 markers on a 12 mm dome, as
+    python/tests/conftest.py's small sensor), 30 steps: its twin body and compliance model
+    build in seconds into the test's cache (TAC3D_CACHE_DIR), where the built-in sensor's
+    would take minutes and gigabytes."""
+    import yaml
+
+    sensor_path = os.path.join(work, "small_sensor.yaml")
+    subprocess.run([tac3d, "design", "--out", sensor_path], check=True, capture_output=True, timeout=60)
+    with open(sensor_path) as f:
+        sensor = yaml.safe_load(f)
+    sensor["markers"]["rows"] = sensor["markers"]["cols"] = 6
+    sensor["elastic_body"].update(base_diameter_mm=12.0, thickness_mm=3.0, outer_radius_mm=20.0)
+    with open(sensor_path, "w") as f:
+        yaml.safe_dump(sensor, f)
+    scene_path = os.path.join(work, "small_slide.yaml")
+    with open(scene_path, "w") as f:
+        f.write("""name: small_slide
+sensor: %s
+deviation: {mesh_refinement: 1.0, youngs_modulus_factor: 1.1, poisson_ratio_factor: 0.99}
+objects:
+  - {name: ball, shape: sphere, radius_mm: 5, position_mm: [0, 0, 8.0], friction: {default: 0.3}}
+trajectory:
+  steps: 30
+  keyframes:
+    - {t_s: 0, position_mm: [0, 0, -0.05]}
+    - {t_s: 0.2, position_mm: [0, 0, -0.05]}
+    - {t_s: 0.4, position_mm: [0, 0, 0.15]}
+    - {t_s: 0.58, position_mm: [0.5, 0, 0.15]}
+""" % sensor_path)
+    return scene_path, sensor_path
+
+
 def main():
     tac3d, work = sys.argv[1], sys.argv[2]
     shutil.rmtree(work, ignore_errors=True)
     os.makedirs(work)
     dataset = os.path.join(work, "ds")
-    subprocess.run([tac3d, "simulate", "--scene", "two_material_slide", "--steps", "30", "--out", dataset],
+    scene, sensor = write_small_scene(tac3d, work)
+    subprocess.run([tac3d, "simulate", "--scene", scene, "--out", dataset],
                    check=True, capture_output=True, timeout=120)
     port = free_port()
     url = "http://127.0.0.1:%d/" % port
     # 30 steps of 20 ms at a fifth of real time: 3 s of live frames, then the last one held.
     recording = os.path.join(work, "run.rec")
-    run = subprocess.Popen([tac3d, "run", "--source", "dataset:" + dataset, "--speed", "0.2", "--web",
+    run = subprocess.Popen([tac3d, "run", "--source", "dataset:" + dataset, "--config", sensor, "--speed", "0.2", "--web",
                             "127.0.0.1:%d" % port, "--web-hold", "30", "--record", recording],
                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     try:
@@ -270,7 +304,7 @@ def main():
         except subprocess.TimeoutExpired:
             run.kill()
     check_view(tac3d, work, recording)
-    check_view_dataset(tac3d, work, dataset)
+    check_view_dataset(tac3d, work, dataset, sensor)
     print("PASS")
 
 
