@@ -90,6 +90,20 @@ TEST(Cli, DesignRefusesAThicknessBeyondTheLimit) {
   EXPECT_THAT(o.output, HasSubstr("d_mm = 1000000000 must be > 0 and <= 1000 mm"));
 }
 
+TEST(Cli, TwinRunsRefuseTooFewStepsAndABadRefinementBeforeAnyWork) {
+  const std::string dir = testing::MakeTempDir("twin_runs");
+  Outcome o = RunCli(fmt::format("demo --out {}/demo --steps 60", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("--steps 60: the demo needs 0 (every step) or at least 70"));
+  o = RunCli(fmt::format("demo --out {}/demo --steps 70 --twin-refinement 0.5", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("--twin-refinement must be in [1, 4], got 0.5"));
+  o = RunCli(fmt::format("simulate --scene force_calibration --out {}/sim --twin-refinement nan", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("--twin-refinement must be in [1, 4], got nan"));
+  EXPECT_EQ(CountFiles(dir), 0) << "a refused run left a file behind";
+}
+
 TEST(Cli, RenderRefusesANegativeFrameAndANonFinitePose) {
   const std::string dir = testing::MakeTempDir("render");
   Outcome o = RunCli(fmt::format("render markers --frame -1 --out {}/f.png", dir));

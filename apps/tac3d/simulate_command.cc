@@ -49,8 +49,8 @@ SimulateRun SimulateToDataset(const SimulateArgs& args) {
   if (args.steps < 0) throw Error(fmt::format("--steps must be >= 0, got {}", args.steps));
   Scene scene = LoadSceneOrBuiltIn(args.scene);
   if (args.twin_refinement) {
+    RequireTwinRefinement(*args.twin_refinement);
     scene.deviation.mesh_refinement = *args.twin_refinement;
-    scene.Validate();
   }
   const fem::BodyModelOptions body = simulation::TwinBodyModelOptions(scene.sensor, scene.deviation);
   // The output folder first, so a bad --out fails before a long model build.
@@ -91,6 +91,12 @@ SimulateRun SimulateToDataset(const SimulateArgs& args) {
   run.summary = sim.Run([&writer](const TwinStep& step) { writer.Write(step); });
   writer.UpdateHeader({{"summary", simulation::ToJson(run.summary)}});
   return run;
+}
+
+void RequireTwinRefinement(double refinement) {
+  if (!(refinement >= 1.0 && refinement <= 4.0)) {  // TwinDeviation's bounds (Scene::Validate)
+    throw Error(fmt::format("--twin-refinement must be in [1, 4], got {}", refinement));
+  }
 }
 
 void AddTwinRefinementOption(CLI::App* cmd, std::optional<double>* refinement) {

@@ -31,6 +31,9 @@ struct SimulateRun {
   nlohmann::json model;  ///< the twin body: cache file and status, body, grid, symbol
 };
 
+/// @throws Error unless `refinement` is in [1, 4] (the scenes' deviation.mesh_refinement).
+void RequireTwinRefinement(double refinement);
+
 /// `--twin-refinement R` into `refinement` (SimulateArgs::twin_refinement).
 void AddTwinRefinementOption(CLI::App* cmd, std::optional<double>* refinement);
 
