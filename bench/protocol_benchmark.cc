@@ -25,7 +25,7 @@ void BM_Encode(benchmark::State& state) {
   EncodedFrame encoded;
   std::uint32_t id = 0;
   for (auto _ : state) {
-    EncodeFrame(frame, id++, cv::Mat(), &encoded);
+    EncodeFrame(frame, id++, cv::Mat(), ExtraItems(), &encoded);
     benchmark::DoNotOptimize(encoded.body.data());
   }
   SetCounters(state, side, encoded);
@@ -35,7 +35,8 @@ BENCHMARK(BM_Encode)->Arg(10)->Arg(20)->Arg(40);
 void BM_ReassembleAndDecode(benchmark::State& state) {
   const int side = static_cast<int>(state.range(0));
   EncodedFrame encoded;
-  EncodeFrame(MakeSyntheticTactileFrame("AD2-0065L", 1, side, side), 7, cv::Mat(), &encoded);
+  EncodeFrame(
+      MakeSyntheticTactileFrame("AD2-0065L", 1, side, side), 7, cv::Mat(), ExtraItems(), &encoded);
   const std::vector<std::string> datagrams = encoded.Datagrams();
   FrameAssembler assembler;
   const Endpoint sender{0x7f000001, 9000};
@@ -55,7 +56,7 @@ BENCHMARK(BM_ReassembleAndDecode)->Arg(10)->Arg(20)->Arg(40);
 // Decode alone (YAML header + fields), without reassembly.
 void BM_Decode(benchmark::State& state) {
   EncodedFrame encoded;
-  EncodeFrame(MakeSyntheticTactileFrame("AD2-0065L", 1), 7, cv::Mat(), &encoded);
+  EncodeFrame(MakeSyntheticTactileFrame("AD2-0065L", 1), 7, cv::Mat(), ExtraItems(), &encoded);
   for (auto _ : state) benchmark::DoNotOptimize(DecodeFrame(encoded.header, encoded.body));
   SetCounters(state, 20, encoded);
 }

@@ -141,6 +141,21 @@ TEST(Cli, RunRefusesContradictoryFlagsAndNamesWhatASourceIs) {
                                                                    << o.output;
 }
 
+TEST(Cli, RunRefusesAnUnknownUdpItemListingTheKnownOnes) {
+  const std::string dir = testing::MakeTempDir("run_udp");
+  Outcome o = RunCli(fmt::format("run --source {} --udp 127.0.0.1:9988 --udp-items Normals", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("--udp-items 'Normals': unknown item 'Normals'; the items to add "
+                                  "to the vendor's six are 3D_Normals, SlipState, SlipFraction, "
+                                  "Friction, FrictionSigma (or all)"));
+  o = RunCli(fmt::format("run --source {} --udp-items all", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("--udp-items needs --udp HOST:PORT"));
+  o = RunCli(fmt::format("run --source {} --udp-progress", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("--udp-progress needs --udp HOST:PORT"));
+}
+
 TEST(Cli, RunFileMistakesAreRefusedBeforeAnyWork) {
   const std::string dir = testing::MakeTempDir("run_file");
   std::ofstream(dir + "/hand.yaml") << "sensors:\n  - sn: A\n    source: camera:0\n    colour: red\n";
@@ -150,6 +165,9 @@ TEST(Cli, RunFileMistakesAreRefusedBeforeAnyWork) {
   o = RunCli(fmt::format("run --run-file {}/hand.yaml --sn B", dir));
   EXPECT_EQ(o.exit_code, 1);
   EXPECT_THAT(o.output, HasSubstr("--sn is given per sensor in the run file"));
+  o = RunCli(fmt::format("run --run-file {}/hand.yaml --udp-items all", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("--udp-items is given per sensor in the run file"));
   o = RunCli("run");
   EXPECT_EQ(o.exit_code, 1);
   EXPECT_THAT(o.output, HasSubstr("--source or --run-file is required"));

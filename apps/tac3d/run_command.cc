@@ -84,8 +84,8 @@ void RunFile(const RunArgs& a) {
 
 // The one-sensor flags that a run file replaces.
 constexpr std::initializer_list<const char*> kSensorFlags = {
-    "--source", "--config", "--sn", "--udp", "--record", "--record-images", "--overwrite",
-    "--reference-frames", "--weight", "--gains", "--drift", "--drift-time-constant", "--width",
+    "--source", "--config", "--sn", "--udp", "--udp-items", "--udp-progress", "--record",
+    "--record-images", "--overwrite", "--reference-frames", "--weight", "--gains", "--drift", "--drift-time-constant", "--width",
     "--height", "--fps", "--exposure", "--speed"};
 
 }  // namespace
@@ -106,6 +106,12 @@ void RegisterRun(CLI::App& app) {
   cmd->add_option("--cache", a->cache_dir, "directory of cached compliance models")->capture_default_str();
   cmd->add_option("--sn", sensor.sn, "the sensor's serial number in the stream")->capture_default_str();
   cmd->add_option("--udp", sensor.outputs.udp, "stream the Tac3D protocol to HOST:PORT");
+  cmd->add_option("--udp-items", sensor.outputs.udp_items,
+                  "with --udp, tac3d's extra items after the vendor's six: NAME,NAME,... of "
+                  "3D_Normals, SlipState, SlipFraction, Friction, FrictionSigma, or all");
+  cmd->add_flag("--udp-progress", sensor.outputs.udp_progress,
+                "with --udp, also send the frames taken while the reference is (re)taken "
+                "(InitializeProgress < 100; PyTac3D 3.3.0-p1 stops at the first)");
   cmd->add_option("--record", sensor.outputs.record, "record the frames to this file (crash-safe)");
   cmd->add_flag("--record-images", sensor.outputs.record_images, "record the raw camera images too (with --record)");
   cmd->add_flag("--overwrite", sensor.outputs.overwrite, "replace the --record file if it exists");

@@ -58,6 +58,8 @@ SensorRunSpec ReadSensor(YamlReader r, const std::string& base_dir) {
   s.camera.fps = r.Double("fps", s.camera.fps);
   s.exposure = r.Double("exposure", s.exposure);
   s.outputs.udp = r.String("udp", "");
+  s.outputs.udp_items = r.String("udp_items", "");
+  s.outputs.udp_progress = r.Bool("udp_progress", false);
   s.outputs.record = FromBase(base_dir, r.String("record", ""));
   s.outputs.record_images = r.Bool("record_images", false);
   s.outputs.overwrite = r.Bool("overwrite", false);
@@ -74,6 +76,11 @@ SensorRunSpec ReadSensor(YamlReader r, const std::string& base_dir) {
   udp.udp = s.outputs.udp;
   record.record = s.outputs.record;
   check("udp", udp);
+  FrameOutputArgs udp_items = udp, udp_progress = udp;
+  udp_items.udp_items = s.outputs.udp_items;
+  udp_progress.udp_progress = s.outputs.udp_progress;
+  if (r.Has("udp_items")) check("udp_items", udp_items);
+  if (r.Has("udp_progress")) check("udp_progress", udp_progress);
   check("record", record);
   return s;
 }

@@ -12,8 +12,9 @@ namespace tac3d::cli {
 
 /// Parses a run file: a mapping with one key, `sensors`, a list of sensors, each with `sn`
 /// and `source` (required) and optionally `config`, `gains`, `weight`, `reference_frames`,
-/// `speed`, `udp`, `record`, `record_images`, `overwrite`, `fps`, `exposure`. Relative paths (config,
-/// record, a source's file or folder) are taken from `base_dir`.
+/// `speed`, `udp`, `udp_items`, `udp_progress`, `record`, `record_images`, `overwrite`, `fps`,
+/// `exposure`. Relative paths (config, record, a source's file or folder) are taken from
+/// `base_dir`.
 /// @param source the file name for messages.
 /// @throws Error naming the file, the line and the key of a syntax error, a duplicated, unknown
 ///   or missing key, a value of the wrong type, an empty list, an SN or a record file used

@@ -43,9 +43,11 @@ std::pair<std::string, std::uint16_t> ParseHostPort(const std::string& host_port
   return {host_port.substr(0, colon), static_cast<std::uint16_t>(port)};
 }
 
-UdpSenderOptions ParseUdp(const std::string& host_port) {
+UdpSenderOptions ParseUdp(const FrameOutputArgs& args) {
   UdpSenderOptions options;
-  std::tie(options.host, options.port) = ParseHostPort(host_port, "--udp", "127.0.0.1:9988");
+  std::tie(options.host, options.port) = ParseHostPort(args.udp, "--udp", "127.0.0.1:9988");
+  ParseExtraItems(args.udp_items, "--udp-items");
+  options.stream = {.items = args.udp_items, .send_initializing = args.udp_progress};
   return options;
 }
 
@@ -94,7 +96,9 @@ nlohmann::json Summary(const TactileFrame& f) {
 void FrameOutputArgs::Validate() const {
   if (record_images && record.empty()) throw Error("--record-images needs --record FILE");
   if (overwrite && record.empty()) throw Error("--overwrite needs --record FILE");
-  if (!udp.empty()) ParseUdp(udp);
+  if (udp.empty() && !udp_items.empty()) throw Error("--udp-items needs --udp HOST:PORT");
+  if (udp.empty() && udp_progress) throw Error("--udp-progress needs --udp HOST:PORT");
+  if (!udp.empty()) ParseUdp(*this);
   if (!record.empty()) CheckOutputFile(record, "--record");
   if (!web.empty()) ParseWeb(*this).Validate();
   if (web.empty() && web_hold_s != 0) throw Error("--web-hold needs --web HOST:PORT");
@@ -116,7 +120,7 @@ FrameOutputs::FrameOutputs(const FrameOutputArgs& args, std::shared_ptr<WebServe
   TAC3D_DEMAND(!(web_ && !args.web.empty()));
   args.Validate();
   if (!args.udp.empty()) {
-    sender_.emplace(ParseUdp(args.udp));
+    sender_.emplace(ParseUdp(args));
     std::fprintf(stderr,
                  "streaming to %s%s (commands on %s)\n",
                  sender_->destination().ToString().c_str(),
@@ -175,8 +179,14 @@ StopSignals::~StopSignals() {
 std::atomic<bool>& StopSignals::flag() { return g_stop; }
 
 std::string FrameOutputs::RecordedNote() const {
-  std::string note =
-      recorder_ ? fmt::format(", {} recorded to {}", recorder_->frames_written(), args_.record) : "";
+  std::string note;
+  if (sender_) {
+    note += fmt::format(", {} streamed", sender_->frames_sent());
+    if (sender_->frames_withheld() > 0) {
+      note += fmt::format(" ({} initialising withheld: --udp-progress sends them)", sender_->frames_withheld());
+    }
+  }
+  if (recorder_) note += fmt::format(", {} recorded to {}", recorder_->frames_written(), args_.record);
   if (web_) {
     const WebServerStats s = web_->stats();
     note += fmt::format(", viewer: {} messages sent, {} skipped, {} stalled clients dropped",

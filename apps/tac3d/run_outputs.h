@@ -30,6 +30,8 @@ namespace tac3d::cli {
 /// The frame-level outputs of `tac3d run` (docs/pipeline.md).
 struct FrameOutputArgs {
   std::string udp;             ///< stream the Tac3D protocol to HOST:PORT, or ""
+  std::string udp_items;       ///< with udp: StreamOptions::items (extra items, "all")
+  bool udp_progress = false;   ///< with udp: StreamOptions::send_initializing
   std::string record;          ///< record the frames to this new file, or ""
   bool record_images = false;  ///< record each frame's image too
   bool json = false;           ///< print each frame's summary as a JSON line on stdout
@@ -41,8 +43,9 @@ struct FrameOutputArgs {
   /// Ctrl-C); with `web` only.
   double web_hold_s = 0.0;
 
-  /// Checks what can be checked before any work: HOST:PORT's form, --record-images and
-  /// --overwrite only with --record, --web-hold only with --web, the record file's folder.
+  /// Checks what can be checked before any work: HOST:PORT's form, --udp-items' names,
+  /// --udp-items and --udp-progress only with --udp, --record-images and --overwrite only
+  /// with --record, --web-hold only with --web, the record file's folder.
   /// @throws Error naming the flag.
   void Validate() const;
 };
@@ -75,7 +78,8 @@ class FrameOutputs {
   /// With --web and --web-hold: keeps the viewer up after the source ended, until the hold
   /// is over or Ctrl-C / SIGTERM.
   void HoldWeb();
-  /// ", N recorded to FILE" when recording, else "".
+  /// ", N streamed (M initialising withheld)" when streaming, ", N recorded to FILE" when
+  /// recording, and the viewer's counts; else "".
   std::string RecordedNote() const;
 
  private:

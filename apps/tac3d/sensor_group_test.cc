@@ -86,6 +86,7 @@ SensorRunSpec TwinSensor(const std::string& sn, const std::string& dataset, std:
   spec.speed = 1.0;
   spec.reference_frames = 5;
   spec.outputs.udp = fmt::format("127.0.0.1:{}", udp_port);
+  spec.outputs.udp_progress = true;  // every frame is counted, the initialising ones too
   return spec;
 }
 
@@ -246,6 +247,8 @@ TEST(RunFile, ReadsEachSensorWithPathsFromItsFolder) {
       "    gains: [1.1, 1.2, 0.9]\n"
       "    speed: 1\n"
       "    udp: 127.0.0.1:9988\n"
+      "    udp_items: 3D_Normals,SlipState\n"
+      "    udp_progress: true\n"
       "    record: thumb.rec\n"
       "    record_images: true\n"
       "    overwrite: true\n"
@@ -263,6 +266,10 @@ TEST(RunFile, ReadsEachSensorWithPathsFromItsFolder) {
   EXPECT_THAT(sensors[0].gains, EigenNear(Eigen::Vector3d(1.1, 1.2, 0.9), 0.0));
   EXPECT_EQ(sensors[0].speed, 1.0);
   EXPECT_EQ(sensors[0].outputs.udp, "127.0.0.1:9988");
+  EXPECT_EQ(sensors[0].outputs.udp_items, "3D_Normals,SlipState");
+  EXPECT_TRUE(sensors[0].outputs.udp_progress);
+  EXPECT_EQ(sensors[1].outputs.udp_items, "");
+  EXPECT_FALSE(sensors[1].outputs.udp_progress);
   EXPECT_EQ(sensors[0].outputs.record, "/tmp/thumb.rec");
   EXPECT_TRUE(sensors[0].outputs.record_images);
   EXPECT_TRUE(sensors[0].outputs.overwrite);
@@ -297,6 +304,17 @@ TEST(RunFile, RefusesMistakesNamingTheLine) {
               HasSubstr("line 4: sensors[0].drift_time_constant_s: must be > 0"));
   EXPECT_THAT(RunFileError(a + "    udp: nowhere\n"),
               HasSubstr("hand.yaml: line 4: sensors[0].udp: --udp 'nowhere': expected HOST:PORT"));
+  const std::string udp = a + "    udp: 127.0.0.1:9988\n";
+  EXPECT_THAT(RunFileError(udp + "    udp_items: all,Slip\n"),
+              HasSubstr("hand.yaml: line 5: sensors[0].udp_items: --udp-items 'all,Slip': unknown item "
+                        "'Slip'; the items to add to the vendor's six are 3D_Normals, SlipState, "
+                        "SlipFraction, Friction, FrictionSigma (or all)"));
+  EXPECT_THAT(RunFileError(a + "    udp_items: all\n"),
+              HasSubstr("hand.yaml: line 4: sensors[0].udp_items: --udp-items needs --udp HOST:PORT"));
+  EXPECT_THAT(RunFileError(a + "    udp_progress: true\n"),
+              HasSubstr("hand.yaml: line 4: sensors[0].udp_progress: --udp-progress needs --udp HOST:PORT"));
+  EXPECT_THAT(RunFileError(udp + "    udp_progress: 1.5\n"),
+              HasSubstr("line 5: sensors[0].udp_progress: must be true or false"));
   EXPECT_THAT(RunFileError(a + "    record: missing/r.rec\n"),
               HasSubstr("hand.yaml: line 4: sensors[0].record: "));
   EXPECT_THAT(RunFileError("sensors: []\n"), HasSubstr("hand.yaml: line 1: sensors: lists no sensor"));

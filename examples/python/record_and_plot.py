@@ -12,6 +12,7 @@ import argparse
 import time
 
 import matplotlib
+import numpy as np
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -26,7 +27,8 @@ def to_tactile_frame(d):
     f.positions = d["3D_Positions"]
     f.displacements = d["3D_Displacements"]
     f.forces = d["3D_Forces"]
-    f.normals = d["3D_Normals"]
+    # Sent only when asked (`tac3d run --udp-items 3D_Normals`): NaN, "not measured", without.
+    f.normals = d.get("3D_Normals", np.full((n, 3), np.nan))
     f.resultant_force = d["3D_ResultantForce"][0]
     f.resultant_moment = d["3D_ResultantMoment"][0]
     return f

@@ -245,10 +245,11 @@ change the frame. Assigning an array copies it in after a shape check.
                 Vector3dView(f.resultant_force_n, self).attr("reshape")(1, 3).attr("copy")();
             d["3D_ResultantMoment"] =
                 Vector3dView(f.resultant_moment_nmm, self).attr("reshape")(1, 3).attr("copy")();
-            d["InitializeProgress"] = f.initialize_progress;
+            d["InitializeProgress"] = static_cast<double>(f.initialize_progress);
             return d;
           },
-          "The frame as the vendor client's dict (copies of the arrays; no recvTimestamp).")
+          "The frame as the vendor client's dict (copies of the arrays, 3D_Normals included;\n"
+          "InitializeProgress a float, as the vendor sends it; no recvTimestamp).")
       .def("__eq__", [](const TactileFrame& a, const TactileFrame& b) { return a == b; })
       .def("__repr__", [](const TactileFrame& f) {
         return fmt::format(

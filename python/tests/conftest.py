@@ -56,10 +56,9 @@ def write_recording(path, frames, dt_s=0.001, sn="PY-TEST"):
     return str(path)
 
 
-@pytest.fixture
-def small_sensor_yaml(tmp_path):
+def write_small_sensor_yaml(folder):
     """The prototype shrunk to 3 x 3 markers on a 12 mm dome, 3 mm thick: its twin body and
-    compliance build in seconds (as simulation_test's SmallSensor)."""
+    compliance build in seconds (as simulation_test's SmallSensor). Returns its path."""
     import yaml
 
     cfg = yaml.safe_load(tac3d.default_sensor_yaml())
@@ -67,9 +66,15 @@ def small_sensor_yaml(tmp_path):
     cfg["elastic_body"]["base_diameter_mm"] = 12.0
     cfg["elastic_body"]["thickness_mm"] = 3.0
     cfg["elastic_body"]["outer_radius_mm"] = 20.0
-    path = tmp_path / "small_sensor.yaml"
+    path = folder / "small_sensor.yaml"
     path.write_text(yaml.safe_dump(cfg))
     return path
+
+
+@pytest.fixture
+def small_sensor_yaml(tmp_path):
+    """write_small_sensor_yaml in the test's folder."""
+    return write_small_sensor_yaml(tmp_path)
 
 
 SMALL_TWIN = {"margin_mm": 0.8, "quadrature_points_per_side": 2}

@@ -49,6 +49,7 @@ def test_frame_flags_slip_and_vendor_dict():
     d = f.to_dict()
     assert d["SN"] == "PY-TEST" and d["index"] == 3
     assert d["3D_Positions"].shape == (400, 3) and d["3D_ResultantForce"].shape == (1, 3)
+    assert isinstance(d["InitializeProgress"], float) and d["InitializeProgress"] == 100
     np.testing.assert_array_equal(d["3D_Forces"], f.forces)
     assert f == f.copy()
 

@@ -16,7 +16,7 @@ const Endpoint kSensorB{0x7f000001, 4002};
 
 std::vector<std::string> DatagramsOf(const TactileFrame& frame, std::uint32_t frame_id) {
   EncodedFrame encoded;
-  EncodeFrame(frame, frame_id, cv::Mat(), &encoded);
+  EncodeFrame(frame, frame_id, cv::Mat(), ExtraItems(), &encoded);
   return encoded.Datagrams();
 }
 

@@ -30,7 +30,8 @@ class DatagramFuzzer {
  public:
   DatagramFuzzer() : rng_(testing::kRandomSeed) {
     EncodedFrame encoded;
-    EncodeFrame(MakeSyntheticTactileFrame("FUZZ", 1, 4, 4), 0, cv::Mat(), &encoded);
+    EncodeFrame(
+        MakeSyntheticTactileFrame("FUZZ", 1, 4, 4), 0, cv::Mat(), ExtraItems().set(), &encoded);
     genuine_ = encoded.Datagrams();
     genuine_header_ = encoded.header;
   }
@@ -132,7 +133,7 @@ std::optional<ReceivedFrame> PushAll(FrameAssembler* assembler,
                                      std::uint32_t id,
                                      double now_s) {
   EncodedFrame encoded;
-  EncodeFrame(frame, id, cv::Mat(), &encoded);
+  EncodeFrame(frame, id, cv::Mat(), ExtraItems(), &encoded);
   std::optional<ReceivedFrame> out;
   for (const auto& d : encoded.Datagrams()) {
     if (auto r = assembler->Push({0x7f000001, 4000}, Bytes(d), now_s)) out = std::move(r);

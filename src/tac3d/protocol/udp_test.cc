@@ -46,7 +46,8 @@ TEST(Udp, FrameReachesTheClientAndCommandsReachTheSender) {
   EXPECT_EQ(received->sender.port, sender.local_endpoint().port);
   EXPECT_EQ(received->frame.sn, "AD2-0065L");
   EXPECT_EQ(received->frame.index, 3);
-  EXPECT_EQ(received->frame.Find(kFieldNormals)->matrix(399, 2), frame.normals[399].z());
+  EXPECT_EQ(received->frame.Find(kFieldPositions)->matrix(399, 2), frame.positions_mm[399].z());
+  EXPECT_EQ(received->frame.Find(kFieldNormals), nullptr);  // an extra item, not asked for
   EXPECT_EQ(cv::norm(received->frame.Find(kFieldImage)->image, image, cv::NORM_INF), 0.0);
 
   EXPECT_EQ(sender.PollCommand(), std::nullopt);
@@ -88,6 +89,52 @@ TEST(Udp, SeveralSendersWithTheirOwnSnShareOneClient) {
   EXPECT_EQ(senders[2].PollCommand(), std::nullopt);
 }
 
+// Frames with initialize_progress 20, 40, 100, 100 sent with `stream`, each read before the
+// next is sent; the indices and InitializeProgress values the client receives.
+std::vector<std::pair<std::int64_t, double>> SendInitialisation(const StreamOptions& stream) {
+  Client client(LoopbackClient());
+  UdpSender sender({.host = "127.0.0.1", .port = client.local_endpoint().port, .stream = stream});
+  std::vector<std::pair<std::int64_t, double>> received;
+  const int progress[] = {20, 40, 100, 100};
+  for (int k = 0; k < 4; ++k) {
+    TactileFrame frame = MakeSyntheticTactileFrame("AD2-0065L", k);
+    frame.initialize_progress = progress[k];
+    const std::int64_t sent_before = sender.frames_sent();
+    sender.Send(frame);
+    if (sender.frames_sent() == sent_before) continue;
+    const auto r = client.Receive(kWaitS);
+    if (!r) break;
+    const DecodedField* value = r->frame.Find(kFieldInitializeProgress);
+    EXPECT_EQ(value->type, FieldType::kF64);
+    received.emplace_back(r->frame.index, value->matrix(0, 0));
+  }
+  EXPECT_FALSE(client.Receive(0.05));
+  EXPECT_EQ(sender.frames_sent() + sender.frames_withheld(), 4);
+  return received;
+}
+
+TEST(Udp, InitialisingFramesAreWithheldUnlessAsked) {
+  using Received = std::vector<std::pair<std::int64_t, double>>;
+  EXPECT_EQ(SendInitialisation({}), (Received{{2, 100.0}, {3, 100.0}}));
+  EXPECT_EQ(SendInitialisation({.send_initializing = true}),
+            (Received{{0, 20.0}, {1, 40.0}, {2, 100.0}, {3, 100.0}}));
+}
+
+TEST(Udp, TheExtraItemsAskedForArrive) {
+  Client client(LoopbackClient());
+  UdpSender sender({.host = "127.0.0.1",
+                    .port = client.local_endpoint().port,
+                    .stream = {.items = "3D_Normals,Friction"}});
+  const TactileFrame frame = MakeSyntheticTactileFrame("AD2-0065L", 104);  // gross slip
+  sender.Send(frame);
+  const auto received = client.Receive(kWaitS);
+  ASSERT_TRUE(received) << client.drops().ToString() << " " << client.last_error();
+  EXPECT_EQ(received->frame.Find(kFieldNormals)->matrix(399, 2), frame.normals[399].z());
+  EXPECT_EQ(received->frame.slip.friction, frame.slip.friction);
+  EXPECT_EQ(received->frame.Find(kFieldSlipState), nullptr);
+  EXPECT_EQ(received->frame.slip.state, SlipState::kUnknown);  // not sent
+}
+
 TEST(Udp, SenderIgnoresMalformedCommandsAndStrangers) {
   Client client(LoopbackClient());
   UdpSender sender = SenderTo(client);
@@ -120,6 +167,9 @@ TEST(Udp, SetupErrorsSayWhatFailed) {
   EXPECT_THROW(ResolveEndpoint("no-such-host.invalid", 1), Error);
   EXPECT_THROW(UdpSender({.host = "", .port = 1}), Error);
   EXPECT_THROW(UdpSender({.host = "127.0.0.1", .port = 0}), Error);
+  EXPECT_THAT([] { UdpSender({.host = "127.0.0.1", .port = 1, .stream = {.items = "Normals"}}); },
+              ::testing::ThrowsMessage<Error>(
+                  HasSubstr("StreamOptions.items 'Normals': unknown item 'Normals'")));
   EXPECT_THROW(Client({.receive_buffer_bytes = -1}), Error);
 }
 

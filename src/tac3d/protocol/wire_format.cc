@@ -1,8 +1,10 @@
 #include "tac3d/protocol/wire_format.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <bit>
 #include <cstring>
 #include <iterator>
@@ -227,6 +229,61 @@ DecodedField DecodeItem(const YAML::Node& item, const std::string& name, std::st
   return field;
 }
 
+// One scalar item: its header entry and its bytes.
+template <typename T>
+void AppendScalar(const char* name, const char* type, T value, EncodedFrame* out) {
+  AppendItem(std::back_inserter(out->header), name, type, out->body.size(), sizeof(value));
+  out->body.append(reinterpret_cast<const char*>(&value), sizeof(value));
+}
+
+// A rows x 3 float64 matrix item.
+void AppendMat(const char* name, const double* values, int height, EncodedFrame* out) {
+  AppendMatItem(std::back_inserter(out->header), name, height, 3, out->body.size());
+  out->body.append(reinterpret_cast<const char*>(values), sizeof(double) * 3 * height);
+}
+
+// kVendorItems, in that order; InitializeProgress as f64, as the vendor sends it.
+void AppendVendorItems(const TactileFrame& frame, EncodedFrame* out) {
+  const int n = frame.num_markers();
+  AppendMat(kFieldDisplacements, frame.displacements_mm.front().data(), n, out);
+  AppendMat(kFieldPositions, frame.positions_mm.front().data(), n, out);
+  AppendMat(kFieldForces, frame.forces_n.front().data(), n, out);
+  AppendMat(kFieldResultantForce, frame.resultant_force_n.data(), 1, out);
+  AppendMat(kFieldResultantMoment, frame.resultant_moment_nmm.data(), 1, out);
+  AppendScalar(
+      kFieldInitializeProgress, "f64", static_cast<double>(frame.initialize_progress), out);
+}
+
+void AppendExtraItems(const TactileFrame& frame, ExtraItems extras, EncodedFrame* out) {
+  const auto has = [&](ExtraItem item) { return extras.test(static_cast<int>(item)); };
+  if (has(ExtraItem::kNormals)) {
+    AppendMat(kFieldNormals, frame.normals.front().data(), frame.num_markers(), out);
+  }
+  if (has(ExtraItem::kSlipState)) {
+    AppendScalar(kFieldSlipState, "i32", static_cast<std::int32_t>(frame.slip.state), out);
+  }
+  for (const auto& [item, value] :
+       {std::pair{ExtraItem::kSlipFraction, frame.slip.fraction},
+        std::pair{ExtraItem::kFriction, frame.slip.friction},
+        std::pair{ExtraItem::kFrictionSigma, frame.slip.friction_sigma}}) {
+    if (has(item)) AppendScalar(ExtraItemName(item), "f64", value, out);
+  }
+}
+
+void AppendImage(const cv::Mat& image, EncodedFrame* out) {
+  if (image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3)) {
+    throw Error(
+        fmt::format("Tac3D encoder: the image must be 8-bit with 1 or 3 channels, not "
+                    "depth {} with {} channels",
+                    image.depth(),
+                    image.channels()));
+  }
+  std::vector<std::uint8_t> png;
+  cv::imencode(".png", image, png);
+  AppendItem(std::back_inserter(out->header), kFieldImage, "img", out->body.size(), png.size());
+  out->body.append(reinterpret_cast<const char*>(png.data()), png.size());
+}
+
 }  // namespace
 
 const char* DropReasonName(DropReason reason) {
@@ -257,6 +314,53 @@ const char* DropReasonName(DropReason reason) {
       return "evicted";
   }
   TAC3D_DEMAND(false);
+}
+
+const char* ExtraItemName(ExtraItem item) {
+  switch (item) {
+    case ExtraItem::kNormals:
+      return kFieldNormals;
+    case ExtraItem::kSlipState:
+      return kFieldSlipState;
+    case ExtraItem::kSlipFraction:
+      return kFieldSlipFraction;
+    case ExtraItem::kFriction:
+      return kFieldFriction;
+    case ExtraItem::kFrictionSigma:
+      return kFieldFrictionSigma;
+  }
+  TAC3D_DEMAND(false);
+}
+
+ExtraItems ParseExtraItems(std::string_view text, std::string_view what) {
+  std::vector<std::string> names;
+  for (int k = 0; k < kNumExtraItems; ++k)
+    names.push_back(ExtraItemName(static_cast<ExtraItem>(k)));
+  ExtraItems items;
+  for (std::size_t begin = 0; !text.empty() && begin <= text.size();) {
+    const std::size_t comma = std::min(text.find(',', begin), text.size());
+    const std::string_view name = text.substr(begin, comma - begin);
+    begin = comma + 1;
+    if (name == "all") {
+      items.set();
+      continue;
+    }
+    const auto it = std::find(names.begin(), names.end(), name);
+    if (it != names.end()) {
+      items.set(it - names.begin());
+      continue;
+    }
+    const bool vendor =
+        std::find(kVendorItems.begin(), kVendorItems.end(), name) != kVendorItems.end();
+    throw Error(fmt::format("{} '{}': {}; the items to add to the vendor's six are {} (or all)",
+                            what,
+                            text,
+                            vendor
+                                ? fmt::format("'{}' is one of the vendor's six, always sent", name)
+                                : fmt::format("unknown item '{}'", name),
+                            fmt::join(names, ", ")));
+  }
+  return items;
 }
 
 std::string_view CommandBytes(SensorCommand command) {
@@ -311,57 +415,22 @@ std::vector<std::string> EncodedFrame::Datagrams() const {
 void EncodeFrame(const TactileFrame& frame,
                  std::uint32_t frame_id,
                  const cv::Mat& image,
+                 ExtraItems extras,
                  EncodedFrame* out) {
   frame.Validate();
   CheckSn(frame.sn);
   out->frame_id = frame_id;
   out->header.clear();
   out->body.clear();
-  auto header = std::back_inserter(out->header);
-  fmt::format_to(header,
+  fmt::format_to(std::back_inserter(out->header),
                  "SN: \"{}\"\nindex: {}\ntimestamp: {}\nmsg: \"{}\"\ndata:\n",
                  frame.sn,
                  frame.index,
                  YamlFloat(frame.timestamp_s),
                  FrameFlagNames(frame.flags));
-
-  auto append_mat = [&](const char* name, const double* values, int height) {
-    AppendMatItem(header, name, height, 3, out->body.size());
-    out->body.append(reinterpret_cast<const char*>(values), sizeof(double) * 3 * height);
-  };
-  const int n = frame.num_markers();
-  append_mat(kFieldPositions, frame.positions_mm.front().data(), n);
-  append_mat(kFieldDisplacements, frame.displacements_mm.front().data(), n);
-  append_mat(kFieldForces, frame.forces_n.front().data(), n);
-  append_mat(kFieldNormals, frame.normals.front().data(), n);
-  append_mat(kFieldResultantForce, frame.resultant_force_n.data(), 1);
-  append_mat(kFieldResultantMoment, frame.resultant_moment_nmm.data(), 1);
-  const std::int32_t progress = frame.initialize_progress;
-  AppendItem(header, kFieldInitializeProgress, "i32", out->body.size(), sizeof(progress));
-  out->body.append(reinterpret_cast<const char*>(&progress), sizeof(progress));
-  const std::int32_t slip_state = static_cast<std::int32_t>(frame.slip.state);
-  AppendItem(header, kFieldSlipState, "i32", out->body.size(), sizeof(slip_state));
-  out->body.append(reinterpret_cast<const char*>(&slip_state), sizeof(slip_state));
-  for (const auto& [name, value] : {std::pair{kFieldSlipFraction, &frame.slip.fraction},
-                                    std::pair{kFieldFriction, &frame.slip.friction},
-                                    std::pair{kFieldFrictionSigma, &frame.slip.friction_sigma}}) {
-    AppendItem(header, name, "f64", out->body.size(), sizeof(double));
-    out->body.append(reinterpret_cast<const char*>(value), sizeof(double));
-  }
-
-  if (!image.empty()) {
-    if (image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3)) {
-      throw Error(
-          fmt::format("Tac3D encoder: the image must be 8-bit with 1 or 3 channels, not "
-                      "depth {} with {} channels",
-                      image.depth(),
-                      image.channels()));
-    }
-    std::vector<std::uint8_t> png;
-    cv::imencode(".png", image, png);
-    AppendItem(header, kFieldImage, "img", out->body.size(), png.size());
-    out->body.append(reinterpret_cast<const char*>(png.data()), png.size());
-  }
+  AppendVendorItems(frame, out);
+  AppendExtraItems(frame, extras, out);
+  if (!image.empty()) AppendImage(image, out);
   if (out->header.size() > kChunkBytes) {
     throw Error(
         fmt::format("Tac3D encoder: the text header is {} bytes; it must fit in one "

@@ -2,6 +2,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <bitset>
 #include <cstddef>
 #include <cstdint>
 #include <map>
@@ -33,12 +34,36 @@ inline constexpr const char* kFieldResultantMoment = "3D_ResultantMoment";
 inline constexpr const char* kFieldInitializeProgress = "InitializeProgress";
 inline constexpr const char* kFieldImage = "img";
 /// tac3d's extra items (docs/protocol.md, "Extra items"): the slip estimate, TactileFrame::slip.
-/// Named items of the format's own types, so vendor clients decode them into their per-frame
-/// dictionary by name and never read them.
-inline constexpr const char* kFieldSlipState = "SlipState";        ///< i32, SlipState's value
-inline constexpr const char* kFieldSlipFraction = "SlipFraction";  ///< f64, NaN without contact
-inline constexpr const char* kFieldFriction = "Friction";          ///< f64, NaN unless gross slip
+/// Named items of the format's own types, so the vendor's Python clients decode them into their
+/// per-frame dictionary by name and never read them (its C++ client complains: ExtraItem).
+inline constexpr const char* kFieldSlipState = "SlipState";          ///< i32, SlipState's value
+inline constexpr const char* kFieldSlipFraction = "SlipFraction";    ///< f64, NaN without contact
+inline constexpr const char* kFieldFriction = "Friction";            ///< f64, NaN unless gross slip
 inline constexpr const char* kFieldFrictionSigma = "FrictionSigma";  ///< f64, 1-sigma of Friction
+
+/// The items the vendor's processing program sends by default, in its order (its per-sensor
+/// sensor.yaml): what every frame of ours carries first.
+inline constexpr std::array<const char*, 6> kVendorItems = {kFieldDisplacements,
+                                                            kFieldPositions,
+                                                            kFieldForces,
+                                                            kFieldResultantForce,
+                                                            kFieldResultantMoment,
+                                                            kFieldInitializeProgress};
+
+/// tac3d's items beyond the vendor's six, each sent only when asked (StreamOptions::items),
+/// after the six, in this order. The vendor's C++ client complains of each in every frame.
+enum class ExtraItem { kNormals, kSlipState, kSlipFraction, kFriction, kFrictionSigma };
+inline constexpr int kNumExtraItems = static_cast<int>(ExtraItem::kFrictionSigma) + 1;
+/// A set of extra items, bit ExtraItem.
+using ExtraItems = std::bitset<kNumExtraItems>;
+/// The item's name on the wire: kFieldNormals, kFieldSlipState, ...
+const char* ExtraItemName(ExtraItem item);
+/// Reads a list of extra items as `--udp-items` takes it: names (ExtraItemName) separated by
+/// commas, or "all"; "" is none.
+/// @param what names the setting in messages ("--udp-items").
+/// @throws Error naming an item that is not an extra one (a vendor item is always sent) and
+///   listing the extra ones.
+ExtraItems ParseExtraItems(std::string_view text, std::string_view what);
 
 /// The 8-byte prefix of every datagram.
 struct DatagramPrefix {
@@ -69,11 +94,12 @@ struct EncodedFrame {
   std::vector<std::string> Datagrams() const;
 };
 
-/// Encodes a frame as wire-protocol.md says: the seven fields of the table (per-marker fields
-/// rows*cols x 3 float64 row-major; resultant force N and moment N mm as 1 x 3;
-/// InitializeProgress as i32), the extra items SlipState (i32), SlipFraction, Friction and
-/// FrictionSigma (f64), then `img` as PNG when `image` is not empty. The header's msg
-/// holds FrameFlagNames(frame.flags).
+/// Encodes a frame as the vendor's processing program does (docs/protocol.md): its six items
+/// in its order (kVendorItems: per-marker fields rows*cols x 3 float64 row-major; resultant
+/// force N and moment N mm as 1 x 3; InitializeProgress as f64), then the extra items in
+/// `extras` (3D_Normals as the per-marker fields, SlipState i32, SlipFraction, Friction and
+/// FrictionSigma f64), then `img` as PNG when `image` is not empty. The header's msg holds
+/// FrameFlagNames(frame.flags).
 /// @param image 8-bit, 1 or 3 channels, or empty for none.
 /// @throws Error if the frame does not Validate(), its SN is not printable ASCII without
 /// quotes or backslashes, the header does not fit in one datagram, the image is not 8-bit
@@ -81,6 +107,7 @@ struct EncodedFrame {
 void EncodeFrame(const TactileFrame& frame,
                  std::uint32_t frame_id,
                  const cv::Mat& image,
+                 ExtraItems extras,
                  EncodedFrame* out);
 
 /// The 2-byte commands a client sends back to the address frames came from.

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <opencv2/imgcodecs.hpp>
@@ -16,31 +17,52 @@ namespace {
 
 using ::testing::HasSubstr;
 
-// The table of wire-protocol.md, written out independently of the encoder's constants.
+// The vendor's six items in its order (its processing program's sensor.yaml), then tac3d's
+// extra ones, written out independently of the encoder's constants.
 struct ExpectedItem {
   std::string name, type;
   int height, width;  // mat only
   std::size_t length;
 };
-const std::vector<ExpectedItem> kTable = {
-    {"3D_Positions", "mat", 400, 3, 9600},
+const std::vector<ExpectedItem> kVendorTable = {
     {"3D_Displacements", "mat", 400, 3, 9600},
+    {"3D_Positions", "mat", 400, 3, 9600},
     {"3D_Forces", "mat", 400, 3, 9600},
-    {"3D_Normals", "mat", 400, 3, 9600},
     {"3D_ResultantForce", "mat", 1, 3, 24},
     {"3D_ResultantMoment", "mat", 1, 3, 24},
-    {"InitializeProgress", "i32", 0, 0, 4},
-    // tac3d's extra items (docs/protocol.md), which vendor clients keep by name and ignore.
+    {"InitializeProgress", "f64", 0, 0, 8},
+};
+const std::vector<ExpectedItem> kExtraTable = {
+    {"3D_Normals", "mat", 400, 3, 9600},
     {"SlipState", "i32", 0, 0, 4},
     {"SlipFraction", "f64", 0, 0, 8},
     {"Friction", "f64", 0, 0, 8},
     {"FrictionSigma", "f64", 0, 0, 8},
 };
 
-EncodedFrame Encode(const TactileFrame& frame, const cv::Mat& image = cv::Mat()) {
+std::vector<ExpectedItem> FullTable() {
+  std::vector<ExpectedItem> table = kVendorTable;
+  table.insert(table.end(), kExtraTable.begin(), kExtraTable.end());
+  return table;
+}
+
+const ExtraItems kAllExtras = ExtraItems().set();
+
+EncodedFrame Encode(const TactileFrame& frame,
+                    const cv::Mat& image = cv::Mat(),
+                    ExtraItems extras = kAllExtras) {
   EncodedFrame encoded;
-  EncodeFrame(frame, 0xA1B2C3D4, image, &encoded);
+  EncodeFrame(frame, 0xA1B2C3D4, image, extras, &encoded);
   return encoded;
+}
+
+// The data items' names, in the header's order.
+std::vector<std::string> ItemNames(const EncodedFrame& encoded) {
+  std::vector<std::string> names;
+  for (const YAML::Node& item : YAML::Load(encoded.header)["data"]) {
+    names.push_back(item["name"].as<std::string>());
+  }
+  return names;
 }
 
 std::optional<ReceivedFrame> Reassemble(const std::vector<std::string>& datagrams,
@@ -62,24 +84,53 @@ RowMajorMatrixXd AsMatrix(const std::vector<Eigen::Vector3d>& v) {
   return m;
 }
 
+// The header's items against `table`, and the body they point into.
+void ExpectItems(const YAML::Node& data, const std::vector<ExpectedItem>& table) {
+  ASSERT_EQ(data.size(), table.size());
+  for (std::size_t k = 0; k < table.size(); ++k) {
+    SCOPED_TRACE(table[k].name);
+    EXPECT_EQ(data[k]["name"].as<std::string>(), table[k].name);
+    EXPECT_EQ(data[k]["type"].as<std::string>(), table[k].type);
+    EXPECT_EQ(data[k]["length"].as<std::size_t>(), table[k].length);
+    if (table[k].type == "mat") {
+      EXPECT_EQ(data[k]["dtype"].as<std::string>(), "f64");
+      EXPECT_EQ(data[k]["height"].as<int>(), table[k].height);
+      EXPECT_EQ(data[k]["width"].as<int>(), table[k].width);
+    }
+  }
+}
+
+// Item `name`'s float64 number i, read straight from the body at the header's offset, as a
+// vendor client does.
+double F64At(const YAML::Node& data, const std::string& body, const char* name, int i) {
+  for (const auto& item : data) {
+    if (item["name"].as<std::string>() != name) continue;
+    double v;
+    std::memcpy(&v, body.data() + item["offset"].as<std::size_t>() + 8 * i, 8);
+    return v;
+  }
+  ADD_FAILURE() << name << " missing";
+  return 0.0;
+}
+
 TEST(WireFormat, DatagramsFollowTheProtocolByteForByte) {
   const TactileFrame frame = MakeSyntheticTactileFrame("AD2-0065L", 42);
-  const auto datagrams = Encode(frame).Datagrams();
-  // 38400 bytes of markers + 48 of resultants + 4 of progress + 28 of slip = 38480: 28 chunks.
-  ASSERT_EQ(datagrams.size(), 29u);
+  const auto datagrams = Encode(frame, cv::Mat(), ExtraItems()).Datagrams();
+  // 28800 bytes of markers + 48 of resultants + 8 of progress = 28856: 21 chunks.
+  ASSERT_EQ(datagrams.size(), 22u);
   std::string body;
   for (std::size_t k = 0; k < datagrams.size(); ++k) {
     const auto* p = reinterpret_cast<const std::uint8_t*>(datagrams[k].data());
     ASSERT_LE(datagrams[k].size(), 1400u);
     EXPECT_EQ(p[0] | p[1] << 8 | p[2] << 16 | std::uint32_t{p[3]} << 24, 0xA1B2C3D4u);
-    EXPECT_EQ(p[4] | p[5] << 8, 28);
+    EXPECT_EQ(p[4] | p[5] << 8, 21);
     EXPECT_EQ(p[6] | p[7] << 8, static_cast<int>(k));
-    if (k >= 1 && k < 28) {
+    if (k >= 1 && k < 21) {
       EXPECT_EQ(datagrams[k].size(), 1400u) << "chunk " << k;
     }
     if (k >= 1) body += datagrams[k].substr(8);
   }
-  EXPECT_EQ(body.size(), 38480u);
+  EXPECT_EQ(body.size(), 28856u);
 
   const YAML::Node header = YAML::Load(datagrams[0].substr(8));
   EXPECT_EQ(header["SN"].as<std::string>(), "AD2-0065L");
@@ -87,36 +138,56 @@ TEST(WireFormat, DatagramsFollowTheProtocolByteForByte) {
   EXPECT_EQ(header["timestamp"].as<double>(), frame.timestamp_s);
   EXPECT_EQ(header["msg"].as<std::string>(), "markers_lost");
   const YAML::Node data = header["data"];
-  ASSERT_EQ(data.size(), kTable.size());
-  for (std::size_t k = 0; k < kTable.size(); ++k) {
-    SCOPED_TRACE(kTable[k].name);
-    EXPECT_EQ(data[k]["name"].as<std::string>(), kTable[k].name);
-    EXPECT_EQ(data[k]["type"].as<std::string>(), kTable[k].type);
-    EXPECT_EQ(data[k]["length"].as<std::size_t>(), kTable[k].length);
-    if (kTable[k].type == "mat") {
-      EXPECT_EQ(data[k]["dtype"].as<std::string>(), "f64");
-      EXPECT_EQ(data[k]["height"].as<int>(), kTable[k].height);
-      EXPECT_EQ(data[k]["width"].as<int>(), kTable[k].width);
-    }
+  ExpectItems(data, kVendorTable);
+  EXPECT_EQ(F64At(data, body, "3D_Positions", 3 * 21 + 2), frame.positions_mm[21].z());
+  EXPECT_EQ(F64At(data, body, "3D_Displacements", 3 * 399), frame.displacements_mm[399].x());
+  EXPECT_EQ(F64At(data, body, "3D_Forces", 3 * 210 + 1), frame.forces_n[210].y());
+  EXPECT_EQ(F64At(data, body, "3D_ResultantForce", 2), frame.resultant_force_n.z());
+  EXPECT_EQ(F64At(data, body, "3D_ResultantMoment", 1), frame.resultant_moment_nmm.y());
+  // The 8 bytes of a double 100.0, what the vendor's C++ client compares with 100.0.
+  EXPECT_EQ(F64At(data, body, "InitializeProgress", 0), 100.0);
+}
+
+TEST(WireFormat, ExtraItemsFollowTheVendorsSixWhenAsked) {
+  const TactileFrame frame = MakeSyntheticTactileFrame("AD2-0065L", 42);
+  const EncodedFrame all = Encode(frame);
+  // + 9600 of normals, 4 of slip state, 24 of slip figures = 38484: 28 chunks.
+  EXPECT_EQ(all.body.size(), 38484u);
+  EXPECT_EQ(all.packet_count(), 28);
+  const YAML::Node data = YAML::Load(all.header)["data"];
+  ExpectItems(data, FullTable());
+  EXPECT_EQ(F64At(data, all.body, "3D_Normals", 3 * 5), frame.normals[5].x());
+  EXPECT_EQ(F64At(data, all.body, "SlipFraction", 0), frame.slip.fraction);  // frame 42: 0.42
+  // A subset keeps the fixed order, whatever the order asked.
+  const ExtraItems some = ParseExtraItems("FrictionSigma,3D_Normals", "test");
+  const std::vector<std::string> names = ItemNames(Encode(frame, cv::Mat(), some));
+  EXPECT_EQ(names, (std::vector<std::string>{"3D_Displacements", "3D_Positions", "3D_Forces",
+                                             "3D_ResultantForce", "3D_ResultantMoment",
+                                             "InitializeProgress", "3D_Normals",
+                                             "FrictionSigma"}));
+}
+
+TEST(WireFormat, ExtraItemsAreParsedByNameOrAll) {
+  EXPECT_EQ(ParseExtraItems("", "--udp-items"), ExtraItems());
+  EXPECT_EQ(ParseExtraItems("all", "--udp-items"), kAllExtras);
+  EXPECT_EQ(ParseExtraItems("3D_Normals,SlipState,SlipFraction,Friction,FrictionSigma", "x"),
+            kAllExtras);
+  EXPECT_EQ(ParseExtraItems("SlipState", "x"),
+            ExtraItems().set(static_cast<int>(ExtraItem::kSlipState)));
+  for (int k = 0; k < kNumExtraItems; ++k) {
+    const char* name = ExtraItemName(static_cast<ExtraItem>(k));
+    EXPECT_EQ(ParseExtraItems(name, "x"), ExtraItems().set(k)) << name;
   }
-  // Values read straight from the body at the header's offsets, as a vendor client does.
-  auto f64_at = [&](const char* name, int i) {
-    for (const auto& item : data) {
-      if (item["name"].as<std::string>() != name) continue;
-      double v;
-      std::memcpy(&v, body.data() + item["offset"].as<std::size_t>() + 8 * i, 8);
-      return v;
-    }
-    ADD_FAILURE() << name << " missing";
-    return 0.0;
-  };
-  EXPECT_EQ(f64_at("3D_Positions", 3 * 21 + 2), frame.positions_mm[21].z());
-  EXPECT_EQ(f64_at("3D_Displacements", 3 * 399), frame.displacements_mm[399].x());
-  EXPECT_EQ(f64_at("3D_Forces", 3 * 210 + 1), frame.forces_n[210].y());
-  EXPECT_EQ(f64_at("3D_Normals", 3 * 5), frame.normals[5].x());
-  EXPECT_EQ(f64_at("3D_ResultantForce", 2), frame.resultant_force_n.z());
-  EXPECT_EQ(f64_at("3D_ResultantMoment", 1), frame.resultant_moment_nmm.y());
-  EXPECT_EQ(f64_at("SlipFraction", 0), frame.slip.fraction);  // frame 42: partial slip, 0.42
+  EXPECT_THAT([] { ParseExtraItems("3D_Normals,Slip", "--udp-items"); },
+              ::testing::ThrowsMessage<Error>(::testing::StrEq(
+                  "--udp-items '3D_Normals,Slip': unknown item 'Slip'; the items to add to the "
+                  "vendor's six are 3D_Normals, SlipState, SlipFraction, Friction, FrictionSigma "
+                  "(or all)")));
+  EXPECT_THAT([] { ParseExtraItems("3D_Forces", "--udp-items"); },
+              ::testing::ThrowsMessage<Error>(HasSubstr(
+                  "--udp-items '3D_Forces': '3D_Forces' is one of the vendor's six, always sent")));
+  EXPECT_THROW(ParseExtraItems("3D_Normals,", "x"), Error);  // an empty name
+  EXPECT_THROW(ParseExtraItems(" SlipState", "x"), Error);
 }
 
 TEST(WireFormat, RoundTripThroughTheClientDecoderIsExact) {
@@ -130,8 +201,8 @@ TEST(WireFormat, RoundTripThroughTheClientDecoderIsExact) {
   EXPECT_EQ(decoded.index, frame.index);
   EXPECT_EQ(decoded.timestamp_s, frame.timestamp_s);
   EXPECT_EQ(decoded.msg, "markers_lost");
-  ASSERT_EQ(decoded.fields.size(), kTable.size());
-  for (const auto& item : kTable) {
+  ASSERT_EQ(decoded.fields.size(), FullTable().size());
+  for (const auto& item : FullTable()) {
     const DecodedField* field = decoded.Find(item.name);
     ASSERT_NE(field, nullptr) << item.name;
     if (item.type == "mat") {
@@ -147,11 +218,23 @@ TEST(WireFormat, RoundTripThroughTheClientDecoderIsExact) {
   EXPECT_TRUE(decoded.Find("3D_ResultantForce")->matrix == frame.resultant_force_n.transpose());
   EXPECT_TRUE(decoded.Find("3D_ResultantMoment")->matrix == frame.resultant_moment_nmm.transpose());
   const DecodedField* progress = decoded.Find("InitializeProgress");
-  EXPECT_EQ(progress->type, FieldType::kI32);
+  EXPECT_EQ(progress->type, FieldType::kF64);
   EXPECT_EQ(progress->matrix(0, 0), 63.0);
   EXPECT_EQ(decoded.slip, frame.slip);
   EXPECT_EQ(decoded.slip.state, SlipState::kStick);  // frame 7
   EXPECT_EQ(assembler.drops().total(), 0);
+}
+
+TEST(WireFormat, WithoutTheExtraItemsTheClientDecodesNoNormalsAndAnUnknownSlip) {
+  FrameAssembler assembler;
+  const auto received = Reassemble(
+      Encode(MakeSyntheticTactileFrame("AD2-0065L", 7), cv::Mat(), ExtraItems()).Datagrams(),
+      &assembler);
+  ASSERT_TRUE(received) << assembler.last_error();
+  EXPECT_EQ(received->frame.fields.size(), kVendorTable.size());
+  EXPECT_EQ(received->frame.Find("3D_Normals"), nullptr);
+  EXPECT_EQ(received->frame.slip.state, SlipState::kUnknown);
+  EXPECT_TRUE(std::isnan(received->frame.slip.fraction));
 }
 
 TEST(WireFormat, SlipExtraItemsRoundTripInEveryState) {
@@ -177,12 +260,14 @@ TEST(WireFormat, HeaderWithTheExtraItemsStillFitsWithEveryFlagAndALongSn) {
   TactileFrame frame = MakeSyntheticTactileFrame(std::string(64, 'S'), 123456789);
   for (const FrameFlag flag : kAllFrameFlags) frame.set(flag);
   EncodedFrame out;
-  EncodeFrame(frame, 0, cv::Mat(2, 2, CV_8UC1, cv::Scalar(7)), &out);
+  EncodeFrame(frame, 0, cv::Mat(2, 2, CV_8UC1, cv::Scalar(7)), kAllExtras, &out);
   EXPECT_LE(out.header.size(), kChunkBytes);
-  EncodedFrame plain;
-  EncodeFrame(MakeSyntheticTactileFrame("AD2-0065L", 42), 0, cv::Mat(), &plain);
-  std::printf("header: %zu bytes for docs/protocol.md's example, %zu with a 64-byte SN, every "
-              "flag and an image\n", plain.header.size(), out.header.size());
+  EncodedFrame plain, six;
+  EncodeFrame(MakeSyntheticTactileFrame("AD2-0065L", 42), 0, cv::Mat(), kAllExtras, &plain);
+  EncodeFrame(MakeSyntheticTactileFrame("AD2-0065L", 42), 0, cv::Mat(), ExtraItems(), &six);
+  std::printf("header: %zu bytes for docs/protocol.md's example (%zu with the extra items), %zu "
+              "with them, a 64-byte SN, every flag and an image\n",
+              six.header.size(), plain.header.size(), out.header.size());
 }
 
 TEST(WireFormat, ImageTravelsAsLosslessPng) {
@@ -216,18 +301,19 @@ TEST(WireFormat, TimestampsAreYamlFloatsThatRoundTrip) {
 TEST(WireFormat, EncoderRefusesWhatTheWireCannotCarry) {
   EncodedFrame out;
   TactileFrame frame = MakeSyntheticTactileFrame("AD2\"", 0);
-  EXPECT_THROW(EncodeFrame(frame, 0, cv::Mat(), &out), Error);
+  EXPECT_THROW(EncodeFrame(frame, 0, cv::Mat(), ExtraItems(), &out), Error);
   frame.sn = std::string(1400, 'A');
   try {
-    EncodeFrame(frame, 0, cv::Mat(), &out);
+    EncodeFrame(frame, 0, cv::Mat(), ExtraItems(), &out);
     ADD_FAILURE() << "a 1400-byte SN was accepted";
   } catch (const Error& e) {
     EXPECT_THAT(e.what(), HasSubstr("must fit in one datagram"));
   }
   frame.sn = "S";
-  EXPECT_THROW(EncodeFrame(frame, 0, cv::Mat(4, 4, CV_16UC1, cv::Scalar(0)), &out), Error);
+  EXPECT_THROW(
+      EncodeFrame(frame, 0, cv::Mat(4, 4, CV_16UC1, cv::Scalar(0)), ExtraItems(), &out), Error);
   frame.normals.pop_back();
-  EXPECT_THROW(EncodeFrame(frame, 0, cv::Mat(), &out), Error);
+  EXPECT_THROW(EncodeFrame(frame, 0, cv::Mat(), ExtraItems(), &out), Error);
 }
 
 // A header with one item, to exercise each refusal of the decoder.
@@ -309,6 +395,22 @@ TEST(WireFormat, DecoderRefusesEachKindOfBadHeaderAndField) {
             DropReason::kBadField);
   EXPECT_EQ(ReasonOf(HeaderWith("  - {name: Friction, type: i32, offset: 0, length: 4}"), body),
             DropReason::kBadField);
+}
+
+TEST(WireFormat, DecoderTakesInitializeProgressAsF64OrAsI32AsTac3dSentItBefore) {
+  std::string body(8, '\0');
+  const double hundred = 100.0;
+  std::memcpy(body.data(), &hundred, 8);
+  const DecodedFrame f64 = DecodeFrame(
+      HeaderWith("  - {name: InitializeProgress, type: f64, offset: 0, length: 8}"), body);
+  EXPECT_EQ(f64.Find("InitializeProgress")->type, FieldType::kF64);
+  EXPECT_EQ(f64.Find("InitializeProgress")->matrix(0, 0), 100.0);
+  const std::int32_t fifty = 50;
+  std::memcpy(body.data(), &fifty, 4);
+  const DecodedFrame i32 = DecodeFrame(
+      HeaderWith("  - {name: InitializeProgress, type: i32, offset: 0, length: 4}"), body);
+  EXPECT_EQ(i32.Find("InitializeProgress")->type, FieldType::kI32);
+  EXPECT_EQ(i32.Find("InitializeProgress")->matrix(0, 0), 50.0);
 }
 
 TEST(WireFormat, DecoderRefusesAnImageThatClaimsTooManyPixels) {
