@@ -6,9 +6,9 @@
 #include <string>
 #include <vector>
 
-#include "sensor_stream.h"
+#include "tac3d/runtime/sensor_stream.h"
 
-namespace tac3d::cli {
+namespace tac3d::runtime {
 
 /// Parses a run file: a mapping with one key, `sensors`, a list of sensors, each with `sn`
 /// and `source` (required) and optionally `config`, `gains`, `weight`, `reference_frames`,
@@ -26,4 +26,4 @@ std::vector<SensorRunSpec> ParseRunFile(const std::string& text,
 /// LoadYamlFile and ParseRunFile do.
 std::vector<SensorRunSpec> LoadRunFile(const std::string& path);
 
-}  // namespace tac3d::cli
+}  // namespace tac3d::runtime

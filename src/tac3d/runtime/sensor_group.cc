@@ -1,4 +1,4 @@
-#include "sensor_group.h"
+#include "tac3d/runtime/sensor_group.h"
 
 #include <chrono>
 #include <cmath>
@@ -13,7 +13,7 @@
 #include "tac3d/util/error.h"
 #include "tac3d/util/seconds_since.h"
 
-namespace tac3d::cli {
+namespace tac3d::runtime {
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -35,13 +35,13 @@ ModelLoader Memoized(const ModelLoader& load_model) {
 }
 
 // One sensor's thread: its frame loop, timed on the common clock.
-void RunSensor(OpenSensor& sensor, const StreamClock& clock, long max_frames, const std::atomic<bool>& stop,
-               SensorReport& report) {
+void RunSensor(OpenSensor& sensor, const StreamClock& clock, const SensorGroupOptions& options,
+               const std::atomic<bool>& stop, SensorReport& report) {
   try {
     sensor.stream->Start(clock);
     double last = std::numeric_limits<double>::quiet_NaN();
     const FrameLoopCounts counts = FrameLoop(
-        *sensor.outputs, max_frames, stop,
+        *sensor.outputs, options.max_frames, stop,
         [&](const std::atomic<bool>& s, ProducedFrame& out) {
           const Produced produced = sensor.stream->Next(s, out);
           if (produced != Produced::kFrame) return produced;
@@ -49,6 +49,7 @@ void RunSensor(OpenSensor& sensor, const StreamClock& clock, long max_frames, co
           if (std::isnan(report.first_frame_s)) report.first_frame_s = now;
           if (!std::isnan(last)) report.max_gap_s = std::max(report.max_gap_s, now - last);
           last = report.last_frame_s = now;
+          if (options.on_frame) options.on_frame(*out.frame);
           return produced;
         },
         [&] { sensor.stream->Zero(); });
@@ -77,13 +78,30 @@ std::string SensorReport::BriefReport() const {
   return s;
 }
 
+void RunSingleSensor(SensorStream& stream, const FrameOutputArgs& output_args, long max_frames,
+                     const std::string& done) {
+  FrameOutputs outputs(output_args);
+  stream.Start({.epoch = Clock::now(), .common = false});
+  const FrameLoopCounts counts = RunFrameLoop(
+      outputs, max_frames,
+      [&](const std::atomic<bool>& stop, ProducedFrame& out) { return stream.Next(stop, out); },
+      [&] { stream.Zero(); });
+  std::fprintf(stderr, "%ld frames %s, %ld skipped%s\n", counts.emitted, done.c_str(), counts.skipped,
+               outputs.RecordedNote().c_str());
+  outputs.HoldWeb();
+  // The recording is complete up to the last frame; now say why the source ended.
+  const StreamEnd end = stream.End(counts.emitted);
+  if (!end.warning.empty()) std::fprintf(stderr, "tac3d: warning: %s\n", end.warning.c_str());
+  if (!end.failure.empty()) throw Error(end.failure);
+}
+
 std::vector<SensorReport> RunSensorGroup(const std::vector<SensorRunSpec>& sensors,
                                          const ModelLoader& load_model,
                                          const SensorGroupOptions& options,
                                          const std::shared_ptr<WebServer>& viewer,
                                          const std::atomic<bool>& stop) {
   // Checked before any sensor starts: a run file's mistake stops the run.
-  for (const SensorRunSpec& spec : sensors) spec.outputs.Validate();
+  for (const SensorRunSpec& spec : sensors) spec.Validate();
   const ModelLoader shared_models = Memoized(load_model);
 
   std::vector<SensorReport> reports(sensors.size());
@@ -108,11 +126,11 @@ std::vector<SensorReport> RunSensorGroup(const std::vector<SensorRunSpec>& senso
   for (size_t i = 0; i < sensors.size(); ++i) {
     if (!open[i].stream) continue;
     threads.emplace_back([&, i] {
-      RunSensor(open[i], {.epoch = epoch, .common = true}, options.max_frames, stop, reports[i]);
+      RunSensor(open[i], {.epoch = epoch, .common = true}, options, stop, reports[i]);
     });
   }
   for (std::thread& t : threads) t.join();
   return reports;
 }
 
-}  // namespace tac3d::cli
+}  // namespace tac3d::runtime

@@ -1,23 +1,28 @@
 #pragma once
 
-// Several sensors in one `tac3d run` (a run file): one thread per sensor, one clock, one
-// viewer; a sensor that fails is reported and the others go on (docs/pipeline.md).
+// Running sensors: one on the calling thread (`tac3d run --source`), or several (a run file,
+// Python's tac3d.run): one thread per sensor, one clock, one viewer; a sensor that fails is
+// reported and the others go on (docs/pipeline.md).
 
 #include <atomic>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <string>
 #include <vector>
 
-#include "run_outputs.h"
-#include "sensor_stream.h"
+#include "tac3d/runtime/run_outputs.h"
+#include "tac3d/runtime/sensor_stream.h"
 
-namespace tac3d::cli {
+namespace tac3d::runtime {
 
 /// What the sensors of a run share.
 struct SensorGroupOptions {
   long max_frames = 0;  ///< per sensor; 0 until its source ends
   bool json = false;    ///< each frame's summary as a JSON line on stdout (with its SN)
+  /// Called with every frame a sensor emits, on that sensor's thread, before its outputs (so
+  /// it must be thread-safe); an exception it throws fails that sensor. Empty: none.
+  std::function<void(const TactileFrame&)> on_frame;
 };
 
 /// How one sensor's run went.
@@ -48,12 +53,23 @@ struct SensorReport {
 /// stamped with seconds since one steady-clock epoch taken when all are open, from which a
 /// dataset's pace counts too.
 /// @param viewer the viewer every sensor publishes to (a panel per SN), or nullptr.
-/// @throws Error before any work if an output argument is malformed (UDP address, record
-///   file).
+/// @throws Error before any work if a sensor's spec is invalid (SensorRunSpec::Validate: a
+///   malformed UDP address or record file, say).
+/// One sensor on the calling thread, as `tac3d run --source` runs it: the stream's frames, on
+/// its source's own timestamps, to the outputs `outputs` names (FrameOutputs), until the source
+/// ends, `max_frames` (> 0) were emitted, Ctrl-C / SIGTERM (StopSignals, during the loop) or the
+/// client's `$Q`. Then prints "N frames <done>, M skipped[, K recorded to FILE...]" on stderr and
+/// keeps the viewer up for outputs.web_hold_s, unless the run was stopped.
+/// @param done what became of the frames, for that line ("processed", "replayed from FILE").
+/// @throws Error if an output cannot be opened or fails, or, after the frames emitted were
+///   recorded, if the source failed; a warning (a truncated recording) is printed on stderr.
+void RunSingleSensor(SensorStream& stream, const FrameOutputArgs& outputs, long max_frames,
+                     const std::string& done);
+
 std::vector<SensorReport> RunSensorGroup(const std::vector<SensorRunSpec>& sensors,
                                          const ModelLoader& load_model,
                                          const SensorGroupOptions& options,
                                          const std::shared_ptr<WebServer>& viewer,
                                          const std::atomic<bool>& stop);
 
-}  // namespace tac3d::cli
+}  // namespace tac3d::runtime

@@ -3,7 +3,7 @@
 // clock; a sensor whose dataset disappears mid-run, or that cannot start, is reported and the
 // others go on. And the run file's validation. The compliance is the synthetic stand-in (the
 // FEM model takes a minute to build); all else is what `tac3d run --run-file` runs.
-#include "sensor_group.h"
+#include "tac3d/runtime/sensor_group.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -17,7 +17,7 @@
 #include <mutex>
 #include <thread>
 
-#include "run_file.h"
+#include "tac3d/runtime/run_file.h"
 #include "tac3d/dataset/twin_dataset.h"
 #include "tac3d/force/test_compliance.h"
 #include "tac3d/protocol/client.h"
@@ -27,7 +27,7 @@
 #include "tac3d/twin/camera_renderer.h"
 #include "tac3d/util/error.h"
 
-namespace tac3d::cli {
+namespace tac3d::runtime {
 namespace {
 
 using testing::DefaultSensor;
@@ -307,4 +307,4 @@ TEST(RunFile, RefusesMistakesNamingTheLine) {
 }
 
 }  // namespace
-}  // namespace tac3d::cli
+}  // namespace tac3d::runtime
