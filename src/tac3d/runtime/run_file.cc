@@ -5,6 +5,7 @@
 
 #include <fmt/format.h>
 
+#include "tac3d/runtime/sensor_group.h"
 #include "tac3d/sensor/yaml_reader.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/file_io.h"
@@ -84,6 +85,10 @@ std::vector<SensorRunSpec> ParseRunFile(const std::string& text,
   YamlReader r(root, "", &source);
   const YAML::Node list = r.Sequence("sensors");
   if (list.size() == 0) r.FailAt(list, "sensors", "lists no sensor");
+  if (list.size() > static_cast<size_t>(kMaxSensors)) {
+    r.FailAt(list[kMaxSensors], fmt::format("sensors[{}]", kMaxSensors),
+             fmt::format("a run holds at most {} sensors", kMaxSensors));
+  }
   std::vector<SensorRunSpec> sensors;
   std::map<std::string, int> sn_line, record_line;
   for (size_t i = 0; i < list.size(); ++i) {

@@ -16,8 +16,8 @@ namespace tac3d::runtime {
 /// record, a source's file or folder) are taken from `base_dir`.
 /// @param source the file name for messages.
 /// @throws Error naming the file, the line and the key of a syntax error, a duplicated, unknown
-///   or missing key, a value of the wrong type, an empty list, an SN or a record file used
-///   twice, or `speed` for a source it does not apply to.
+///   or missing key, a value of the wrong type, an empty list or one of more than kMaxSensors
+///   sensors, an SN or a record file used twice, or `speed` for a source it does not apply to.
 std::vector<SensorRunSpec> ParseRunFile(const std::string& text,
                                         const std::string& source,
                                         const std::string& base_dir);

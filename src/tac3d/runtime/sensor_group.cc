@@ -6,9 +6,12 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <system_error>
 #include <thread>
 
 #include <fmt/format.h>
+
+#include <opencv2/core/utility.hpp>
 
 #include "tac3d/util/error.h"
 #include "tac3d/util/seconds_since.h"
@@ -24,6 +27,21 @@ struct OpenSensor {
   std::unique_ptr<SensorStream> stream;
 };
 
+// While it lives, OpenCV's functions run on their caller's thread, without OpenCV's own worker
+// pool: each sensor has its thread already, and a pool whose workers cannot be created (memory
+// or threads run out) waits for them for ever (seen: a sensor spinning in
+// connectedComponentsWithStats under `prlimit --as`).
+class OpenCvOnCallersThread {
+ public:
+  OpenCvOnCallersThread() : saved_(cv::getNumThreads()) { cv::setNumThreads(1); }
+  ~OpenCvOnCallersThread() { cv::setNumThreads(saved_); }
+  OpenCvOnCallersThread(const OpenCvOnCallersThread&) = delete;
+  OpenCvOnCallersThread& operator=(const OpenCvOnCallersThread&) = delete;
+
+ private:
+  int saved_;
+};
+
 // Several sensors with one config share one model (loaded once).
 ModelLoader Memoized(const ModelLoader& load_model) {
   auto models = std::make_shared<std::map<std::string, std::shared_ptr<const fem::ComplianceModel>>>();
@@ -34,15 +52,27 @@ ModelLoader Memoized(const ModelLoader& load_model) {
   };
 }
 
-// One sensor's thread: its frame loop, timed on the common clock.
+// Why a sensor's work threw: a tac3d::Error's message, or what else ran out.
+std::string Why(const std::exception& e) {
+  if (dynamic_cast<const std::bad_alloc*>(&e) != nullptr) return "out of memory (std::bad_alloc)";
+  return e.what();
+}
+
+// One sensor's thread: its frame loop, timed on the common clock. Nothing escapes it: an
+// exception that left a thread would end the process (std::terminate).
 void RunSensor(OpenSensor& sensor, const StreamClock& clock, const SensorGroupOptions& options,
                const std::atomic<bool>& stop, SensorReport& report) {
   try {
     sensor.stream->Start(clock);
     double last = std::numeric_limits<double>::quiet_NaN();
+    bool given = false;  // a frame was given and not yet known to be emitted
     const FrameLoopCounts counts = FrameLoop(
         *sensor.outputs, options.max_frames, stop,
         [&](const std::atomic<bool>& s, ProducedFrame& out) {
+          // Asked again: the last frame given was emitted. Counted as they go, so a loop ended
+          // by an exception reports the frames emitted before it.
+          report.frames += given;
+          given = false;
           const Produced produced = sensor.stream->Next(s, out);
           if (produced != Produced::kFrame) return produced;
           const double now = SecondsSince(clock.epoch);
@@ -50,6 +80,7 @@ void RunSensor(OpenSensor& sensor, const StreamClock& clock, const SensorGroupOp
           if (!std::isnan(last)) report.max_gap_s = std::max(report.max_gap_s, now - last);
           last = report.last_frame_s = now;
           if (options.on_frame) options.on_frame(*out.frame);
+          given = true;
           return produced;
         },
         [&] { sensor.stream->Zero(); });
@@ -59,8 +90,10 @@ void RunSensor(OpenSensor& sensor, const StreamClock& clock, const SensorGroupOp
     report.failure = end.failure;
     report.warning = end.warning;
     report.last_skip = end.last_skip;
-  } catch (const Error& e) {
-    report.failure = e.what();  // an output failed (a full disk, say)
+  } catch (const std::exception& e) {
+    report.failure = Why(e);  // an output failed (a full disk, say), or memory ran out
+  } catch (...) {
+    report.failure = "an unknown exception";
   }
   std::fprintf(stderr, "%s\n", report.BriefReport().c_str());
 }
@@ -101,6 +134,9 @@ std::vector<SensorReport> RunSensorGroup(const std::vector<SensorRunSpec>& senso
                                          const std::shared_ptr<WebServer>& viewer,
                                          const std::atomic<bool>& stop) {
   // Checked before any sensor starts: a run file's mistake stops the run.
+  if (sensors.size() > static_cast<size_t>(kMaxSensors)) {
+    throw Error(fmt::format("{} sensors: a run holds at most {}", sensors.size(), kMaxSensors));
+  }
   for (const SensorRunSpec& spec : sensors) spec.Validate();
   const ModelLoader shared_models = Memoized(load_model);
 
@@ -114,22 +150,32 @@ std::vector<SensorReport> RunSensorGroup(const std::vector<SensorRunSpec>& senso
     try {
       open[i].stream = OpenSensorStream(sensors[i], shared_models, sensors[i].sn + ": ");
       open[i].outputs = std::make_unique<FrameOutputs>(outputs, viewer);
-    } catch (const Error& e) {
-      reports[i].failure = fmt::format("could not start: {}", e.what());
+    } catch (const std::exception& e) {
+      reports[i].failure = fmt::format("could not start: {}", Why(e));
       std::fprintf(stderr, "%s\n", reports[i].BriefReport().c_str());
       open[i] = {};
     }
   }
 
+  const OpenCvOnCallersThread opencv_serial;
   const Clock::time_point epoch = Clock::now();
-  std::vector<std::thread> threads;
+  // Joined when they go out of scope, however this ends; reserved, so adding one cannot throw
+  // but for the thread that could not start.
+  std::vector<std::jthread> threads;
+  threads.reserve(sensors.size());
   for (size_t i = 0; i < sensors.size(); ++i) {
     if (!open[i].stream) continue;
-    threads.emplace_back([&, i] {
-      RunSensor(open[i], {.epoch = epoch, .common = true}, options, stop, reports[i]);
-    });
+    try {
+      threads.emplace_back([&, i] {
+        RunSensor(open[i], {.epoch = epoch, .common = true}, options, stop, reports[i]);
+      });
+    } catch (const std::system_error& e) {  // no thread to be had (address space, a limit)
+      reports[i].failure = fmt::format("could not start its thread: {}", e.what());
+      std::fprintf(stderr, "%s\n", reports[i].BriefReport().c_str());
+      open[i] = {};  // its pipeline's memory back for the others
+    }
   }
-  for (std::thread& t : threads) t.join();
+  threads.clear();  // joins them
   return reports;
 }
 

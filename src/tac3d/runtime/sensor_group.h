@@ -16,6 +16,11 @@
 
 namespace tac3d::runtime {
 
+/// The most sensors a run holds (a run file, RunSensorGroup): each takes a thread and its
+/// pipeline's matrices (~70 MB for the prototype's 400 markers), so that many fit a 4 GB address
+/// space (`prlimit --as=4000000000`; docs/pipeline.md, "Several sensors").
+inline constexpr int kMaxSensors = 32;
+
 /// What the sensors of a run share.
 struct SensorGroupOptions {
   long max_frames = 0;  ///< per sensor; 0 until its source ends
@@ -53,8 +58,12 @@ struct SensorReport {
 /// stamped with seconds since one steady-clock epoch taken when all are open, from which a
 /// dataset's pace counts too.
 /// @param viewer the viewer every sensor publishes to (a panel per SN), or nullptr.
-/// @throws Error before any work if a sensor's spec is invalid (SensorRunSpec::Validate: a
-///   malformed UDP address or record file, say).
+/// A sensor that cannot be opened or whose thread cannot start (memory or threads run out) gets
+/// its failure in its report, as does one whose loop throws anything; none ends the process.
+/// While the sensors run, OpenCV uses no worker pool of its own (cv::setNumThreads(1), restored
+/// after): each sensor's OpenCV calls run on its own thread.
+/// @throws Error before any work for more than kMaxSensors sensors or a sensor whose spec is
+///   invalid (SensorRunSpec::Validate: a malformed UDP address or record file, say).
 /// One sensor on the calling thread, as `tac3d run --source` runs it: the stream's frames, on
 /// its source's own timestamps, to the outputs `outputs` names (FrameOutputs), until the source
 /// ends, `max_frames` (> 0) were emitted, Ctrl-C / SIGTERM (StopSignals, during the loop) or the
