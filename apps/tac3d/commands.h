@@ -1,9 +1,12 @@
 #pragma once
 
+#include <initializer_list>
 #include <nlohmann/json_fwd.hpp>
 #include <string>
 
+#include "tac3d/sensor/default_sensor.h"  // LoadSensorOrDefault, for the commands
 #include "tac3d/sensor/sensor_config.h"
+#include "tac3d/util/file_io.h"  // MakeDirectory, for the commands
 #include "tac3d/util/seconds_since.h"  // the commands' timings
 
 namespace CLI {
@@ -38,18 +41,14 @@ void RegisterEvalReplay(CLI::App& eval);
 void RegisterEvalConditions(CLI::App& eval);
 void RegisterEvalFriction(CLI::App& eval);
 
-/// The sensor a command works on: the YAML file if one is given, else the built-in
-/// prototype with its designed mirrors.
-SensorConfig LoadSensorOrDefault(const std::string& path);
-
 /// Where compliance models are cached unless --cache says otherwise: $TAC3D_CACHE_DIR, else
 /// $XDG_CACHE_HOME/tac3d, else $HOME/.cache/tac3d, else .tac3d-cache.
 std::string DefaultCacheDir();
 
-/// Seconds from `since` to now on the steady clock, for the timings commands report.
-
-/// Creates a directory (and its parents). @throws Error if it cannot.
-void MakeDirectory(const std::string& path);
+/// @throws Error naming the first of `names` given on `cmd`'s command line, with `why`.
+void RefuseOptions(const CLI::App& cmd,
+                   std::initializer_list<const char*> names,
+                   const std::string& why);
 
 /// Prints an evaluation's checks ([{name, value, unit, tolerance, pass}]), one line each.
 void PrintChecks(const nlohmann::json& checks);

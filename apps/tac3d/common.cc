@@ -1,8 +1,9 @@
 #include <cstdio>
 #include <cstdlib>
-#include <filesystem>
 
 #include <fmt/format.h>
+
+#include <CLI/CLI.hpp>
 
 #include <nlohmann/json.hpp>
 
@@ -12,10 +13,6 @@
 #include "tac3d/util/eval_check.h"
 
 namespace tac3d::cli {
-
-SensorConfig LoadSensorOrDefault(const std::string& path) {
-  return path.empty() ? DefaultSensorConfig() : LoadSensorConfig(path);
-}
 
 std::string DefaultCacheDir() {
   if (const char* dir = std::getenv("TAC3D_CACHE_DIR"); dir && *dir) return dir;
@@ -30,10 +27,12 @@ void PrintChecks(const nlohmann::json& checks) {
   }
 }
 
-void MakeDirectory(const std::string& path) {
-  std::error_code ec;
-  std::filesystem::create_directories(path, ec);
-  if (ec) throw Error(fmt::format("cannot create directory '{}': {}", path, ec.message()));
+void RefuseOptions(const CLI::App& cmd,
+                   std::initializer_list<const char*> names,
+                   const std::string& why) {
+  for (const char* name : names) {
+    if (cmd.count(name) > 0) throw Error(fmt::format("{} {}", name, why));
+  }
 }
 
 }  // namespace tac3d::cli

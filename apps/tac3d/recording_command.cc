@@ -10,8 +10,6 @@
 #include <CLI/CLI.hpp>
 
 #include "commands.h"
-#include "run_outputs.h"
-#include "sensor_stream.h"
 #include "tac3d/io/recording_export.h"
 #include "tac3d/record/recording_info.h"
 #include "tac3d/reference_log/reference_log.h"
@@ -104,31 +102,6 @@ void Export(const ExportArgs& a) {
 }
 
 }  // namespace
-
-void RunRecording(const RecordingRunArgs& args) {
-  SensorRunSpec spec;
-  spec.speed = args.speed;
-  if (args.sn) spec.sn = *args.sn;
-  const std::unique_ptr<SensorStream> stream = OpenRecordingStream(args.path, spec, args.sn.has_value());
-  FrameOutputArgs output_args = args.outputs;
-  if (args.sn) output_args.sn = *args.sn;
-  FrameOutputs outputs(output_args);
-  stream->Start({.epoch = std::chrono::steady_clock::now(), .common = false});
-  const FrameLoopCounts counts = RunFrameLoop(
-      outputs,
-      args.max_frames,
-      [&](const std::atomic<bool>& stop, ProducedFrame& out) { return stream->Next(stop, out); },
-      [&] { stream->Zero(); });
-  std::fprintf(stderr,
-               "%ld frames replayed from %s%s\n",
-               counts.emitted,
-               args.path.c_str(),
-               outputs.RecordedNote().c_str());
-  outputs.HoldWeb();
-  const StreamEnd end = stream->End(counts.emitted);
-  if (!end.warning.empty()) std::fprintf(stderr, "tac3d: warning: %s\n", end.warning.c_str());
-  if (!end.failure.empty()) throw Error(end.failure);
-}
 
 struct PairsArgs {
   std::string path;

@@ -10,14 +10,17 @@
 #include <CLI/CLI.hpp>
 
 #include "commands.h"
-#include "run_file.h"
-#include "run_outputs.h"
-#include "sensor_group.h"
-#include "sensor_stream.h"
+#include "tac3d/runtime/run_file.h"
+#include "tac3d/runtime/run_outputs.h"
+#include "tac3d/runtime/sensor_group.h"
+#include "tac3d/runtime/sensor_stream.h"
 #include "tac3d/util/error.h"
 
 namespace tac3d::cli {
 namespace {
+
+using runtime::FrameOutputArgs;
+using runtime::SensorRunSpec;
 
 struct RunArgs {
   SensorRunSpec sensor;  // the one-sensor flags
@@ -47,35 +50,37 @@ void Run(const RunArgs& a) {
   if (a.gains.size() != 3) throw Error("--gains takes three numbers: Cx Cy Cz");
   SensorRunSpec spec = a.sensor;
   spec.gains = Eigen::Vector3d(a.gains[0], a.gains[1], a.gains[2]);
-  const std::unique_ptr<SensorStream> stream = OpenSensorStream(spec, CachedModelLoader(a.cache_dir));
-  FrameOutputs outputs(OutputArgs(a));
-  stream->Start({.epoch = std::chrono::steady_clock::now(), .common = false});
-  const FrameLoopCounts counts = RunFrameLoop(
-      outputs, a.max_frames,
-      [&](const std::atomic<bool>& stop, ProducedFrame& out) { return stream->Next(stop, out); },
-      [&] { stream->Zero(); });
-  std::fprintf(stderr, "%ld frames processed, %ld skipped%s\n", counts.emitted, counts.skipped,
-               outputs.RecordedNote().c_str());
-  outputs.HoldWeb();
-  // The recording is complete up to the last frame; now say why the source ended.
-  if (const StreamEnd end = stream->End(counts.emitted); !end.failure.empty()) throw Error(end.failure);
+  const std::unique_ptr<runtime::SensorStream> stream =
+      runtime::OpenSensorStream(spec, runtime::CachedModelLoader(a.cache_dir));
+  runtime::RunSingleSensor(*stream, OutputArgs(a), a.max_frames, "processed");
+}
+
+// `tac3d run --source recording:FILE`: its frames as they were computed, with --sn's SN if given.
+void RunRecording(const RunArgs& a, const std::string& path, bool replace_sn) {
+  SensorRunSpec spec = a.sensor;
+  spec.speed = a.speed;
+  const std::unique_ptr<runtime::SensorStream> stream = runtime::OpenRecordingStream(path, spec, replace_sn);
+  FrameOutputArgs outputs = OutputArgs(a);
+  if (!replace_sn) outputs.sn = {};
+  runtime::RunSingleSensor(*stream, outputs, a.max_frames, "replayed from " + path);
 }
 
 // `tac3d run --run-file FILE`: every sensor's report, then an error if any failed.
 void RunFile(const RunArgs& a) {
-  const std::vector<SensorRunSpec> sensors = LoadRunFile(a.run_file);
+  const std::vector<SensorRunSpec> sensors = runtime::LoadRunFile(a.run_file);
   a.viewer.Validate();
-  const std::shared_ptr<WebServer> viewer = a.viewer.web.empty() ? nullptr : OpenViewer(a.viewer);
-  std::vector<SensorReport> reports;
+  const std::shared_ptr<WebServer> viewer = a.viewer.web.empty() ? nullptr : runtime::OpenViewer(a.viewer);
+  std::vector<runtime::SensorReport> reports;
   {
-    StopSignals signals;
-    StopSignals::flag() = false;
-    reports = RunSensorGroup(sensors, CachedModelLoader(a.cache_dir),
-                             {.max_frames = a.max_frames, .json = a.json}, viewer, StopSignals::flag());
+    runtime::StopSignals signals;
+    runtime::StopSignals::flag() = false;
+    reports = runtime::RunSensorGroup(sensors, runtime::CachedModelLoader(a.cache_dir),
+                                      {.max_frames = a.max_frames, .json = a.json}, viewer,
+                                      runtime::StopSignals::flag());
   }
-  HoldViewer(viewer.get(), a.viewer.web_hold_s);
+  runtime::HoldViewer(viewer.get(), a.viewer.web_hold_s);
   std::vector<std::string> failed;
-  for (const SensorReport& r : reports) {
+  for (const runtime::SensorReport& r : reports) {
     if (!r.failure.empty()) failed.push_back(r.sn);
   }
   std::fprintf(stderr, "%zu sensors, %zu failed\n", reports.size(), failed.size());
@@ -151,18 +156,12 @@ void RegisterRun(CLI::App& app) {
       return RunFile(*a);
     }
     if (a->sensor.source.empty()) throw Error("run: --source or --run-file is required");
-    if (const std::optional<std::string> path = RecordingSourcePath(a->sensor.source)) {
+    if (const std::optional<std::string> path = runtime::RecordingSourcePath(a->sensor.source)) {
       RefuseOptions(*cmd,
                     {"--config", "--cache", "--reference-frames", "--weight", "--gains", "--drift",
                      "--drift-time-constant", "--width", "--height", "--fps", "--exposure"},
                     "does not apply to a recording: its frames were computed when it was recorded");
-      FrameOutputArgs outputs = OutputArgs(*a);
-      outputs.sn = {};
-      return RunRecording({.path = *path,
-                           .speed = a->speed,
-                           .max_frames = a->max_frames,
-                           .sn = cmd->count("--sn") > 0 ? std::optional(a->sensor.sn) : std::nullopt,
-                           .outputs = outputs});
+      return RunRecording(*a, *path, /*replace_sn=*/cmd->count("--sn") > 0);
     }
     if (a->sensor.source.rfind("dataset:", 0) == 0) {
       if (cmd->count("--speed") > 0) a->sensor.speed = a->speed;

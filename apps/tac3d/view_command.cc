@@ -9,13 +9,22 @@
 #include <CLI/CLI.hpp>
 
 #include "commands.h"
-#include "run_outputs.h"
-#include "sensor_stream.h"
-#include "view_data.h"
+#include "tac3d/runtime/run_outputs.h"
+#include "tac3d/runtime/sensor_stream.h"
 #include "tac3d/util/error.h"
+#include "view_data.h"
 
 namespace tac3d::cli {
 namespace {
+
+using runtime::CachedModelLoader;
+using runtime::FrameOutputArgs;
+using runtime::HoldViewer;
+using runtime::OpenRecordingStream;
+using runtime::OpenSensorStream;
+using runtime::OpenViewer;
+using runtime::SensorRunSpec;
+using runtime::SensorStream;
 
 FrameOutputArgs DefaultViewer() {
   FrameOutputArgs viewer;

@@ -37,16 +37,16 @@ nlohmann::json Xyz(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 
 }  // namespace
 
-void ViewData::LoadFrames(SensorStream& stream, const std::string& source, int image_width) {
+void ViewData::LoadFrames(runtime::SensorStream& stream, const std::string& source, int image_width) {
   source_ = source;
   const std::atomic<bool> stop{false};
   stream.Start({.epoch = std::chrono::steady_clock::now(), .common = false});
   std::vector<ImageMarker> markers;
   for (;;) {
-    ProducedFrame out;
-    const Produced produced = stream.Next(stop, out);
-    if (produced == Produced::kEnd) break;
-    if (produced == Produced::kSkipped) continue;
+    runtime::ProducedFrame out;
+    const runtime::Produced produced = stream.Next(stop, out);
+    if (produced == runtime::Produced::kEnd) break;
+    if (produced == runtime::Produced::kSkipped) continue;
     frames_.push_back(*out.frame);
     const bool has_image = out.image != nullptr && !out.image->empty();
     // A pipeline's stream gives its tracker's markers (a dataset's), a recording none.
@@ -55,7 +55,7 @@ void ViewData::LoadFrames(SensorStream& stream, const std::string& source, int i
     images_.push_back(
         has_image ? ImageToJson(out.frame->sn, out.frame->index, *out.image, image_width, markers) : "");
   }
-  const StreamEnd end = stream.End(frames());
+  const runtime::StreamEnd end = stream.End(frames());
   if (!end.failure.empty()) throw Error(end.failure);
   if (!end.warning.empty()) std::fprintf(stderr, "tac3d: warning: %s\n", end.warning.c_str());
 }

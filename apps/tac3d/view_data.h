@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "sensor_stream.h"
+#include "tac3d/runtime/sensor_stream.h"
 #include "tac3d/scene/ply.h"
 #include "tac3d/web/web_server.h"
 
@@ -27,7 +27,7 @@ class ViewData {
   /// Reads every frame `stream` gives (as fast as it gives them), keeping each one's image
   /// downscaled to `image_width` px as JPEG, its markers drawn on it when the stream gives
   /// them. @throws Error if the stream fails.
-  void LoadFrames(SensorStream& stream, const std::string& source, int image_width = 320);
+  void LoadFrames(runtime::SensorStream& stream, const std::string& source, int image_width = 320);
 
   /// A friction map as `tac3d friction-map` writes it: map.ply, or the folder holding it.
   /// @throws Error naming the file if it is not a PLY with a per-vertex `mu`.

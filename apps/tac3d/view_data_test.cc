@@ -22,6 +22,13 @@ namespace tac3d::cli {
 namespace {
 
 using ::testing::HasSubstr;
+using runtime::OpenRecordingStream;
+using runtime::Produced;
+using runtime::ProducedFrame;
+using runtime::SensorRunSpec;
+using runtime::SensorStream;
+using runtime::StreamClock;
+using runtime::StreamEnd;
 
 constexpr int kFrames = 5;
 

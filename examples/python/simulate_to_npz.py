@@ -41,8 +41,9 @@ def main():
     truth = tac3d.Dataset(folder).truth()
     arrays = {f"true_{k}": v for k, v in truth.items()}
     if args.measure:
-        pipeline = tac3d.Pipeline()
-        frames = list(pipeline.frames(tac3d.open_source(f"dataset:{folder}")))
+        # The dataset's images through the runtime (as `tac3d run --source dataset:DIR`).
+        frames = []
+        tac3d.run([tac3d.SensorSpec("TAC3D-TWIN", f"dataset:{folder}")], on_frame=frames.append)
         arrays["measured_positions"] = np.stack([f.positions for f in frames])
         arrays["measured_displacements"] = np.stack([f.displacements for f in frames])
         arrays["measured_forces"] = np.stack([f.forces for f in frames])

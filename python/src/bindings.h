@@ -9,5 +9,6 @@ void RegisterSensor(pybind11::module_& m);
 void RegisterFrames(pybind11::module_& m);    // TactileFrame, recordings
 void RegisterPipeline(pybind11::module_& m);  // frame sources, the in-process pipeline
 void RegisterTwin(pybind11::module_& m);      // scenes, simulation, datasets, design, friction
+void RegisterRuntime(pybind11::module_& m);   // several sensors with their outputs: tac3d.run
 
 }  // namespace tac3d::python

@@ -16,4 +16,5 @@ PYBIND11_MODULE(_core, m) {
   tac3d::python::RegisterSensor(m);
   tac3d::python::RegisterPipeline(m);
   tac3d::python::RegisterTwin(m);
+  tac3d::python::RegisterRuntime(m);
 }

@@ -15,6 +15,7 @@
 #include "tac3d/design/light_path_design.h"
 #include "tac3d/fem/body_model.h"
 #include "tac3d/fem/compliance.h"
+#include "tac3d/sensor/default_sensor.h"
 #include "tac3d/sensor/sensor_config.h"
 #include "tac3d/source/frame_source.h"
 #include "twin_common.h"
@@ -96,8 +97,7 @@ std::unique_ptr<PyPipeline> MakePipeline(const std::string& config_path,
   options.Validate();
   auto p = std::make_unique<PyPipeline>();
   py::gil_scoped_release release;
-  const SensorConfig config =
-      config_path.empty() ? DefaultSensorConfig() : LoadSensorConfig(config_path);
+  const SensorConfig config = LoadSensorOrDefault(config_path);
   const std::string cache = ResolveCacheDir(cache_dir);
   const fem::ComplianceCacheResult model = fem::LoadOrBuildComplianceModel(
       fem::BodyModelOptionsFromSensor(config), cache, /*show_progress=*/false);
@@ -117,15 +117,6 @@ py::object Process(PyPipeline& p, const py::array& image, double timestamp_s) {
   }
   return FrameToPython(std::move(out));
 }
-
-// Iterates a source through a pipeline: read + process with the GIL released.
-struct Run {
-  PyPipeline* pipeline;
-  Source* source;
-  long max_frames;
-  long emitted = 0;
-  py::object keep_pipeline, keep_source;
-};
 
 }  // namespace
 
@@ -188,33 +179,7 @@ minute for the default sensor), with the GIL released.
           [](PyPipeline& p) { p.pipeline->RequestZero(); },
           "Takes the next reference_frames frames as the new reference (as `$C`).")
       .def_property_readonly("initializing",
-                             [](const PyPipeline& p) { return p.pipeline->initializing(); })
-      .def(
-          "frames",
-          [](py::object self, py::object source, long max_frames) {
-            Run run{
-                &self.cast<PyPipeline&>(), &source.cast<Source&>(), max_frames, 0, self, source};
-            return run;
-          },
-          py::arg("source"),
-          py::arg("max_frames") = 0,
-          "Iterates source's frames through the pipeline: TactileFrames, until the source ends\n"
-          "or max_frames (> 0) were given. zero() may be called between frames.");
-
-  py::class_<Run>(m, "_PipelineRun")
-      .def("__iter__", [](py::object self) { return self; })
-      .def("__next__", [](Run& r) {
-        if (r.max_frames > 0 && r.emitted >= r.max_frames) throw py::stop_iteration();
-        std::optional<Frame> f = r.source->Next();
-        if (!f) throw py::stop_iteration();
-        TactileFrame out;
-        {
-          py::gil_scoped_release release;
-          r.pipeline->pipeline->Process(*f, out);
-        }
-        ++r.emitted;
-        return FrameToPython(std::move(out));
-      });
+                             [](const PyPipeline& p) { return p.pipeline->initializing(); });
 }
 
 }  // namespace tac3d::python

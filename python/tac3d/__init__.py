@@ -3,6 +3,8 @@
 - ``tac3d.Sensor``: the vendor PyTac3D client's interface over the C++ Tac3D UDP client
   (change ``import PyTac3D`` to ``import tac3d as PyTac3D``).
 - ``tac3d.open_source`` and ``tac3d.Pipeline``: the in-process pipeline, TactileFrames out.
+- ``tac3d.run``, ``SensorSpec``, ``load_run_file``: the runtime of ``tac3d run``, several
+  sensors on their threads with their outputs (UDP, recording, JSON lines) and one clock.
 - ``tac3d.open_recording``, ``RecordingReader``, ``RecordingWriter``: recordings.
 - ``tac3d.load_scene``, ``tac3d.simulate``, ``tac3d.Dataset``: the digital twin.
 - ``tac3d.design_light_path``, ``tac3d.friction_map``: the design solver and friction map.
@@ -20,15 +22,19 @@ from ._core import (  # noqa: F401
     RecordingWriter,
     Scene,
     Sensor,
+    SensorReport,
+    SensorSpec,
     TactileFrame,
     builtin_scenes,
     default_sensor_yaml,
     design_light_path,
     friction_map,
+    load_run_file,
     load_scene,
     open_recording,
     open_source,
     parse_scene,
+    run,
     simulate,
 )
 
@@ -37,7 +43,8 @@ PYTAC3D_VERSION = "3.3.0 (tac3d)"
 
 __all__ = [
     "Dataset", "Error", "FrameSource", "Pipeline", "Recording", "RecordingReader",
-    "RecordingWriter", "Scene", "Sensor", "TactileFrame", "builtin_scenes",
-    "default_sensor_yaml", "design_light_path", "friction_map", "load_scene",
-    "open_recording", "open_source", "parse_scene", "simulate", "PYTAC3D_VERSION",
+    "RecordingWriter", "Scene", "Sensor", "SensorReport", "SensorSpec", "TactileFrame",
+    "builtin_scenes", "default_sensor_yaml", "design_light_path", "friction_map",
+    "load_run_file", "load_scene", "open_recording", "open_source", "parse_scene", "run",
+    "simulate", "PYTAC3D_VERSION",
 ]

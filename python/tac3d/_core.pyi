@@ -142,10 +142,6 @@ class FrameSource(Iterator[CameraFrame]):
 
 def open_source(uri: str, width: int = 640, height: int = 480, fps: float = 30.0) -> FrameSource: ...
 
-class _PipelineRun(Iterator[TactileFrame]):
-    def __iter__(self) -> _PipelineRun: ...
-    def __next__(self) -> TactileFrame: ...
-
 class Pipeline:
     def __init__(
         self,
@@ -160,7 +156,64 @@ class Pipeline:
     def zero(self) -> None: ...
     @property
     def initializing(self) -> bool: ...
-    def frames(self, source: FrameSource, max_frames: int = 0) -> _PipelineRun: ...
+
+class SensorSpec:
+    def __init__(
+        self,
+        sn: str,
+        source: str,
+        *,
+        config: str = "",
+        reference_frames: int = 20,
+        weight: float = 0.05,
+        gains: ArrayLike = (1.0, 1.0, 1.0),
+        drift: str = "flag",
+        drift_time_constant_s: float = 10.0,
+        speed: Optional[float] = None,
+        fps: float = 30.0,
+        exposure: float = 0.0,
+        udp: str = "",
+        record: str = "",
+        record_images: bool = False,
+        overwrite: bool = False,
+    ) -> None: ...
+    sn: str
+    source: str
+    config: str
+    reference_frames: int
+    weight: float
+    gains: list[float]
+    drift: str
+    drift_time_constant_s: float
+    speed: Optional[float]
+    fps: float
+    exposure: float
+    udp: str
+    record: str
+    record_images: bool
+    overwrite: bool
+
+class SensorReport:
+    sn: str
+    frames: int
+    skipped: int
+    failure: str
+    warning: str
+    last_skip: str
+    first_frame_s: float
+    last_frame_s: float
+    max_gap_s: float
+    def brief_report(self) -> str: ...
+
+def load_run_file(path: str) -> list[SensorSpec]: ...
+def run(
+    sensors: Sequence[SensorSpec],
+    *,
+    max_frames: int = 0,
+    cache_dir: str = "",
+    json: bool = False,
+    on_frame: Optional[Callable[[TactileFrame], None]] = None,
+) -> list[SensorReport]: ...
 
 class Scene:
     @property

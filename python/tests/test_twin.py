@@ -133,9 +133,12 @@ def test_friction_map_reports_no_contact_and_checks_its_input():
 def test_pipeline_in_process_on_the_twin_images(simulated, small_sensor_yaml, cache_dir):
     out, _, _ = simulated
     truth = tac3d.Dataset(str(out)).truth()
-    pipeline = tac3d.Pipeline(config=str(small_sensor_yaml), cache_dir=cache_dir,
-                              reference_frames=3, sn="PY-PIPE")
-    frames = list(pipeline.frames(tac3d.open_source(f"dataset:{out}")))
+    # The images through the runtime (tac3d.run), every frame to Python.
+    frames = []
+    spec = tac3d.SensorSpec("PY-PIPE", f"dataset:{out}", config=str(small_sensor_yaml),
+                            reference_frames=3)
+    [report] = tac3d.run([spec], cache_dir=cache_dir, on_frame=frames.append)
+    assert report.frames == 11 and report.failure == ""
     assert len(frames) == 11
     assert [f.initializing for f in frames[:3]] == [True, True, False]
     assert frames[0].has("initializing") and frames[0].sn == "PY-PIPE"
@@ -148,12 +151,16 @@ def test_pipeline_in_process_on_the_twin_images(simulated, small_sensor_yaml, ca
     assert 0.5 * fz_true > last.resultant_force[2] > 2.0 * fz_true
     np.testing.assert_allclose(last.positions, truth["marker_positions"][10], atol=0.05)
 
-    # zero(): the next frames build a new reference; process() takes images directly.
+    # The pipeline one image at a time: zero() makes the next frames build a new reference.
+    pipeline = tac3d.Pipeline(config=str(small_sensor_yaml), cache_dir=cache_dir,
+                              reference_frames=3, sn="PY-PIPE")
     image = tac3d.Dataset(str(out)).step(0)["image"]
+    first = [pipeline.process(image, timestamp=0.1 * k) for k in range(4)]
+    assert [f.initializing for f in first] == [True, True, False, False]
     pipeline.zero()
     again = [pipeline.process(image, timestamp=2.0 + 0.1 * k) for k in range(3)]
     assert [f.initializing for f in again] == [True, True, False]
-    assert again[2].index == 13 and again[2].timestamp == pytest.approx(2.2)
+    assert again[2].index == 6 and again[2].timestamp == pytest.approx(2.2)
     assert abs(again[2].resultant_force[2]) < 0.01  # the step-0 image, unloaded
     assert not pipeline.initializing
 

@@ -72,4 +72,8 @@ SensorConfig DefaultSensorConfig() {
   return config;
 }
 
+SensorConfig LoadSensorOrDefault(const std::string& path) {
+  return path.empty() ? DefaultSensorConfig() : LoadSensorConfig(path);
+}
+
 }  // namespace tac3d

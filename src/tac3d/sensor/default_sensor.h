@@ -11,4 +11,8 @@ namespace tac3d {
 /// still gives them.
 SensorConfig DefaultSensorConfig();
 
+/// The sensor a command or a run works on: the YAML file `path` (LoadSensorConfig) if one is
+/// given, else DefaultSensorConfig(). @throws Error as LoadSensorConfig does.
+SensorConfig LoadSensorOrDefault(const std::string& path);
+
 }  // namespace tac3d

@@ -104,4 +104,10 @@ void WriteLineFlushed(std::FILE* out, std::string_view line) {
   }
 }
 
+void MakeDirectory(const std::string& path) {
+  std::error_code ec;
+  fs::create_directories(path, ec);
+  if (ec) throw Error(fmt::format("cannot create directory '{}': {}", path, ec.message()));
+}
+
 }  // namespace tac3d

@@ -42,4 +42,7 @@ void WriteTextFileAtomically(const std::string& path, std::string_view content);
 /// process has lost none of the lines it wrote. @throws Error if the write fails.
 void WriteLineFlushed(std::FILE* out, std::string_view line);
 
+/// Creates a directory (and its parents). @throws Error naming it if it cannot.
+void MakeDirectory(const std::string& path);
+
 }  // namespace tac3d

@@ -1,8 +1,7 @@
-#include "run_outputs.h"
+#include "tac3d/runtime/run_outputs.h"
 
 #include <fmt/format.h>
 
-#include <CLI/CLI.hpp>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
@@ -17,7 +16,7 @@
 #include "tac3d/util/json_number.h"
 #include "tac3d/web/web_server.h"
 
-namespace tac3d::cli {
+namespace tac3d::runtime {
 namespace {
 
 std::atomic<bool> g_stop{false};
@@ -237,12 +236,4 @@ std::optional<std::string> RecordingSourcePath(const std::string& source) {
   return source.substr(kPrefix.size());
 }
 
-void RefuseOptions(const CLI::App& cmd,
-                   std::initializer_list<const char*> names,
-                   const std::string& why) {
-  for (const char* name : names) {
-    if (cmd.count(name) > 0) throw Error(fmt::format("{} {}", name, why));
-  }
-}
-
-}  // namespace tac3d::cli
+}  // namespace tac3d::runtime

@@ -1,15 +1,16 @@
-#include "run_file.h"
+#include "tac3d/runtime/run_file.h"
 
 #include <filesystem>
 #include <map>
 
 #include <fmt/format.h>
 
+#include "tac3d/runtime/sensor_group.h"
 #include "tac3d/sensor/yaml_reader.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/file_io.h"
 
-namespace tac3d::cli {
+namespace tac3d::runtime {
 namespace {
 
 namespace fs = std::filesystem;
@@ -39,19 +40,16 @@ SensorRunSpec ReadSensor(YamlReader r, const std::string& base_dir) {
   s.weight = r.Double("weight", s.weight);
   s.reference_frames = r.Int("reference_frames", s.reference_frames);
   if (r.Has("drift")) {
-    const std::string mode = r.String("drift");
-    if (mode == "off") s.drift.mode = DriftMode::kOff;
-    else if (mode == "flag") s.drift.mode = DriftMode::kFlag;
-    else if (mode == "rezero") s.drift.mode = DriftMode::kRezero;
-    else r.FailAt(r.Required("drift"), r.Join("drift"), "must be off, flag or rezero");
+    const std::optional<DriftMode> mode = ParseDriftMode(r.String("drift"));
+    if (!mode) r.FailAt(r.Required("drift"), r.Join("drift"), "must be off, flag or rezero");
+    s.drift.mode = *mode;
   }
   s.drift.time_constant_s = r.Double("drift_time_constant_s", s.drift.time_constant_s);
   if (!(s.drift.time_constant_s > 0)) {
     r.FailAt(r.Required("drift_time_constant_s"), r.Join("drift_time_constant_s"), "must be > 0");
   }
   if (r.Has("speed")) {
-    const bool paced = s.source.rfind("dataset:", 0) == 0 || s.source.rfind("recording:", 0) == 0;
-    if (!paced) r.FailAt(r.Required("speed"), r.Join("speed"), "applies to recording:FILE or dataset:DIR only");
+    if (!IsPacedSource(s.source)) r.FailAt(r.Required("speed"), r.Join("speed"), "applies to recording:FILE or dataset:DIR only");
     s.speed = r.Double("speed");
     if (*s.speed < 0) r.FailAt(r.Required("speed"), r.Join("speed"), "must be >= 0");
   }
@@ -94,6 +92,10 @@ std::vector<SensorRunSpec> ParseRunFile(const std::string& text,
   YamlReader r(root, "", &source);
   const YAML::Node list = r.Sequence("sensors");
   if (list.size() == 0) r.FailAt(list, "sensors", "lists no sensor");
+  if (list.size() > static_cast<size_t>(kMaxSensors)) {
+    r.FailAt(list[kMaxSensors], fmt::format("sensors[{}]", kMaxSensors),
+             fmt::format("a run holds at most {} sensors", kMaxSensors));
+  }
   std::vector<SensorRunSpec> sensors;
   std::map<std::string, int> sn_line, record_line;
   for (size_t i = 0; i < list.size(); ++i) {
@@ -118,4 +120,4 @@ std::vector<SensorRunSpec> LoadRunFile(const std::string& path) {
                       fs::path(path).parent_path().string());
 }
 
-}  // namespace tac3d::cli
+}  // namespace tac3d::runtime

@@ -1,12 +1,11 @@
 #pragma once
 
-// What `tac3d run` does with each TactileFrame, shared by its two kinds of source: camera
-// images through the Pipeline (run_command.cc) and a recording's frames replayed as they were
-// computed (recording_command.cc).
+// What a run does with each TactileFrame (the UDP stream, the recording, the viewer, JSON
+// lines) and the frame loop that gives them, whatever the source: camera images through the
+// Pipeline or a recording's frames replayed as they were computed.
 
 #include <atomic>
 #include <functional>
-#include <initializer_list>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <optional>
@@ -17,15 +16,11 @@
 #include "tac3d/record/recording.h"
 #include "tac3d/web/web_server.h"
 
-namespace CLI {
-class App;
-}
-
 namespace tac3d {
 struct MarkerObservation;  // tac3d/tracking/marker_tracker.h
 }
 
-namespace tac3d::cli {
+namespace tac3d::runtime {
 
 /// The frame-level outputs of `tac3d run` (docs/pipeline.md).
 struct FrameOutputArgs {
@@ -146,27 +141,7 @@ FrameLoopCounts RunFrameLoop(FrameOutputs& outputs,
                              const FrameProducer& produce,
                              const std::function<void()>& on_zero);
 
-/// `tac3d run --source recording:FILE`: the recording's frames, as they were computed, to the
-/// run's outputs at `speed` times the recorded pace (0: as fast as possible).
-struct RecordingRunArgs {
-  std::string path;
-  double speed = 1.0;
-  long max_frames = 0;
-  std::optional<std::string> sn;  ///< replaces the recorded SN when given
-  FrameOutputArgs outputs;
-};
-
 /// The recording's path when `source` is "recording:FILE", else nullopt.
 std::optional<std::string> RecordingSourcePath(const std::string& source);
 
-/// Replays, then reports how the recording ended: a truncated file (a killed writer) is a
-/// warning on stderr, a corrupt one an Error, both after the good frames were emitted.
-/// @throws Error on bad arguments, a file that is not a recording, or a corrupt record.
-void RunRecording(const RecordingRunArgs& args);
-
-/// @throws Error naming the first of `names` given on `cmd`'s command line, with `why`.
-void RefuseOptions(const CLI::App& cmd,
-                   std::initializer_list<const char*> names,
-                   const std::string& why);
-
-}  // namespace tac3d::cli
+}  // namespace tac3d::runtime

@@ -3,10 +3,11 @@
 // clock; a sensor whose dataset disappears mid-run, or that cannot start, is reported and the
 // others go on. And the run file's validation. The compliance is the synthetic stand-in (the
 // FEM model takes a minute to build); all else is what `tac3d run --run-file` runs.
-#include "sensor_group.h"
+#include "tac3d/runtime/sensor_group.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <pthread.h>
 
 #include <algorithm>
 #include <atomic>
@@ -17,23 +18,26 @@
 #include <mutex>
 #include <thread>
 
-#include "run_file.h"
+#include "tac3d/runtime/run_file.h"
 #include "tac3d/dataset/twin_dataset.h"
 #include "tac3d/force/test_compliance.h"
+#include "tac3d/frame/synthetic_frame.h"
 #include "tac3d/protocol/client.h"
+#include "tac3d/record/recording.h"
 #include "tac3d/sensor/default_sensor.h"
 #include "tac3d/sensor/test_sensor.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/twin/camera_renderer.h"
 #include "tac3d/util/error.h"
 
-namespace tac3d::cli {
+namespace tac3d::runtime {
 namespace {
 
 using testing::DefaultSensor;
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
+using ::testing::ThrowsMessage;
 
 constexpr int kSteps = 30;
 constexpr double kFps = 30.0;
@@ -228,6 +232,102 @@ TEST(SensorGroup, ASensorThatFailsOrWaitsHoldsUpNoOther) {
   EXPECT_GE(wait_to_s, 1.0 - 1e-3);  // due 1 s after the epoch: it did wait
 }
 
+// A recording of `frames` synthetic frames, 1 ms apart, in `dir`.
+std::string MakeRecording(const std::string& dir, int frames) {
+  const std::string path = dir + "/r.tac3drec";
+  RecordingWriter writer(path);
+  for (int i = 0; i < frames; ++i) {
+    TactileFrame frame = MakeSyntheticTactileFrame("REC", i);
+    frame.timestamp_s = 1e-3 * i;
+    writer.Write(frame, cv::Mat());
+  }
+  return path;
+}
+
+SensorRunSpec ReplaySensor(const std::string& sn, const std::string& recording) {
+  SensorRunSpec spec;
+  spec.sn = sn;
+  spec.source = "recording:" + recording;
+  spec.speed = 0.0;
+  return spec;
+}
+
+// While it lives, every new thread asks for a stack larger than any address space, so
+// pthread_create fails (EAGAIN) as it does when a run of many sensors has used up its address
+// space (`prlimit --as=4000000000`, issue 22 defect 6).
+class ThreadsCannotStart {
+ public:
+  ThreadsCannotStart() {
+    pthread_getattr_default_np(&saved_);
+    pthread_attr_t huge;
+    pthread_attr_init(&huge);
+    pthread_attr_setstacksize(&huge, std::size_t{1} << 47);
+    pthread_setattr_default_np(&huge);
+    pthread_attr_destroy(&huge);
+  }
+  ~ThreadsCannotStart() {
+    pthread_setattr_default_np(&saved_);
+    pthread_attr_destroy(&saved_);
+  }
+
+ private:
+  pthread_attr_t saved_;
+};
+
+// Before issue 22 a std::thread that could not start left the others joinable when their
+// vector was destroyed: std::terminate ("terminate called without an active exception").
+TEST(SensorGroup, AThreadThatCannotStartFailsItsSensorNotTheRun) {
+  const std::string recording = MakeRecording(testing::MakeTempDir("threads"), 5);
+  const std::vector<SensorRunSpec> sensors = {ReplaySensor("A", recording), ReplaySensor("B", recording)};
+  const std::atomic<bool> stop{false};
+  std::vector<SensorReport> reports;
+  {
+    ThreadsCannotStart no_threads;
+    reports = RunSensorGroup(sensors, SyntheticModel(), {}, nullptr, stop);
+  }
+  ASSERT_EQ(reports.size(), 2u);
+  for (const SensorReport& r : reports) {
+    EXPECT_EQ(r.frames, 0);
+    EXPECT_THAT(r.failure, HasSubstr("could not start its thread"));
+  }
+  // And with threads to be had, the same sensors run.
+  reports = RunSensorGroup(sensors, SyntheticModel(), {}, nullptr, stop);
+  EXPECT_EQ(reports[0].frames, 5);
+  EXPECT_EQ(reports[1].failure, "");
+}
+
+// An exception that is not a tac3d::Error (std::bad_alloc, say) on a sensor's thread fails that
+// sensor; before issue 22 it escaped the thread: std::terminate.
+TEST(SensorGroup, AnyExceptionOnASensorsThreadFailsOnlyThatSensor) {
+  const std::string recording = MakeRecording(testing::MakeTempDir("throws"), 5);
+  const std::vector<SensorRunSpec> sensors = {ReplaySensor("A", recording), ReplaySensor("B", recording)};
+  SensorGroupOptions options;
+  options.on_frame = [](const TactileFrame& frame) {
+    if (frame.sn == "A" && frame.index == 2) throw std::bad_alloc();
+  };
+  const std::atomic<bool> stop{false};
+  const std::vector<SensorReport> reports = RunSensorGroup(sensors, SyntheticModel(), options, nullptr, stop);
+  EXPECT_EQ(reports[0].frames, 2);
+  EXPECT_THAT(reports[0].failure, HasSubstr("out of memory"));
+  EXPECT_EQ(reports[1].frames, 5);
+  EXPECT_EQ(reports[1].failure, "");
+}
+
+// Many sensors: the limit is refused before any work, and the most a run holds all run.
+TEST(SensorGroup, RunsUpToTheLimitOfSensorsAndRefusesMore) {
+  const std::string recording = MakeRecording(testing::MakeTempDir("many"), 3);
+  std::vector<SensorRunSpec> sensors;
+  for (int i = 0; i < kMaxSensors; ++i) sensors.push_back(ReplaySensor(fmt::format("S{}", i), recording));
+  const std::atomic<bool> stop{false};
+  const std::vector<SensorReport> reports = RunSensorGroup(sensors, SyntheticModel(), {}, nullptr, stop);
+  ASSERT_EQ(reports.size(), static_cast<size_t>(kMaxSensors));
+  for (const SensorReport& r : reports) EXPECT_EQ(r.frames, 3) << r.BriefReport();
+  sensors.push_back(ReplaySensor("ONE-TOO-MANY", recording));
+  EXPECT_THAT([&] { RunSensorGroup(sensors, SyntheticModel(), {}, nullptr, stop); },
+              ThrowsMessage<Error>(HasSubstr(fmt::format("{} sensors: a run holds at most {}", kMaxSensors + 1,
+                                                         kMaxSensors))));
+}
+
 // Parses `text` as a run file in /tmp and returns the error, or "" if it was accepted.
 std::string RunFileError(const std::string& text) {
   try {
@@ -318,6 +418,10 @@ TEST(RunFile, RefusesMistakesNamingTheLine) {
   EXPECT_THAT(RunFileError(a + "    record: missing/r.rec\n"),
               HasSubstr("hand.yaml: line 4: sensors[0].record: "));
   EXPECT_THAT(RunFileError("sensors: []\n"), HasSubstr("hand.yaml: line 1: sensors: lists no sensor"));
+  std::string many = "sensors:\n";
+  for (int i = 0; i < 2000; ++i) many += fmt::format("  - {{sn: S{}, source: imgs}}\n", i);
+  EXPECT_THAT(RunFileError(many), HasSubstr(fmt::format("hand.yaml: line {}: sensors[{}]: a run holds at most {} sensors",
+                                                        kMaxSensors + 2, kMaxSensors, kMaxSensors)));
   EXPECT_THAT(RunFileError("sensor:\n  - sn: A\n"), HasSubstr("hand.yaml: line 1: sensors: missing"));
   EXPECT_THAT(RunFileError(a + "  - sn: B\n    source: x.avi\n    record: r.rec\n  - sn: C\n    source: y.avi\n"
                                "    record: ./r.rec\n"),
@@ -325,4 +429,4 @@ TEST(RunFile, RefusesMistakesNamingTheLine) {
 }
 
 }  // namespace
-}  // namespace tac3d::cli
+}  // namespace tac3d::runtime

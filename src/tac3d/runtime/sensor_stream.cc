@@ -1,17 +1,18 @@
-#include "sensor_stream.h"
+#include "tac3d/runtime/sensor_stream.h"
 
 #include <cstdio>
 #include <thread>
 
 #include <fmt/format.h>
 
-#include "commands.h"
+#include "tac3d/sensor/default_sensor.h"
 #include "tac3d/dataset/twin_dataset.h"
 #include "tac3d/record/recording_replay.h"
 #include "tac3d/util/error.h"
+#include "tac3d/util/file_io.h"
 #include "tac3d/util/seconds_since.h"
 
-namespace tac3d::cli {
+namespace tac3d::runtime {
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -34,13 +35,7 @@ class PipelineStream final : public SensorStream {
     source_ = OpenImageSource(spec, config);
     std::fprintf(stderr, "%ssource: %s\n", log_prefix_.c_str(), source_->Describe().c_str());
     const std::shared_ptr<const fem::ComplianceModel> model = load_model(config);
-    PipelineOptions options;
-    options.sn = spec.sn;
-    options.reference_frames = spec.reference_frames;
-    options.force.weight = spec.weight;
-    options.drift = spec.drift;
-    options.force.gains = spec.gains;
-    pipeline_.emplace(config, model->h, model->marker_positions, options);
+    pipeline_.emplace(config, model->h, model->marker_positions, spec.ToPipelineOptions());
   }
 
   void Start(const StreamClock& clock) override { clock_ = clock; }
@@ -152,6 +147,54 @@ class RecordingStream final : public SensorStream {
 
 }  // namespace
 
+PipelineOptions SensorRunSpec::ToPipelineOptions() const {
+  PipelineOptions options;
+  options.sn = sn;
+  options.reference_frames = reference_frames;
+  options.force.weight = weight;
+  options.drift = drift;
+  options.force.gains = gains;
+  return options;
+}
+
+void SensorRunSpec::Validate() const {
+  if (sn.empty()) throw Error("sensor: sn must not be empty");
+  if (source.empty()) throw Error(fmt::format("sensor {}: source must not be empty", sn));
+  if (speed && !IsPacedSource(source)) {
+    throw Error(fmt::format("sensor {}: speed applies to recording:FILE or dataset:DIR only", sn));
+  }
+  if (speed && !(*speed >= 0)) throw Error(fmt::format("sensor {}: speed must be >= 0", sn));
+  try {
+    ToPipelineOptions().Validate();
+    outputs.Validate();
+  } catch (const Error& e) {
+    throw Error(fmt::format("sensor {}: {}", sn, e.what()));
+  }
+}
+
+std::optional<DriftMode> ParseDriftMode(const std::string& name) {
+  for (const DriftMode mode : {DriftMode::kOff, DriftMode::kFlag, DriftMode::kRezero}) {
+    if (name == DriftModeName(mode)) return mode;
+  }
+  return std::nullopt;
+}
+
+const char* DriftModeName(DriftMode mode) {
+  switch (mode) {
+    case DriftMode::kOff:
+      return "off";
+    case DriftMode::kFlag:
+      return "flag";
+    case DriftMode::kRezero:
+      return "rezero";
+  }
+  return "?";
+}
+
+bool IsPacedSource(const std::string& source) {
+  return source.rfind("dataset:", 0) == 0 || source.rfind("recording:", 0) == 0;
+}
+
 CameraSourceOptions CameraWithSensorResolution() {
   CameraSourceOptions camera;
   camera.width = 0;
@@ -185,4 +228,4 @@ ModelLoader CachedModelLoader(const std::string& cache_dir) {
   };
 }
 
-}  // namespace tac3d::cli
+}  // namespace tac3d::runtime

@@ -6,9 +6,9 @@
 #include <string>
 #include <vector>
 
-#include "sensor_stream.h"
+#include "tac3d/runtime/sensor_stream.h"
 
-namespace tac3d::cli {
+namespace tac3d::runtime {
 
 /// Parses a run file: a mapping with one key, `sensors`, a list of sensors, each with `sn`
 /// and `source` (required) and optionally `config`, `gains`, `weight`, `reference_frames`,
@@ -17,8 +17,8 @@ namespace tac3d::cli {
 /// `base_dir`.
 /// @param source the file name for messages.
 /// @throws Error naming the file, the line and the key of a syntax error, a duplicated, unknown
-///   or missing key, a value of the wrong type, an empty list, an SN or a record file used
-///   twice, or `speed` for a source it does not apply to.
+///   or missing key, a value of the wrong type, an empty list or one of more than kMaxSensors
+///   sensors, an SN or a record file used twice, or `speed` for a source it does not apply to.
 std::vector<SensorRunSpec> ParseRunFile(const std::string& text,
                                         const std::string& source,
                                         const std::string& base_dir);
@@ -27,4 +27,4 @@ std::vector<SensorRunSpec> ParseRunFile(const std::string& text,
 /// LoadYamlFile and ParseRunFile do.
 std::vector<SensorRunSpec> LoadRunFile(const std::string& path);
 
-}  // namespace tac3d::cli
+}  // namespace tac3d::runtime

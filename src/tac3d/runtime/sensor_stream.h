@@ -1,9 +1,9 @@
 #pragma once
 
-// One sensor of `tac3d run`: its source (a camera, video, image folder or twin dataset through
-// the Pipeline, or a recording replayed) as a stream of TactileFrames for the frame loop.
-// Shared by the one-sensor flags (run_command.cc, recording_command.cc) and the run file's
-// sensors (sensor_group.cc).
+// One sensor of a run: its source (a camera, video, image folder or twin dataset through the
+// Pipeline, or a recording replayed) as a stream of TactileFrames for the frame loop. Shared by
+// `tac3d run`'s one sensor (RunSingleSensor), the run file's sensors (RunSensorGroup), `tac3d
+// view` and Python's tac3d.run.
 
 #include <atomic>
 #include <chrono>
@@ -14,12 +14,12 @@
 
 #include <Eigen/Core>
 
-#include "run_outputs.h"
+#include "tac3d/runtime/run_outputs.h"
 #include "tac3d/fem/compliance.h"
 #include "tac3d/pipeline/pipeline.h"
 #include "tac3d/source/frame_source.h"
 
-namespace tac3d::cli {
+namespace tac3d::runtime {
 
 /// Camera options whose width and height (0) are taken from the sensor config.
 CameraSourceOptions CameraWithSensorResolution();
@@ -42,7 +42,24 @@ struct SensorRunSpec {
   double exposure = 0.0;  ///< camera exposure in driver units; 0 automatic
   /// udp, record, record_images, overwrite, json; sn is set from `sn` for pipelines.
   FrameOutputArgs outputs;
+
+  /// The pipeline's options: sn, reference_frames, weight, gains, drift.
+  PipelineOptions ToPipelineOptions() const;
+  /// Checks what can be checked before any work.
+  /// @throws Error naming the field: an empty sn or source, a negative speed or one for a
+  ///   source that is not paced (IsPacedSource), the pipeline's options, the outputs'.
+  void Validate() const;
 };
+
+/// The drift mode named "off", "flag" or "rezero" (as --drift and the run file name them), or
+/// nullopt for another name.
+std::optional<DriftMode> ParseDriftMode(const std::string& name);
+/// "off", "flag" or "rezero".
+const char* DriftModeName(DriftMode mode);
+
+/// Whether `speed` applies to `source`: dataset:DIR and recording:FILE, paced by their
+/// timestamps.
+bool IsPacedSource(const std::string& source);
 
 /// The compliance model of a sensor config: the CLI loads (or builds) it from its cache;
 /// tests give a stand-in.
@@ -97,4 +114,4 @@ std::unique_ptr<SensorStream> OpenRecordingStream(const std::string& path,
 /// The compliance model from `cache_dir`, built there the first time (~1 min).
 ModelLoader CachedModelLoader(const std::string& cache_dir);
 
-}  // namespace tac3d::cli
+}  // namespace tac3d::runtime
