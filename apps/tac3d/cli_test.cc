@@ -18,14 +18,15 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 struct Outcome {
   int exit_code = -1;
   std::string output;  // stdout and stderr together
 };
 
-Outcome RunCli(const std::string& arguments) {
-  const std::string command = std::string(TAC3D_CLI_PATH) + " " + arguments + " 2>&1";
+Outcome RunCli(const std::string& arguments, const std::string& prefix = "") {
+  const std::string command = prefix + std::string(TAC3D_CLI_PATH) + " " + arguments + " 2>&1";
   Outcome outcome;
   std::FILE* pipe = ::popen(command.c_str(), "r");
   if (pipe == nullptr) return outcome;
@@ -35,6 +36,12 @@ Outcome RunCli(const std::string& arguments) {
   const int status = ::pclose(pipe);
   outcome.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return outcome;
+}
+
+// As RunCli, killed after `seconds` and with its address space capped at 2 GB, so a reproducer
+// that used to hang or fill memory fails its test (exit code 137) instead of the machine.
+Outcome RunCliBounded(const std::string& arguments, int seconds = 20) {
+  return RunCli(arguments, fmt::format("ulimit -v 2000000; timeout -s KILL {} ", seconds));
 }
 
 int CountFiles(const std::string& dir) {
@@ -157,5 +164,37 @@ TEST(Cli, ViewNeedsSomethingToShow) {
   EXPECT_THAT(o.output, HasSubstr("--config applies to --dataset only"));
 }
 
+
+// ---- Issue 22: each reproducer ends in a clear error within seconds, in bounded memory --------
+
+// Eight levels of ten aliases of the level above (332 bytes): 10^8 values for every reader.
+std::string AliasBomb() {
+  std::string text = "a: &a [x, x, x, x, x, x, x, x, x, x]\n";
+  for (char level = 'b'; level <= 'h'; ++level) {
+    text += fmt::format("{0}: &{0} [", level);
+    for (int k = 0; k < 10; ++k) text += fmt::format("{}*{}", k ? ", " : "", char(level - 1));
+    text += "]\n";
+  }
+  return text;
+}
+
+// Defect 7: `design --config` ran 60 s+ of CPU, the run file too; an alias inside its own node
+// crashed (SIGSEGV).
+TEST(Cli, YamlAliasesAreBoundedInEveryFile) {
+  const std::string dir = testing::MakeTempDir("aliases");
+  std::ofstream(dir + "/bomb.yaml") << AliasBomb();
+  const std::string expected =
+      dir + "/bomb.yaml: line 4: the aliases (*name) stand for more than 10000 values in all";
+  Outcome o = RunCliBounded(fmt::format("design --config {0}/bomb.yaml --out {0}/s.yaml", dir));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr(expected));
+  o = RunCliBounded(fmt::format("run --run-file {}/bomb.yaml", dir));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr(expected));
+  std::ofstream(dir + "/self.yaml") << "name: x\nobjects: &o [*o]\n";
+  o = RunCliBounded(fmt::format("simulate --scene {0}/self.yaml --out {0}/ds", dir));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr(dir + "/self.yaml: line 2: an alias (*name) inside the node it names"));
+}
 }  // namespace
 }  // namespace tac3d
