@@ -196,5 +196,24 @@ TEST(Cli, YamlAliasesAreBoundedInEveryFile) {
   EXPECT_EQ(o.exit_code, 1) << o.output;
   EXPECT_THAT(o.output, HasSubstr(dir + "/self.yaml: line 2: an alias (*name) inside the node it names"));
 }
+
+// Defect 8: /dev/zero grew to 2.2 GB before "is empty"; a folder was "empty".
+TEST(Cli, PoseAndPositionReadersRefuseDevicesAndFolders) {
+  const std::string dir = testing::MakeTempDir("readers");
+  Outcome o = RunCliBounded(
+      fmt::format("friction-map --recording {0}/r.t3r --poses /dev/zero --out {0}/map", dir));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("pose CSV '/dev/zero' is not a regular file"));
+  o = RunCliBounded(fmt::format("friction-map --recording {0}/r.t3r --poses {0} --out {0}/map", dir));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("pose CSV '" + dir + "' is a directory, not a file"));
+  o = RunCliBounded(fmt::format("render markers --positions /dev/zero --out {}/m.png", dir));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("marker positions '/dev/zero' is not a regular file"));
+  o = RunCliBounded(fmt::format("render markers --positions {0} --out {0}/m.png", dir));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("marker positions '" + dir + "' is a directory, not a file"));
+  EXPECT_EQ(CountFiles(dir), 0);
+}
 }  // namespace
 }  // namespace tac3d
