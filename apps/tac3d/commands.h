@@ -1,9 +1,14 @@
 #pragma once
 
 #include <nlohmann/json_fwd.hpp>
+#include <functional>
+#include <initializer_list>
 #include <string>
+#include <string_view>
+#include <utility>
 
 #include "tac3d/sensor/sensor_config.h"
+#include "tac3d/util/file_io.h"  // DefaultCacheDir, MakeCacheDirectory: every --cache
 #include "tac3d/util/seconds_since.h"  // the commands' timings
 
 namespace CLI {
@@ -42,14 +47,18 @@ void RegisterEvalFriction(CLI::App& eval);
 /// prototype with its designed mirrors.
 SensorConfig LoadSensorOrDefault(const std::string& path);
 
-/// Where compliance models are cached unless --cache says otherwise: $TAC3D_CACHE_DIR, else
-/// $XDG_CACHE_HOME/tac3d, else $HOME/.cache/tac3d, else .tac3d-cache.
-std::string DefaultCacheDir();
 
 /// Seconds from `since` to now on the steady clock, for the timings commands report.
 
 /// Creates a directory (and its parents). @throws Error if it cannot.
 void MakeDirectory(const std::string& path);
+
+/// Runs an options' Validate() and, if it throws, throws the same message with the options
+/// field that starts it replaced by the flag that sets it, so the user reads the flag they
+/// typed: {"ReferenceJoinOptions: max_offset_s", "--max-offset"} makes
+/// "--max-offset = 1e+09 must be in [0, 600] s" of the library's message.
+void ValidateNamingFlags(const std::function<void()>& validate,
+                         std::initializer_list<std::pair<std::string_view, std::string_view>> flags);
 
 /// Prints an evaluation's checks ([{name, value, unit, tolerance, pass}]), one line each.
 void PrintChecks(const nlohmann::json& checks);

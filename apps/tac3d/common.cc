@@ -1,5 +1,4 @@
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 
 #include <fmt/format.h>
@@ -17,16 +16,24 @@ SensorConfig LoadSensorOrDefault(const std::string& path) {
   return path.empty() ? DefaultSensorConfig() : LoadSensorConfig(path);
 }
 
-std::string DefaultCacheDir() {
-  if (const char* dir = std::getenv("TAC3D_CACHE_DIR"); dir && *dir) return dir;
-  if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg) return std::string(xdg) + "/tac3d";
-  if (const char* home = std::getenv("HOME"); home && *home) return std::string(home) + "/.cache/tac3d";
-  return ".tac3d-cache";
-}
-
 void PrintChecks(const nlohmann::json& checks) {
   for (const nlohmann::json& check : checks) {
     std::printf("%s\n", EvalCheckFromJson(check).Format().c_str());
+  }
+}
+
+void ValidateNamingFlags(const std::function<void()>& validate,
+                         std::initializer_list<std::pair<std::string_view, std::string_view>> flags) {
+  try {
+    validate();
+  } catch (const Error& e) {
+    const std::string_view message = e.what();
+    for (const auto& [field, flag] : flags) {
+      if (message.substr(0, field.size()) == field) {
+        throw Error(fmt::format("{}{}", flag, message.substr(field.size())));
+      }
+    }
+    throw;
   }
 }
 

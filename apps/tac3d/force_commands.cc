@@ -88,7 +88,7 @@ void RegisterEvalForce(CLI::App& eval) {
       options.SetTrueMaterial({args->truth_material[0], args->truth_material[1]});
     }
     options.show_progress = !args->model.json;
-    MakeDirectory(options.cache_dir);
+    MakeCacheDirectory(options.cache_dir);
     if (args->material_grid) {
       // A line a point as it is done (JSON with --json): a later solve failing loses none.
       const bool json = args->model.json;

@@ -177,7 +177,7 @@ std::unique_ptr<SensorStream> OpenSensorStream(const SensorRunSpec& spec,
 
 ModelLoader CachedModelLoader(const std::string& cache_dir) {
   return [cache_dir](const SensorConfig& config) {
-    MakeDirectory(cache_dir);
+    MakeCacheDirectory(cache_dir);
     return std::make_shared<const fem::ComplianceModel>(
         fem::LoadOrBuildComplianceModel(fem::BodyModelOptionsFromSensor(config), cache_dir,
                                         /*show_progress=*/true)

@@ -77,6 +77,13 @@ def test_simulate_errors_and_a_raising_progress_callback(tmp_path, small_scene, 
         tac3d.simulate("no_such_scene", str(tmp_path / "b"))
     with pytest.raises(tac3d.Error, match="unknown key 'margin'"):
         tac3d.simulate(str(small_scene), str(tmp_path / "c"), twin_options={"margin": 1})
+    # Issue 22, defect 10: Python created the missing folders the CLI refuses.
+    with pytest.raises(tac3d.Error, match="dataset folder .* the folder '.*missing/dir' does not exist"):
+        tac3d.simulate(str(small_scene), str(tmp_path / "missing" / "dir" / "sim"))
+    with pytest.raises(tac3d.Error, match="cache folder .* the folder '.*missing' does not exist"):
+        tac3d.simulate(str(small_scene), str(tmp_path / "e"),
+                       cache_dir=str(tmp_path / "missing" / "cache"))
+    assert not (tmp_path / "missing").exists()
 
     def stop(done, total):
         if done == 2:
@@ -167,6 +174,10 @@ def test_pipeline_in_process_on_the_twin_images(simulated, small_sensor_yaml, ca
         tac3d.Pipeline(config=str(small_sensor_yaml), cache_dir=cache_dir, weight=-1)
     with pytest.raises(tac3d.Error, match="no_such.yaml"):
         tac3d.Pipeline(config="no_such.yaml", cache_dir=cache_dir)
+    # Issue 22, defect 10: a NaN timestamp gave a frame that validate() and RecordingWriter
+    # then refused.
+    with pytest.raises(tac3d.Error, match="timestamp nan s is not finite"):
+        pipeline.process(image, timestamp=float("nan"))
 
 
 def test_friction_map_of_a_flat_slide_recovers_mu():

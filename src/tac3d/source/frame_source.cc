@@ -194,6 +194,12 @@ std::unique_ptr<FrameSource> OpenImageFolder(const std::string& path, double fps
 }
 
 std::unique_ptr<FrameSource> OpenFrameSource(const std::string& uri, const CameraSourceOptions& camera) {
+  if (uri.rfind("recording:", 0) == 0) {
+    throw Error(fmt::format("frame source '{}': a recording holds processed frames, not camera "
+                            "images; read it with RecordingReader (Python: tac3d.RecordingReader), "
+                            "or replay it with `tac3d run --source {}`",
+                            uri, uri));
+  }
   CameraSourceOptions options = camera;
   if (uri.rfind("camera:", 0) == 0) {
     options.device = uri.substr(7);
