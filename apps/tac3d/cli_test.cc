@@ -215,5 +215,24 @@ TEST(Cli, PoseAndPositionReadersRefuseDevicesAndFolders) {
   EXPECT_THAT(o.output, HasSubstr("marker positions '" + dir + "' is a directory, not a file"));
   EXPECT_EQ(CountFiles(dir), 0);
 }
+
+// Defect 9: calibrate-force started the FEM solves before reading its presses (with /dev/zero:
+// 56 s, 1.6 GB, then the refusal); render-set kept 100000 images in memory.
+TEST(Cli, CalibrationCommandsCheckTheirInputsBeforeAnyWork) {
+  const std::string cache = testing::MakeTempDir("cf_cache");
+  for (const char* presses : {"/nonexistent.csv", "/dev/zero"}) {
+    const Outcome o = RunCliBounded(fmt::format(
+        "calibrate-force --presses {} --noise-mm 0.002 --cache {}", presses, cache));
+    EXPECT_EQ(o.exit_code, 1) << o.output;
+    EXPECT_THAT(o.output, HasSubstr(fmt::format("calibration presses '{}'", presses)));
+    EXPECT_THAT(o.output, Not(HasSubstr("fem:"))) << "the FEM started first";
+  }
+  EXPECT_EQ(CountFiles(cache), 0);
+  const std::string out = testing::MakeTempDir("render_set") + "/set";
+  const Outcome o = RunCliBounded(fmt::format("calibrate render-set --count 100000 --out {}", out));
+  EXPECT_NE(o.exit_code, 0) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("--count: Value 100000 not in range 1 to 1000"));
+  EXPECT_FALSE(fs::exists(out));
+}
 }  // namespace
 }  // namespace tac3d
