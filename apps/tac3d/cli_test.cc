@@ -234,5 +234,70 @@ TEST(Cli, CalibrationCommandsCheckTheirInputsBeforeAnyWork) {
   EXPECT_THAT(o.output, HasSubstr("--count: Value 100000 not in range 1 to 1000"));
   EXPECT_FALSE(fs::exists(out));
 }
+
+// Defect 11: messages that said too little, too much, or named the wrong thing.
+TEST(Cli, MessagesNameTheFlagAndTheBoundShortly) {
+  const std::string dir = testing::MakeTempDir("messages");
+  Outcome o = RunCliBounded(fmt::format("render markers --frame -1 --out {}/f.png", dir));
+  EXPECT_NE(o.exit_code, 0);
+  EXPECT_THAT(o.output, HasSubstr("--frame: '-1' must be a whole number >= 0"));
+  EXPECT_LT(o.output.size(), 200u) << o.output;
+  o = RunCliBounded(fmt::format("render markers --read-noise 1e300 --out {}/f.png", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("read_noise_dn = 1e+300 must be in [0, 255] DN"));
+  o = RunCliBounded(fmt::format("run --source {0}/r.t3r --web 127.0.0.1:0 --web-hold nan", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("--web-hold nan must be a number of seconds"));
+  std::ofstream(dir + "/pairs.csv") << "fx_meas,fy_meas,fz_meas,fx_ref,fy_ref,fz_ref\n"
+                                    << "1e300,1e300,1e300,1e300,1e300,1e300\n";
+  o = RunCliBounded(fmt::format("calibrate-force --pairs {}/pairs.csv", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("pairs.csv:2: field 1 '1e300' is beyond +-10000"));
+  EXPECT_THAT(o.output, Not(HasSubstr("nan")));
+  std::ofstream(dir + "/long.csv") << std::string(26000, 'x') << "\n";
+  o = RunCliBounded(fmt::format("calibrate-force --pairs {}/long.csv", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_LT(o.output.size(), 400u) << "the first line echoed whole";
+  o = RunCliBounded(fmt::format(
+      "recording pairs {0}/r.t3r --reference {0}/ref.csv --pairs-out {0}/p.csv --max-offset 1e9",
+      dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("--max-offset = 1000000000 must be in [0, 600] s"));
+  EXPECT_THAT(o.output, Not(HasSubstr("ReferenceJoinOptions")));
+}
+
+// Defect 11: `--gains 1e300` and `--fps 1e300` were accepted (and the twin model's build
+// started); both are refused before the model is loaded.
+TEST(Cli, RunRefusesGainsAndFrameRatesNoSensorHasBeforeTheModel) {
+  const std::string dir = testing::MakeTempDir("run_bounds");
+  const std::string cache = testing::MakeTempDir("run_bounds_cache");
+  ASSERT_EQ(RunCli(fmt::format("render markers --no-noise --out {}/a.png", dir)).exit_code, 0);
+  Outcome o = RunCliBounded(
+      fmt::format("run --source {} --gains 1e300 1 1 --max-frames 1 --cache {}", dir, cache));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("gains.x must be in (0, 1000], got 1e+300"));
+  o = RunCliBounded(fmt::format("run --source {} --fps 1e300 --max-frames 1 --cache {}", dir, cache));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("image folder: fps = 1e+300 must be in (0, 1000]"));
+  EXPECT_EQ(CountFiles(cache), 0) << "the model was built before the check";
+}
+
+// Defect 11: calibrate said "unreadable or corrupt file" where run says why.
+TEST(Cli, CalibrateSaysWhyAnImageIsRefused) {
+  const std::string dir = testing::MakeTempDir("calibrate_header");
+  ASSERT_EQ(RunCli(fmt::format("render markers --no-noise --out {}/reference.png", dir)).exit_code, 0);
+  std::fstream png(dir + "/reference.png", std::ios::in | std::ios::out | std::ios::binary);
+  const char side[4] = {0x00, 0x00, char(0xEA), 0x60};  // 60000, big-endian: IHDR width, height
+  png.seekp(16).write(side, 4).write(side, 4);
+  png.close();
+  std::ofstream(dir + "/board.yaml")
+      << "board: {layout: symmetric, rows: 7, cols: 7, spacing_mm: 2.5, dot_diameter_mm: 1.2}\n"
+         "reference:\n  image: reference.png\n  sensor_from_board:\n"
+         "    position_mm: [-7.5, -7.5, 0]\n    rotation: [[1, 0, 0], [0, 1, 0], [0, 0, 1]]\n";
+  const Outcome o = RunCliBounded(fmt::format("calibrate --images {0} --out {0}/cal.yaml", dir));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("its header claims 60000 x 60000 pixels"));
+}
+
 }  // namespace
 }  // namespace tac3d

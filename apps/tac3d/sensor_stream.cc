@@ -33,13 +33,14 @@ class PipelineStream final : public SensorStream {
     const SensorConfig config = LoadSensorOrDefault(spec.config);
     source_ = OpenImageSource(spec, config);
     std::fprintf(stderr, "%ssource: %s\n", log_prefix_.c_str(), source_->Describe().c_str());
-    const std::shared_ptr<const fem::ComplianceModel> model = load_model(config);
     PipelineOptions options;
     options.sn = spec.sn;
     options.reference_frames = spec.reference_frames;
     options.force.weight = spec.weight;
     options.drift = spec.drift;
     options.force.gains = spec.gains;
+    options.Validate();  // before the model is loaded (or built, minutes)
+    const std::shared_ptr<const fem::ComplianceModel> model = load_model(config);
     pipeline_.emplace(config, model->h, model->marker_positions, options);
   }
 
