@@ -52,10 +52,9 @@ void RunRenderSet(RenderSetArgs a, const CLI::App& cmd) {
   SensorPerturbationOptions perturbation;
   perturbation.seed = a.set.seed;
   const SensorConfig truth = PerturbSensor(LoadSensorOrDefault(a.config), perturbation);
-  const CalibrationSet set = RenderCalibrationSet(truth, a.set);
-  WriteCalibrationSet(set, truth, a.out);
+  const CalibrationSet set = WriteCalibrationSet(truth, a.set, a.out);
   std::printf("wrote %zu images (reference: %s), board.yaml and truth.yaml to %s\n",
-              set.images.size(), set.board_file.reference_image.c_str(), a.out.c_str());
+              set.sensor_from_board.size(), set.board_file.reference_image.c_str(), a.out.c_str());
 }
 
 struct CalibrateArgs {
@@ -176,6 +175,7 @@ void RegisterCalibrate(CLI::App& app) {
   render->add_option("--out", set->out, "folder to write")->required();
   render->add_option("--config", set->config, "nominal sensor YAML to perturb (default: built-in)");
   render->add_option("--count", set->set.views, "random board poses besides the reference view")
+      ->check(CLI::Range(1, kMaxCalibrationViews))
       ->capture_default_str();
   render->add_option("--seed", set->set.seed, "seed of the perturbation, the poses and the noise")
       ->capture_default_str();

@@ -18,14 +18,15 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 struct Outcome {
   int exit_code = -1;
   std::string output;  // stdout and stderr together
 };
 
-Outcome RunCli(const std::string& arguments) {
-  const std::string command = std::string(TAC3D_CLI_PATH) + " " + arguments + " 2>&1";
+Outcome RunCli(const std::string& arguments, const std::string& prefix = "") {
+  const std::string command = prefix + std::string(TAC3D_CLI_PATH) + " " + arguments + " 2>&1";
   Outcome outcome;
   std::FILE* pipe = ::popen(command.c_str(), "r");
   if (pipe == nullptr) return outcome;
@@ -35,6 +36,12 @@ Outcome RunCli(const std::string& arguments) {
   const int status = ::pclose(pipe);
   outcome.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return outcome;
+}
+
+// As RunCli, killed after `seconds` and with its address space capped at 2 GB, so a reproducer
+// that used to hang or fill memory fails its test (exit code 137) instead of the machine.
+Outcome RunCliBounded(const std::string& arguments, int seconds = 20) {
+  return RunCli(arguments, fmt::format("ulimit -v 2000000; timeout -s KILL {} ", seconds));
 }
 
 int CountFiles(const std::string& dir) {
@@ -187,6 +194,141 @@ TEST(Cli, ViewNeedsSomethingToShow) {
   o = RunCli("view --recording a.rec --config s.yaml");
   EXPECT_EQ(o.exit_code, 1);
   EXPECT_THAT(o.output, HasSubstr("--config applies to --dataset only"));
+}
+
+
+// ---- Issue 22: each reproducer ends in a clear error within seconds, in bounded memory --------
+
+// Eight levels of ten aliases of the level above (332 bytes): 10^8 values for every reader.
+std::string AliasBomb() {
+  std::string text = "a: &a [x, x, x, x, x, x, x, x, x, x]\n";
+  for (char level = 'b'; level <= 'h'; ++level) {
+    text += fmt::format("{0}: &{0} [", level);
+    for (int k = 0; k < 10; ++k) text += fmt::format("{}*{}", k ? ", " : "", char(level - 1));
+    text += "]\n";
+  }
+  return text;
+}
+
+// Defect 7: `design --config` ran 60 s+ of CPU, the run file too; an alias inside its own node
+// crashed (SIGSEGV).
+TEST(Cli, YamlAliasesAreBoundedInEveryFile) {
+  const std::string dir = testing::MakeTempDir("aliases");
+  std::ofstream(dir + "/bomb.yaml") << AliasBomb();
+  const std::string expected =
+      dir + "/bomb.yaml: line 4: the aliases (*name) stand for more than 10000 values in all";
+  Outcome o = RunCliBounded(fmt::format("design --config {0}/bomb.yaml --out {0}/s.yaml", dir));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr(expected));
+  o = RunCliBounded(fmt::format("run --run-file {}/bomb.yaml", dir));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr(expected));
+  std::ofstream(dir + "/self.yaml") << "name: x\nobjects: &o [*o]\n";
+  o = RunCliBounded(fmt::format("simulate --scene {0}/self.yaml --out {0}/ds", dir));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr(dir + "/self.yaml: line 2: an alias (*name) inside the node it names"));
+}
+
+// Defect 8: /dev/zero grew to 2.2 GB before "is empty"; a folder was "empty".
+TEST(Cli, PoseAndPositionReadersRefuseDevicesAndFolders) {
+  const std::string dir = testing::MakeTempDir("readers");
+  Outcome o = RunCliBounded(
+      fmt::format("friction-map --recording {0}/r.t3r --poses /dev/zero --out {0}/map", dir));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("pose CSV '/dev/zero' is not a regular file"));
+  o = RunCliBounded(fmt::format("friction-map --recording {0}/r.t3r --poses {0} --out {0}/map", dir));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("pose CSV '" + dir + "' is a directory, not a file"));
+  o = RunCliBounded(fmt::format("render markers --positions /dev/zero --out {}/m.png", dir));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("marker positions '/dev/zero' is not a regular file"));
+  o = RunCliBounded(fmt::format("render markers --positions {0} --out {0}/m.png", dir));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("marker positions '" + dir + "' is a directory, not a file"));
+  EXPECT_EQ(CountFiles(dir), 0);
+}
+
+// Defect 9: calibrate-force started the FEM solves before reading its presses (with /dev/zero:
+// 56 s, 1.6 GB, then the refusal); render-set kept 100000 images in memory.
+TEST(Cli, CalibrationCommandsCheckTheirInputsBeforeAnyWork) {
+  const std::string cache = testing::MakeTempDir("cf_cache");
+  for (const char* presses : {"/nonexistent.csv", "/dev/zero"}) {
+    const Outcome o = RunCliBounded(fmt::format(
+        "calibrate-force --presses {} --noise-mm 0.002 --cache {}", presses, cache));
+    EXPECT_EQ(o.exit_code, 1) << o.output;
+    EXPECT_THAT(o.output, HasSubstr(fmt::format("calibration presses '{}'", presses)));
+    EXPECT_THAT(o.output, Not(HasSubstr("fem:"))) << "the FEM started first";
+  }
+  EXPECT_EQ(CountFiles(cache), 0);
+  const std::string out = testing::MakeTempDir("render_set") + "/set";
+  const Outcome o = RunCliBounded(fmt::format("calibrate render-set --count 100000 --out {}", out));
+  EXPECT_NE(o.exit_code, 0) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("--count: Value 100000 not in range 1 to 1000"));
+  EXPECT_FALSE(fs::exists(out));
+}
+
+// Defect 11: messages that said too little, too much, or named the wrong thing.
+TEST(Cli, MessagesNameTheFlagAndTheBoundShortly) {
+  const std::string dir = testing::MakeTempDir("messages");
+  Outcome o = RunCliBounded(fmt::format("render markers --frame -1 --out {}/f.png", dir));
+  EXPECT_NE(o.exit_code, 0);
+  EXPECT_THAT(o.output, HasSubstr("--frame: '-1' must be a whole number >= 0"));
+  EXPECT_LT(o.output.size(), 200u) << o.output;
+  o = RunCliBounded(fmt::format("render markers --read-noise 1e300 --out {}/f.png", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("read_noise_dn = 1e+300 must be in [0, 255] DN"));
+  o = RunCliBounded(fmt::format("run --source {0}/r.t3r --web 127.0.0.1:0 --web-hold nan", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("--web-hold nan must be a number of seconds"));
+  std::ofstream(dir + "/pairs.csv") << "fx_meas,fy_meas,fz_meas,fx_ref,fy_ref,fz_ref\n"
+                                    << "1e300,1e300,1e300,1e300,1e300,1e300\n";
+  o = RunCliBounded(fmt::format("calibrate-force --pairs {}/pairs.csv", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("pairs.csv:2: field 1 '1e300' is beyond +-10000"));
+  EXPECT_THAT(o.output, Not(HasSubstr("nan")));
+  std::ofstream(dir + "/long.csv") << std::string(26000, 'x') << "\n";
+  o = RunCliBounded(fmt::format("calibrate-force --pairs {}/long.csv", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_LT(o.output.size(), 400u) << "the first line echoed whole";
+  o = RunCliBounded(fmt::format(
+      "recording pairs {0}/r.t3r --reference {0}/ref.csv --pairs-out {0}/p.csv --max-offset 1e9",
+      dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("--max-offset = 1000000000 must be in [0, 600] s"));
+  EXPECT_THAT(o.output, Not(HasSubstr("ReferenceJoinOptions")));
+}
+
+// Defect 11: `--gains 1e300` and `--fps 1e300` were accepted (and the twin model's build
+// started); both are refused before the model is loaded.
+TEST(Cli, RunRefusesGainsAndFrameRatesNoSensorHasBeforeTheModel) {
+  const std::string dir = testing::MakeTempDir("run_bounds");
+  const std::string cache = testing::MakeTempDir("run_bounds_cache");
+  ASSERT_EQ(RunCli(fmt::format("render markers --no-noise --out {}/a.png", dir)).exit_code, 0);
+  Outcome o = RunCliBounded(
+      fmt::format("run --source {} --gains 1e300 1 1 --max-frames 1 --cache {}", dir, cache));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("gains.x must be in (0, 1000], got 1e+300"));
+  o = RunCliBounded(fmt::format("run --source {} --fps 1e300 --max-frames 1 --cache {}", dir, cache));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("image folder: fps = 1e+300 must be in (0, 1000]"));
+  EXPECT_EQ(CountFiles(cache), 0) << "the model was built before the check";
+}
+
+// Defect 11: calibrate said "unreadable or corrupt file" where run says why.
+TEST(Cli, CalibrateSaysWhyAnImageIsRefused) {
+  const std::string dir = testing::MakeTempDir("calibrate_header");
+  ASSERT_EQ(RunCli(fmt::format("render markers --no-noise --out {}/reference.png", dir)).exit_code, 0);
+  std::fstream png(dir + "/reference.png", std::ios::in | std::ios::out | std::ios::binary);
+  const char side[4] = {0x00, 0x00, char(0xEA), 0x60};  // 60000, big-endian: IHDR width, height
+  png.seekp(16).write(side, 4).write(side, 4);
+  png.close();
+  std::ofstream(dir + "/board.yaml")
+      << "board: {layout: symmetric, rows: 7, cols: 7, spacing_mm: 2.5, dot_diameter_mm: 1.2}\n"
+         "reference:\n  image: reference.png\n  sensor_from_board:\n"
+         "    position_mm: [-7.5, -7.5, 0]\n    rotation: [[1, 0, 0], [0, 1, 0], [0, 0, 1]]\n";
+  const Outcome o = RunCliBounded(fmt::format("calibrate --images {0} --out {0}/cal.yaml", dir));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("its header claims 60000 x 60000 pixels"));
 }
 
 }  // namespace

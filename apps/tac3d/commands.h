@@ -1,12 +1,15 @@
 #pragma once
 
+#include <functional>
 #include <initializer_list>
 #include <nlohmann/json_fwd.hpp>
 #include <string>
+#include <string_view>
+#include <utility>
 
 #include "tac3d/sensor/default_sensor.h"  // LoadSensorOrDefault, for the commands
 #include "tac3d/sensor/sensor_config.h"
-#include "tac3d/util/file_io.h"  // MakeDirectory, for the commands
+#include "tac3d/util/file_io.h"  // MakeDirectory, DefaultCacheDir, MakeCacheDirectory
 #include "tac3d/util/seconds_since.h"  // the commands' timings
 
 namespace CLI {
@@ -41,14 +44,17 @@ void RegisterEvalReplay(CLI::App& eval);
 void RegisterEvalConditions(CLI::App& eval);
 void RegisterEvalFriction(CLI::App& eval);
 
-/// Where compliance models are cached unless --cache says otherwise: $TAC3D_CACHE_DIR, else
-/// $XDG_CACHE_HOME/tac3d, else $HOME/.cache/tac3d, else .tac3d-cache.
-std::string DefaultCacheDir();
-
 /// @throws Error naming the first of `names` given on `cmd`'s command line, with `why`.
 void RefuseOptions(const CLI::App& cmd,
                    std::initializer_list<const char*> names,
                    const std::string& why);
+
+/// Runs an options' Validate() and, if it throws, throws the same message with the options
+/// field that starts it replaced by the flag that sets it, so the user reads the flag they
+/// typed: {"ReferenceJoinOptions: max_offset_s", "--max-offset"} makes
+/// "--max-offset = 1e+09 must be in [0, 600] s" of the library's message.
+void ValidateNamingFlags(const std::function<void()>& validate,
+                         std::initializer_list<std::pair<std::string_view, std::string_view>> flags);
 
 /// Prints an evaluation's checks ([{name, value, unit, tolerance, pass}]), one line each.
 void PrintChecks(const nlohmann::json& checks);

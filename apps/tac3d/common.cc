@@ -1,5 +1,4 @@
 #include <cstdio>
-#include <cstdlib>
 
 #include <fmt/format.h>
 
@@ -8,18 +7,10 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
-#include "tac3d/sensor/default_sensor.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/eval_check.h"
 
 namespace tac3d::cli {
-
-std::string DefaultCacheDir() {
-  if (const char* dir = std::getenv("TAC3D_CACHE_DIR"); dir && *dir) return dir;
-  if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg) return std::string(xdg) + "/tac3d";
-  if (const char* home = std::getenv("HOME"); home && *home) return std::string(home) + "/.cache/tac3d";
-  return ".tac3d-cache";
-}
 
 void PrintChecks(const nlohmann::json& checks) {
   for (const nlohmann::json& check : checks) {
@@ -32,6 +23,21 @@ void RefuseOptions(const CLI::App& cmd,
                    const std::string& why) {
   for (const char* name : names) {
     if (cmd.count(name) > 0) throw Error(fmt::format("{} {}", name, why));
+  }
+}
+
+void ValidateNamingFlags(const std::function<void()>& validate,
+                         std::initializer_list<std::pair<std::string_view, std::string_view>> flags) {
+  try {
+    validate();
+  } catch (const Error& e) {
+    const std::string_view message = e.what();
+    for (const auto& [field, flag] : flags) {
+      if (message.substr(0, field.size()) == field) {
+        throw Error(fmt::format("{}{}", flag, message.substr(field.size())));
+      }
+    }
+    throw;
   }
 }
 

@@ -42,7 +42,7 @@ ReplaySetup PrepareReplay(const ReplayArgs& a, const TwinDatasetReader& dataset)
   if (!a.gains.empty() && a.gains.size() != 3) throw Error("--gains takes three numbers: Cx Cy Cz");
   ReplaySetup setup;
   setup.config = a.config.empty() ? DatasetSensor(dataset) : LoadSensorConfig(a.config);
-  MakeDirectory(a.cache_dir);
+  MakeCacheDirectory(a.cache_dir);
   fem::ComplianceCacheResult model = fem::LoadOrBuildComplianceModel(
       fem::BodyModelOptionsFromSensor(setup.config), a.cache_dir, a.show_progress);
   setup.h = std::move(model.model.h);

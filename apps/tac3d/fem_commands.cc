@@ -19,7 +19,7 @@ void RegisterBuildModel(CLI::App& app) {
   args->Add(cmd);
   cmd->callback([args] {
     const fem::BodyModelOptions body = args->Body();
-    MakeDirectory(args->cache_dir);
+    MakeCacheDirectory(args->cache_dir);
     const fem::ComplianceCacheResult r =
         fem::LoadOrBuildComplianceModel(body, args->cache_dir, /*show_progress=*/!args->json);
     const nlohmann::json provenance = fem::ToJson(r.model.provenance);
@@ -56,7 +56,7 @@ void RegisterEvalFem(CLI::App& eval) {
     options.cache_dir = args->cache_dir;
     options.convergence_refinement = *convergence;
     options.show_progress = !args->json;
-    MakeDirectory(options.cache_dir);
+    MakeCacheDirectory(options.cache_dir);
     const fem::EvalFemResult result = fem::EvaluateFem(options);
     if (args->json) {
       std::printf("%s\n", ToJson(result).dump(2).c_str());

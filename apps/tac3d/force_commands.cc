@@ -88,7 +88,7 @@ void RegisterEvalForce(CLI::App& eval) {
       options.SetTrueMaterial({args->truth_material[0], args->truth_material[1]});
     }
     options.show_progress = !args->model.json;
-    MakeDirectory(options.cache_dir);
+    MakeCacheDirectory(options.cache_dir);
     if (args->material_grid) {
       // A line a point as it is done (JSON with --json): a later solve failing loses none.
       const bool json = args->model.json;
@@ -133,20 +133,55 @@ void PrintGains(const ForceGainFit& fit) {
               fit.gains.z());
 }
 
+struct CalibrateForceArgs {
+  std::string pairs;
+  std::string presses;
+  ModelArgs model;
+  std::vector<double> poisson_nodes = EvalForceOptions{}.poisson_nodes;
+  double noise_mm = 0.0;
+  double weight = 0.0;
+  MaterialCalibrationOptions material;
+  std::string out;
+};
+
+// Fits E and nu, then the gains, on the presses. Every input (the presses, the options, the
+// output path) is read and checked before the compliance family's FEM solves start.
+nlohmann::json CalibrateOnPresses(const CalibrateForceArgs& args) {
+  const fem::BodyModelOptions body = args.model.Body();
+  MaterialCalibrationOptions options = args.material;
+  DisplacementNoise noise;
+  if (args.weight > 0.0) {
+    options.weight = {.rule = WeightRule::kGiven, .weight = args.weight};
+  } else if (args.noise_mm > 0.0) {
+    noise.variance_mm2.setConstant(args.noise_mm * args.noise_mm);
+  } else {
+    throw Error(
+        "calibrate-force --presses needs --noise-mm (for the discrepancy principle) or "
+        "--weight");
+  }
+  options.Validate();
+  const std::vector<CalibrationPress> presses =
+      LoadCalibrationPresses(args.presses, body.num_markers());
+  MakeCacheDirectory(args.model.cache_dir);
+  const fem::ComplianceFamily family(
+      body, args.poisson_nodes, args.model.cache_dir, !args.model.json);
+  const MaterialCalibration fit = CalibrateMaterial(family, presses, noise, options);
+  if (!args.model.json) {
+    std::printf("%s\nresidual with the material alone: %.4f N RMS; weight %.4g (mm/N)^2\n",
+                fit.message.c_str(),
+                fit.residual_rms_n,
+                fit.weight);
+    PrintGains(fit.gains);
+    std::printf("with E and nu in the sensor config's elastic body, and --weight %.6g\n",
+                fit.weight);
+  }
+  return ToJson(fit);
+}
+
 }  // namespace
 
 void RegisterCalibrateForce(CLI::App& app) {
-  struct Args {
-    std::string pairs;
-    std::string presses;
-    ModelArgs model;
-    std::vector<double> poisson_nodes = EvalForceOptions{}.poisson_nodes;
-    double noise_mm = 0.0;
-    double weight = 0.0;
-    MaterialCalibrationOptions material;
-    std::string out;
-  };
-  auto args = std::make_shared<Args>();
+  auto args = std::make_shared<CalibrateForceArgs>();
   CLI::App* cmd = app.add_subcommand(
       "calibrate-force",
       "Fit the per-axis force gains Cx, Cy, Cz to a reference force sensor, and with --presses "
@@ -181,39 +216,14 @@ void RegisterCalibrateForce(CLI::App& app) {
   args->model.Add(cmd);
   cmd->add_option("--out", args->out, "also write the fit as JSON to this file");
   cmd->callback([args] {
+    if (!args->out.empty()) CheckOutputFile(args->out, "--out");
     nlohmann::json j;
     if (!args->pairs.empty()) {
       const ForceGainFit fit = FitForceGains(LoadForcePairs(args->pairs));
       j = ToJson(fit);
       if (!args->model.json) PrintGains(fit);
     } else if (!args->presses.empty()) {
-      const fem::BodyModelOptions body = args->model.Body();
-      MaterialCalibrationOptions options = args->material;
-      DisplacementNoise noise;
-      if (args->weight > 0.0) {
-        options.weight = {.rule = WeightRule::kGiven, .weight = args->weight};
-      } else if (args->noise_mm > 0.0) {
-        noise.variance_mm2.setConstant(args->noise_mm * args->noise_mm);
-      } else {
-        throw Error(
-            "calibrate-force --presses needs --noise-mm (for the discrepancy principle) or "
-            "--weight");
-      }
-      MakeDirectory(args->model.cache_dir);
-      const fem::ComplianceFamily family(
-          body, args->poisson_nodes, args->model.cache_dir, !args->model.json);
-      const MaterialCalibration fit = CalibrateMaterial(
-          family, LoadCalibrationPresses(args->presses, body.num_markers()), noise, options);
-      j = ToJson(fit);
-      if (!args->model.json) {
-        std::printf("%s\nresidual with the material alone: %.4f N RMS; weight %.4g (mm/N)^2\n",
-                    fit.message.c_str(),
-                    fit.residual_rms_n,
-                    fit.weight);
-        PrintGains(fit.gains);
-        std::printf("with E and nu in the sensor config's elastic body, and --weight %.6g\n",
-                    fit.weight);
-      }
+      j = CalibrateOnPresses(*args);
     } else {
       throw Error("calibrate-force needs --pairs or --presses");
     }

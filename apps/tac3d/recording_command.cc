@@ -128,6 +128,13 @@ void Pairs(const PairsArgs& args) {
   if (!args.gains_used.empty()) {
     options.gains_used = Eigen::Vector3d(args.gains_used[0], args.gains_used[1], args.gains_used[2]);
   }
+  ValidateNamingFlags([&] { options.Validate(); },
+                      {{"ReferenceJoinOptions: time_offset_s", "--time-offset"},
+                       {"ReferenceJoinOptions: max_offset_s", "--max-offset"},
+                       {"ReferenceJoinOptions: min_correlation", "--min-correlation"},
+                       {"ReferenceJoinOptions: min_force_n", "--min-force"},
+                       {"ReferenceJoinOptions: max_rate_n_per_s", "--max-rate"},
+                       {"ReferenceJoinOptions: gains_used", "--gains-used"}});
   const ReferenceJoin join =
       JoinRecordingWithReference(args.path, LoadReferenceLog(args.reference), options);
   if (static_cast<int>(join.pairs.size()) < kMinForcePairs) {

@@ -31,13 +31,24 @@ struct RenderArgs {
   std::vector<double> pose = {0, 0, 0, 0, 0, 0};
 };
 
+// A whole number >= 0 (CLI11's NonNegativeNumber names its bound, the largest double, in 310
+// digits; and "-1" converts to the largest std::uint64_t).
+const CLI::Validator kFrameIndex(
+    [](std::string& input) {
+      std::int64_t value = 0;
+      return CLI::detail::lexical_cast(input, value) && value >= 0
+                 ? std::string()
+                 : fmt::format("'{}' must be a whole number >= 0", input);
+    },
+    "INDEX >= 0");
+
 void AddCommon(CLI::App* cmd, RenderArgs& a) {
   cmd->add_option("--config", a.config, "sensor YAML (default: the built-in prototype)");
   cmd->add_option("--out", a.out, "PNG to write")->capture_default_str();
   cmd->add_option("--seed", a.options.seed, "noise seed")->capture_default_str();
   cmd->add_option("--frame", a.frame, "frame index (varies the noise)")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(kFrameIndex);
   cmd->add_flag("--no-noise", a.no_noise, "no shot or read noise");
   cmd->add_option("--blur", a.options.blur_sigma_px, "lens blur sigma, px")->capture_default_str();
   cmd->add_option("--vignetting", a.options.vignetting, "light loss at the corners, fraction")

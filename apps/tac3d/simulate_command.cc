@@ -60,7 +60,7 @@ SimulateRun SimulateToDataset(const SimulateArgs& args) {
                  {"deviation", ToJson(scene.deviation)},
                  {"conditions", ToJson(scene.conditions)},
                  {"spread", SpreadJson(scene)}});
-  MakeDirectory(args.cache_dir);
+  MakeCacheDirectory(args.cache_dir);
   simulation::TwinBodyCacheResult cached = simulation::LoadOrBuildTwinBodyModel(
       body, simulation::TwinBodyOptions{}, args.cache_dir, /*show_progress=*/true);
   std::fprintf(stderr, "twin body %s in %.1f s: %s\n", Describe(cached.status), cached.elapsed_s,

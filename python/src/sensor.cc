@@ -110,6 +110,10 @@ class Sensor {
   }
 
   bool WaitForFrame(const std::string& sn, std::optional<double> timeout_s) {
+    if (timeout_s && !(*timeout_s >= 0)) {
+      throw Error(fmt::format("Sensor.waitForFrame: timeout = {} must be >= 0 s (None: no timeout)",
+                              *timeout_s));
+    }
     const auto start = std::chrono::steady_clock::now();
     for (;;) {
       {
@@ -285,7 +289,8 @@ one for 'any'), dropping the oldest.
            py::arg("SN") = kAny,
            py::arg("timeout") = py::none(),
            "Blocks (GIL released) until a frame of SN ('any': any) has been received; returns\n"
-           "at once if one was. True, or False when `timeout` seconds passed first.")
+           "at once if one was. True, or False when `timeout` seconds passed first.\n"
+           "Raises tac3d.Error if timeout is negative or NaN.")
       .def(
           "calibrate",
           [](Sensor& s, const std::string& sn) {

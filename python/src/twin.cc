@@ -3,8 +3,6 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
-#include <cstdlib>
-#include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -19,23 +17,14 @@
 #include "tac3d/sensor/sensor_config.h"
 #include "tac3d/simulation/simulation.h"
 #include "tac3d/simulation/twin_body.h"
+#include "tac3d/util/file_io.h"
 #include "twin_common.h"
 
 namespace tac3d::python {
 
 std::string ResolveCacheDir(const std::string& dir) {
-  std::string out = dir;
-  const auto env = [](const char* name) -> std::string {
-    const char* v = std::getenv(name);
-    return v && *v ? v : "";
-  };
-  if (out.empty()) out = env("TAC3D_CACHE_DIR");
-  if (out.empty() && !env("XDG_CACHE_HOME").empty()) out = env("XDG_CACHE_HOME") + "/tac3d";
-  if (out.empty() && !env("HOME").empty()) out = env("HOME") + "/.cache/tac3d";
-  if (out.empty()) out = ".tac3d-cache";
-  std::error_code ec;
-  std::filesystem::create_directories(out, ec);
-  if (ec) throw Error(fmt::format("cannot create the cache directory '{}': {}", out, ec.message()));
+  const std::string out = dir.empty() ? DefaultCacheDir() : dir;
+  MakeCacheDirectory(out);
   return out;
 }
 

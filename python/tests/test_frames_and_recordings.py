@@ -30,7 +30,7 @@ def test_frame_assignment_checks_shapes():
         f.valid = [True, False]
     with pytest.raises(tac3d.Error, match="three numbers"):
         f.resultant_force = [1.0, 2.0]
-    with pytest.raises(tac3d.Error, match="grid 0 x 3 must be at least 1 x 1"):
+    with pytest.raises(tac3d.Error, match="grid 0 x 3 must be within 1 x 1 .. 100 x 100"):
         tac3d.TactileFrame(0, 3)
     with pytest.raises(tac3d.Error, match="'bogus' is not a frame flag"):
         f.has("bogus")
@@ -106,6 +106,13 @@ def test_truncated_and_bad_recordings(tmp_path):
         tac3d.RecordingReader(str(tmp_path / "missing.tac3drec"))
     with pytest.raises(tac3d.Error, match="exists"):
         tac3d.RecordingWriter(path)
+    # Issue 22, defect 10: a folder was "File exists (... overwrite replaces it)".
+    with pytest.raises(tac3d.Error, match="recording '.*' is a directory"):
+        tac3d.RecordingWriter(str(tmp_path), overwrite=True)
+    with pytest.raises(tac3d.Error, match="the folder '.*missing' does not exist"):
+        tac3d.RecordingWriter(str(tmp_path / "missing" / "r.tac3drec"))
+    with pytest.raises(tac3d.Error, match="read it with RecordingReader"):
+        tac3d.open_source(f"recording:{path}")
     w = tac3d.RecordingWriter(path, overwrite=True)
     f = synthetic_frame(0)
     f.initialize_progress = 101
@@ -147,3 +154,10 @@ def test_no_memory_growth_over_10000_frames(tmp_path):
     # A frame's four arrays are 38 kB: leaking one a frame would be 380 MB here, one Python
     # object a frame (~100 B) 1 MB.
     assert grown < 1_000, f"RSS grew by {grown} kB over 10,000 frames"
+
+
+def test_a_frame_is_bounded_as_a_sensor_is():
+    """Issue 22, defect 10: TactileFrame(10**6, 10**6) was not bounded."""
+    assert tac3d.TactileFrame(100, 100).positions.shape == (10_000, 3)
+    with pytest.raises(tac3d.Error, match="grid 1000000 x 1000000 must be within 1 x 1 .. 100 x 100"):
+        tac3d.TactileFrame(10**6, 10**6)

@@ -98,6 +98,13 @@ def test_wait_for_frame_times_out_without_a_sender():
         assert 0.25 < time.time() - t0 < 2
         assert sensor.getFrame() is None
         assert sensor.quitSensor("X") is False
+    # Issue 22, defect 10: timeout=nan blocked for ever.
+    with tac3d.Sensor(port=0) as sensor:
+        t0 = time.time()
+        for bad in (float("nan"), -1.0):
+            with pytest.raises(tac3d.Error, match="timeout = .* must be >= 0 s"):
+                sensor.waitForFrame(timeout=bad)
+        assert time.time() - t0 < 1
 
 
 def test_incomplete_frames_time_out_and_garbage_is_counted():

@@ -1,5 +1,7 @@
 """The twin (scenes, simulate, datasets), the in-process pipeline on twin images, the design
 solver and the friction map, each as a user calls it."""
+import time
+
 import numpy as np
 import pytest
 
@@ -75,6 +77,13 @@ def test_simulate_errors_and_a_raising_progress_callback(tmp_path, small_scene, 
         tac3d.simulate("no_such_scene", str(tmp_path / "b"))
     with pytest.raises(tac3d.Error, match="unknown key 'margin'"):
         tac3d.simulate(str(small_scene), str(tmp_path / "c"), twin_options={"margin": 1})
+    # Issue 22, defect 10: Python created the missing folders the CLI refuses.
+    with pytest.raises(tac3d.Error, match="dataset folder .* the folder '.*missing/dir' does not exist"):
+        tac3d.simulate(str(small_scene), str(tmp_path / "missing" / "dir" / "sim"))
+    with pytest.raises(tac3d.Error, match="cache folder .* the folder '.*missing' does not exist"):
+        tac3d.simulate(str(small_scene), str(tmp_path / "e"),
+                       cache_dir=str(tmp_path / "missing" / "cache"))
+    assert not (tmp_path / "missing").exists()
 
     def stop(done, total):
         if done == 2:
@@ -172,6 +181,10 @@ def test_pipeline_in_process_on_the_twin_images(simulated, small_sensor_yaml, ca
         tac3d.Pipeline(config=str(small_sensor_yaml), cache_dir=cache_dir, weight=-1)
     with pytest.raises(tac3d.Error, match="no_such.yaml"):
         tac3d.Pipeline(config="no_such.yaml", cache_dir=cache_dir)
+    # Issue 22, defect 10: a NaN timestamp gave a frame that validate() and RecordingWriter
+    # then refused.
+    with pytest.raises(tac3d.Error, match="timestamp nan s is not finite"):
+        pipeline.process(image, timestamp=float("nan"))
 
 
 def test_friction_map_of_a_flat_slide_recovers_mu():
@@ -201,3 +214,23 @@ def test_friction_map_of_a_flat_slide_recovers_mu():
     known = ~np.isnan(m["mu"])
     assert known.mean() > 0.9
     np.testing.assert_allclose(m["mu"][known], 0.4, rtol=1e-9)
+
+
+def alias_bomb():
+    """Eight levels of ten aliases of the level above: 10^8 values for every YAML reader."""
+    lines = ["a0: &a0 [" + ", ".join(["x"] * 10) + "]"]
+    for level in range(1, 8):
+        lines.append(f"a{level}: &a{level} [" + ", ".join([f"*a{level - 1}"] * 10) + "]")
+    return "\n".join(lines) + "\n"
+
+
+def test_yaml_aliases_are_bounded(tmp_path, cache_dir):
+    """Issue 22, defect 7: parse_scene and Pipeline(config=...) ran for minutes on 332 bytes."""
+    bomb = tmp_path / "bomb.yaml"
+    bomb.write_text(alias_bomb())
+    t0 = time.time()
+    with pytest.raises(tac3d.Error, match="line 4: the aliases .* more than 10000 values"):
+        tac3d.parse_scene(alias_bomb())
+    with pytest.raises(tac3d.Error, match="bomb.yaml: line 4: the aliases"):
+        tac3d.Pipeline(config=str(bomb), cache_dir=cache_dir)
+    assert time.time() - t0 < 2

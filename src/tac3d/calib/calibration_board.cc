@@ -2,8 +2,6 @@
 
 #include <cmath>
 #include <fstream>
-#include <set>
-#include <type_traits>
 
 #include <yaml-cpp/yaml.h>
 
@@ -12,88 +10,6 @@
 #include "tac3d/util/error.h"
 
 namespace tac3d {
-namespace {
-
-// A mapping of board.yaml whose keys are all required and none unknown.
-class Section {
- public:
-  Section(const YAML::Node& node, std::string where, const std::string& file)
-      : node_(node), where_(std::move(where)), file_(file) {
-    if (!node_.IsMap()) Fail(where_, "must be a mapping");
-  }
-
-  void RefuseUnknownKeys() const {
-    for (const auto& kv : node_) {
-      const std::string key = kv.first.as<std::string>();
-      if (!used_.count(key)) Fail(Join(key), "unknown key (misspelt?)");
-    }
-  }
-
-  YAML::Node Required(const std::string& key) {
-    used_.insert(key);
-    const YAML::Node child = node_[key];
-    if (!child) Fail(Join(key), "missing");
-    return child;
-  }
-
-  template <typename T>
-  T Scalar(const std::string& key) {
-    const YAML::Node n = Required(key);
-    const char* expected = std::is_same_v<T, int>      ? "must be an integer"
-                           : std::is_same_v<T, double> ? "must be a number"
-                                                       : "must be a string";
-    if (!n.IsScalar()) Fail(Join(key), expected);
-    try {
-      return n.as<T>();
-    } catch (const YAML::Exception&) {
-      Fail(Join(key), expected);
-    }
-  }
-
-  Eigen::Vector3d Vector3(const std::string& key) {
-    const YAML::Node n = Required(key);
-    if (!n.IsSequence() || n.size() != 3) Fail(Join(key), "must be a list of 3 numbers");
-    Eigen::Vector3d v;
-    for (int i = 0; i < 3; ++i) v(i) = Number(n[i], Join(key));
-    return v;
-  }
-
-  Eigen::Matrix3d Matrix3(const std::string& key) {
-    const YAML::Node n = Required(key);
-    if (!n.IsSequence() || n.size() != 3) Fail(Join(key), "must be 3 rows of 3 numbers");
-    Eigen::Matrix3d m;
-    for (int r = 0; r < 3; ++r) {
-      if (!n[r].IsSequence() || n[r].size() != 3) Fail(Join(key), "must be 3 rows of 3 numbers");
-      for (int c = 0; c < 3; ++c) m(r, c) = Number(n[r][c], Join(key));
-    }
-    return m;
-  }
-
-  Section Child(const std::string& key) { return Section(Required(key), Join(key), file_); }
-
-  [[noreturn]] void Fail(const std::string& where, const std::string& what) const {
-    throw Error(fmt::format("{}: {}: {}", file_, where, what));
-  }
-  std::string Join(const std::string& key) const {
-    return where_.empty() ? key : where_ + "." + key;
-  }
-
- private:
-  double Number(const YAML::Node& n, const std::string& where) const {
-    try {
-      if (n.IsScalar()) return n.as<double>();
-    } catch (const YAML::Exception&) {
-    }
-    Fail(where, "must be a number");
-  }
-
-  YAML::Node node_;
-  std::string where_;
-  const std::string& file_;
-  std::set<std::string> used_;
-};
-
-}  // namespace
 
 void CalibrationBoard::Validate() const {
   const OptionCheck require("calibration board");
@@ -136,38 +52,35 @@ Rigid3 CalibrationBoard::ReferenceSensorFromBoard() const {
 CalibrationBoardFile LoadCalibrationBoardFile(const std::string& path) {
   const YAML::Node root = LoadYamlFile(path, "board file");
   CalibrationBoardFile file;
-  Section top(root, "", path);
+  YamlReader top(root, "", &path);
   {
-    Section b = top.Child("board");
-    const std::string layout = b.Scalar<std::string>("layout");
+    YamlReader b = top.Child("board");
+    const std::string layout = b.String("layout");
     if (layout == "symmetric") {
       file.board.layout = CalibrationBoard::Layout::kSymmetric;
     } else if (layout == "asymmetric") {
       file.board.layout = CalibrationBoard::Layout::kAsymmetric;
     } else {
-      b.Fail(b.Join("layout"), fmt::format("'{}' must be symmetric or asymmetric", layout));
+      b.FailAt(b.Required("layout"), b.Join("layout"),
+               fmt::format("'{}' must be symmetric or asymmetric", layout));
     }
-    file.board.rows = b.Scalar<int>("rows");
-    file.board.cols = b.Scalar<int>("cols");
-    file.board.spacing_mm = b.Scalar<double>("spacing_mm");
-    file.board.dot_diameter_mm = b.Scalar<double>("dot_diameter_mm");
-    b.RefuseUnknownKeys();
+    file.board.rows = b.Int("rows");
+    file.board.cols = b.Int("cols");
+    file.board.spacing_mm = b.Double("spacing_mm");
+    file.board.dot_diameter_mm = b.Double("dot_diameter_mm");
   }
   {
-    Section r = top.Child("reference");
-    file.reference_image = r.Scalar<std::string>("image");
-    Section pose = r.Child("sensor_from_board");
-    file.sensor_from_board.translation() = pose.Vector3("position_mm");
+    YamlReader r = top.Child("reference");
+    file.reference_image = r.String("image");
+    YamlReader pose = r.Child("sensor_from_board");
+    file.sensor_from_board.translation() = pose.Vector<3>("position_mm");
     const Eigen::Matrix3d rotation = pose.Matrix3("rotation");
     if ((rotation * rotation.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > 1e-6 ||
         std::abs(rotation.determinant() - 1.0) > 1e-6) {
-      pose.Fail(pose.Join("rotation"), "is not a rotation matrix");
+      pose.FailAt(pose.Required("rotation"), pose.Join("rotation"), "is not a rotation matrix");
     }
     file.sensor_from_board.linear() = rotation;
-    pose.RefuseUnknownKeys();
-    r.RefuseUnknownKeys();
   }
-  top.RefuseUnknownKeys();
   try {
     file.board.Validate();
   } catch (const Error& e) {

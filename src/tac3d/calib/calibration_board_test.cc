@@ -110,5 +110,19 @@ TEST(CalibrationBoardFile, RefusesBadFilesNamingTheKey) {
   EXPECT_THROW(LoadCalibrationBoardFile("/nonexistent/board.yaml"), Error);
 }
 
+// Issue 22, defect 11: a NaN in the reference position was read, and reported later against a
+// virtual camera; it is refused at its line of the board file.
+TEST(CalibrationBoardFile, RefusesANonFiniteNumberAtItsLine) {
+  ExpectLoadError(
+      "board: {layout: symmetric, rows: 7, cols: 7, spacing_mm: 2.5, dot_diameter_mm: 1.2}\n"
+      "reference:\n  image: a.png\n  sensor_from_board:\n    position_mm: [0, .nan, 0]\n"
+      "    rotation: [[1, 0, 0], [0, 1, 0], [0, 0, 1]]\n",
+      "board.yaml: line 5: reference.sensor_from_board.position_mm[1]: '.nan' is not a finite "
+      "number");
+  ExpectLoadError(
+      "board: {layout: symmetric, rows: 7, cols: 7, spacing_mm: .inf, dot_diameter_mm: 1.2}\n",
+      "board.yaml: line 1: board.spacing_mm: '.inf' is not a finite number");
+}
+
 }  // namespace
 }  // namespace tac3d

@@ -67,7 +67,7 @@ struct GoodView {
 std::string CheckImage(const CalibrationImage& input, const CalibrationBoard& board,
                        const SensorConfig& nominal, const VirtualStereoCalibrationOptions& options,
                        GoodView& view, CalibrationViewReport& report) {
-  if (input.image.empty()) return "unreadable or corrupt file";
+  if (input.image.empty()) return input.refusal.empty() ? "unreadable or corrupt file" : input.refusal;
   const CameraIntrinsics& camera = nominal.camera.intrinsics;
   if (input.image.cols != camera.width || input.image.rows != camera.height) {
     return fmt::format("image is {}x{}, the camera's is {}x{}", input.image.cols,
@@ -448,7 +448,8 @@ std::vector<CalibrationImage> LoadCalibrationImages(const std::string& dir, int 
   for (const fs::path& p : paths) {
     std::ifstream in(p, std::ios::binary);
     const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    images.push_back({p.filename().string(), DecodeGrayImage(bytes, max_width, max_height).image});
+    DecodedImage decoded = DecodeGrayImage(bytes, max_width, max_height);
+    images.push_back({p.filename().string(), std::move(decoded.image), std::move(decoded.refusal)});
   }
   return images;
 }

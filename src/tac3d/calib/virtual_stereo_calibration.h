@@ -19,6 +19,7 @@ namespace tac3d {
 struct CalibrationImage {
   std::string name;  ///< file name (for the report and to find the reference view)
   cv::Mat image;     ///< 8-bit grey or BGR; empty if the file could not be read or decoded
+  std::string refusal = {};  ///< why the file was not decoded, when `image` is empty (no file name)
 };
 
 struct VirtualStereoCalibrationOptions {
@@ -107,7 +108,7 @@ VirtualStereoCalibration CalibrateVirtualStereo(const std::vector<CalibrationIma
 /// (not its subfolders), sorted by name. Files that cannot be decoded, or whose header
 /// claims more than max_width x max_height pixels (the camera's resolution: such a file is
 /// not from this sensor, and decoding it could allocate gigabytes), come back with an empty
-/// image, so the calibration refuses them with the reason.
+/// image and the decoder's refusal, so the calibration refuses them with the reason.
 /// @throws Error if `dir` is not a readable directory.
 std::vector<CalibrationImage> LoadCalibrationImages(const std::string& dir, int max_width = kMaxImageSidePx,
                                                     int max_height = kMaxImageSidePx);

@@ -60,6 +60,14 @@ TEST(LoadCalibrationImages, ListsImagesByNameAndKeepsCorruptOnesEmpty) {
   EXPECT_TRUE(images[1].image.empty());
   EXPECT_EQ(images[2].image.size(), grey.size());
   EXPECT_TRUE(images[3].image.empty());
+  // Issue 22, defect 11: calibrate said only "unreadable or corrupt file" where run says why.
+  EXPECT_EQ(images[1].refusal, "not a readable image (corrupt or truncated)");
+  EXPECT_EQ(images[3].refusal, "its header claims 60000 x 60000 pixels, more than the 640 x 480 accepted");
+  CalibrationImage reference = images[3];
+  reference.name = "reference.png";
+  EXPECT_THAT(ErrorMessage({reference}, DefaultSensor()),
+              ::testing::HasSubstr("reference view 'reference.png' is refused: its header claims "
+                                   "60000 x 60000 pixels"));
   EXPECT_THROW(LoadCalibrationImages(dir + "/missing"), Error);
 }
 

@@ -100,6 +100,7 @@ SurfaceTractions ReadSurface(const std::string& path) {
 }  // namespace
 
 TwinDatasetWriter::TwinDatasetWriter(const std::string& folder, const nlohmann::json& header) : folder_(folder) {
+  CheckOutputFolder(folder, "dataset folder");
   std::error_code ec;
   if (fs::exists(folder) && !fs::is_empty(folder, ec)) {
     throw Error(fmt::format("dataset folder '{}' is not empty (choose a new one, or remove it)", folder));

@@ -56,7 +56,8 @@ class TwinDatasetWriter {
  public:
   /// Creates the folder and writes `dataset.json` (the header: name, the scene and sensor
   /// as given, anything else in `header`).
-  /// @throws Error if the folder cannot be created or is not empty.
+  /// @throws Error if the folder it goes in does not exist (CheckOutputFolder: a typo in a
+  ///   parent is refused, not created), or the folder cannot be created or is not empty.
   TwinDatasetWriter(const std::string& folder, const nlohmann::json& header);
 
   /// @throws Error if a file cannot be written or the step's arrays disagree in length.

@@ -15,12 +15,15 @@ namespace {
 // A press line holds 3 + 1200 numbers (~30 kB): room for ~8000 presses, far more than any
 // calibration, while a wrong file fails at once instead of filling memory.
 constexpr std::size_t kMaxCalibrationCsvBytes = 256u << 20;
+// The largest force (N) or displacement (mm) a calibration file may hold: far beyond a
+// fingertip's, while the fits' sums of squares stay finite (1e300 made the gain NaN).
+constexpr double kMaxCalibrationValue = 1e4;
 
 }  // namespace
 
 std::vector<ForcePair> ParseForcePairs(const std::string& csv_text, const std::string& source) {
   std::vector<ForcePair> pairs;
-  for (const std::vector<double>& row : ParseNumberCsv(csv_text, source, kForcePairCsvHeader, 6)) {
+  for (const std::vector<double>& row : ParseNumberCsv(csv_text, source, kForcePairCsvHeader, 6, kMaxCalibrationValue)) {
     pairs.push_back(
         {Eigen::Vector3d(row[0], row[1], row[2]), Eigen::Vector3d(row[3], row[4], row[5])});
   }
@@ -38,8 +41,8 @@ std::vector<CalibrationPress> ParseCalibrationPresses(const std::string& csv_tex
   size_t layout = 0;
   const std::vector<std::vector<double>> rows =
       ParseNumberCsv(csv_text, source,
-                     {{kCalibrationPressCsvHeader, 3 + size},
-                      {kCalibrationPressWithCenterCsvHeader, 5 + size}},
+                     {{kCalibrationPressCsvHeader, 3 + size, kMaxCalibrationValue},
+                      {kCalibrationPressWithCenterCsvHeader, 5 + size, kMaxCalibrationValue}},
                      &layout);
   const bool with_center = layout == 1;
   std::vector<CalibrationPress> presses;

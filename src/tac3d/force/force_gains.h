@@ -20,11 +20,12 @@ struct ForcePair {
 inline constexpr const char* kForcePairCsvHeader = "fx_meas,fy_meas,fz_meas,fx_ref,fy_ref,fz_ref";
 
 /// Parses a force-pair CSV: the header line kForcePairCsvHeader, then one pair a line, six
-/// comma-separated finite numbers (N). Blank lines and lines starting with '#' are skipped;
-/// spaces around fields are allowed.
+/// comma-separated finite numbers (N) within +-1e4. Blank lines and lines starting with '#' are
+/// skipped; spaces around fields are allowed.
 /// @param source names the text in error messages (a file name).
 /// @throws tac3d::Error listing every malformed line as "source:line: what" (a wrong field
-///   count, a field that is not a finite number), a missing or different header, or no pairs.
+///   count, a field that is not a finite number or beyond +-1e4), a missing or different
+///   header, or no pairs.
 std::vector<ForcePair> ParseForcePairs(const std::string& csv_text,
                                        const std::string& source = "<text>");
 
@@ -57,7 +58,8 @@ inline constexpr const char* kCalibrationPressWithCenterCsvHeader =
 
 /// Parses a calibration-press CSV: the header kCalibrationPressCsvHeader, then one press a
 /// line, 3 + 3 num_markers finite numbers; or kCalibrationPressWithCenterCsvHeader and
-/// 5 + 3 num_markers numbers a line. Blank and '#' lines skipped, spaces allowed.
+/// 5 + 3 num_markers numbers a line, each within +-1e4 (N, mm). Blank and '#' lines skipped,
+/// spaces allowed.
 /// @throws tac3d::Error as ParseForcePairs (every malformed line as "source:line: what").
 std::vector<CalibrationPress> ParseCalibrationPresses(const std::string& csv_text,
                                                       int num_markers,

@@ -124,6 +124,27 @@ TEST(ForcePairCsv, HeaderAndEmptinessAreChecked) {
   EXPECT_THROW(ParseForcePairs(std::string(kForcePairCsvHeader) + "\n"), Error);
 }
 
+// Issue 22, defect 11: calibrate-force printed "the fx gain is -nan" for pairs of 1e300 (their
+// squares overflow), and echoed a 26 KB first line whole.
+TEST(ForcePairCsv, HugeValuesAndLongLinesAreRefusedShortly) {
+  const std::string huge = std::string(kForcePairCsvHeader) + "\n1,2,3,4,5,6\n1e300,2,3,4,5,6\n";
+  EXPECT_THAT([&] { ParseForcePairs(huge, "pairs.csv"); },
+              ::testing::ThrowsMessage<Error>(
+                  ::testing::HasSubstr("pairs.csv:3: field 1 '1e300' is beyond +-10000")));
+  const std::string long_line = std::string(26000, 'x') + "\n1,2,3,4,5,6\n";
+  try {
+    ParseForcePairs(long_line, "pairs.csv");
+    FAIL() << "no throw";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("got '" + std::string(60, 'x') + "...'"));
+    EXPECT_LT(std::string(e.what()).size(), 300u);
+  }
+  const std::string presses = std::string(kCalibrationPressCsvHeader) + "\n1,2,3,0,0,1e5\n";
+  EXPECT_THAT([&] { ParseCalibrationPresses(presses, 1, "presses.csv"); },
+              ::testing::ThrowsMessage<Error>(
+                  ::testing::HasSubstr("presses.csv:2: field 6 '1e5' is beyond +-10000")));
+}
+
 TEST(ForcePairCsv, LoadsAFile) {
   const std::string path = testing::MakeTempDir("csv") + "/pairs.csv";
   std::ofstream(path) << kForcePairCsvHeader << "\n1,2,3,1.1,2.2,3.3\n";

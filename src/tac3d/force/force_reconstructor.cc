@@ -21,9 +21,9 @@ Eigen::Map<Eigen::MatrixXd> GrowOnlyMatrix(Eigen::VectorXd* storage, Eigen::Inde
 
 void ValidateGains(const Eigen::Vector3d& gains, const char* where) {
   for (int axis = 0; axis < 3; ++axis) {
-    if (!(gains(axis) > 0.0 && std::isfinite(gains(axis)))) {
-      throw Error(fmt::format("{}.gains.{} must be > 0 and finite, got {}", where, "xyz"[axis],
-                              gains(axis)));
+    if (!(gains(axis) > 0.0 && gains(axis) <= kMaxForceGain)) {
+      throw Error(fmt::format("{}.gains.{} must be in (0, {}], got {}", where, "xyz"[axis],
+                              kMaxForceGain, gains(axis)));
     }
   }
 }

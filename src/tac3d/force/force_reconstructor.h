@@ -11,6 +11,11 @@ namespace tac3d {
 /// exactly zero forces).
 inline constexpr double kMaxWeightToMeanEigenvalue = 1e4;
 
+/// The largest force gain: a gain corrects the FEM model's remaining error, near 1 once the
+/// material is calibrated (docs/force.md); 1000 is far past any such error, while `--gains
+/// 1e300` was accepted and made every force infinite.
+inline constexpr double kMaxForceGain = 1e3;
+
 struct ForceReconstructorOptions {
   /// The Tikhonov weight w of eq. (3) ((mm/N)^2), e.g. from SelectRegularizationWeight.
   double weight = 0.0;
@@ -33,7 +38,8 @@ struct ForceReconstructorOptions {
   /// re-solve costs (3 |S|)^3 / 3 flops.
   int max_support_markers = 120;
 
-  /// @throws tac3d::Error naming the field: weight > 0 and finite; every gain > 0 and finite;
+  /// @throws tac3d::Error naming the field: weight > 0 and finite; every gain in
+  ///   (0, kMaxForceGain];
   ///   support_threshold_n >= 0, support_margin_pitches >= 0, support_weight > 0,
   ///   max_support_markers >= 1.
   void Validate() const;
@@ -123,7 +129,7 @@ class ForceReconstructor {
   ForceUncertainty CalcUncertainty(const Eigen::Vector3d& noise_variance_mm2) const;
 
   /// Replaces the gains (e.g. after FitForceGains on frames reconstructed with unit gains).
-  /// @throws tac3d::Error if a gain is not > 0 and finite.
+  /// @throws tac3d::Error if a gain is not in (0, kMaxForceGain].
   void set_gains(const Eigen::Vector3d& gains);
 
   int num_markers() const { return num_markers_; }

@@ -438,6 +438,11 @@ TEST_F(ForceReconstructorTest, BadInputThrows) {
   EXPECT_THROW(reconstructor.Reconstruct(d_, std::vector<bool>(3, true)), Error);
   EXPECT_THROW(reconstructor.CalcUncertainty(Eigen::Vector3d(1e-6, -1e-6, 1e-6)), Error);
   EXPECT_THROW(reconstructor.set_gains(Eigen::Vector3d(-1, 1, 1)), Error);
+  // Issue 22, defect 11: `--gains 1e300` was accepted.
+  EXPECT_THAT([&] { reconstructor.set_gains(Eigen::Vector3d(1, 1e300, 1)); },
+              ::testing::ThrowsMessage<Error>(::testing::HasSubstr(
+                  "ForceReconstructor::set_gains.gains.y must be in (0, 1000], got 1e+300")));
+  EXPECT_NO_THROW(reconstructor.set_gains(Eigen::Vector3d(1, kMaxForceGain, 1)));
 }
 
 }  // namespace

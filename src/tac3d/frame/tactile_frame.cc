@@ -64,8 +64,9 @@ std::string FrameFlagNames(std::uint32_t flags) {
 }
 
 TactileFrame TactileFrame::Sized(int rows, int cols) {
-  if (rows < 1 || cols < 1) {
-    throw Error(fmt::format("TactileFrame: grid {} x {} must be at least 1 x 1", rows, cols));
+  if (rows < 1 || cols < 1 || rows > kMaxGridSide || cols > kMaxGridSide) {
+    throw Error(fmt::format("TactileFrame: grid {} x {} must be within 1 x 1 .. {} x {}", rows,
+                            cols, kMaxGridSide, kMaxGridSide));
   }
   TactileFrame frame;
   frame.rows = rows;
@@ -85,9 +86,9 @@ void TactileFrame::set(FrameFlag flag, bool on) {
 }
 
 void TactileFrame::Validate() const {
-  if (rows < 1 || cols < 1) {
-    throw Error(
-        fmt::format("TactileFrame {}: grid {} x {} must be at least 1 x 1", index, rows, cols));
+  if (rows < 1 || cols < 1 || rows > kMaxGridSide || cols > kMaxGridSide) {
+    throw Error(fmt::format("TactileFrame {}: grid {} x {} must be within 1 x 1 .. {} x {}", index,
+                            rows, cols, kMaxGridSide, kMaxGridSide));
   }
   const std::size_t n = static_cast<std::size_t>(rows) * cols;
   auto check = [&](const char* name, std::size_t size) {

@@ -81,8 +81,12 @@ struct TactileFrame {
   std::uint32_t flags = 0;        ///< FrameFlag bits
   FrameSlip slip;                 ///< the contact's slip state and friction estimate
 
+  /// The most marker rows or columns a frame has: a sensor's limit
+  /// (SensorLimits::kMaxMarkersPerSide), so a frame's size is bounded whoever makes it.
+  static constexpr int kMaxGridSide = 100;
+
   /// A frame with every per-marker vector sized rows * cols (zero vectors, all valid, no
-  /// contact). @throws Error unless rows, cols >= 1.
+  /// contact). @throws Error unless rows, cols are in 1..kMaxGridSide.
   static TactileFrame Sized(int rows, int cols);
 
   int num_markers() const { return rows * cols; }
@@ -90,7 +94,7 @@ struct TactileFrame {
   void set(FrameFlag flag, bool on = true);
 
   /// @throws Error naming the field when a per-marker vector is not rows * cols long,
-  /// rows or cols < 1, initialize_progress is outside 0..100, the timestamp is not finite, or
+  /// rows or cols outside 1..kMaxGridSide, initialize_progress is outside 0..100, the timestamp is not finite, or
   /// flags holds an unknown bit, or slip's state is not a SlipState.
   void Validate() const;
 

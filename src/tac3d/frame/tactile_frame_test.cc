@@ -33,6 +33,17 @@ TEST(TactileFrame, SizedFrameIsValidAndRowMajor) {
   EXPECT_THROW(TactileFrame::Sized(0, 20), Error);
 }
 
+// Issue 22, defect 10: TactileFrame(10**6, 10**6) in Python was not bounded.
+TEST(TactileFrame, GridLargerThanAnySensorsIsRefused) {
+  EXPECT_NO_THROW(TactileFrame::Sized(TactileFrame::kMaxGridSide, TactileFrame::kMaxGridSide));
+  EXPECT_THAT([] { TactileFrame::Sized(1000000, 1000000); },
+              ::testing::ThrowsMessage<Error>(::testing::HasSubstr(
+                  "TactileFrame: grid 1000000 x 1000000 must be within 1 x 1 .. 100 x 100")));
+  TactileFrame frame = TactileFrame::Sized(2, 2);
+  frame.rows = 101;
+  EXPECT_THAT(ErrorOf(frame), ::testing::HasSubstr("grid 101 x 2 must be within"));
+}
+
 TEST(TactileFrame, FlagsSetClearAndName) {
   TactileFrame frame = TactileFrame::Sized(2, 2);
   frame.set(FrameFlag::kMarkersLost);
@@ -68,7 +79,7 @@ TEST(TactileFrame, ValidateNamesTheBrokenField) {
   EXPECT_THAT(ErrorOf(frame), HasSubstr("unknown bits"));
   frame = TactileFrame::Sized(20, 20);
   frame.rows = 0;
-  EXPECT_THAT(ErrorOf(frame), HasSubstr("at least 1 x 1"));
+  EXPECT_THAT(ErrorOf(frame), HasSubstr("grid 0 x 20 must be within 1 x 1 .. 100 x 100"));
 }
 
 TEST(TactileFrame, EqualityComparesEveryField) {

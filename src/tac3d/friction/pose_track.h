@@ -35,7 +35,8 @@ class PoseTrack {
   /// @param unit_tolerance the largest accepted | |q| - 1 |.
   /// @throws Error naming the file and line: a missing or wrong header, not 8 finite numbers,
   ///   a quaternion whose norm is off 1 by more than unit_tolerance, a time that goes back
-  ///   (or repeats); naming the file when it cannot be read or holds no pose.
+  ///   (or repeats); naming the file when it does not exist, is a folder or not a regular file
+  ///   (a device, a pipe), is larger than 256 MiB, cannot be read or holds no pose.
   static PoseTrack ReadCsv(const std::string& path, double unit_tolerance = kDefaultUnitTolerance);
 
   /// The pose at time t_s (s).

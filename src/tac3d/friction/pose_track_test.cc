@@ -3,6 +3,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <fstream>
 
 #include "tac3d/testing/testing.h"
@@ -122,7 +123,7 @@ TEST(PoseTrack, TimeGoingBackIsRefused) {
 
 TEST(PoseTrack, MalformedFilesNameFileAndLine) {
   EXPECT_THAT(ErrorOf([&] { PoseTrack::ReadCsv("/nonexistent/poses.csv"); }),
-              MatchesRegex("pose CSV '/nonexistent/poses.csv' cannot be opened"));
+              MatchesRegex("pose CSV '/nonexistent/poses.csv' does not exist"));
   const std::string rpy = WriteCsv("rpy.csv", "t_s,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg\n");
   EXPECT_THAT(ErrorOf([&] { PoseTrack::ReadCsv(rpy); }),
               MatchesRegex(".*rpy.csv:1: the header must be t_s,x_mm,y_mm,z_mm,qw,qx,qy,qz"));
@@ -145,6 +146,21 @@ TEST(PoseTrack, ConstructorChecksTimes) {
   poses[0].t_s = 1.0;
   poses[1].t_s = 1.0;
   EXPECT_THAT(ErrorOf([&] { PoseTrack(poses, "mem"); }), MatchesRegex("mem: t_s = 1 goes back.*"));
+}
+
+
+// Issue 22, defect 8: /dev/zero grew to 2.2 GB before "is empty", a 1 GB sparse file ended in
+// std::bad_alloc, and a folder was "empty". Each is refused before a byte is read.
+TEST(PoseTrack, DevicesFoldersAndHugeFilesAreRefusedBeforeReading) {
+  EXPECT_THAT(ErrorOf([] { PoseTrack::ReadCsv("/dev/zero"); }),
+              MatchesRegex("pose CSV '/dev/zero' is not a regular file .*"));
+  const std::string folder = tac3d::testing::MakeTempDir("pose_folder");
+  EXPECT_THAT(ErrorOf([&] { PoseTrack::ReadCsv(folder); }),
+              MatchesRegex("pose CSV '.*pose_folder.*' is a directory, not a file"));
+  const std::string sparse = WriteCsv("sparse.csv", "");
+  std::filesystem::resize_file(sparse, std::uintmax_t{1} << 30);  // 1 GiB of holes
+  EXPECT_THAT(ErrorOf([&] { PoseTrack::ReadCsv(sparse); }),
+              MatchesRegex(".*sparse.csv' is 1073741824 bytes, more than the limit of .* bytes"));
 }
 
 }  // namespace

@@ -3,10 +3,12 @@
 #include <charconv>
 #include <cmath>
 #include <fstream>
+#include <sstream>
 
 #include <fmt/format.h>
 
 #include "tac3d/util/error.h"
+#include "tac3d/util/file_io.h"
 
 namespace tac3d {
 namespace {
@@ -22,8 +24,7 @@ std::string Trim(const std::string& s) {
 }  // namespace
 
 std::vector<Eigen::Vector3d> ReadMarkerPositionsCsv(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw Error(fmt::format("cannot open marker positions '{}'", path));
+  std::istringstream in(ReadFileCapped(path, kMaxConfigFileBytes, "marker positions"));
   std::vector<Eigen::Vector3d> positions;
   std::string line;
   int line_number = 0;

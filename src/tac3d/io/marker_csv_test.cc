@@ -1,5 +1,6 @@
 #include "tac3d/io/marker_csv.h"
 
+#include <filesystem>
 #include <fstream>
 
 #include <gtest/gtest.h>
@@ -56,6 +57,20 @@ TEST(MarkerCsv, MalformedLinesAreRefusedWithTheirLineNumber) {
   EXPECT_THAT(error_of("1,2,3\n"), HasSubstr("header"));
   EXPECT_THAT(error_of(""), HasSubstr("empty"));
   EXPECT_THROW(ReadMarkerPositionsCsv("/nonexistent.csv"), Error);
+}
+
+// Issue 22, defect 8: /dev/zero grew to 2.2 GB before "empty", and a folder was "empty". Each
+// is refused before a byte is read, as a file larger than any marker list can be.
+TEST(MarkerCsv, DevicesFoldersAndHugeFilesAreRefusedBeforeReading) {
+  auto refusal = [](const std::string& path, const std::string& what) {
+    EXPECT_THAT([&] { ReadMarkerPositionsCsv(path); },
+                ::testing::ThrowsMessage<Error>(HasSubstr(what)));
+  };
+  refusal("/dev/zero", "marker positions '/dev/zero' is not a regular file");
+  refusal(testing::MakeTempDir("folder"), "is a directory, not a file");
+  const std::string sparse = WriteText("");
+  std::filesystem::resize_file(sparse, std::uintmax_t{1} << 30);  // 1 GiB of holes
+  refusal(sparse, "is 1073741824 bytes, more than the limit of 4194304 bytes");
 }
 
 }  // namespace

@@ -45,7 +45,8 @@ void CheckFolder(const std::string& folder, const std::vector<std::string>& name
   for (const std::string& name : names) {
     const fs::path path = fs::path(folder) / name;
     if (!overwrite && fs::exists(path, ec)) {
-      throw Error(fmt::format("'{}' already exists (set overwrite to replace it)", path.string()));
+      throw Error(fmt::format("'{}' already exists (`tac3d recording export --overwrite`, "
+                              "RecordingExportOptions::overwrite, replaces it)", path.string()));
     }
   }
 }

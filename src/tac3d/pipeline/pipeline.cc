@@ -136,6 +136,10 @@ bool Pipeline::CollectReference(TactileFrame& out) {
 }
 
 void Pipeline::Process(const Frame& frame, TactileFrame& out) {
+  if (!std::isfinite(frame.timestamp_s)) {
+    throw Error(fmt::format("pipeline: frame {}: timestamp {} s is not finite", frame.index,
+                            frame.timestamp_s));
+  }
   const int n = rows_ * cols_;
   if (out.num_markers() != n || out.positions_mm.size() != static_cast<size_t>(n)) {
     out = TactileFrame::Sized(rows_, cols_);

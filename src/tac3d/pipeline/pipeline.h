@@ -66,7 +66,8 @@ class Pipeline {
 
   /// Processes one camera image into `out` (its storage reused). A frame the tracker cannot
   /// measure (no grid) still gives a TactileFrame, every marker invalid and flagged.
-  /// @throws Error if the image is empty or not the camera's size and type.
+  /// @throws Error if the timestamp is not finite (the frame could not be recorded or sent),
+  ///   or the image is empty or not the camera's size and type.
   void Process(const Frame& frame, TactileFrame& out);
 
   /// The tracker's markers in the image the last Process call was given (both halves' pixels,

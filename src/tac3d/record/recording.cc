@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "tac3d/util/error.h"
+#include "tac3d/util/file_io.h"
 #include "tac3d/util/seconds_since.h"
 
 namespace tac3d {
@@ -117,6 +118,7 @@ std::uint32_t Crc32(std::uint32_t crc, const void* data, std::size_t size) {
 
 RecordingWriter::RecordingWriter(const std::string& path, const RecordingWriterOptions& options)
     : path_(path), sync_every_frame_(options.sync_every_frame) {
+  CheckOutputFile(path, "recording");  // a folder, or a missing folder to write in
   const int flags = O_WRONLY | O_CREAT | O_CLOEXEC | (options.overwrite ? O_TRUNC : O_EXCL);
   fd_ = ::open(path.c_str(), flags, 0644);
   if (fd_ < 0) {

@@ -43,7 +43,8 @@ struct RecordingWriterOptions {
 class RecordingWriter {
  public:
   /// Creates `path` and writes the file header.
-  /// @throws Error if the file exists (unless options.overwrite) or cannot be written.
+  /// @throws Error if the path is a folder or its folder does not exist (CheckOutputFile), the
+  ///   file exists (unless options.overwrite), or it cannot be written.
   explicit RecordingWriter(const std::string& path, const RecordingWriterOptions& options = {});
   ~RecordingWriter();
   RecordingWriter(const RecordingWriter&) = delete;

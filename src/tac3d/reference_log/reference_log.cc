@@ -104,17 +104,19 @@ std::vector<ReferenceSample> LoadReferenceLog(const std::string& path) {
 }
 
 void ReferenceJoinOptions::Validate() const {
-  const auto require = [](bool ok, const char* field, double value) {
-    if (!ok) throw Error(fmt::format("ReferenceJoinOptions.{}: {} is out of range", field, value));
-  };
-  if (time_offset_s) require(std::isfinite(*time_offset_s), "time_offset_s", *time_offset_s);
-  require(max_offset_s >= 0.0 && std::isfinite(max_offset_s), "max_offset_s", max_offset_s);
-  require(min_correlation > 0.0 && min_correlation <= 1.0, "min_correlation", min_correlation);
-  require(min_force_n > 0.0 && std::isfinite(min_force_n), "min_force_n", min_force_n);
-  require(max_rate_n_per_s > 0.0, "max_rate_n_per_s", max_rate_n_per_s);
+  const OptionCheck require("ReferenceJoinOptions");
+  if (time_offset_s) require(std::isfinite(*time_offset_s), "time_offset_s", "finite", *time_offset_s);
+  require(max_offset_s >= 0.0 && max_offset_s <= kMaxSearchedOffsetS, "max_offset_s",
+          "in [0, 600] s", max_offset_s);
+  require(min_correlation > 0.0 && min_correlation <= 1.0, "min_correlation", "in (0, 1]",
+          min_correlation);
+  require(min_force_n > 0.0 && std::isfinite(min_force_n), "min_force_n", "> 0 N and finite",
+          min_force_n);
+  require(max_rate_n_per_s > 0.0 && std::isfinite(max_rate_n_per_s), "max_rate_n_per_s",
+          "> 0 N/s and finite", max_rate_n_per_s);
   for (int axis = 0; axis < 3; ++axis) {
     require(gains_used(axis) > 0.0 && std::isfinite(gains_used(axis)), "gains_used",
-            gains_used(axis));
+            "> 0 and finite", gains_used(axis));
   }
 }
 

@@ -32,12 +32,18 @@ std::vector<ReferenceSample> ParseReferenceLog(const std::string& csv_text,
 /// Reads a reference-log CSV file (ParseReferenceLog).
 std::vector<ReferenceSample> LoadReferenceLog(const std::string& path);
 
+/// The widest offset search, +- (s): ten minutes between starting the two logs by hand. The
+/// search tries an offset every 10 ms, each a pass over the frames, so the bound also keeps it
+/// to seconds (+-1e9 s would be 2e11 offsets).
+inline constexpr double kMaxSearchedOffsetS = 600.0;
+
 /// How a recording is joined with a reference log into calibration pairs and presses.
 struct ReferenceJoinOptions {
   /// Recording time = reference time + offset (s). Unset: estimated as the offset that best
   /// correlates the two force magnitudes (EstimateTimeOffset).
   std::optional<double> time_offset_s;
-  /// The estimate's search range, +- (s), and the least correlation it accepts.
+  /// The estimate's search range, +- (s), at most kMaxSearchedOffsetS, and the least
+  /// correlation it accepts.
   double max_offset_s = 10.0;
   double min_correlation = 0.9;
   /// A frame is a press when the reference reads at least this much (N).
@@ -49,8 +55,9 @@ struct ReferenceJoinOptions {
   /// by them, since a pair's measured force is the one with unit gains.
   Eigen::Vector3d gains_used = Eigen::Vector3d::Ones();
 
-  /// @throws tac3d::Error naming the field: max_offset_s >= 0 and finite; min_correlation in
-  ///   (0, 1]; min_force_n > 0; max_rate_n_per_s > 0; gains > 0 and finite; the offset finite.
+  /// @throws tac3d::Error naming the field and its bound: max_offset_s in
+  ///   [0, kMaxSearchedOffsetS]; min_correlation in (0, 1]; min_force_n, max_rate_n_per_s and
+  ///   the gains > 0 and finite; the offset finite.
   void Validate() const;
 };
 

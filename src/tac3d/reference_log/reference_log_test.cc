@@ -166,6 +166,14 @@ TEST(ReferenceJoinOptions, EveryBoundIsChecked) {
   expect_throw([](ReferenceJoinOptions& o) { o.min_force_n = 0.0; });
   expect_throw([](ReferenceJoinOptions& o) { o.max_rate_n_per_s = 0.0; });
   expect_throw([](ReferenceJoinOptions& o) { o.gains_used.y() = 0.0; });
+  // Issue 22, defect 11: +-1e9 s was accepted, and the error then claimed a search of it.
+  ReferenceJoinOptions wide;
+  wide.max_offset_s = 1e9;
+  EXPECT_THAT([&] { wide.Validate(); },
+              ::testing::ThrowsMessage<Error>(::testing::HasSubstr(
+                  "ReferenceJoinOptions: max_offset_s = 1000000000 must be in [0, 600] s")));
+  wide.max_offset_s = kMaxSearchedOffsetS;
+  EXPECT_NO_THROW(wide.Validate());
 }
 
 }  // namespace

@@ -100,6 +100,9 @@ void FrameOutputArgs::Validate() const {
   if (!udp.empty()) ParseUdp(*this);
   if (!record.empty()) CheckOutputFile(record, "--record");
   if (!web.empty()) ParseWeb(*this).Validate();
+  if (!std::isfinite(web_hold_s)) {
+    throw Error(fmt::format("--web-hold {} must be a number of seconds (-1: until Ctrl-C)", web_hold_s));
+  }
   if (web.empty() && web_hold_s != 0) throw Error("--web-hold needs --web HOST:PORT");
   if (web.empty() && !web_root.empty()) throw Error("--web-root needs --web HOST:PORT");
 }

@@ -34,8 +34,10 @@ class PipelineStream final : public SensorStream {
     const SensorConfig config = LoadSensorOrDefault(spec.config);
     source_ = OpenImageSource(spec, config);
     std::fprintf(stderr, "%ssource: %s\n", log_prefix_.c_str(), source_->Describe().c_str());
+    const PipelineOptions options = spec.ToPipelineOptions();
+    options.Validate();  // before the model is loaded (or built, minutes)
     const std::shared_ptr<const fem::ComplianceModel> model = load_model(config);
-    pipeline_.emplace(config, model->h, model->marker_positions, spec.ToPipelineOptions());
+    pipeline_.emplace(config, model->h, model->marker_positions, options);
   }
 
   void Start(const StreamClock& clock) override { clock_ = clock; }
@@ -220,7 +222,7 @@ std::unique_ptr<SensorStream> OpenSensorStream(const SensorRunSpec& spec,
 
 ModelLoader CachedModelLoader(const std::string& cache_dir) {
   return [cache_dir](const SensorConfig& config) {
-    MakeDirectory(cache_dir);
+    MakeCacheDirectory(cache_dir);
     return std::make_shared<const fem::ComplianceModel>(
         fem::LoadOrBuildComplianceModel(fem::BodyModelOptionsFromSensor(config), cache_dir,
                                         /*show_progress=*/true)

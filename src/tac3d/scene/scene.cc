@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <limits>
 #include <sstream>
 
@@ -230,8 +229,7 @@ double Trajectory::StepTime(int k) const {
 }
 
 std::vector<Trajectory::Keyframe> ReadTrajectoryCsv(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw Error(fmt::format("trajectory CSV '{}' cannot be opened", path));
+  std::istringstream in(ReadFileCapped(path, kMaxConfigFileBytes, "trajectory CSV"));
   std::vector<Trajectory::Keyframe> keyframes;
   std::string line;
   int line_number = 0;

@@ -145,7 +145,9 @@ Scene ParseScene(const std::string& yaml_text, const std::string& source, const 
 
 /// Poses from a CSV file: a header `t_s,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg`, then one
 /// keyframe a line (roll about x, pitch about y, yaw about z, applied in that order).
-/// @throws Error naming the file and line of anything malformed, or times not increasing.
+/// @throws Error naming the file and line of anything malformed, or times not increasing;
+///   naming the file when it does not exist, is a folder or not a regular file, or is larger
+///   than kMaxConfigFileBytes (util/file_io.h).
 std::vector<Trajectory::Keyframe> ReadTrajectoryCsv(const std::string& path);
 
 /// world_from_sensor from a position and roll, pitch, yaw (deg): R = Rz(yaw) Ry(pitch) Rx(roll).

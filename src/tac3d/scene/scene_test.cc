@@ -155,6 +155,15 @@ trajectory: {steps: 21, csv: poses.csv}
   }
 }
 
+// Issue 22, defect 8 (the pose readers' sibling): a device or a folder as the trajectory CSV is
+// refused before a byte is read.
+TEST(Scene, TrajectoryCsvThatIsNotARegularFileIsRefused) {
+  EXPECT_THAT([] { ReadTrajectoryCsv("/dev/zero"); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("'/dev/zero' is not a regular file")));
+  EXPECT_THAT([] { ReadTrajectoryCsv(testing::MakeTempDir("trajectory_folder")); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("is a directory, not a file")));
+}
+
 TEST(IndexedMesh, NearestVertexAgreesWithBruteForce) {
   TriangleMesh mesh;
   std::mt19937 rng(testing::kRandomSeed);

@@ -1,8 +1,10 @@
 #pragma once
 
 // Seeded mutations of a YAML text for the fuzz tests of the readers (sensor config, run file):
-// nasty values, flipped bytes, deleted runs, duplicated lines, second documents, punctuation.
+// nasty values, flipped bytes, deleted runs, duplicated lines, second documents, nested
+// aliases (issue 22, defect 7), punctuation.
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <sys/resource.h>
 
@@ -35,7 +37,7 @@ class YamlMutator {
     const int edits = Uniform(1, 4);
     for (int e = 0; e < edits && !text.empty(); ++e) {
       const size_t at = Uniform(0, static_cast<int>(text.size()) - 1);
-      switch (Uniform(0, 5)) {
+      switch (Uniform(0, 6)) {
         case 0: {  // replace the value after a colon on this line
           const size_t colon = text.find(": ", at);
           const size_t end = colon == std::string::npos ? colon : text.find('\n', colon);
@@ -60,6 +62,9 @@ class YamlMutator {
         case 4:  // a second document
           text += "---\n" + text.substr(0, at);
           break;
+        case 5:  // nested aliases: up to 10^8 values expanded
+          text = NestedAliases(Uniform(1, 8), Uniform(1, 10)) + text;
+          break;
         default:  // insert YAML punctuation
           text.insert(at,
                       Pick({"- ", ": ", "[", "]", "{", "}", "\n  ", "#", "&x ", "*x", "---\n"}));
@@ -70,6 +75,16 @@ class YamlMutator {
 
  private:
   int Uniform(int lo, int hi) { return std::uniform_int_distribution<int>(lo, hi)(rng_); }
+  // `levels` keys, each a list of `width` aliases of the one before: width^levels values.
+  static std::string NestedAliases(int levels, int width) {
+    std::string text = "l0: &l0 [x]\n";
+    for (int level = 1; level < levels; ++level) {
+      text += fmt::format("l{0}: &l{0} [", level);
+      for (int k = 0; k < width; ++k) text += fmt::format("{}*l{}", k ? ", " : "", level - 1);
+      text += "]\n";
+    }
+    return text;
+  }
   std::string Pick(const std::vector<std::string>& v) {
     return v[Uniform(0, static_cast<int>(v.size()) - 1)];
   }

@@ -35,42 +35,98 @@ void RefuseDuplicateKeys(const YAML::Node& node, const std::string& source) {
   }
 }
 
-// Records where a document starts; its content is not needed.
-class DocumentProbe final : public YAML::EventHandler {
+// Walks the text's events once, without building nodes: bounds the values the aliases stand
+// for, and records where a second document starts. yaml-cpp shares an aliased node instead of
+// copying it, but every reader walks the expanded tree: eight levels of `b: &b [*a, *a, ...]`
+// in 332 bytes are 10^8 values to walk.
+class DocumentScan final : public YAML::EventHandler {
  public:
-  int line = 0;
+  explicit DocumentScan(const std::string& source) : source_(source) {}
 
-  void OnDocumentStart(const YAML::Mark& mark) override { line = mark.line + 1; }
+  int document = 0;              // documents started so far
+  int second_document_line = 0;  // where the second one starts, if it does
+
+  void OnDocumentStart(const YAML::Mark& mark) override {
+    if (++document == 2) second_document_line = mark.line + 1;
+    expanded_size_.clear();  // each document numbers its anchors anew
+  }
   void OnDocumentEnd() override {}
-  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
-  void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnNull(const YAML::Mark&, YAML::anchor_t anchor) override { Leaf(anchor); }
+  void OnAlias(const YAML::Mark& mark, YAML::anchor_t anchor) override;
   void OnScalar(const YAML::Mark&,
                 const std::string&,
-                YAML::anchor_t,
-                const std::string&) override {}
+                YAML::anchor_t anchor,
+                const std::string&) override {
+    Leaf(anchor);
+  }
   void OnSequenceStart(const YAML::Mark&,
                        const std::string&,
-                       YAML::anchor_t,
-                       YAML::EmitterStyle::value) override {}
-  void OnSequenceEnd() override {}
+                       YAML::anchor_t anchor,
+                       YAML::EmitterStyle::value) override {
+    Open(anchor);
+  }
+  void OnSequenceEnd() override { Close(); }
   void OnMapStart(const YAML::Mark&,
                   const std::string&,
-                  YAML::anchor_t,
-                  YAML::EmitterStyle::value) override {}
-  void OnMapEnd() override {}
+                  YAML::anchor_t anchor,
+                  YAML::EmitterStyle::value) override {
+    Open(anchor);
+  }
+  void OnMapEnd() override { Close(); }
+
+ private:
+  struct OpenNode {
+    YAML::anchor_t anchor;
+    std::size_t values_before;
+  };
+
+  void Leaf(YAML::anchor_t anchor) {
+    ++values_;
+    if (anchor != YAML::NullAnchor) expanded_size_[anchor] = 1;
+  }
+  void Open(YAML::anchor_t anchor) { open_.push_back({anchor, values_++}); }
+  void Close() {
+    const OpenNode node = open_.back();
+    open_.pop_back();
+    if (node.anchor != YAML::NullAnchor) expanded_size_[node.anchor] = values_ - node.values_before;
+  }
+
+  const std::string& source_;
+  std::size_t values_ = 0;        // values so far, aliases expanded
+  std::size_t alias_values_ = 0;  // of which the aliases stand for
+  std::vector<OpenNode> open_;
+  std::map<YAML::anchor_t, std::size_t> expanded_size_;  // of each anchored node, once closed
 };
 
-// The line where a second document starts, if the text has one (a closing "..." is not one).
-// Parsed event by event with a bound on the documents looked at, not with
-// YAML::LoadAll: yaml-cpp 0.7's LoadAll loops allocating without end on a stray ','
-// (yaml-cpp issue 1040; fixed upstream in 2024, after Debian 12's 0.7).
-std::optional<int> FindSecondDocument(const std::string& text) {
+void DocumentScan::OnAlias(const YAML::Mark& mark, YAML::anchor_t anchor) {
+  const auto size = expanded_size_.find(anchor);
+  if (size == expanded_size_.end()) {
+    throw Error(fmt::format(
+        "{}: line {}: an alias (*name) inside the node it names: the value would contain itself",
+        source_,
+        mark.line + 1));
+  }
+  values_ += size->second;
+  alias_values_ += size->second;
+  if (alias_values_ > kMaxYamlAliasValues) {
+    throw Error(fmt::format("{}: line {}: the aliases (*name) stand for more than {} values in "
+                            "all; write the values out, or use fewer aliases",
+                            source_,
+                            mark.line + 1,
+                            kMaxYamlAliasValues));
+  }
+}
+
+// Scans the first document with DocumentScan, then only looks whether a second one starts.
+// Parsed event by event with a bound on the documents looked at, not with YAML::LoadAll:
+// yaml-cpp 0.7's LoadAll loops allocating without end on a stray ',' (yaml-cpp issue 1040;
+// fixed upstream in 2024, after Debian 12's 0.7).
+std::optional<int> ScanDocuments(const std::string& text, const std::string& source) {
   std::istringstream stream(text);
   YAML::Parser parser(stream);
-  for (int document = 0; document < 2; ++document) {
-    DocumentProbe probe;
-    if (!parser.HandleNextDocument(probe)) return std::nullopt;
-    if (document > 0) return probe.line;
+  DocumentScan scan(source);
+  if (parser.HandleNextDocument(scan) && parser.HandleNextDocument(scan)) {
+    return scan.second_document_line;
   }
   return std::nullopt;
 }
@@ -81,8 +137,8 @@ YAML::Node ParseYamlDocument(const std::string& text, const std::string& source)
   YAML::Node root;
   std::optional<int> second_document_line;
   try {
+    second_document_line = ScanDocuments(text, source);
     root = YAML::Load(text);
-    second_document_line = FindSecondDocument(text);
   } catch (const YAML::Exception& e) {
     throw Error(fmt::format("{}: not valid YAML: {}", source, e.what()));
   }

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cstddef>
 #include <set>
 #include <string>
 #include <string_view>
@@ -10,11 +11,20 @@
 
 namespace tac3d {
 
+/// The most values (scalars, lists, mappings) the aliases (`*name`) of a YAML document may stand
+/// for in all, counted expanded: an alias of a list of 10 numbers stands for 11. Far above any
+/// real use (tac3d's own files have none), while nested aliases ("billion laughs": eight levels
+/// of ten aliases of the level above, 332 bytes) would otherwise have every reader walk 10^8
+/// values.
+inline constexpr std::size_t kMaxYamlAliasValues = 10000;
+
 /// Parses YAML text that must hold exactly one document, with no key twice in any mapping
 /// (yaml-cpp keeps the first of a duplicated key silently, so a typo'd copy would be ignored).
+/// Used by every YAML file tac3d reads (sensor config, scene, run file, board file).
 /// @param source the file name for messages.
-/// @throws Error naming the source and line of a syntax error, a duplicated key, or a second
-///   non-empty document.
+/// @throws Error naming the source and line of a syntax error, a duplicated key, a second
+///   non-empty document, an alias inside the node it names, or aliases standing for more than
+///   kMaxYamlAliasValues values (checked on the events, before any node is built).
 YAML::Node ParseYamlDocument(const std::string& text, const std::string& source);
 
 /// Reads a YAML file of at most kMaxConfigFileBytes (util/file_io.h) and parses it with

@@ -21,6 +21,9 @@ namespace fs = std::filesystem;
 
 // A camera's driver is given this long to deliver each frame before the source fails.
 constexpr double kCameraTimeoutS = 2.0;
+// The highest frame rate of a camera or an image folder: a tactile camera runs at 30-90 fps;
+// 1e300 gave every image of a folder the timestamp 0.
+constexpr double kMaxFps = 1000.0;
 
 std::string Lower(std::string s) {
   std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
@@ -81,7 +84,9 @@ class ImageFolderSource : public FrameSource {
       : folder_(folder), files_(ListImageFiles(folder)), fps_(fps), max_width_(max_width),
         max_height_(max_height) {
     if (files_.empty()) throw Error(fmt::format("image folder '{}' holds no image file", folder));
-    if (!(fps > 0)) throw Error(fmt::format("image folder: fps = {} must be > 0", fps));
+    if (!(fps > 0 && fps <= kMaxFps)) {
+      throw Error(fmt::format("image folder: fps = {} must be in (0, {}]", fps, kMaxFps));
+    }
     if (max_width < 1 || max_height < 1) {
       throw Error(fmt::format("image folder: the largest image {} x {} must be at least 1 x 1", max_width,
                               max_height));
@@ -133,7 +138,9 @@ void CameraSourceOptions::Validate() const {
     throw Error(fmt::format("camera: width x height = {} x {} must be within 16..{}", width, height,
                             kMaxImageSidePx));
   }
-  if (!(fps > 0 && fps <= 1000)) throw Error(fmt::format("camera: fps = {} must be in (0, 1000]", fps));
+  if (!(fps > 0 && fps <= kMaxFps)) {
+    throw Error(fmt::format("camera: fps = {} must be in (0, {}]", fps, kMaxFps));
+  }
   if (exposure && !(*exposure > 0)) {
     throw Error(fmt::format("camera: exposure = {} must be > 0 (omit it for automatic)", *exposure));
   }
@@ -194,6 +201,12 @@ std::unique_ptr<FrameSource> OpenImageFolder(const std::string& path, double fps
 }
 
 std::unique_ptr<FrameSource> OpenFrameSource(const std::string& uri, const CameraSourceOptions& camera) {
+  if (uri.rfind("recording:", 0) == 0) {
+    throw Error(fmt::format("frame source '{}': a recording holds processed frames, not camera "
+                            "images; read it with RecordingReader (Python: tac3d.RecordingReader), "
+                            "or replay it with `tac3d run --source {}`",
+                            uri, uri));
+  }
   CameraSourceOptions options = camera;
   if (uri.rfind("camera:", 0) == 0) {
     options.device = uri.substr(7);
@@ -203,7 +216,7 @@ std::unique_ptr<FrameSource> OpenFrameSource(const std::string& uri, const Camer
     options.device = uri;
     return OpenCamera(options);
   }
-  if (fs::is_directory(uri)) return OpenImageFolder(uri, 30.0, camera.width, camera.height);
+  if (fs::is_directory(uri)) return OpenImageFolder(uri, camera.fps, camera.width, camera.height);
   if (fs::is_regular_file(uri)) return OpenVideoFile(uri);
   if (fs::exists(uri)) {
     throw Error(fmt::format("frame source '{}' is neither a file nor a folder (a camera is camera:N or "

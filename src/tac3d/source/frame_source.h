@@ -78,9 +78,11 @@ std::unique_ptr<FrameSource> OpenImageFolder(const std::string& path, double fps
 std::vector<std::string> ListImageFiles(const std::string& folder);
 
 /// Opens what a command-line argument names: "camera:N" or "/dev/videoN" a camera (the
-/// camera options' device replaced), a folder an image folder (images larger than the camera
-/// options' width x height are bad frames), any other regular file a video.
-/// @throws Error as the opener does, or if the path does not exist.
+/// camera options' device replaced), a folder an image folder (timestamps index / the camera
+/// options' fps; images larger than their width x height are bad frames), any other regular
+/// file a video.
+/// @throws Error as the opener does, if the path does not exist, or for "recording:FILE" (a
+///   recording is read with RecordingReader, not as images).
 std::unique_ptr<FrameSource> OpenFrameSource(const std::string& uri,
                                              const CameraSourceOptions& camera = {});
 

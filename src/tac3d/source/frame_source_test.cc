@@ -220,5 +220,15 @@ TEST(CameraSourceOptions, ValidateNamesTheField) {
   EXPECT_THROW(options.Validate(), Error);
 }
 
+// Issue 22, defect 11: `run --fps 1e300` was accepted for an image folder (every timestamp 0).
+TEST(FrameSource, AnImageFolderRefusesAFrameRateNoCameraHas) {
+  const std::string dir = testing::MakeTempDir("fps_folder");
+  ASSERT_TRUE(cv::imwrite(dir + "/a.png", cv::Mat(8, 8, CV_8UC1, cv::Scalar(0))));
+  EXPECT_NO_THROW(OpenImageFolder(dir, 1000.0));
+  EXPECT_THAT([&] { OpenImageFolder(dir, 1e300); },
+              ::testing::ThrowsMessage<Error>(
+                  HasSubstr("image folder: fps = 1e+300 must be in (0, 1000]")));
+}
+
 }  // namespace
 }  // namespace tac3d

@@ -114,7 +114,8 @@ SensorConfig PerturbSensor(const SensorConfig& nominal, const SensorPerturbation
 
 void CalibrationSetOptions::Validate() const {
   const OptionCheck require("calibration set");
-  require(views >= 1, "views", ">= 1", views);
+  require(views >= 1 && views <= kMaxCalibrationViews, "views",
+          fmt::format("in [1, {}]", kMaxCalibrationViews).c_str(), views);
   board.Validate();
   require(position_range_mm >= 0, "position_range_mm", ">= 0", position_range_mm);
   require(max_tilt_deg >= 0 && max_tilt_deg < 60, "max_tilt_deg", "in [0, 60)", max_tilt_deg);
@@ -124,6 +125,16 @@ void CalibrationSetOptions::Validate() const {
 }
 
 CalibrationSet RenderCalibrationSet(const SensorConfig& truth, const CalibrationSetOptions& options) {
+  std::vector<CalibrationImage> images;
+  CalibrationSet set = RenderCalibrationSet(
+      truth, options, [&images](const CalibrationImage& image) { images.push_back(image); });
+  set.images = std::move(images);
+  return set;
+}
+
+CalibrationSet RenderCalibrationSet(const SensorConfig& truth,
+                                    const CalibrationSetOptions& options,
+                                    const std::function<void(const CalibrationImage&)>& sink) {
   options.Validate();
   const OpticalLayout layout = truth.MakeOpticalLayout(false);
   const BoardImageRenderer renderer(truth, options.render);
@@ -178,23 +189,27 @@ CalibrationSet RenderCalibrationSet(const SensorConfig& truth, const Calibration
                        options.progress);
   for (size_t i = 0; i < set.sensor_from_board.size(); ++i) {
     const std::string name = i == 0 ? set.board_file.reference_image : fmt::format("view_{:02d}.png", i);
-    set.images.push_back({name, renderer.Render(dot_board, set.sensor_from_board[i], i)});
+    sink({name, renderer.Render(dot_board, set.sensor_from_board[i], i)});
     progress.Update(static_cast<long>(i + 1));
   }
   return set;
 }
 
-void WriteCalibrationSet(const CalibrationSet& set, const SensorConfig& truth, const std::string& dir) {
+CalibrationSet WriteCalibrationSet(const SensorConfig& truth,
+                                   const CalibrationSetOptions& options,
+                                   const std::string& dir) {
+  options.Validate();  // before the folder is made
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   if (ec) throw Error(fmt::format("cannot create directory '{}': {}", dir, ec.message()));
   const std::filesystem::path root(dir);
-  for (const CalibrationImage& image : set.images) {
+  const CalibrationSet set = RenderCalibrationSet(truth, options, [&](const CalibrationImage& image) {
     const std::string path = (root / image.name).string();
     if (!cv::imwrite(path, image.image)) throw Error(fmt::format("cannot write '{}'", path));
-  }
+  });
   SaveCalibrationBoardFile(set.board_file, (root / "board.yaml").string());
   SaveSensorConfig(truth, (root / "truth.yaml").string());
+  return set;
 }
 
 }  // namespace tac3d

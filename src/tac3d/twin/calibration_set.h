@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -45,8 +46,13 @@ struct SensorPerturbationOptions {
 /// @throws Error if `nominal` has no mirrors or virtual cameras, or the options are invalid.
 SensorConfig PerturbSensor(const SensorConfig& nominal, const SensorPerturbationOptions& options);
 
+/// The most random views a calibration set has: fifty times the default, far more than a
+/// calibration gains from, and what `tac3d calibrate` loads at once (1000 images of 640 x 480
+/// are 300 MB).
+inline constexpr int kMaxCalibrationViews = 1000;
+
 struct CalibrationSetOptions {
-  int views = 20;  ///< random board poses, besides the reference view
+  int views = 20;  ///< random board poses, besides the reference view: 1 .. kMaxCalibrationViews
   std::uint64_t seed = 1;
   CalibrationBoard board;
   double position_range_mm = 3.0;  ///< board centre x, y, z each within +- this of the origin
@@ -74,10 +80,21 @@ struct CalibrationSet {
 /// @throws Error if the options are invalid, or no pose is seen whole within 1000 draws.
 CalibrationSet RenderCalibrationSet(const SensorConfig& truth, const CalibrationSetOptions& options);
 
-/// Writes the folder layout `tac3d calibrate` reads: the images as PNG, board.yaml, and
-/// truth.yaml (the true sensor, for evaluation only).
-/// @throws Error if a file cannot be written.
-void WriteCalibrationSet(const CalibrationSet& set, const SensorConfig& truth, const std::string& dir);
+/// As above, handing each image to `sink` as soon as it is rendered instead of keeping it: the
+/// set returned has no images, so memory does not grow with the number of views.
+/// @throws Error as above, and whatever `sink` throws (the images after it are not rendered).
+CalibrationSet RenderCalibrationSet(const SensorConfig& truth,
+                                    const CalibrationSetOptions& options,
+                                    const std::function<void(const CalibrationImage&)>& sink);
+
+/// Renders a calibration set and writes it as it goes, in the folder layout `tac3d calibrate`
+/// reads: each image as PNG once rendered, then board.yaml and truth.yaml (the true sensor, for
+/// evaluation only). The folder is created first.
+/// @return the set, without its images.
+/// @throws Error as RenderCalibrationSet does, or if the folder or a file cannot be written.
+CalibrationSet WriteCalibrationSet(const SensorConfig& truth,
+                                   const CalibrationSetOptions& options,
+                                   const std::string& dir);
 
 
 }  // namespace tac3d

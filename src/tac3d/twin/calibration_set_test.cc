@@ -130,17 +130,34 @@ TEST(WriteCalibrationSet, WritesTheFolderLayoutCalibrateReads) {
   const SensorConfig truth = PerturbSensor(DefaultSensor(), {});
   CalibrationSetOptions o;
   o.views = 2;
-  const CalibrationSet set = RenderCalibrationSet(truth, o);
+  const CalibrationSet in_memory = RenderCalibrationSet(truth, o);
   const std::string dir = testing::MakeTempDir("set") + "/nested";
-  WriteCalibrationSet(set, truth, dir);
+  const CalibrationSet written = WriteCalibrationSet(truth, o, dir);
+  EXPECT_TRUE(written.images.empty()) << "written as rendered, not kept";
+  ASSERT_EQ(written.sensor_from_board.size(), 3u);
   const std::vector<CalibrationImage> images = LoadCalibrationImages(dir);
   ASSERT_EQ(images.size(), 3u);
   EXPECT_EQ(images[0].name, "reference.png");
-  EXPECT_EQ(cv::norm(images[0].image, set.images[0].image, cv::NORM_INF), 0.0);  // lossless
+  for (size_t i = 0; i < images.size(); ++i) {  // lossless, and the same set
+    EXPECT_EQ(cv::norm(images[i].image, in_memory.images[i].image, cv::NORM_INF), 0.0);
+  }
   const CalibrationBoardFile board = LoadCalibrationBoardFile(dir + "/board.yaml");
-  EXPECT_EQ(board.board, set.board_file.board);
+  EXPECT_EQ(board.board, in_memory.board_file.board);
   EXPECT_EQ(board.reference_image, "reference.png");
   EXPECT_EQ(SensorConfigToYaml(LoadSensorConfig(dir + "/truth.yaml")), SensorConfigToYaml(truth));
+}
+
+// Issue 22, defect 9: `calibrate render-set --count 100000` kept every image until the end
+// (36 MB/s until out of memory, nothing written). WriteCalibrationSet writes each image once
+// rendered (above), and the count has a bound, checked before any work.
+TEST(WriteCalibrationSet, RefusesMoreViewsThanTheBoundBeforeAnyWork) {
+  CalibrationSetOptions o;
+  o.views = kMaxCalibrationViews + 1;
+  const std::string dir = testing::MakeTempDir("set_bound") + "/out";
+  EXPECT_THAT([&] { WriteCalibrationSet(PerturbSensor(DefaultSensor(), {}), o, dir); },
+              ::testing::ThrowsMessage<Error>(
+                  ::testing::HasSubstr("calibration set: views = 1001 must be in [1, 1000]")));
+  EXPECT_FALSE(std::filesystem::exists(dir));
 }
 
 }  // namespace

@@ -183,8 +183,11 @@ void RenderOptions::Validate() const {
   require(blur_sigma_px >= 0 && blur_sigma_px <= 10, "blur_sigma_px", "in [0, 10]", blur_sigma_px);
   require(vignetting >= 0 && vignetting < 1, "vignetting", "in [0, 1)", vignetting);
   require(std::abs(illumination_tilt) < 1, "illumination_tilt", "in (-1, 1)", illumination_tilt);
-  require(shot_noise_gain >= 0, "shot_noise_gain", ">= 0", shot_noise_gain);
-  require(read_noise_dn >= 0, "read_noise_dn", ">= 0", read_noise_dn);
+  // Noise beyond the 8-bit range is no camera's, and 1e300 squared is infinite.
+  require(shot_noise_gain >= 0 && shot_noise_gain <= 255, "shot_noise_gain", "in [0, 255]",
+          shot_noise_gain);
+  require(read_noise_dn >= 0 && read_noise_dn <= 255, "read_noise_dn", "in [0, 255] DN",
+          read_noise_dn);
 }
 
 void DotBoard::Validate() const {

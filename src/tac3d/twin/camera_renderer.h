@@ -27,8 +27,8 @@ struct RenderOptions {
   double vignetting = 0.25;           ///< fractional light loss at the image corners
   double illumination_tilt = 0.0;     ///< fractional light change from left to right edge
   bool noise = true;
-  double shot_noise_gain = 0.04;      ///< shot-noise variance per DN of signal (DN)
-  double read_noise_dn = 0.8;         ///< read noise, DN (1 sigma)
+  double shot_noise_gain = 0.04;      ///< shot-noise variance per DN of signal (DN), in [0, 255]
+  double read_noise_dn = 0.8;         ///< read noise, DN (1 sigma), in [0, 255]
   std::uint64_t seed = 1;
 
   /// @throws Error naming the field and the bound.

@@ -72,6 +72,15 @@ TEST(RenderOptions, AreValidated) {
   o = {};
   o.blur_sigma_px = -1;
   EXPECT_THROW(o.Validate(), Error);
+  // Issue 22, defect 11: `render --read-noise 1e300` was accepted.
+  o = {};
+  o.read_noise_dn = 1e300;
+  EXPECT_THAT([&] { o.Validate(); },
+              ::testing::ThrowsMessage<Error>(::testing::HasSubstr(
+                  "render options: read_noise_dn = 1e+300 must be in [0, 255] DN")));
+  o = {};
+  o.shot_noise_gain = 1e300;
+  EXPECT_THROW(o.Validate(), Error);
 }
 
 TEST(BoardImageRenderer, OpenCvFindsTheCircleGridInBothHalves) {

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <system_error>
@@ -30,16 +31,39 @@ std::string ReadFileCapped(const std::string& path, std::size_t max_bytes, std::
   }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(fmt::format("{} '{}' cannot be opened", what, path));
-  // Read at most one byte past the cap, in case the file grew since its size was taken.
-  std::string text(max_bytes + 1, '\0');
-  in.read(text.data(), static_cast<std::streamsize>(text.size()));
+  // Read at most one byte past the cap, in case the file grew since its size was taken; in
+  // chunks, so a small file under a large cap costs its size, not the cap's.
+  std::string text;
+  if (!ec) text.reserve(static_cast<std::size_t>(std::min<std::uintmax_t>(size, max_bytes)) + 1);
+  char chunk[1 << 16];
+  while (in && text.size() <= max_bytes) {
+    in.read(chunk, static_cast<std::streamsize>(std::min(sizeof(chunk), max_bytes + 1 - text.size())));
+    text.append(chunk, static_cast<std::size_t>(in.gcount()));
+  }
   if (in.bad()) throw Error(fmt::format("{} '{}' cannot be read", what, path));
-  text.resize(static_cast<std::size_t>(in.gcount()));
   if (text.size() > max_bytes) {
     throw Error(fmt::format("{} '{}' is larger than the limit of {} bytes", what, path, max_bytes));
   }
   return text;
 }
+
+namespace {
+
+// The folder `path` goes in exists and is writable.
+void CheckParentFolder(const fs::path& path, std::string_view what) {
+  const fs::path parent = path.has_parent_path() ? path.parent_path() : fs::path(".");
+  std::error_code ec;
+  if (!fs::is_directory(parent, ec)) {
+    throw Error(fmt::format(
+        "{} '{}': the folder '{}' does not exist", what, path.string(), parent.string()));
+  }
+  if (::access(parent.c_str(), W_OK) != 0) {
+    throw Error(fmt::format(
+        "{} '{}': the folder '{}' is not writable", what, path.string(), parent.string()));
+  }
+}
+
+}  // namespace
 
 void CheckOutputFile(const std::string& path,
                      std::string_view what,
@@ -59,15 +83,33 @@ void CheckOutputFile(const std::string& path,
       throw Error(fmt::format("{} '{}' must end in {}", what, path, allowed));
     }
   }
-  const fs::path parent = p.has_parent_path() ? p.parent_path() : fs::path(".");
-  if (!fs::is_directory(parent, ec)) {
-    throw Error(
-        fmt::format("{} '{}': the folder '{}' does not exist", what, path, parent.string()));
+  CheckParentFolder(p, what);
+}
+
+void CheckOutputFolder(const std::string& path, std::string_view what) {
+  if (path.empty()) throw Error(fmt::format("{}: empty output path", what));
+  std::error_code ec;
+  if (fs::exists(path, ec) && !fs::is_directory(path, ec)) {
+    throw Error(fmt::format("{} '{}' is a file, not a folder", what, path));
   }
-  if (::access(parent.c_str(), W_OK) != 0) {
-    throw Error(
-        fmt::format("{} '{}': the folder '{}' is not writable", what, path, parent.string()));
-  }
+  fs::path folder = fs::path(path).lexically_normal();
+  if (!folder.has_filename()) folder = folder.parent_path();  // "a/b/" is the folder a/b
+  CheckParentFolder(folder, what);
+}
+
+std::string DefaultCacheDir() {
+  if (const char* dir = std::getenv("TAC3D_CACHE_DIR"); dir && *dir) return dir;
+  if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg) return std::string(xdg) + "/tac3d";
+  if (const char* home = std::getenv("HOME"); home && *home) return std::string(home) + "/.cache/tac3d";
+  return ".tac3d-cache";
+}
+
+void MakeCacheDirectory(const std::string& dir) {
+  std::error_code ec;
+  if (fs::is_directory(dir, ec)) return;
+  if (dir != DefaultCacheDir()) CheckOutputFolder(dir, "cache folder");
+  fs::create_directories(dir, ec);
+  if (ec) throw Error(fmt::format("cannot create the cache folder '{}': {}", dir, ec.message()));
 }
 
 void WriteFileAtomically(const std::string& path,

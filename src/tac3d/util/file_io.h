@@ -27,6 +27,21 @@ void CheckOutputFile(const std::string& path,
                      std::string_view what,
                      std::initializer_list<std::string_view> extensions = {});
 
+/// Checks, before any work, that an output folder can be made or used: the path is not a file,
+/// and the folder it goes in exists and is writable (so a typo in a parent is refused, not
+/// created). @throws Error naming the path and the problem.
+void CheckOutputFolder(const std::string& path, std::string_view what);
+
+/// Where compliance and twin models are cached unless told otherwise: $TAC3D_CACHE_DIR, else
+/// $XDG_CACHE_HOME/tac3d, else $HOME/.cache/tac3d, else .tac3d-cache. The CLI's `--cache`
+/// default and the Python module's `cache_dir=''`.
+std::string DefaultCacheDir();
+
+/// Makes the model cache folder `dir` if it is missing: DefaultCacheDir() with its parents
+/// (~/.cache may not exist yet), any other folder only where CheckOutputFolder allows.
+/// @throws Error naming the folder if it cannot be made.
+void MakeCacheDirectory(const std::string& dir);
+
 /// Writes a file through a temporary name in the same folder and renames it, so the final
 /// name only ever holds a whole file. `write` writes to the temporary path it is given and
 /// throws on failure; the temporary is removed if it or the rename fails.

@@ -57,6 +57,32 @@ TEST(CheckOutputFile, RefusesAMissingFolderAWrongExtensionAndAFolder) {
             fmt::format("--out '{}' is a directory", dir));
 }
 
+// Issue 22, defect 10: Python's simulate() and cache_dir made missing parents the CLI refuses
+// elsewhere; both now go through these.
+TEST(CheckOutputFolder, RefusesAMissingParentAndAFile) {
+  const std::string dir = testing::MakeTempDir("folder");
+  EXPECT_NO_THROW(CheckOutputFolder(dir + "/new", "dataset folder"));
+  EXPECT_NO_THROW(CheckOutputFolder(dir + "/", "dataset folder"));
+  EXPECT_EQ(MessageOf([&] { CheckOutputFolder(dir + "/missing/dir/sim", "dataset folder"); }),
+            fmt::format("dataset folder '{0}/missing/dir/sim': the folder '{0}/missing/dir' does "
+                        "not exist",
+                        dir));
+  std::ofstream(dir + "/file") << "x";
+  EXPECT_EQ(MessageOf([&] { CheckOutputFolder(dir + "/file", "dataset folder"); }),
+            fmt::format("dataset folder '{}/file' is a file, not a folder", dir));
+}
+
+TEST(MakeCacheDirectory, MakesOneLevelAndRefusesAMissingParent) {
+  const std::string dir = testing::MakeTempDir("cache_dir");
+  MakeCacheDirectory(dir + "/cache");
+  EXPECT_TRUE(fs::is_directory(dir + "/cache"));
+  MakeCacheDirectory(dir + "/cache");  // already there
+  EXPECT_EQ(MessageOf([&] { MakeCacheDirectory(dir + "/missing/cache"); }),
+            fmt::format("cache folder '{0}/missing/cache': the folder '{0}/missing' does not exist",
+                        dir));
+  EXPECT_FALSE(fs::exists(dir + "/missing"));
+}
+
 TEST(WriteFileAtomically, WritesWholeFilesAndLeavesNothingWhenTheWriterFails) {
   const std::string dir = testing::MakeTempDir("atomic");
   const std::string path = dir + "/out.txt";

@@ -19,9 +19,16 @@ std::string Trim(const std::string& s) {
   return s.substr(begin, s.find_last_not_of(" \t\r") - begin + 1);
 }
 
+// The first characters of `text`, with "..." when cut: a message quotes a line, not a file.
+std::string Excerpt(const std::string& text) {
+  constexpr size_t kMaxChars = 60;
+  return text.size() <= kMaxChars ? text : text.substr(0, kMaxChars) + "...";
+}
+
 // The line's numbers (num_fields of them), or what is wrong with it.
 std::string ParseNumberLine(const std::string& line,
                             size_t num_fields,
+                            double max_abs,
                             std::vector<double>* values) {
   std::vector<std::string> fields;
   std::stringstream stream(line);
@@ -37,7 +44,10 @@ std::string ParseNumberLine(const std::string& line,
         std::from_chars(field.data(), field.data() + field.size(), (*values)[k]);
     if (field.empty() || error != std::errc() || end != field.data() + field.size() ||
         !std::isfinite((*values)[k])) {
-      return fmt::format("field {} '{}' is not a finite number", k + 1, field);
+      return fmt::format("field {} '{}' is not a finite number", k + 1, Excerpt(field));
+    }
+    if (std::abs((*values)[k]) > max_abs) {
+      return fmt::format("field {} '{}' is beyond +-{}", k + 1, Excerpt(field), max_abs);
     }
   }
   return "";
@@ -48,8 +58,9 @@ std::string ParseNumberLine(const std::string& line,
 std::vector<std::vector<double>> ParseNumberCsv(const std::string& csv_text,
                                                 const std::string& source,
                                                 const std::string& expected_header,
-                                                std::size_t num_fields) {
-  return ParseNumberCsv(csv_text, source, {{expected_header, num_fields}}, nullptr);
+                                                std::size_t num_fields,
+                                                double max_abs) {
+  return ParseNumberCsv(csv_text, source, {{expected_header, num_fields, max_abs}}, nullptr);
 }
 
 std::vector<std::vector<double>> ParseNumberCsv(const std::string& csv_text,
@@ -59,17 +70,16 @@ std::vector<std::vector<double>> ParseNumberCsv(const std::string& csv_text,
   TAC3D_DEMAND(!layouts.empty());
   std::string expected = "'" + layouts[0].header + "'";
   for (size_t k = 1; k < layouts.size(); ++k) expected += " or '" + layouts[k].header + "'";
-  std::size_t num_fields = 0;
+  const NumberCsvLayout* layout = nullptr;
   std::stringstream stream(csv_text);
   std::vector<std::vector<double>> rows;
   std::vector<std::string> errors;
-  bool have_header = false;
   int line_number = 0;
   for (std::string raw; std::getline(stream, raw);) {
     ++line_number;
     const std::string line = Trim(raw);
     if (line.empty() || line.front() == '#') continue;
-    if (!have_header) {
+    if (layout == nullptr) {
       std::string header;
       for (char c : line) {
         if (c != ' ' && c != '\t') header += c;
@@ -78,22 +88,22 @@ std::vector<std::vector<double>> ParseNumberCsv(const std::string& csv_text,
                                       [&](const NumberCsvLayout& l) { return l.header == header; });
       if (match == layouts.end()) {
         throw Error(
-            fmt::format("{}:{}: expected the header {}, got '{}'", source, line_number, expected, line));
+            fmt::format("{}:{}: expected the header {}, got '{}'", source, line_number, expected,
+                        Excerpt(line)));
       }
-      num_fields = match->num_fields;
+      layout = &*match;
       if (layout_index != nullptr) *layout_index = static_cast<std::size_t>(match - layouts.begin());
-      have_header = true;
       continue;
     }
     std::vector<double> values;
-    const std::string error = ParseNumberLine(line, num_fields, &values);
+    const std::string error = ParseNumberLine(line, layout->num_fields, layout->max_abs, &values);
     if (error.empty()) {
       rows.push_back(std::move(values));
     } else {
       errors.push_back(fmt::format("{}:{}: {}", source, line_number, error));
     }
   }
-  if (!have_header) throw Error(fmt::format("{}: no header line {}", source, expected));
+  if (layout == nullptr) throw Error(fmt::format("{}: no header line {}", source, expected));
   if (!errors.empty()) {
     std::string message = fmt::format("{}: {} malformed line(s):", source, errors.size());
     for (int k = 0; k < std::min<int>(kMaxListedErrors, errors.size()); ++k) {
