@@ -21,6 +21,7 @@
 
 #include "tac3d/protocol/test_vendor_client.h"
 #include "tac3d/sensor/default_sensor.h"
+#include "tac3d/sensor/test_sensor.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/twin/camera_renderer.h"
 
@@ -29,17 +30,6 @@ namespace {
 
 constexpr int kImages = 12;
 constexpr int kReferenceFrames = 4;
-
-// The prototype shrunk to 3 x 3 markers on a 12 mm dome, 3 mm thick (simulation_test's and
-// python/tests' small sensor): its compliance model builds in seconds.
-SensorConfig SmallSensor() {
-  SensorConfig sensor = DefaultSensorConfig();
-  sensor.markers.rows = sensor.markers.cols = 3;
-  sensor.elastic_body.base_diameter_mm = 12.0;
-  sensor.elastic_body.thickness_mm = 3.0;
-  sensor.elastic_body.outer_radius_mm = 20.0;
-  return sensor;
-}
 
 // A folder of kImages rendered undeformed images, the sensor's config and a model cache, made
 // once for the file.
@@ -50,7 +40,7 @@ const Source& SmallSource() {
   static const Source source = [] {
     const std::string dir = testing::MakeTempDir("vendor_clients");
     Source s{dir, dir + "/small.yaml", dir + "/images", dir + "/cache"};
-    const SensorConfig sensor = SmallSensor();
+    const SensorConfig sensor = testing::SmallSensor();
     SaveSensorConfig(sensor, s.config);
     std::filesystem::create_directories(s.images);
     const MarkerImageRenderer renderer(sensor);

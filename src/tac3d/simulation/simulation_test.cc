@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "tac3d/sensor/default_sensor.h"
+#include "tac3d/sensor/test_sensor.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
 
@@ -15,17 +16,6 @@ namespace {
 
 using ::testing::HasSubstr;
 
-// A small fingertip (3 x 3 markers on a 12 mm dome, 3 mm thick) so the model builds in about
-// a second; the scene's sensor has the same body.
-SensorConfig SmallSensor() {
-  SensorConfig sensor = DefaultSensorConfig();
-  sensor.markers.rows = sensor.markers.cols = 3;
-  sensor.elastic_body.base_diameter_mm = 12.0;
-  sensor.elastic_body.thickness_mm = 3.0;
-  sensor.elastic_body.outer_radius_mm = 20.0;
-  return sensor;
-}
-
 std::shared_ptr<const TwinBodyModel> SmallModel() {
   static const auto model = [] {
     TwinBodyOptions options;
@@ -33,7 +23,7 @@ std::shared_ptr<const TwinBodyModel> SmallModel() {
     options.quadrature_points_per_side = 2;
     TwinDeviation nominal{1.0, 1.0, 1.0};
     return std::make_shared<const TwinBodyModel>(
-        CalcTwinBodyModel(TwinBodyModelOptions(SmallSensor(), nominal), options));
+        CalcTwinBodyModel(TwinBodyModelOptions(testing::SmallSensor(), nominal), options));
   }();
   return model;
 }
@@ -42,7 +32,7 @@ std::shared_ptr<const TwinBodyModel> SmallModel() {
 Scene SphereScene(const std::vector<std::pair<double, Eigen::Vector3d>>& keyframes, int steps) {
   Scene scene;
   scene.name = "sphere";
-  scene.sensor = SmallSensor();
+  scene.sensor = testing::SmallSensor();
   scene.deviation = {1.0, 1.0, 1.0};
   SceneObject sphere;
   sphere.name = "ball";
