@@ -1,8 +1,10 @@
 #include "tac3d/protocol/wire_format.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -395,6 +397,27 @@ TEST(WireFormat, DecoderRefusesEachKindOfBadHeaderAndField) {
             DropReason::kBadField);
   EXPECT_EQ(ReasonOf(HeaderWith("  - {name: Friction, type: i32, offset: 0, length: 4}"), body),
             DropReason::kBadField);
+}
+
+// A datagram's header with aliases that stand for 10^8 values (issue 22, defect 7's YAML, 332
+// bytes, fits in one datagram), or an alias inside the node it names: the decoder reads only
+// the header's top keys and each item's map, so it refuses both at once instead of expanding.
+TEST(WireFormat, DecoderRefusesAliasBombsWithoutExpandingThem) {
+  std::string nested = "l0: &l0 [x]\n";
+  for (int level = 1; level < 9; ++level) {
+    nested += fmt::format("l{0}: &l{0} [", level);
+    for (int k = 0; k < 10; ++k) nested += fmt::format("{}*l{}", k ? ", " : "", level - 1);
+    nested += "]\n";
+  }
+  const std::string body(48, '\0');
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_EQ(ReasonOf("SN: S\nindex: 1\ntimestamp: 0.5\n" + nested + "data: *l8\n", body),
+            DropReason::kBadField);
+  EXPECT_EQ(ReasonOf("SN: S\nindex: 1\ntimestamp: 0.5\ndata: &d [*d]\n", body),
+            DropReason::kBadField);
+  EXPECT_EQ(ReasonOf("SN: &s [*s]\nindex: 1\ntimestamp: 0.5\ndata: []\n", body),
+            DropReason::kBadHeader);
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 1.0);
 }
 
 TEST(WireFormat, DecoderTakesInitializeProgressAsF64OrAsI32AsTac3dSentItBefore) {
