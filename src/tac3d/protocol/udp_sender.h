@@ -18,7 +18,7 @@ namespace tac3d {
 struct StreamOptions {
   /// tac3d's extra items sent after the vendor's six, as ParseExtraItems reads them
   /// ("3D_Normals,SlipState", "all"); "" (the default): the six only.
-  std::string items;
+  std::string items = "";
   /// Also send the frames taken while the reference is taken, at the start and after a `$C`
   /// (initialize_progress < 100). false (the default): none of them, since the vendor's
   /// PyTac3D 3.3.0-p1 stops receiving for good at the first.
@@ -32,7 +32,7 @@ struct UdpSenderOptions {
   std::string host = "127.0.0.1";  ///< where the client listens
   std::uint16_t port = 9988;       ///< the client's port
   std::uint16_t local_port = 0;    ///< the sending (and command) socket's port; 0: ephemeral
-  StreamOptions stream;            ///< what each frame carries, and which frames are sent
+  StreamOptions stream = {};       ///< what each frame carries, and which frames are sent
 
   /// @throws Error naming the field: host not empty, port != 0, stream as StreamOptions.
   void Validate() const;
