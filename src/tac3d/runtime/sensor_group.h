@@ -27,7 +27,7 @@ struct SensorGroupOptions {
   bool json = false;    ///< each frame's summary as a JSON line on stdout (with its SN)
   /// Called with every frame a sensor emits, on that sensor's thread, before its outputs (so
   /// it must be thread-safe); an exception it throws fails that sensor. Empty: none.
-  std::function<void(const TactileFrame&)> on_frame;
+  std::function<void(const TactileFrame&)> on_frame = {};
 };
 
 /// How one sensor's run went.
