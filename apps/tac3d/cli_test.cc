@@ -111,6 +111,18 @@ TEST(Cli, TwinRunsRefuseTooFewStepsAndABadRefinementBeforeAnyWork) {
   EXPECT_EQ(CountFiles(dir), 0) << "a refused run left a file behind";
 }
 
+TEST(Cli, DriftModesAreNamedInHelpAndErrors) {
+  for (const char* command : {"run --help", "eval conditions --help"}) {
+    const Outcome o = RunCli(command);
+    EXPECT_EQ(o.exit_code, 0);
+    EXPECT_THAT(o.output, HasSubstr("--drift ENUM:{off, flag, rezero}")) << command;
+    EXPECT_THAT(o.output, ::testing::Not(HasSubstr("->"))) << command;
+  }
+  const Outcome o = RunCli("run --source camera:0 --drift sometimes");
+  EXPECT_EQ(o.exit_code, 105);  // CLI11's exit code for a validation error
+  EXPECT_THAT(o.output, HasSubstr("--drift: 'sometimes' is not off, flag or rezero"));
+}
+
 TEST(Cli, RenderRefusesANegativeFrameAndANonFinitePose) {
   const std::string dir = testing::MakeTempDir("render");
   Outcome o = RunCli(fmt::format("render markers --frame -1 --out {}/f.png", dir));

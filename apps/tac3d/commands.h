@@ -7,6 +7,7 @@
 #include <string_view>
 #include <utility>
 
+#include "tac3d/pipeline/drift_monitor.h"  // DriftMode, for AddDriftOption
 #include "tac3d/sensor/default_sensor.h"  // LoadSensorOrDefault, for the commands
 #include "tac3d/sensor/sensor_config.h"
 #include "tac3d/util/file_io.h"  // MakeDirectory, DefaultCacheDir, MakeCacheDirectory
@@ -55,6 +56,9 @@ void RefuseOptions(const CLI::App& cmd,
 /// "--max-offset = 1e+09 must be in [0, 600] s" of the library's message.
 void ValidateNamingFlags(const std::function<void()>& validate,
                          std::initializer_list<std::pair<std::string_view, std::string_view>> flags);
+
+/// `--drift off|flag|rezero` into `mode` (any case), with `help`.
+void AddDriftOption(CLI::App* cmd, DriftMode* mode, const std::string& help);
 
 /// Prints an evaluation's checks ([{name, value, unit, tolerance, pass}]), one line each.
 void PrintChecks(const nlohmann::json& checks);

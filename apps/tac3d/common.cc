@@ -1,4 +1,7 @@
+#include <algorithm>
+#include <cctype>
 #include <cstdio>
+#include <map>
 
 #include <fmt/format.h>
 
@@ -16,6 +19,22 @@ void PrintChecks(const nlohmann::json& checks) {
   for (const nlohmann::json& check : checks) {
     std::printf("%s\n", EvalCheckFromJson(check).Format().c_str());
   }
+}
+
+void AddDriftOption(CLI::App* cmd, DriftMode* mode, const std::string& help) {
+  // Not CLI11's CheckedTransformer: its description and messages print the modes' values, an
+  // uint8_t, as characters.
+  static const std::map<std::string, DriftMode> kModes = {
+      {"off", DriftMode::kOff}, {"flag", DriftMode::kFlag}, {"rezero", DriftMode::kRezero}};
+  const auto to_mode = [](std::string& value) -> std::string {
+    std::string name = value;
+    std::transform(name.begin(), name.end(), name.begin(), [](unsigned char c) { return std::tolower(c); });
+    const auto it = kModes.find(name);
+    if (it == kModes.end()) return fmt::format("'{}' is not off, flag or rezero", value);
+    value = std::to_string(static_cast<int>(it->second));
+    return "";
+  };
+  cmd->add_option("--drift", *mode, help)->transform(CLI::Validator(to_mode, "{off, flag, rezero}"));
 }
 
 void RefuseOptions(const CLI::App& cmd,

@@ -29,13 +29,7 @@ void RegisterEvalConditions(CLI::App& eval) {
   cmd->add_option("--dataset", args->replay.dataset, "twin dataset folder (tac3d simulate)")
       ->required();
   AddReplayOptions(cmd, args->replay);
-  cmd->add_option("--drift",
-                  args->drift,
-                  "the pipeline's drift mode: off, flag or rezero (the default here)")
-      ->transform(CLI::CheckedTransformer(
-          std::map<std::string, DriftMode>{
-              {"off", DriftMode::kOff}, {"flag", DriftMode::kFlag}, {"rezero", DriftMode::kRezero}},
-          CLI::ignore_case));
+  AddDriftOption(cmd, &args->drift, "the pipeline's drift mode: off, flag or rezero (the default here)");
   cmd->add_option("--session",
                   args->options.levels.session_s,
                   "the session's length, s: the nuisances reach their realistic levels at its end")

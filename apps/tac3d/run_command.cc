@@ -125,13 +125,9 @@ void RegisterRun(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--weight", sensor.weight, "Tikhonov weight w, (mm/N)^2")->capture_default_str();
   cmd->add_option("--gains", a->gains, "force gains Cx Cy Cz")->expected(3);
-  cmd->add_option("--drift", sensor.drift.mode,
-                  "drift at rest: off, flag (the default: drift_at_rest) or rezero (tracked out of the "
-                  "reference; docs/pipeline.md)")
-      ->transform(CLI::CheckedTransformer(
-          std::map<std::string, DriftMode>{
-              {"off", DriftMode::kOff}, {"flag", DriftMode::kFlag}, {"rezero", DriftMode::kRezero}},
-          CLI::ignore_case));
+  AddDriftOption(cmd, &sensor.drift.mode,
+                 "drift at rest: off, flag (the default: drift_at_rest) or rezero (tracked out of "
+                 "the reference; docs/pipeline.md)");
   cmd->add_option("--drift-time-constant", sensor.drift.time_constant_s,
                   "time constant of the drift estimate at rest, s")
       ->capture_default_str();
