@@ -1,7 +1,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cstdio>
-#include <map>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
+#include "tac3d/runtime/sensor_stream.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/eval_check.h"
 
@@ -24,14 +25,12 @@ void PrintChecks(const nlohmann::json& checks) {
 void AddDriftOption(CLI::App* cmd, DriftMode* mode, const std::string& help) {
   // Not CLI11's CheckedTransformer: its description and messages print the modes' values, an
   // uint8_t, as characters.
-  static const std::map<std::string, DriftMode> kModes = {
-      {"off", DriftMode::kOff}, {"flag", DriftMode::kFlag}, {"rezero", DriftMode::kRezero}};
   const auto to_mode = [](std::string& value) -> std::string {
     std::string name = value;
     std::transform(name.begin(), name.end(), name.begin(), [](unsigned char c) { return std::tolower(c); });
-    const auto it = kModes.find(name);
-    if (it == kModes.end()) return fmt::format("'{}' is not off, flag or rezero", value);
-    value = std::to_string(static_cast<int>(it->second));
+    const std::optional<DriftMode> parsed = runtime::ParseDriftMode(name);
+    if (!parsed) return fmt::format("'{}' is not off, flag or rezero", value);
+    value = std::to_string(static_cast<int>(*parsed));
     return "";
   };
   cmd->add_option("--drift", *mode, help)->transform(CLI::Validator(to_mode, "{off, flag, rezero}"));
