@@ -31,8 +31,8 @@ SensorRunSpec MakeSpec(const std::string& sn, const std::string& source, const s
                        int reference_frames, double weight, const py::object& gains,
                        const std::string& drift, double drift_time_constant_s,
                        std::optional<double> speed, double fps, double exposure,
-                       const std::string& udp, const std::string& record, bool record_images,
-                       bool overwrite) {
+                       const std::string& udp, const std::string& udp_items, bool udp_progress,
+                       const std::string& record, bool record_images, bool overwrite) {
   SensorRunSpec s;
   s.sn = sn;
   s.source = source;
@@ -48,6 +48,8 @@ SensorRunSpec MakeSpec(const std::string& sn, const std::string& source, const s
   s.camera.fps = fps;
   s.exposure = exposure;
   s.outputs.udp = udp;
+  s.outputs.udp_items = udp_items;
+  s.outputs.udp_progress = udp_progress;
   s.outputs.record = record;
   s.outputs.record_images = record_images;
   s.outputs.overwrite = overwrite;
@@ -133,13 +135,17 @@ naming the field).
            py::arg("weight") = d.weight, py::arg("gains") = py::make_tuple(1.0, 1.0, 1.0),
            py::arg("drift") = "flag", py::arg("drift_time_constant_s") = d.drift.time_constant_s,
            py::arg("speed") = py::none(), py::arg("fps") = d.camera.fps, py::arg("exposure") = 0.0,
-           py::arg("udp") = "", py::arg("record") = "", py::arg("record_images") = false,
+           py::arg("udp") = "", py::arg("udp_items") = "", py::arg("udp_progress") = false,
+           py::arg("record") = "", py::arg("record_images") = false,
            py::arg("overwrite") = false,
            "sn: the serial number in the stream, recording and frames; source: camera:N,\n"
            "/dev/videoN, a video file, an image folder, dataset:DIR or recording:FILE; config:\n"
            "a sensor YAML ('' the built-in prototype); speed: pace of dataset:/recording:\n"
            "(None: a recording at its recorded pace, a dataset as fast as possible); udp:\n"
-           "HOST:PORT of a Tac3D client; record: a new recording file.")
+           "HOST:PORT of a Tac3D client; udp_items: tac3d's extra items after the vendor's six\n"
+           "('3D_Normals,SlipState', 'all'; tac3d run's --udp-items); udp_progress: also send\n"
+           "the frames taken while the reference is taken (--udp-progress); record: a new\n"
+           "recording file.")
       .def_readonly("sn", &SensorRunSpec::sn)
       .def_readonly("source", &SensorRunSpec::source)
       .def_readonly("config", &SensorRunSpec::config)
@@ -152,6 +158,8 @@ naming the field).
       .def_property_readonly("fps", [](const SensorRunSpec& s) { return s.camera.fps; })
       .def_readonly("exposure", &SensorRunSpec::exposure)
       .def_property_readonly("udp", [](const SensorRunSpec& s) { return s.outputs.udp; })
+      .def_property_readonly("udp_items", [](const SensorRunSpec& s) { return s.outputs.udp_items; })
+      .def_property_readonly("udp_progress", [](const SensorRunSpec& s) { return s.outputs.udp_progress; })
       .def_property_readonly("record", [](const SensorRunSpec& s) { return s.outputs.record; })
       .def_property_readonly("record_images", [](const SensorRunSpec& s) { return s.outputs.record_images; })
       .def_property_readonly("overwrite", [](const SensorRunSpec& s) { return s.outputs.overwrite; })

@@ -85,6 +85,12 @@ def test_specs_are_checked_when_made():
         tac3d.SensorSpec("S", "camera:0", drift="sometimes")
     with pytest.raises(tac3d.Error, match="sn must not be empty"):
         tac3d.SensorSpec("", "camera:0")
+    extras = tac3d.SensorSpec("S", "camera:0", udp="127.0.0.1:9988", udp_items="all", udp_progress=True)
+    assert (extras.udp_items, extras.udp_progress) == ("all", True)
+    with pytest.raises(tac3d.Error, match="unknown item 'Slip'"):
+        tac3d.SensorSpec("S", "camera:0", udp="127.0.0.1:9988", udp_items="Slip")
+    with pytest.raises(tac3d.Error, match="--udp-items needs --udp HOST:PORT"):
+        tac3d.SensorSpec("S", "camera:0", udp_items="all")
     with pytest.raises(tac3d.Error, match="max_frames"):
         tac3d.run([spec], max_frames=-1)
 
