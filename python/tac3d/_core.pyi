@@ -173,6 +173,8 @@ class SensorSpec:
         fps: float = 30.0,
         exposure: float = 0.0,
         udp: str = "",
+        udp_items: str = "",
+        udp_progress: bool = False,
         record: str = "",
         record_images: bool = False,
         overwrite: bool = False,
@@ -189,6 +191,8 @@ class SensorSpec:
     fps: float
     exposure: float
     udp: str
+    udp_items: str
+    udp_progress: bool
     record: str
     record_images: bool
     overwrite: bool
