@@ -392,7 +392,7 @@ SensorConfig LoadSensorConfig(const std::string& path) {
 std::string SensorConfigToYaml(const SensorConfig& c) {
   Writer w;
   YAML::Emitter& out = w.out();
-  out << YAML::Comment("tac3d sensor config: mm, MPa, degrees; frames as in docs/frames.md");
+  out << YAML::Comment("tac3d sensor config: mm, MPa, degrees; frames in docs/sensor-config.md");
   out << YAML::BeginMap;
   w.Key("camera");
   out << YAML::BeginMap;
