@@ -91,6 +91,25 @@ TEST(Cli, RecordingPairsChecksItsOutputsBeforeReading) {
   EXPECT_EQ(CountFiles(dir), 0);
 }
 
+// Issue 27: the answer came after ~100 lines of rejected roots; they are --verbose's now.
+TEST(Cli, DesignPrintsTheRejectedRootsOnlyWhenVerbose) {
+  const std::string dir = testing::MakeTempDir("design_verbose");
+  Outcome o = RunCli(fmt::format("design --out {}/s.yaml", dir));
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("parallax angle"));
+  EXPECT_THAT(o.output, Not(HasSubstr("impossible")));
+  EXPECT_THAT(o.output, Not(HasSubstr("      - ")));
+  o = RunCli(fmt::format("design --out {}/s.yaml --verbose", dir));
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  EXPECT_THAT(o.output, HasSubstr(": impossible (max residual"));
+  EXPECT_THAT(o.output, HasSubstr("      - "));
+  EXPECT_THAT(o.output, HasSubstr("parallax angle"));
+  // With no valid root the error says where the reasons are.
+  o = RunCli(fmt::format("design --h 20 --out {}/s.yaml", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("(--verbose prints each root's reasons)"));
+}
+
 TEST(Cli, DesignRefusesAThicknessBeyondTheLimit) {
   const Outcome o = RunCli("design --d 1e9 --out " + testing::MakeTempDir("d") + "/s.yaml");
   EXPECT_EQ(o.exit_code, 1);
