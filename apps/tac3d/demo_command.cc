@@ -244,10 +244,16 @@ class Demo {
     friction_map_.emplace(FrictionMapArgs{}.Options(sensor_));
     FrictionReplayRecorder recorder(*friction_map_);
     const auto t = std::chrono::steady_clock::now();
+    int frames = 0;
     const ReplayRun run = RunReplay(replay, [&](const TwinStep& truth, const TactileFrame& frame) {
       recorder.Add(truth, frame);
+      ++frames;
       if (std::find(picks.begin(), picks.end(), truth.index) != picks.end()) kept_.emplace_back(truth, frame);
     });
+    // What `tac3d friction-map --dataset` would say of its input (the replay's time included).
+    friction_inputs_ = ReplayMapInputs(run, recorder);
+    friction_inputs_["frames_in"] = frames;
+    friction_inputs_["input_s"] = SecondsSince(t);
     WriteReplayFiles(run, out_ + "/replay");
     report_["replay"] = run.report;
     report_["replay_seconds"] = SecondsSince(t);  // both replays and the model load
@@ -291,11 +297,14 @@ class Demo {
     const auto t = std::chrono::steady_clock::now();
     const friction::FrictionMapResult map = friction_map_->Build();
     const std::string folder = out_ + "/friction_map";
-    const nlohmann::json files = WriteFrictionMapFiles(map, folder, FrictionMapArgs{}.View(map));
-    report_["friction_map"] = {{"summary", friction::ToJson(map.summary)}, {"files", files},
+    nlohmann::json inputs = friction_inputs_;
+    inputs["out"] = folder;
+    const nlohmann::json summary = friction::WriteFrictionMapOutputs(
+        map, friction_map_->options(), folder, FrictionMapArgs{}.View(map), std::move(inputs));
+    report_["friction_map"] = {{"summary", summary.at("map")}, {"files", summary.at("files")},
                                {"seconds", SecondsSince(t)}};
-    std::printf("      %s\n      %s/{map.png, map.ply, slip_points.csv}\n", map.summary.BriefReport().c_str(),
-                folder.c_str());
+    std::printf("      %s\n      %s/{map.png, map.ply, slip_points.csv, summary.json}\n",
+                map.summary.BriefReport().c_str(), folder.c_str());
   }
 
   std::string out_;
@@ -304,6 +313,7 @@ class Demo {
   nlohmann::json report_;
   SensorConfig sensor_;
   std::optional<friction::FrictionMapBuilder> friction_map_;
+  nlohmann::json friction_inputs_;  ///< the slide's replay as the friction map's summary names it
   std::vector<std::pair<TwinStep, TactileFrame>> kept_;
 };
 
