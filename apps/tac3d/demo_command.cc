@@ -238,6 +238,8 @@ class Demo {
     ReplayArgs replay;
     replay.dataset = out_ + "/two_material_slide";
     replay.calibration = out_ + "/force_calibration";
+    // Flagged, not refused: the demo's later steps still show their figures, marked as wrong.
+    replay.gain_fit.on_poor_fit = PoorGainFit::kFlag;
     const TwinDatasetReader slide(replay.dataset);
     const std::vector<int> picks = ForceFieldSteps(slide);
     sensor_ = DatasetSensor(slide);
@@ -261,6 +263,10 @@ class Demo {
     const ReplaySummary& s = run.replay.summary;
     std::printf("      gains %.4f %.4f %.4f (R^2 %.4f %.4f %.4f over %d loaded calibration frames)\n", fit.gains.x(),
                 fit.gains.y(), fit.gains.z(), fit.r_squared.x(), fit.r_squared.y(), fit.r_squared.z(), fit.num_pairs);
+    if (!fit.usable()) {
+      std::printf("      WARNING: unusable gains, every force below is scaled wrongly: %s\n",
+                  fit.PoorFitMessage().c_str());
+    }
     std::printf("      slide: %d loaded frames; resultant error %% of full scale (Fx, Fy 5 N; Fz 10 N)\n"
                 "      max %.2f %.2f %.2f, RMS %.2f %.2f %.2f (worst step %d); %d frames flagged\n",
                 s.loaded_frames, s.force_error_max_pct_fs.x(), s.force_error_max_pct_fs.y(),
