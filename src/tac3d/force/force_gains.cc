@@ -112,8 +112,8 @@ std::string ForceGainFit::PoorFitMessage() const {
   }
   if (axes.empty()) return "";
   return fmt::format(
-      "{} (over {} pairs), under the floor {:g}: the gain fits noise, not the sensor, and would "
-      "scale every force on that axis wrongly. The calibration must load each axis well above "
+      "{} (over {} pairs), under the floor {:g}: such a gain fits noise, not the sensor, and "
+      "would scale every force on its axis wrongly. The calibration must load each axis well above "
       "its noise: add presses with shear (tangential force) in both x and y, and a range of "
       "normal forces (docs/force.md); a floor can be lowered (--min-r-squared) only for a fit "
       "known to be good",
