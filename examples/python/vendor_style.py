@@ -10,8 +10,8 @@ before anything touches the sensor), and stops it (`$Q`) after 10 s.
 Zero only at rest: `$C` takes the present state as undeformed, so a zero taken mid-contact
 offsets every later reading by the load of that moment (this script used to zero 5 s in, which
 on the twin dataset two_material_slide is mid-contact, F about (-2.36, 0, -3.57) N: issue 27).
-`tac3d run` refuses a `$C` while
-the sensor is loaded (a marker displaced more than 0.1 mm), unless --allow-zero-under-load.
+`tac3d run` refuses a `$C` while the sensor is loaded (a marker displaced more than 0.1 mm),
+unless --allow-zero-under-load.
 """
 import time
 
