@@ -154,51 +154,11 @@ friction::RenderOptions FrictionMapArgs::View(const friction::FrictionMapResult&
   return r;
 }
 
-nlohmann::json MapOptionsJson(const friction::FrictionMapOptions& o) {
-  return {{"contact_threshold_n", o.contact_threshold_n},
-          {"slip_contact_threshold_n", o.SlipContactThresholdN()},
-          {"cover_thickness_mm", o.cover_thickness_mm},
-          {"marker_noise_mm", o.marker_noise_mm},
-          {"pose_noise_mm", o.pose_noise_mm},
-          {"slip_sigmas", o.slip_sigmas},
-          {"slip_threshold_mm", o.SlipThresholdMm()},
-          {"tangential_motion", o.tangential_motion},
-          {"gross_slip_only", o.gross_slip_only},
-          {"friction_along_slip", o.friction_along_slip},
-          {"gross_slip_margin", o.gross_slip_margin},
-          {"voxel_size_mm", o.voxel_size_mm},
-          {"poisson_depth", o.poisson_depth},
-          {"trim_distance_mm", o.trim_distance_mm},
-          {"radius_mm", o.radius_mm},
-          {"alpha", o.alpha},
-          {"beta", o.beta},
-          {"gamma", o.normal_force_exponent},
-          {"min_slip_points", o.min_slip_points},
-          {"max_support_offset", o.max_support_offset}};
-}
-
-nlohmann::json WriteFrictionMapFiles(const friction::FrictionMapResult& map,
-                                     const std::string& folder,
-                                     const friction::RenderOptions& view) {
-  MakeDirectory(folder);
-  nlohmann::json files = {{"slip_points_csv", folder + "/slip_points.csv"}};
-  friction::WriteSlipPointsCsv(map.slip_points, folder + "/slip_points.csv");
-  if (map.triangles.empty()) return files;
-  friction::WriteFrictionMapPly(map, folder + "/map.ply");
-  const friction::RenderSummary r = friction::WriteFrictionMapPng(map, folder + "/map.png", view);
-  files["ply"] = folder + "/map.ply";
-  files["png"] = folder + "/map.png";
-  files["png_view"] = {
-      {"view_direction",
-       {view.view_direction.x(), view.view_direction.y(), view.view_direction.z()}},
-      {"up", {view.up.x(), view.up.y(), view.up.z()}},
-      {"covered_pixels", r.covered_pixels},
-      {"band_pixels",
-       {{"unknown", r.band_pixels[0]},
-        {"low", r.band_pixels[1]},
-        {"medium", r.band_pixels[2]},
-        {"high", r.band_pixels[3]}}}};
-  return files;
+nlohmann::json ReplayMapInputs(const ReplayRun& run, const FrictionReplayRecorder& recorder) {
+  const Eigen::Vector3d& gains = run.options.pipeline.force.gains;
+  return {{"dataset", run.report.at("dataset")},
+          {"gains", {gains.x(), gains.y(), gains.z()}},
+          {"strokes", recorder.strokes()}};
 }
 
 void RegisterFrictionMap(CLI::App& app) {
@@ -251,11 +211,7 @@ void RegisterFrictionMap(CLI::App& app) {
         recorder.Add(step, frame);
         ++frames;
       });
-      summary["dataset"] = a.dataset;
-      summary["gains"] = {run.options.pipeline.force.gains.x(),
-                          run.options.pipeline.force.gains.y(),
-                          run.options.pipeline.force.gains.z()};
-      summary["strokes"] = recorder.strokes();
+      summary.update(ReplayMapInputs(run, recorder));
     } else {
       const SensorConfig sensor = LoadSensorOrDefault(args->replay.config);
       builder.emplace(args->map.Options(sensor));
@@ -271,10 +227,8 @@ void RegisterFrictionMap(CLI::App& app) {
     bar.Finish();
     summary["frames_in"] = frames;
     summary["input_s"] = input_s;
-    summary["options"] = MapOptionsJson(builder->options());
-    summary["map"] = friction::ToJson(map.summary);
-    summary["files"] = WriteFrictionMapFiles(map, args->out, args->map.View(map));
-    WriteTextFileAtomically(args->out + "/summary.json", summary.dump(2) + "\n");
+    summary = friction::WriteFrictionMapOutputs(map, builder->options(), args->out,
+                                                args->map.View(map), std::move(summary));
     if (args->json) {
       std::printf("%s\n", summary.dump(2).c_str());
       return;

@@ -1,12 +1,14 @@
 #pragma once
 
-// Shared by `tac3d friction-map` and `tac3d eval friction`.
+// Shared by `tac3d friction-map`, `tac3d eval friction` and the demo.
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 #include <string>
 
 #include "tac3d/friction/friction_map.h"
 #include "tac3d/friction/friction_output.h"
+#include "tac3d/friction_eval/friction_evaluation.h"
+#include "twin_runs.h"
 
 namespace tac3d::cli {
 
@@ -43,13 +45,9 @@ struct FrictionMapArgs {
   friction::RenderOptions View(const friction::FrictionMapResult& map) const;
 };
 
-/// The options a map was built with, for its summary.
-nlohmann::json MapOptionsJson(const friction::FrictionMapOptions& o);
-
-/// Writes map.ply, slip_points.csv, map.png (bands, the view) into `folder` and returns what
-/// was written (files, the render's band pixels) as JSON.
-nlohmann::json WriteFrictionMapFiles(const friction::FrictionMapResult& map,
-                                     const std::string& folder,
-                                     const friction::RenderOptions& view);
+/// What a map built from a replayed twin dataset was built from, for its summary.json
+/// (friction::WriteFrictionMapOutputs): the dataset, the gains it was replayed with and the
+/// strokes the recorder saw.
+nlohmann::json ReplayMapInputs(const ReplayRun& run, const FrictionReplayRecorder& recorder);
 
 }  // namespace tac3d::cli

@@ -32,7 +32,8 @@ SensorRunSpec MakeSpec(const std::string& sn, const std::string& source, const s
                        const std::string& drift, double drift_time_constant_s,
                        std::optional<double> speed, double fps, double exposure,
                        const std::string& udp, const std::string& udp_items, bool udp_progress,
-                       const std::string& record, bool record_images, bool overwrite) {
+                       bool allow_zero_under_load, const std::string& record, bool record_images,
+                       bool overwrite) {
   SensorRunSpec s;
   s.sn = sn;
   s.source = source;
@@ -50,6 +51,7 @@ SensorRunSpec MakeSpec(const std::string& sn, const std::string& source, const s
   s.outputs.udp = udp;
   s.outputs.udp_items = udp_items;
   s.outputs.udp_progress = udp_progress;
+  s.outputs.allow_zero_under_load = allow_zero_under_load;
   s.outputs.record = record;
   s.outputs.record_images = record_images;
   s.outputs.overwrite = overwrite;
@@ -136,7 +138,7 @@ naming the field).
            py::arg("drift") = "flag", py::arg("drift_time_constant_s") = d.drift.time_constant_s,
            py::arg("speed") = py::none(), py::arg("fps") = d.camera.fps, py::arg("exposure") = 0.0,
            py::arg("udp") = "", py::arg("udp_items") = "", py::arg("udp_progress") = false,
-           py::arg("record") = "", py::arg("record_images") = false,
+           py::arg("allow_zero_under_load") = false, py::arg("record") = "", py::arg("record_images") = false,
            py::arg("overwrite") = false,
            "sn: the serial number in the stream, recording and frames; source: camera:N,\n"
            "/dev/videoN, a video file, an image folder, dataset:DIR or recording:FILE; config:\n"
@@ -144,8 +146,9 @@ naming the field).
            "(None: a recording at its recorded pace, a dataset as fast as possible); udp:\n"
            "HOST:PORT of a Tac3D client; udp_items: tac3d's extra items after the vendor's six\n"
            "('3D_Normals,SlipState', 'all'; tac3d run's --udp-items); udp_progress: also send\n"
-           "the frames taken while the reference is taken (--udp-progress); record: a new\n"
-           "recording file.")
+           "the frames taken while the reference is taken (--udp-progress);\n"
+           "allow_zero_under_load: take a $C while the sensor is loaded, with a warning, instead\n"
+           "of refusing it (--allow-zero-under-load); record: a new recording file.")
       .def_readonly("sn", &SensorRunSpec::sn)
       .def_readonly("source", &SensorRunSpec::source)
       .def_readonly("config", &SensorRunSpec::config)
@@ -160,6 +163,7 @@ naming the field).
       .def_property_readonly("udp", [](const SensorRunSpec& s) { return s.outputs.udp; })
       .def_property_readonly("udp_items", [](const SensorRunSpec& s) { return s.outputs.udp_items; })
       .def_property_readonly("udp_progress", [](const SensorRunSpec& s) { return s.outputs.udp_progress; })
+      .def_property_readonly("allow_zero_under_load", [](const SensorRunSpec& s) { return s.outputs.allow_zero_under_load; })
       .def_property_readonly("record", [](const SensorRunSpec& s) { return s.outputs.record; })
       .def_property_readonly("record_images", [](const SensorRunSpec& s) { return s.outputs.record_images; })
       .def_property_readonly("overwrite", [](const SensorRunSpec& s) { return s.outputs.overwrite; })

@@ -175,6 +175,7 @@ class SensorSpec:
         udp: str = "",
         udp_items: str = "",
         udp_progress: bool = False,
+        allow_zero_under_load: bool = False,
         record: str = "",
         record_images: bool = False,
         overwrite: bool = False,
@@ -193,6 +194,7 @@ class SensorSpec:
     udp: str
     udp_items: str
     udp_progress: bool
+    allow_zero_under_load: bool
     record: str
     record_images: bool
     overwrite: bool

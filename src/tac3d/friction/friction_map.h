@@ -210,6 +210,8 @@ struct FrictionMapSummary {
   std::string BriefReport() const;
 };
 nlohmann::json ToJson(const FrictionMapSummary& summary);
+/// The options a map was built with, as used (the slip thresholds derived), for its summary.
+nlohmann::json ToJson(const FrictionMapOptions& options);
 
 /// The friction map: a triangle mesh of the object's surface in the world frame with mu per
 /// vertex (equations 5 and 6), and the slip points it came from.
