@@ -7,6 +7,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "arrays.h"
 #include "bindings.h"
@@ -121,6 +122,7 @@ py::object Process(PyPipeline& p, const py::array& image, double timestamp_s) {
 }  // namespace
 
 void RegisterPipeline(py::module_& m) {
+  const PipelineOptions d;  // the defaults, as `tac3d run`'s
   py::class_<Source>(m, "FrameSource", R"doc(
 Camera images from a V4L2 camera, a video file, an image folder or a twin dataset
 (tac3d.open_source). Iterating gives (image uint8 H x W, timestamp_s, index) tuples; bad
@@ -162,10 +164,10 @@ minute for the default sensor), with the GIL released.
       .def(py::init(&MakePipeline),
            py::arg("config") = "",
            py::arg("cache_dir") = "",
-           py::arg("sn") = PipelineOptions{}.sn,
-           py::arg("reference_frames") = PipelineOptions{}.reference_frames,
-           py::arg("weight") = PipelineOptions{}.force.weight,
-           py::arg("gains") = py::make_tuple(1.0, 1.0, 1.0),
+           py::arg("sn") = d.sn,
+           py::arg("reference_frames") = d.reference_frames,
+           py::arg("weight") = d.force.weight,
+           py::arg("gains") = std::vector<double>(d.force.gains.begin(), d.force.gains.end()),
            "config: a sensor YAML ('' : the built-in prototype); cache_dir: '' for\n"
            "$TAC3D_CACHE_DIR, $XDG_CACHE_HOME/tac3d or ~/.cache/tac3d. Raises tac3d.Error.")
       .def("process",
