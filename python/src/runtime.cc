@@ -40,9 +40,7 @@ SensorRunSpec MakeSpec(const std::string& sn, const std::string& source, const s
   s.reference_frames = reference_frames;
   s.weight = weight;
   s.gains = ToVector3d(gains, "gains");
-  const std::optional<DriftMode> mode = runtime::ParseDriftMode(drift);
-  if (!mode) throw Error(fmt::format("drift '{}': must be off, flag or rezero", drift));
-  s.drift.mode = *mode;
+  s.drift.mode = DriftModeArg(drift);
   s.drift.time_constant_s = drift_time_constant_s;
   s.speed = speed;
   s.camera.fps = fps;
@@ -194,6 +192,12 @@ last frame and the longest gap between two frames (NaN, NaN, 0 without frames).
 }
 
 }  // namespace
+
+DriftMode DriftModeArg(const std::string& drift) {
+  const std::optional<DriftMode> mode = runtime::ParseDriftMode(drift);
+  if (!mode) throw Error(fmt::format("drift '{}': must be off, flag or rezero", drift));
+  return *mode;
+}
 
 void RegisterRuntime(py::module_& m) {
   RegisterSensorSpec(m);

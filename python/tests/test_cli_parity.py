@@ -2,6 +2,7 @@
 and `tac3d friction-map` (friction::FrictionMapCommandOptions) give the same map of the same
 frames, a small twin slide recorded once and mapped by both; tac3d.SensorSpec, tac3d.run and
 tac3d.Pipeline against `tac3d run` (runtime::SensorRunSpec)."""
+import ast
 import json
 import re
 import subprocess
@@ -56,7 +57,7 @@ RUN_ELSEWHERE = {"help", "sn", "source", "run_file", "cache", "max_frames", "jso
                  "height", "web", "web_root", "web_hold"}
 
 
-def test_sensor_spec_takes_tac3d_runs_options_with_its_defaults(tac3d_cli):
+def test_sensor_spec_and_pipeline_take_tac3d_runs_options_with_its_defaults(tac3d_cli):
     cli = cli_flags_and_defaults(tac3d_cli, "run")
     spec = tac3d.SensorSpec("X", "camera:0")
     names = {RUN_RENAMED.get(name, name) for name in set(cli) - RUN_ELSEWHERE}
@@ -75,7 +76,16 @@ def test_sensor_spec_takes_tac3d_runs_options_with_its_defaults(tac3d_cli):
             assert float(printed) == value, name
         compared += 1
     assert compared >= 4  # reference_frames, weight, drift_time_constant, fps at least
-    assert cli["sn"] == tac3d.Pipeline.__init__.__doc__.split("sn: str = '")[1].split("'")[0]
+
+    # tac3d.Pipeline, one image at a time, takes the pipeline's options of both, alike.
+    signature = tac3d.Pipeline.__init__.__doc__.splitlines()[0]
+    pipeline = {m.group(1): ast.literal_eval(m.group(2)) for m in re.finditer(
+        r"(\w+): [\w.\[\]]+ = ('[^']*'|\[[^\]]*\]|[-\d.e]+)", signature)}
+    assert pipeline["sn"] == cli["sn"]
+    for name in ("reference_frames", "weight", "gains", "drift", "drift_time_constant_s"):
+        assert pipeline[name] == getattr(spec, name), name
+    with pytest.raises(tac3d.Error, match="drift 'sideways': must be off, flag or rezero"):
+        tac3d.Pipeline(drift="sideways")
 
 
 def test_unknown_and_mistyped_options_are_refused_naming_the_accepted_ones():
