@@ -133,8 +133,8 @@ void SummariseFriction(FrictionMapResult& result) {
 
 // ---- Options -----------------------------------------------------------------------------
 
-FrictionMapOptions FrictionMapOptions::FromSensor(const SensorConfig& sensor) {
-  FrictionMapOptions options;
+FrictionMapOptions FrictionMapOptions::WithSensor(const SensorConfig& sensor) const {
+  FrictionMapOptions options = *this;
   options.cover_thickness_mm = sensor.markers.depth_mm;
   return options;
 }
@@ -331,6 +331,16 @@ void FrictionMapBuilder::BreakStroke() {
   previous_world_mm_.clear();
   previous_sensor_mm_.clear();
   previous_contact_.clear();
+}
+
+void FrictionMapBuilder::AddFrameOfStrokes(const TactileFrame& frame,
+                                           const Rigid3& world_from_sensor) {
+  AddFrame(frame, world_from_sensor);
+  for (size_t i = 0; i < frame.forces_n.size(); ++i) {
+    if (frame.valid[i] && -frame.forces_n[i].dot(frame.normals[i]) > options_.contact_threshold_n)
+      return;
+  }
+  BreakStroke();
 }
 
 void FrictionMapBuilder::AddFrame(const TactileFrame& frame, const Rigid3& world_from_sensor) {
