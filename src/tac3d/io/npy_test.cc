@@ -135,12 +135,12 @@ TEST(NpyWriter, EmptyArrayAndUnwritablePath) {
 }
 
 // Raw bytes of a file.
-std::string Bytes(const std::string& path) {
+std::string NpyTestFileBytes(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   return std::string(std::istreambuf_iterator<char>(in), {});
 }
 
-void WriteBytes(const std::string& path, const std::string& bytes) {
+void WriteNpyTestFile(const std::string& path, const std::string& bytes) {
   std::ofstream(path, std::ios::binary) << bytes;
 }
 
@@ -159,7 +159,7 @@ std::string DoubleBytes(const std::vector<double>& values) {
   return std::string(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(double));
 }
 
-std::string RefusalOf(const std::string& path) {
+std::string NpyRefusalOf(const std::string& path) {
   try {
     ReadNpy(path);
   } catch (const Error& e) {
@@ -178,7 +178,7 @@ TEST(ReadNpy, RoundTripsBitForBit) {
   const NpyArray back = ReadNpy(dir + "/a.npy");
   EXPECT_EQ(back, a);  // the data bytes, NaN's included
   WriteNpy(dir + "/b.npy", back);
-  EXPECT_EQ(Bytes(dir + "/a.npy"), Bytes(dir + "/b.npy"));
+  EXPECT_EQ(NpyTestFileBytes(dir + "/a.npy"), NpyTestFileBytes(dir + "/b.npy"));
   // The test program's own independent parser agrees.
   const auto parsed = LoadNpy(dir + "/a.npy");
   EXPECT_EQ(parsed.shape, a.shape);
@@ -202,7 +202,7 @@ TEST(ReadNpy, ReadsVersionsTwoAndThreeAndFortranOrder) {
   const std::string data = DoubleBytes({0, 3, 1, 4, 2, 5});
   for (const int version : {1, 2, 3}) {
     const std::string path = dir + "/v" + std::to_string(version) + ".npy";
-    WriteBytes(path, NpyFileBytes(version, "{'shape': (2, 3), 'fortran_order': True, 'descr': '<f8'}", data));
+    WriteNpyTestFile(path, NpyFileBytes(version, "{'shape': (2, 3), 'fortran_order': True, 'descr': '<f8'}", data));
     const NpyArray a = ReadNpy(path);
     EXPECT_TRUE(a.fortran_order);
     EXPECT_EQ(a.shape, (std::vector<std::int64_t>{2, 3}));
@@ -219,11 +219,11 @@ TEST(ReadNpy, RefusesMalformedFilesNamingThem) {
   const std::string path = dir + "/x.npy";
   const std::string good = NpyFileBytes(1, "{'descr': '<f8', 'fortran_order': False, 'shape': (2, 3), }",
                                         DoubleBytes({0, 1, 2, 3, 4, 5}));
-  WriteBytes(path, good);
-  ASSERT_EQ(RefusalOf(path), "accepted");
+  WriteNpyTestFile(path, good);
+  ASSERT_EQ(NpyRefusalOf(path), "accepted");
   const auto refusal = [&](const std::string& bytes) {
-    WriteBytes(path, bytes);
-    return RefusalOf(path);
+    WriteNpyTestFile(path, bytes);
+    return NpyRefusalOf(path);
   };
   const auto with_dict = [&](const std::string& dict, std::size_t data_bytes = 48) {
     return refusal(NpyFileBytes(1, dict, std::string(data_bytes, '\0')));
@@ -248,8 +248,8 @@ TEST(ReadNpy, RefusesMalformedFilesNamingThem) {
   EXPECT_THAT(with_dict("{'descr': '<f8', 'fortran_order': False, 'shape': (2, 3), 'extra': 1}"),
               HasSubstr("unknown key 'extra'"));
   EXPECT_THAT(with_dict("{'descr': '<f8', 'fortran_order': False, 'shape': (2, 3"), HasSubstr("')' expected"));
-  EXPECT_THAT(RefusalOf(dir + "/missing.npy"), HasSubstr("missing.npy"));
-  EXPECT_THAT(RefusalOf(dir), HasSubstr(dir));
+  EXPECT_THAT(NpyRefusalOf(dir + "/missing.npy"), HasSubstr("missing.npy"));
+  EXPECT_THAT(NpyRefusalOf(dir), HasSubstr(dir));
 }
 
 }  // namespace

@@ -38,7 +38,7 @@ inline std::optional<std::string> RealDataDir() {
   }                                                                                                      \
   const std::string dir = *dir##_or
 
-inline void WriteText(const std::filesystem::path& path, const std::string& text) {
+inline void WriteVendorTestFile(const std::filesystem::path& path, const std::string& text) {
   std::filesystem::create_directories(path.parent_path());
   std::ofstream(path) << text;
 }
@@ -48,7 +48,7 @@ inline void WriteText(const std::filesystem::path& path, const std::string& text
 inline std::string WriteFixtureVendorFolder(const std::string& name) {
   namespace f = hdl1_0001;
   const std::filesystem::path dir = MakeTempDir(name);
-  WriteText(dir / kVendorSensorFile,
+  WriteVendorTestFile(dir / kVendorSensorFile,
             fmt::format("version: 3.2.1\nSN: HDL1-0001\npipeline:\n- name: InputSource\n  threads: 1\n  config:\n"
                         "    width: {}\n    height: {}\n    flipX: {}\n    flipY: {}\n- name: DMP3_by_Zhang\n"
                         "  config:\n    nx: {}\n    ny: {}\n",
@@ -65,15 +65,15 @@ inline std::string WriteFixtureVendorFolder(const std::string& name) {
   }
   parameters += fmt::format("\nrefraction:\n  n21: {}\n  h0: {}\n  theta: {}\n  phi: {}\n", f::kN21, f::kH0,
                             f::kTheta, f::kPhi);
-  WriteText(dir / kVendorParametersFile, parameters);
+  WriteVendorTestFile(dir / kVendorParametersFile, parameters);
   std::string datasheet = fmt::format("Parameters:\n  E: {}\n  P: {}\n\nAccuracy:\n", f::kYoungsModulusMpa,
                                       f::kPoissonRatio);
   const char* keys[] = {"Np", "Nf", "Nfm", "Dp", "Df", "Dfm", "Efm"};
   for (int k = 0; k < 7; ++k) datasheet += fmt::format("  {}: [{}]\n", keys[k], fmt::join(f::kDatasheet[k], ", "));
-  WriteText(dir / kVendorDatasheetFile, datasheet);
+  WriteVendorTestFile(dir / kVendorDatasheetFile, datasheet);
   std::string markers;
   for (const auto& uv : f::kReferencePixels) markers += fmt::format("{},{}\n", uv[0], uv[1]);
-  WriteText(dir / kVendorMarkersFile, markers);
+  WriteVendorTestFile(dir / kVendorMarkersFile, markers);
   return dir.string();
 }
 

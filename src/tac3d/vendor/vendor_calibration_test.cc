@@ -20,23 +20,23 @@ namespace fixture = testing::hdl1_0001;
 using ::testing::HasSubstr;
 using ::testing::MatchesRegex;
 
-std::string ReadText(const fs::path& path) {
+std::string ReadVendorText(const fs::path& path) {
   std::stringstream s;
   s << std::ifstream(path).rdbuf();
   return s.str();
 }
 
 // Replaces the first match of `pattern` in a file of the folder; fails the test if there is none.
-void Edit(const std::string& folder, const char* file, const std::string& pattern, const std::string& replacement) {
+void EditVendorFile(const std::string& folder, const char* file, const std::string& pattern, const std::string& replacement) {
   const fs::path path = fs::path(folder) / file;
-  const std::string text = ReadText(path);
+  const std::string text = ReadVendorText(path);
   const std::string edited = std::regex_replace(text, std::regex(pattern), replacement,
                                                 std::regex_constants::format_first_only);
   ASSERT_NE(edited, text) << pattern << " not in " << path;
   std::ofstream(path) << edited;
 }
 
-std::string RefusalOf(const std::string& folder) {
+std::string CalibrationRefusalOf(const std::string& folder) {
   try {
     ReadVendorCalibration(folder);
   } catch (const Error& e) {
@@ -142,8 +142,8 @@ TEST(VendorCalibration, SensorConfigRefusesABrokenCameraModel) {
 TEST(VendorCalibration, RefusesACorruptedFolderNamingFileAndLine) {
   const auto corrupted = [](const char* file, const std::string& pattern, const std::string& replacement) {
     const std::string folder = testing::WriteFixtureVendorFolder("vendor");
-    Edit(folder, file, pattern, replacement);
-    return RefusalOf(folder);
+    EditVendorFile(folder, file, pattern, replacement);
+    return CalibrationRefusalOf(folder);
   };
   EXPECT_THAT(corrupted(kVendorMarkersFile, "\n[0-9]+,[0-9]+\n$", "\n"),
               MatchesRegex(".*markers.txt: 799 marker lines, the 20 x 20 grid of sensor.yaml needs 800.*"));
@@ -169,21 +169,21 @@ TEST(VendorCalibration, RefusesACorruptedFolderNamingFileAndLine) {
   EXPECT_THAT(corrupted(kVendorDatasheetFile, "  Efm: .*\n", ""), HasSubstr("datasheet.yaml: line 6: Accuracy.Efm: missing"));  // the mapping's line
   const std::string folder = testing::WriteFixtureVendorFolder("vendor");
   fs::remove(fs::path(folder) / kVendorDatasheetFile);
-  EXPECT_THAT(RefusalOf(folder), HasSubstr("datasheet.yaml"));
+  EXPECT_THAT(CalibrationRefusalOf(folder), HasSubstr("datasheet.yaml"));
 }
 
 TEST(VendorCalibration, RefusesACorruptedCopyOfTheRealHdl1Folder) {
   TAC3D_REQUIRE_REALDATA(realdata);
   const std::string copy = testing::MakeTempDir("HDL1-0001");
   fs::copy(realdata + "/tac3d/HDL1-0001/config", copy, fs::copy_options::recursive);
-  ASSERT_EQ(RefusalOf(copy), "accepted");
-  Edit(copy, kVendorMarkersFile, R"(\n([0-9]+),([0-9]+)\r?\n)", "\n$1,1080\n");  // the vendor's lines end in CRLF
-  EXPECT_THAT(RefusalOf(copy), MatchesRegex(".*markers.txt: line 2: pixel \\([0-9]+, 1080\\) is outside the 1920 x "
+  ASSERT_EQ(CalibrationRefusalOf(copy), "accepted");
+  EditVendorFile(copy, kVendorMarkersFile, R"(\n([0-9]+),([0-9]+)\r?\n)", "\n$1,1080\n");  // the vendor's lines end in CRLF
+  EXPECT_THAT(CalibrationRefusalOf(copy), MatchesRegex(".*markers.txt: line 2: pixel \\([0-9]+, 1080\\) is outside the 1920 x "
                                              "1080 image of sensor.yaml"));
   fs::copy(realdata + "/tac3d/HDL1-0001/config/" + kVendorMarkersFile, fs::path(copy) / kVendorMarkersFile,
            fs::copy_options::overwrite_existing);
-  Edit(copy, kVendorParametersFile, R"(rotation: \[-0\.8093)", "rotation: [0.8093");
-  EXPECT_THAT(RefusalOf(copy), MatchesRegex(".*parameters.yaml: line [0-9]+: extrinsic.right.rotation: is not a "
+  EditVendorFile(copy, kVendorParametersFile, R"(rotation: \[-0\.8093)", "rotation: [0.8093");
+  EXPECT_THAT(CalibrationRefusalOf(copy), MatchesRegex(".*parameters.yaml: line [0-9]+: extrinsic.right.rotation: is not a "
                                              "rotation.*"));
 }
 

@@ -18,7 +18,7 @@ struct VendorEvaluationOptions {
   /// The recording's frame whose reference positions (3D_Positions - 3D_Displacements) are
   /// compared; the vendor's zero-point correction moves them between frames.
   std::int64_t reference_frame = 0;
-  VendorStereoOptions stereo;
+  VendorStereoOptions stereo = {};
 };
 
 /// Median, 95th percentile (linear interpolation, as NumPy's) and maximum of a set of errors.

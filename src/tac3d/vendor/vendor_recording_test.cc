@@ -17,12 +17,12 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-std::string Bytes(const fs::path& path) {
+std::string VendorFileBytes(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
   return std::string(std::istreambuf_iterator<char>(in), {});
 }
 
-NpyArray Doubles(std::vector<std::int64_t> shape, double first) {
+NpyArray CountingDoubles(std::vector<std::int64_t> shape, double first) {
   NpyArray a;
   a.shape = std::move(shape);
   std::vector<double> values(static_cast<std::size_t>(a.elements()));
@@ -35,12 +35,12 @@ NpyArray Doubles(std::vector<std::int64_t> shape, double first) {
 VendorRecording SmallRecording() {
   VendorRecording r;
   r.serial_number = "AD2-0065L";
-  r.positions = Doubles({4, 6, 3}, 1.0);
-  r.displacements = Doubles({4, 6, 3}, -0.3);
-  r.forces = Doubles({4, 6, 3}, 0.0);
-  r.resultant_force = Doubles({4, 1, 3}, -5.0);
-  r.resultant_moment = Doubles({4, 1, 3}, 0.25);
-  r.send_timestamp = Doubles({4}, 1455.025456);
+  r.positions = CountingDoubles({4, 6, 3}, 1.0);
+  r.displacements = CountingDoubles({4, 6, 3}, -0.3);
+  r.forces = CountingDoubles({4, 6, 3}, 0.0);
+  r.resultant_force = CountingDoubles({4, 1, 3}, -5.0);
+  r.resultant_moment = CountingDoubles({4, 1, 3}, 0.25);
+  r.send_timestamp = CountingDoubles({4}, 1455.025456);
   r.index.type = NpyType::kInt64;
   r.index.shape = {4};
   const std::int64_t index[] = {39715, 39716, 39717, 39719};
@@ -48,7 +48,7 @@ VendorRecording SmallRecording() {
   return r;
 }
 
-std::string RefusalOf(const std::string& folder) {
+std::string RecordingRefusalOf(const std::string& folder) {
   try {
     ReadVendorRecording(folder);
   } catch (const Error& e) {
@@ -69,7 +69,7 @@ TEST(VendorRecording, RoundTripsBitForBit) {
   EXPECT_EQ(back.ReferencePositions(1)(0, 0), VendorRecording::Frame(r.positions, 1)(0, 0) -
                                                   VendorRecording::Frame(r.displacements, 1)(0, 0));
   EXPECT_DOUBLE_EQ(VendorRecording::Frame(r.positions, 1)(2, 1), 1.0 + 0.1 * (18 + 6 + 1));
-  const std::string csv = Bytes(fs::path(dir) / "AD2-0065L" / "overview.csv");
+  const std::string csv = VendorFileBytes(fs::path(dir) / "AD2-0065L" / "overview.csv");
   EXPECT_THAT(csv, ::testing::StartsWith("index,timestamp,FRx,FRy,FRz,MRx,MRy,MRz\r\n39715,1455.025456,-5.0,-4.9,-4.8,"
                                          "0.25,0.35,0.45\r\n"));
 }
@@ -83,29 +83,29 @@ TEST(VendorRecording, RefusesMissingTruncatedAndMisshapenFields) {
   };
   std::string folder = written(good);
   fs::resize_file(fs::path(folder) / "3D_Forces.npy", fs::file_size(fs::path(folder) / "3D_Forces.npy") - 8);
-  EXPECT_THAT(RefusalOf(folder), HasSubstr("3D_Forces.npy': 568 data bytes where shape (4, 6, 3) of '<f8' needs 576 "
+  EXPECT_THAT(RecordingRefusalOf(folder), HasSubstr("3D_Forces.npy': 568 data bytes where shape (4, 6, 3) of '<f8' needs 576 "
                                            "(truncated)"));
   folder = written(good);
   fs::remove(fs::path(folder) / "sendTimestamp.npy");
-  EXPECT_THAT(RefusalOf(folder), HasSubstr("sendTimestamp.npy' is missing"));
+  EXPECT_THAT(RecordingRefusalOf(folder), HasSubstr("sendTimestamp.npy' is missing"));
 
   VendorRecording r = good;
-  r.displacements = Doubles({4, 5, 3}, 0.0);
+  r.displacements = CountingDoubles({4, 5, 3}, 0.0);
   const std::string dir = testing::MakeTempDir("misshapen");
   EXPECT_THROW(WriteVendorRecording(r, dir), Error);  // never writes what it could not read
   fs::create_directories(dir + "/SN");
   for (const char* field : kVendorRecordingFields) {
     fs::copy(fs::path(written(good)) / (std::string(field) + ".npy"), fs::path(dir) / "SN" / (std::string(field) + ".npy"));
   }
-  WriteNpy(dir + "/SN/3D_Displacements.npy", Doubles({4, 5, 3}, 0.0));
-  EXPECT_THAT(RefusalOf(dir), HasSubstr("3D_Displacements.npy': shape (4, 5, 3), expected (4, 6, 3)"));
+  WriteNpy(dir + "/SN/3D_Displacements.npy", CountingDoubles({4, 5, 3}, 0.0));
+  EXPECT_THAT(RecordingRefusalOf(dir), HasSubstr("3D_Displacements.npy': shape (4, 5, 3), expected (4, 6, 3)"));
   WriteNpy(dir + "/SN/3D_Displacements.npy", good.displacements);
-  WriteNpy(dir + "/SN/index.npy", Doubles({4}, 0.0));
-  EXPECT_THAT(RefusalOf(dir), HasSubstr("index.npy': dtype '<f8', a vendor recording's index is '<i8'"));
+  WriteNpy(dir + "/SN/index.npy", CountingDoubles({4}, 0.0));
+  EXPECT_THAT(RecordingRefusalOf(dir), HasSubstr("index.npy': dtype '<f8', a vendor recording's index is '<i8'"));
   WriteNpy(dir + "/SN/index.npy", good.index);
-  WriteNpy(dir + "/SN/3D_ResultantForce.npy", Doubles({4, 3}, 0.0));
-  EXPECT_THAT(RefusalOf(dir), HasSubstr("3D_ResultantForce.npy': shape (4, 3), expected (4, 1, 3)"));
-  EXPECT_THAT(RefusalOf(testing::MakeTempDir("empty")), HasSubstr("holds no vendor recording"));
+  WriteNpy(dir + "/SN/3D_ResultantForce.npy", CountingDoubles({4, 3}, 0.0));
+  EXPECT_THAT(RecordingRefusalOf(dir), HasSubstr("3D_ResultantForce.npy': shape (4, 3), expected (4, 1, 3)"));
+  EXPECT_THAT(RecordingRefusalOf(testing::MakeTempDir("empty")), HasSubstr("holds no vendor recording"));
   r = good;
   r.serial_number = "../x";
   EXPECT_THROW(WriteVendorRecording(r, testing::MakeTempDir("sn")), Error);
@@ -126,9 +126,9 @@ TEST(VendorRecording, RealRecordingsRoundTripByteForByte) {
     WriteVendorRecording(r, out);
     for (const char* field : kVendorRecordingFields) {
       const std::string file = std::string(field) + ".npy";
-      EXPECT_EQ(Bytes(fs::path(out) / r.serial_number / file), Bytes(fs::path(recordings[k]) / file)) << file;
+      EXPECT_EQ(VendorFileBytes(fs::path(out) / r.serial_number / file), VendorFileBytes(fs::path(recordings[k]) / file)) << file;
     }
-    EXPECT_EQ(Bytes(fs::path(out) / r.serial_number / "overview.csv"), Bytes(fs::path(recordings[k]) / "overview.csv"));
+    EXPECT_EQ(VendorFileBytes(fs::path(out) / r.serial_number / "overview.csv"), VendorFileBytes(fs::path(recordings[k]) / "overview.csv"));
     EXPECT_EQ(ReadVendorRecording(out), r);
   }
   // HDL1-0001 pressed and held: the resultant of frame 0 is about (-0.02, 0.06, -5.35) N.
