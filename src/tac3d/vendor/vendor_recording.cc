@@ -1,6 +1,7 @@
 #include "tac3d/vendor/vendor_recording.h"
 
 #include <charconv>
+#include <cstring>
 #include <filesystem>
 
 #include <fmt/format.h>
@@ -88,10 +89,16 @@ std::string CsvDouble(double v) {
 Eigen::MatrixX3d VendorRecording::Frame(const NpyArray& field, std::int64_t frame) {
   TAC3D_DEMAND(field.type == NpyType::kFloat64 && field.shape.size() == 3 && field.shape[2] == 3);
   TAC3D_DEMAND(frame >= 0 && frame < field.shape[0]);
-  const std::vector<double> values = field.Float64Values();
-  const std::int64_t rows = field.shape[1];
-  return Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(values.data() + frame * rows * 3,
-                                                                                      rows, 3);
+  const std::int64_t frames = field.shape[0], rows = field.shape[1];
+  Eigen::MatrixX3d values(rows, 3);
+  for (std::int64_t i = 0; i < rows; ++i) {
+    for (std::int64_t k = 0; k < 3; ++k) {
+      // Element (frame, i, k): C order has the last index fastest, Fortran order the first.
+      const std::int64_t at = field.fortran_order ? frame + frames * (i + rows * k) : (frame * rows + i) * 3 + k;
+      std::memcpy(&values(i, k), field.data.data() + at * sizeof(double), sizeof(double));
+    }
+  }
+  return values;
 }
 
 Eigen::MatrixX3d VendorRecording::ReferencePositions(std::int64_t frame) const {

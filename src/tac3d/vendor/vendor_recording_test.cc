@@ -1,5 +1,6 @@
 #include "tac3d/vendor/vendor_recording.h"
 
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -69,6 +70,20 @@ TEST(VendorRecording, RoundTripsBitForBit) {
   EXPECT_EQ(back.ReferencePositions(1)(0, 0), VendorRecording::Frame(r.positions, 1)(0, 0) -
                                                   VendorRecording::Frame(r.displacements, 1)(0, 0));
   EXPECT_DOUBLE_EQ(VendorRecording::Frame(r.positions, 1)(2, 1), 1.0 + 0.1 * (18 + 6 + 1));
+  // A field stored in Fortran order gives the same frames.
+  NpyArray fortran = r.positions;
+  fortran.fortran_order = true;
+  const std::vector<double> c_order = r.positions.Float64Values();
+  for (std::int64_t f = 0; f < 4; ++f) {
+    for (std::int64_t i = 0; i < 6; ++i) {
+      for (std::int64_t k = 0; k < 3; ++k) {
+        std::memcpy(fortran.data.data() + (f + 4 * (i + 6 * k)) * sizeof(double), &c_order[(f * 6 + i) * 3 + k],
+                    sizeof(double));
+      }
+    }
+  }
+  EXPECT_EQ(fortran.Float64Values(), c_order);
+  EXPECT_EQ(VendorRecording::Frame(fortran, 2), VendorRecording::Frame(r.positions, 2));
   const std::string csv = VendorFileBytes(fs::path(dir) / "AD2-0065L" / "overview.csv");
   EXPECT_THAT(csv, ::testing::StartsWith("index,timestamp,FRx,FRy,FRz,MRx,MRy,MRz\r\n39715,1455.025456,-5.0,-4.9,-4.8,"
                                          "0.25,0.35,0.45\r\n"));
