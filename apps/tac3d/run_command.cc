@@ -90,7 +90,7 @@ void RunFile(const RunArgs& a) {
 // The one-sensor flags that a run file replaces.
 constexpr std::initializer_list<const char*> kSensorFlags = {
     "--source", "--config", "--sn", "--udp", "--udp-items", "--udp-progress", "--allow-zero-under-load", "--record",
-    "--record-images", "--overwrite", "--reference-frames", "--weight", "--gains", "--drift", "--drift-time-constant", "--width",
+    "--record-images", "--overwrite", "--reference-frames", "--weight", "--gains", "--drift", "--drift-time-constant-s", "--width",
     "--height", "--fps", "--exposure", "--speed"};
 
 }  // namespace
@@ -132,7 +132,7 @@ void RegisterRun(CLI::App& app) {
   AddDriftOption(cmd, &sensor.drift.mode,
                  "drift at rest: off, flag (the default: drift_at_rest) or rezero (tracked out of "
                  "the reference; docs/pipeline.md)");
-  cmd->add_option("--drift-time-constant", sensor.drift.time_constant_s,
+  cmd->add_option("--drift-time-constant-s", sensor.drift.time_constant_s,
                   "time constant of the drift estimate at rest, s")
       ->capture_default_str();
   cmd->add_option("--max-frames", a->max_frames,
@@ -159,7 +159,7 @@ void RegisterRun(CLI::App& app) {
     if (const std::optional<std::string> path = runtime::RecordingSourcePath(a->sensor.source)) {
       RefuseOptions(*cmd,
                     {"--config", "--cache", "--reference-frames", "--weight", "--gains", "--drift",
-                     "--drift-time-constant", "--width", "--height", "--fps", "--exposure"},
+                     "--drift-time-constant-s", "--width", "--height", "--fps", "--exposure"},
                     "does not apply to a recording: its frames were computed when it was recorded");
       return RunRecording(*a, *path, /*replace_sn=*/cmd->count("--sn") > 0);
     }

@@ -48,11 +48,9 @@ def test_python_takes_every_cli_option_with_its_default(tac3d_cli):
 
 
 # `tac3d run`'s flags Python names otherwise or does not have: the sensor's serial number and
-# source are SensorSpec's positional arguments; --drift-time-constant is the run file's and
-# SensorSpec's drift_time_constant_s; --cache, --max-frames and --json are tac3d.run's
+# source are SensorSpec's positional arguments; --cache, --max-frames and --json are tac3d.run's
 # cache_dir, max_frames and json; --run-file is tac3d.load_run_file; the camera's size and the
 # web viewer are the CLI's only.
-RUN_RENAMED = {"drift_time_constant": "drift_time_constant_s"}
 RUN_ELSEWHERE = {"help", "sn", "source", "run_file", "cache", "max_frames", "json", "width",
                  "height", "web", "web_root", "web_hold"}
 
@@ -60,7 +58,7 @@ RUN_ELSEWHERE = {"help", "sn", "source", "run_file", "cache", "max_frames", "jso
 def test_sensor_spec_and_pipeline_take_tac3d_runs_options_with_its_defaults(tac3d_cli):
     cli = cli_flags_and_defaults(tac3d_cli, "run")
     spec = tac3d.SensorSpec("X", "camera:0")
-    names = {RUN_RENAMED.get(name, name) for name in set(cli) - RUN_ELSEWHERE}
+    names = set(cli) - RUN_ELSEWHERE
     assert names == {n for n in dir(spec) if not n.startswith("_")} - {"sn", "source"}
     # --speed prints 1, a recording's pace, but leaves a dataset unpaced unless given:
     # SensorSpec's None.
@@ -69,13 +67,13 @@ def test_sensor_spec_and_pipeline_take_tac3d_runs_options_with_its_defaults(tac3
     for name, printed in cli.items():
         if printed is None or name in RUN_ELSEWHERE | {"speed"}:
             continue
-        value = getattr(spec, RUN_RENAMED.get(name, name))
+        value = getattr(spec, name)
         if isinstance(value, str):
             assert value == printed, name
         else:
             assert float(printed) == value, name
         compared += 1
-    assert compared >= 4  # reference_frames, weight, drift_time_constant, fps at least
+    assert compared >= 4  # reference_frames, weight, drift_time_constant_s, fps at least
 
     # tac3d.Pipeline, one image at a time, takes the pipeline's options of both, alike.
     signature = tac3d.Pipeline.__init__.__doc__.splitlines()[0]
