@@ -15,9 +15,10 @@ import tac3d
 from conftest import SMALL_TWIN
 
 # `tac3d friction-map`'s flags that are not map options: its inputs and files (Python takes
-# the frames and poses as arguments and returns the map) and --config (Python's `config`).
-CLI_ONLY = {"help", "dataset", "calibration", "gains", "steps", "cache", "recording", "poses",
-            "out", "json", "view", "up", "config"}
+# the frames and poses as arguments and returns the map), --config (Python's `config`) and the
+# gain fit on --calibration (--gains, --min-r-squared: Python's frames carry their forces).
+CLI_ONLY = {"help", "dataset", "calibration", "gains", "min_r_squared", "steps", "cache",
+            "recording", "poses", "out", "json", "view", "up", "config"}
 
 
 def cli_flags_and_defaults(tac3d_cli, command):

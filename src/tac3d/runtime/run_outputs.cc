@@ -244,7 +244,9 @@ FrameLoopCounts FrameLoop(FrameOutputs& outputs,
     ++counts.emitted;
     outputs.Emit(*out.frame, out.image != nullptr ? *out.image : cv::Mat(), out.markers);
     while (const std::optional<SensorCommand> command = outputs.PollCommand()) {
-      if (*command == SensorCommand::kZero && outputs.AcceptZero(*out.frame)) on_zero();
+      if (*command == SensorCommand::kZero && (!out.zero_retakes_reference || outputs.AcceptZero(*out.frame))) {
+        on_zero();
+      }
       if (*command == SensorCommand::kStop) counts.quit = true;
     }
   }

@@ -135,6 +135,10 @@ struct ProducedFrame {
   const cv::Mat* image = nullptr;  ///< the frame's camera image (possibly empty), or null
   /// The tracker's markers in `image` (a pipeline's stream), or null (a recording's).
   const MarkerObservation* markers = nullptr;
+  /// Whether a `$C` retakes the reference of the frames to come (a pipeline's stream), so one
+  /// under load is refused (FrameOutputs::AcceptZero); a recording's frames were computed when
+  /// it was recorded, and its stream only notes the `$C`.
+  bool zero_retakes_reference = true;
 };
 
 /// Gives the next frame: fills `out`. `stop` is set by Ctrl-C, SIGTERM or the client's `$Q`; a
@@ -148,8 +152,8 @@ struct FrameLoopCounts {
 };
 
 /// One sensor's loop: takes frames from `produce` and emits them until it ends, `max_frames`
-/// (> 0) have been emitted, `stop` is set, or the client's `$Q`; a `$C` calls `on_zero` if
-/// outputs.AcceptZero of the frame just emitted.
+/// (> 0) have been emitted, `stop` is set, or the client's `$Q`; a `$C` calls `on_zero`, for a
+/// frame whose zero retakes the reference only if outputs.AcceptZero of the frame just emitted.
 /// Thread-safe for distinct outputs (the sensors of a run file each run one).
 FrameLoopCounts FrameLoop(FrameOutputs& outputs,
                           long max_frames,
