@@ -384,5 +384,23 @@ TEST(Cli, CalibrateSaysWhyAnImageIsRefused) {
   EXPECT_THAT(o.output, HasSubstr("its header claims 60000 x 60000 pixels"));
 }
 
+// `tac3d track` on what holds no frame: refused, saying what and where, nothing written.
+TEST(Cli, TrackRefusesAMalformedVideoAndAnEmptyFolder) {
+  const std::string dir = testing::MakeTempDir("track_refusals");
+  fs::create_directories(dir + "/empty");
+  Outcome o = RunCliBounded(fmt::format("track --source {0}/empty --out {0}/t.csv", dir));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr(fmt::format("image folder '{}/empty' holds no image file", dir)));
+  std::ofstream(dir + "/broken.avi") << "RIFF....AVI LIST: text, not a video";
+  o = RunCliBounded(fmt::format("track --source {0}/broken.avi --out {0}/t.csv", dir));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr(fmt::format("{}/broken.avi", dir)));
+  EXPECT_THAT(o.output, ::testing::AnyOf(HasSubstr("not a video"), HasSubstr("no frame decodes")));
+  o = RunCliBounded(fmt::format("track --source {0}/broken.avi --grid 8by10", dir));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("--grid '8by10' must be ROWSxCOLS"));
+  EXPECT_FALSE(fs::exists(dir + "/t.csv"));
+}
+
 }  // namespace
 }  // namespace tac3d

@@ -33,6 +33,7 @@ void RegisterRecording(CLI::App& app);  // recording_command.cc: `tac3d recordin
 void RegisterFrictionMap(CLI::App& app);
 void RegisterView(CLI::App& app);  // view_command.cc: `tac3d view`
 void RegisterImportVendor(CLI::App& app);  // vendor_command.cc: `tac3d import-vendor`
+void RegisterTrack(CLI::App& app);  // track_command.cc: `tac3d track`
 
 /// `tac3d eval <what>`: accuracy evaluations against the twin's truth or analytic oracles,
 /// each printing its figures (JSON with --json). Each adds itself to the `eval` group.

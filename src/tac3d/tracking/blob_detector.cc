@@ -437,6 +437,30 @@ BlobStatus MeasureBlob(const cv::Mat& image,
   return BlobStatus::kFound;
 }
 
+bool BlobReachesBorder(const cv::Mat& image,
+                       const cv::Rect& roi,
+                       const Blob& blob,
+                       double blob_radius_px) {
+  TAC3D_DEMAND(image.type() == CV_8UC1);
+  const double level = blob.background_dn - 0.5 * blob.contrast_dn;
+  const double cx = blob.center.x(), cy = blob.center.y(), r2 = blob_radius_px * blob_radius_px;
+  const int x0 = roi.x, x1 = roi.x + roi.width - 1, y0 = roi.y, y1 = roi.y + roi.height - 1;
+  auto weighted = [&](int x, int y) {
+    return (x - cx) * (x - cx) + (y - cy) * (y - cy) <= r2 && image.at<std::uint8_t>(y, x) < level;
+  };
+  const int xa = std::max(x0, static_cast<int>(std::floor(cx - blob_radius_px)));
+  const int xb = std::min(x1, static_cast<int>(std::ceil(cx + blob_radius_px)));
+  const int ya = std::max(y0, static_cast<int>(std::floor(cy - blob_radius_px)));
+  const int yb = std::min(y1, static_cast<int>(std::ceil(cy + blob_radius_px)));
+  for (int x = xa; x <= xb; ++x) {
+    if (weighted(x, y0) || weighted(x, y1)) return true;
+  }
+  for (int y = ya; y <= yb; ++y) {
+    if (weighted(x0, y) || weighted(x1, y)) return true;
+  }
+  return false;
+}
+
 std::vector<Blob> DetectBlobs(const cv::Mat& image, const cv::Rect& roi, const BlobOptions& options) {
   options.Validate();
   TAC3D_DEMAND(image.type() == CV_8UC1);

@@ -74,6 +74,17 @@ BlobStatus MeasureBlob(const cv::Mat& image,
                        const BlobOptions& options,
                        Blob& blob);
 
+/// Whether a measured blob's dot reaches the border of `roi`: a pixel of the roi's outermost
+/// rows or columns within `blob_radius_px` of its centre is darker than halfway from its
+/// background to its darkest pixel (the dot's edge; its blurred rim and the vignetting at an
+/// image's edge stay above that). The dot's pixels beyond the border are then missing from
+/// its centroid, which is pulled inward.
+/// @pre image is CV_8UC1, roi lies in it, blob as MeasureBlob found it.
+bool BlobReachesBorder(const cv::Mat& image,
+                       const cv::Rect& roi,
+                       const Blob& blob,
+                       double blob_radius_px);
+
 /// Finds every plausible dark blob in `roi` (for grid acquisition, not the per-frame
 /// path): the film's brightness by a grey closing and a box blur, darkness = film - image,
 /// a threshold relative to the film, connected components of plausible area, each then

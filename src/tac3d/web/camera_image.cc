@@ -25,18 +25,20 @@ cv::Point FixedPoint(const Eigen::Vector2d& p) {
 
 }  // namespace
 
-void ImageMarkersOf(const MarkerObservation& observation, std::vector<ImageMarker>& markers) {
-  markers.clear();
-  for (const HalfObservation& half : observation.halves) {
-    for (size_t i = 0; i < half.state.size(); ++i) {
-      const bool tracked = half.state[i] == MarkerState::kValid;
-      if (tracked && i < half.uv.size()) {
-        markers.push_back({half.uv[i].cast<float>(), true});
-      } else if (!tracked && i < half.estimate_uv.size() && half.estimate_uv[i].allFinite()) {
-        markers.push_back({half.estimate_uv[i].cast<float>(), false});
-      }
+void AppendImageMarkers(const GridObservation& view, std::vector<ImageMarker>& markers) {
+  for (size_t i = 0; i < view.state.size(); ++i) {
+    const bool tracked = view.state[i] == MarkerState::kValid;
+    if (tracked && i < view.uv.size()) {
+      markers.push_back({view.uv[i].cast<float>(), true});
+    } else if (!tracked && i < view.estimate_uv.size() && view.estimate_uv[i].allFinite()) {
+      markers.push_back({view.estimate_uv[i].cast<float>(), false});
     }
   }
+}
+
+void ImageMarkersOf(const MarkerObservation& observation, std::vector<ImageMarker>& markers) {
+  markers.clear();
+  for (const HalfObservation& half : observation.halves) AppendImageMarkers(half, markers);
 }
 
 cv::Mat DrawCameraImage(const cv::Mat& image, const std::vector<ImageMarker>& markers, int width) {

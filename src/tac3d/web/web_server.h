@@ -20,6 +20,7 @@
 namespace tac3d {
 
 struct MarkerObservation;  // tac3d/tracking/marker_tracker.h
+struct GridObservation;    // tac3d/tracking/grid_tracker.h
 
 /// A marker as the viewer draws it on the camera image.
 struct ImageMarker {
@@ -115,6 +116,9 @@ std::string FrameToJson(const TactileFrame& frame, double fps);
 /// tracked at its centroid (HalfObservation::uv), each other one lost at the tracker's estimate
 /// (HalfObservation::estimate_uv; left out where there is none).
 void ImageMarkersOf(const MarkerObservation& observation, std::vector<ImageMarker>& markers);
+/// One view's markers (a half, or a single-view sensor's image) appended to `markers`, as
+/// ImageMarkersOf.
+void AppendImageMarkers(const GridObservation& view, std::vector<ImageMarker>& markers);
 
 /// The camera image as the page shows it: downscaled to at most `width` px wide (INTER_AREA;
 /// never enlarged), CV_8UC1 without markers; with markers, CV_8UC3 (BGR) with each tracked

@@ -1,0 +1,255 @@
+#include "tac3d/tracking/single_view_tracker.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <utility>
+
+#include <Eigen/Dense>
+
+#include "tac3d/util/error.h"
+
+namespace tac3d {
+namespace {
+
+// Neighbours along the lattice are within this many median nearest distances (diagonal
+// neighbours of a square grid are at 1.41).
+constexpr double kStepReach = 1.25;
+// A blob is the lattice's next one within this fraction of the median nearest distance of
+// where a step predicts it.
+constexpr double kStepGate = 0.3;
+
+double Median(std::vector<double> v) {
+  TAC3D_DEMAND(!v.empty());
+  const auto mid = v.begin() + v.size() / 2;
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+struct Lattice {
+  Eigen::Vector2d column_step, row_step;
+  std::map<std::pair<int, int>, int> blob_at;  // (row, col) -> blob
+};
+
+// The two steps of the lattice: the medians of the offsets to the near neighbours, folded
+// along either image axis (right along the rows, down along the columns).
+Lattice FindSteps(const std::vector<Eigen::Vector2d>& centers, double& nearest_px) {
+  const size_t m = centers.size();
+  std::vector<double> nearest(m, std::numeric_limits<double>::infinity());
+  for (size_t i = 0; i < m; ++i) {
+    for (size_t j = 0; j < m; ++j) {
+      if (i != j) nearest[i] = std::min(nearest[i], (centers[j] - centers[i]).norm());
+    }
+  }
+  nearest_px = Median(nearest);
+  std::vector<double> ax, ay, bx, by;
+  for (size_t i = 0; i < m; ++i) {
+    for (size_t j = 0; j < m; ++j) {
+      const Eigen::Vector2d v = centers[j] - centers[i];
+      if (i == j || v.norm() > kStepReach * nearest_px) continue;
+      if (std::abs(v.x()) >= std::abs(v.y()) && v.x() > 0) {
+        ax.push_back(v.x());
+        ay.push_back(v.y());
+      } else if (std::abs(v.y()) > std::abs(v.x()) && v.y() > 0) {
+        bx.push_back(v.x());
+        by.push_back(v.y());
+      }
+    }
+  }
+  if (ax.empty() || bx.empty()) {
+    throw Error(fmt::format("marker grid: the {} dark blobs form no lattice (no neighbours along both "
+                            "image axes)", m));
+  }
+  return {{Median(ax), Median(ay)}, {Median(bx), Median(by)}, {}};
+}
+
+// Each blob's lattice coordinates, walking one step at a time from the blob nearest
+// `centre`.
+void WalkLattice(const std::vector<Eigen::Vector2d>& centers, double nearest_px, const Eigen::Vector2d& centre,
+                 Lattice& lattice) {
+  const int m = static_cast<int>(centers.size());
+  int start = 0;
+  for (int i = 1; i < m; ++i) {
+    if ((centers[i] - centre).norm() < (centers[start] - centre).norm()) start = i;
+  }
+  std::vector<std::pair<int, int>> coord(m);
+  std::vector<std::uint8_t> placed(m, 0);
+  std::vector<int> queue = {start};
+  placed[start] = 1;
+  coord[start] = {0, 0};
+  lattice.blob_at[{0, 0}] = start;
+  const double gate = kStepGate * nearest_px;
+  for (size_t head = 0; head < queue.size(); ++head) {
+    const int i = queue[head];
+    for (const auto& [dr, dc] : {std::pair{0, 1}, std::pair{0, -1}, std::pair{1, 0}, std::pair{-1, 0}}) {
+      const std::pair<int, int> at = {coord[i].first + dr, coord[i].second + dc};
+      if (lattice.blob_at.count(at)) continue;
+      const Eigen::Vector2d expected = centers[i] + dc * lattice.column_step + dr * lattice.row_step;
+      int best = -1;
+      for (int k = 0; k < m; ++k) {
+        if (placed[k] || (centers[k] - expected).norm() > gate) continue;
+        if (best < 0 || (centers[k] - expected).norm() < (centers[best] - expected).norm()) best = k;
+      }
+      if (best < 0) continue;
+      placed[best] = 1;
+      coord[best] = at;
+      lattice.blob_at[at] = best;
+      queue.push_back(best);
+    }
+  }
+}
+
+// The tracker's options for the grid's dots: its blob options sized to them, and where the
+// dots are smaller than the pitch fraction assumes, the centroid's disk narrowed to them (the
+// dots' radius plus 2.5 px of blur and margin).
+MarkerTrackerOptions NarrowedToDots(MarkerTrackerOptions options, const MarkerGrid& grid) {
+  options.blob = grid.blob;
+  const double pitch = std::min(grid.column_step_px.norm(), grid.row_step_px.norm());
+  options.blob_radius = std::min(options.blob_radius, (grid.dot_radius_px + 2.5) / pitch);
+  return options;
+}
+
+}  // namespace
+
+BlobOptions SizeBlobOptionsToDots(BlobOptions options, double spread_px) {
+  // The defaults' largest RMS radius is twice a Tac3D dot's.
+  const double scale = spread_px / (options.max_spread_px / 2);
+  if (!(scale > 1)) return options;
+  options.max_spread_px *= scale;
+  options.max_area_px = static_cast<int>(std::lround(options.max_area_px * scale * scale));
+  options.background_kernel_px = 2 * static_cast<int>(std::lround(options.background_kernel_px * scale / 2)) + 1;
+  options.max_elongation = std::max(options.max_elongation, 4.0);
+  return options;
+}
+
+MarkerGrid FindMarkerGrid(const cv::Mat& image, int rows, int cols, const BlobOptions& blob_options) {
+  if (rows < 0 || cols < 0) {
+    throw Error(fmt::format("marker grid: {} x {} markers (0 finds the size from the image)", rows, cols));
+  }
+  if (image.empty() || image.type() != CV_8UC1) {
+    throw Error("marker grid: the reference frame must be a non-empty 8-bit single channel image");
+  }
+  const cv::Rect whole(0, 0, image.cols, image.rows);
+  // The dots' size first, with room for dots up to a sixteenth of the image's side.
+  const int side = std::min(image.cols, image.rows);
+  BlobOptions probe = blob_options;
+  probe.max_spread_px = std::max(probe.max_spread_px, side / 16.0);
+  probe.max_area_px = std::max(probe.max_area_px, side * side / 64);
+  probe.background_kernel_px = std::max(probe.background_kernel_px, side / 16 * 2 + 1);
+  std::vector<double> spreads;
+  for (const Blob& b : DetectBlobs(image, whole, probe)) spreads.push_back(b.spread_px);
+  if (spreads.size() < 4) {
+    throw Error(fmt::format("marker grid: {} dark blobs in the reference frame, a grid needs at least 4",
+                            spreads.size()));
+  }
+  const BlobOptions sized = SizeBlobOptionsToDots(blob_options, Median(spreads));
+  const std::vector<Blob> blobs = DetectBlobs(image, whole, sized);
+  if (blobs.size() < 4) {
+    throw Error(fmt::format("marker grid: {} dark blobs in the reference frame, a grid needs at least 4",
+                            blobs.size()));
+  }
+  std::vector<Eigen::Vector2d> centers;
+  spreads.clear();
+  for (const Blob& b : blobs) {
+    centers.push_back(b.center);
+    spreads.push_back(b.spread_px);
+  }
+  double nearest_px = 0;
+  Lattice lattice = FindSteps(centers, nearest_px);
+  WalkLattice(centers, nearest_px, Eigen::Vector2d(image.cols - 1, image.rows - 1) / 2, lattice);
+  if (lattice.blob_at.size() < 4) {
+    throw Error(fmt::format("marker grid: only {} of the {} dark blobs lie on a lattice", lattice.blob_at.size(),
+                            blobs.size()));
+  }
+
+  // The extent: the lattice's, or the window of the given size holding the most blobs (the
+  // most centred of equals).
+  int r_min = 0, r_max = 0, c_min = 0, c_max = 0;
+  for (const auto& [at, i] : lattice.blob_at) {
+    r_min = std::min(r_min, at.first);
+    r_max = std::max(r_max, at.first);
+    c_min = std::min(c_min, at.second);
+    c_max = std::max(c_max, at.second);
+  }
+  MarkerGrid grid;
+  grid.rows = rows > 0 ? rows : r_max - r_min + 1;
+  grid.cols = cols > 0 ? cols : c_max - c_min + 1;
+  int best_r0 = r_min, best_c0 = c_min, best_count = -1, best_offcentre = 0;
+  for (int r0 = std::min(r_min, r_max - grid.rows + 1); r0 <= std::max(r_min, r_max - grid.rows + 1); ++r0) {
+    for (int c0 = std::min(c_min, c_max - grid.cols + 1); c0 <= std::max(c_min, c_max - grid.cols + 1); ++c0) {
+      int count = 0;
+      for (const auto& [at, i] : lattice.blob_at) {
+        count += at.first >= r0 && at.first < r0 + grid.rows && at.second >= c0 && at.second < c0 + grid.cols;
+      }
+      const int offcentre = std::abs(2 * r0 + grid.rows - 1 - r_min - r_max) +
+                            std::abs(2 * c0 + grid.cols - 1 - c_min - c_max);
+      if (count > best_count || (count == best_count && offcentre < best_offcentre)) {
+        best_count = count;
+        best_offcentre = offcentre;
+        best_r0 = r0;
+        best_c0 = c0;
+      }
+    }
+  }
+  grid.dot_radius_px = 2 * Median(spreads);
+  grid.blob = sized;
+  grid.column_step_px = lattice.column_step;
+  grid.row_step_px = lattice.row_step;
+
+  // Markers with a blob sit at it; the others where an affine map of the lattice puts
+  // them, moved by their detected neighbours' mean residual from it (a local distortion).
+  const int n = grid.rows * grid.cols;
+  Eigen::MatrixXd design(lattice.blob_at.size(), 3);
+  Eigen::MatrixXd target(lattice.blob_at.size(), 2);
+  int k = 0;
+  for (const auto& [at, i] : lattice.blob_at) {
+    design.row(k) << at.second, at.first, 1.0;
+    target.row(k++) = centers[i].transpose();
+  }
+  const Eigen::MatrixXd affine = design.colPivHouseholderQr().solve(target);  // 3 x 2
+  auto map = [&](int r, int c) -> Eigen::Vector2d { return (Eigen::RowVector3d(c, r, 1.0) * affine).transpose(); };
+  grid.uv.assign(n, Eigen::Vector2d::Zero());
+  grid.detected.assign(n, 0);
+  for (int r = 0; r < grid.rows; ++r) {
+    for (int c = 0; c < grid.cols; ++c) {
+      const auto it = lattice.blob_at.find({best_r0 + r, best_c0 + c});
+      if (it == lattice.blob_at.end()) continue;
+      grid.uv[r * grid.cols + c] = centers[it->second];
+      grid.detected[r * grid.cols + c] = 1;
+    }
+  }
+  for (int r = 0; r < grid.rows; ++r) {
+    for (int c = 0; c < grid.cols; ++c) {
+      if (grid.detected[r * grid.cols + c]) continue;
+      Eigen::Vector2d residual = Eigen::Vector2d::Zero();
+      int support = 0;
+      for (int dr = -1; dr <= 1; ++dr) {
+        for (int dc = -1; dc <= 1; ++dc) {
+          const int rr = r + dr, cc = c + dc;
+          if (rr < 0 || rr >= grid.rows || cc < 0 || cc >= grid.cols || !grid.detected[rr * grid.cols + cc]) continue;
+          residual += grid.uv[rr * grid.cols + cc] - map(best_r0 + rr, best_c0 + cc);
+          ++support;
+        }
+      }
+      grid.uv[r * grid.cols + c] = map(best_r0 + r, best_c0 + c) + (support > 0 ? residual / support : residual);
+    }
+  }
+  return grid;
+}
+
+SingleViewTracker::SingleViewTracker(const cv::Mat& reference, int rows, int cols,
+                                     const MarkerTrackerOptions& options)
+    : grid_(FindMarkerGrid(reference, rows, cols, options.blob)),
+      options_(NarrowedToDots(options, grid_)),
+      tracker_(grid_.rows, grid_.cols, cv::Rect(0, 0, reference.cols, reference.rows), grid_.uv, options_,
+               "the image") {
+  Track(reference, reference_);
+}
+
+void SingleViewTracker::Track(const cv::Mat& image, GridObservation& observation) {
+  CheckTrackerImage(image, tracker_.roi().width, tracker_.roi().height);
+  tracker_.Track(image, observation);
+}
+
+}  // namespace tac3d
