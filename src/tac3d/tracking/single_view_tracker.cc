@@ -19,6 +19,8 @@ constexpr double kStepReach = 1.25;
 // A blob is the lattice's next one within this fraction of the median nearest distance of
 // where a step predicts it.
 constexpr double kStepGate = 0.3;
+// A centroid's disk reaches this far past a dot's radius (blur and margin), px.
+constexpr double kDiskMarginPx = 2.5;
 
 double Median(std::vector<double> v) {
   TAC3D_DEMAND(!v.empty());
@@ -106,7 +108,7 @@ void WalkLattice(const std::vector<Eigen::Vector2d>& centers, double nearest_px,
 MarkerTrackerOptions NarrowedToDots(MarkerTrackerOptions options, const MarkerGrid& grid) {
   options.blob = grid.blob;
   const double pitch = std::min(grid.column_step_px.norm(), grid.row_step_px.norm());
-  options.blob_radius = std::min(options.blob_radius, (grid.dot_radius_px + 2.5) / pitch);
+  options.blob_radius = std::min(options.blob_radius, (grid.dot_radius_px + kDiskMarginPx) / pitch);
   return options;
 }
 
@@ -197,13 +199,22 @@ MarkerGrid FindMarkerGrid(const cv::Mat& image, int rows, int cols, const BlobOp
   grid.column_step_px = lattice.column_step;
   grid.row_step_px = lattice.row_step;
 
-  // Markers with a blob sit at it; the others where an affine map of the lattice puts
+  // Markers with a whole blob sit at it; the others (no blob, or one cut by the border,
+  // whose centroid is pulled inward) where an affine map of the lattice's whole blobs puts
   // them, moved by their detected neighbours' mean residual from it (a local distortion).
   const int n = grid.rows * grid.cols;
-  Eigen::MatrixXd design(lattice.blob_at.size(), 3);
-  Eigen::MatrixXd target(lattice.blob_at.size(), 2);
-  int k = 0;
+  const double disk_px = grid.dot_radius_px + kDiskMarginPx;  // as the tracker's
+  std::map<std::pair<int, int>, int> whole_at;
   for (const auto& [at, i] : lattice.blob_at) {
+    if (!BlobReachesBorder(image, whole, blobs[i], disk_px)) whole_at[at] = i;
+  }
+  if (whole_at.size() < 3) {
+    throw Error(fmt::format("marker grid: only {} blobs of the lattice are whole", whole_at.size()));
+  }
+  Eigen::MatrixXd design(whole_at.size(), 3);
+  Eigen::MatrixXd target(whole_at.size(), 2);
+  int k = 0;
+  for (const auto& [at, i] : whole_at) {
     design.row(k) << at.second, at.first, 1.0;
     target.row(k++) = centers[i].transpose();
   }
@@ -213,8 +224,8 @@ MarkerGrid FindMarkerGrid(const cv::Mat& image, int rows, int cols, const BlobOp
   grid.detected.assign(n, 0);
   for (int r = 0; r < grid.rows; ++r) {
     for (int c = 0; c < grid.cols; ++c) {
-      const auto it = lattice.blob_at.find({best_r0 + r, best_c0 + c});
-      if (it == lattice.blob_at.end()) continue;
+      const auto it = whole_at.find({best_r0 + r, best_c0 + c});
+      if (it == whole_at.end()) continue;
       grid.uv[r * grid.cols + c] = centers[it->second];
       grid.detected[r * grid.cols + c] = 1;
     }

@@ -14,10 +14,10 @@ namespace tac3d {
 struct MarkerGrid {
   int rows = 0;
   int cols = 0;
-  /// Per marker, row-major: its blob's centroid, or for a marker with no blob (cut by the
-  /// image's border, hidden) where the lattice of its neighbours puts it (px).
+  /// Per marker, row-major: its blob's centroid, or for a marker with no whole blob (cut by
+  /// the image's border, hidden) where the lattice of its neighbours puts it (px).
   std::vector<Eigen::Vector2d> uv;
-  /// Per marker: its blob was detected.
+  /// Per marker: its blob was detected whole (not cut by the image's border).
   std::vector<std::uint8_t> detected;
   /// The dots' radius: twice the median RMS radius of the detected blobs (a uniform disk's
   /// edge), px.

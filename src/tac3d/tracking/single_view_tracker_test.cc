@@ -14,8 +14,9 @@
 #include "tac3d/util/error.h"
 #include "tac3d/vendor/test_vendor_folder.h"
 
-namespace tac3d {
-namespace {
+// A named namespace: the test program compiles test files together (unity batches), where
+// another file's anonymous-namespace helpers would clash with these.
+namespace tac3d::single_view_test {
 
 // As marker_tracker_test: a centroid is off by a few hundredths of a pixel from the noise
 // alone; a swapped identity would be a pitch (30 px here) off.
@@ -136,7 +137,9 @@ TEST(SingleViewTracker, FollowsAPressAndFlagsAHiddenMarker) {
     if (hide) {
       EXPECT_EQ(o.state[hidden], MarkerState::kNotFound);
       EXPECT_TRUE(o.supported[hidden]);
-      EXPECT_LT((o.estimate_uv[hidden] - truth[hidden]).norm(), 1.0);
+      // Its neighbours' mean displacement, in a press whose strain there reaches 0.24: within
+      // a tenth of the pitch, well inside the gate (0.2 pitch) that finds it again.
+      EXPECT_LT((o.estimate_uv[hidden] - truth[hidden]).norm(), 0.1 * kPitchPx);
     }
     std::printf("frame %zu, press %.0f px: rms %.4f px\n", k, depths[k], rms);
   }
@@ -265,5 +268,4 @@ TEST(SingleViewTracker, RealGelSightMiniVideoTrackedWithoutLossSwapOrJitter) {
               reference.valid_markers, jitter.x(), jitter.y());
 }
 
-}  // namespace
-}  // namespace tac3d
+}  // namespace tac3d::single_view_test
