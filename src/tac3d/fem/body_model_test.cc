@@ -111,10 +111,10 @@ TEST(MarkerPositions, GivenPositionsAreValidatedAndKept) {
   BodyModelOptions options = SmallDome();
   options.base_center_mm = Eigen::Vector3d(0.4, -0.2, 1.5);
   const std::vector<Eigen::Vector3d> grid = CalcMarkerPositions(options);
-  for (const Eigen::Vector3d& p : grid) {
-    const Eigen::Vector3d from_base = p - options.base_center_mm;
-    EXPECT_NEAR(from_base.z(), options.SurfaceHeight(from_base.head<2>().norm()) - 0.5, 1e-3);
-  }
+  // The grid moves with the base: 0.5 mm under the outer sphere, whose centre moved too.
+  const Eigen::Vector3d sphere_center = options.base_center_mm + Eigen::Vector3d(0, 0, options.sphere_center_z_mm());
+  for (const Eigen::Vector3d& p : grid) EXPECT_NEAR((p - sphere_center).norm(), 20.0 - 0.5, 1e-12);
+  EXPECT_NEAR(grid[0].x(), 0.4 - 1.5 * 1.27, 1e-12);
   options.marker_positions_mm = grid;
   options.marker_positions_mm[5].z() -= 0.2;
   EXPECT_EQ(CalcMarkerPositions(options), options.marker_positions_mm);
