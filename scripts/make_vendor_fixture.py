@@ -1,8 +1,10 @@
 #!/usr/bin/env python3
 """Writes src/tac3d/vendor/test_hdl1_0001.h, the vendor tests' fixture, from the real sensor
 HDL1-0001's files in ../shared/realdata (docs/real-sensors.md): the calibration values, the 800
-reference pixels and the recording's reference positions (frame 0's 3D_Positions -
-3D_Displacements, rounded to 1e-6 mm), so the tests run where ../shared is absent.
+reference pixels, the recording's reference positions (frame 0's 3D_Positions -
+3D_Displacements, rounded to 1e-6 mm), and two of its frames (the first and the last: their
+3D_Displacements, 3D_Forces and 3D_ResultantForce, rounded to 1e-6 mm and N), so the tests run
+where ../shared is absent.
 Usage: /usr/bin/python3 scripts/make_vendor_fixture.py [REALDATA_DIR]"""
 import os
 import sys
@@ -19,8 +21,11 @@ recording = os.path.join(sensor, "recording", "Tac3D_Record_20241227_161029", "H
 p = yaml.safe_load(open(os.path.join(config, "Reconstruction3D", "parameters.yaml")))
 d = yaml.safe_load(open(os.path.join(config, "datasheet.yaml")))
 pixels = np.loadtxt(os.path.join(config, "DMP3_by_Zhang", "markers.txt"), delimiter=",")
-reference = (np.load(os.path.join(recording, "3D_Positions.npy"))[0] -
-             np.load(os.path.join(recording, "3D_Displacements.npy"))[0])
+displacements = np.load(os.path.join(recording, "3D_Displacements.npy"))
+forces = np.load(os.path.join(recording, "3D_Forces.npy"))
+resultants = np.load(os.path.join(recording, "3D_ResultantForce.npy"))
+reference = np.load(os.path.join(recording, "3D_Positions.npy"))[0] - displacements[0]
+frames = [0, len(displacements) - 1]
 assert pixels.shape == (800, 2) and reference.shape == (400, 3)
 assert np.all(pixels == np.round(pixels)), "the fixture stores whole pixels"
 
@@ -83,6 +88,20 @@ out.append("}};\n\n/// The recording's reference positions (mm, sensor frame), m
 out.append("inline constexpr std::array<std::array<double, 3>, 400> kReferencePositionsMm = {{\n")
 for x, y, z in reference:
     out.append(f"    {{{x:.6f}, {y:.6f}, {z:.6f}}},\n")
+out.append("}};\n\n/// Frames " + " and ".join(str(k) for k in frames) + " of the recording (of its "
+           f"{len(displacements)}): 3D_Displacements (mm) and 3D_Forces (N), marker by marker, and "
+           "3D_ResultantForce (N).\n")
+out.append("struct RecordedFrame {\n  std::array<std::array<double, 3>, 400> displacements_mm;\n"
+           "  std::array<std::array<double, 3>, 400> forces_n;\n  std::array<double, 3> resultant_force_n;\n};\n")
+out.append(f"inline constexpr std::array<RecordedFrame, {len(frames)}> kRecordedFrames = {{{{\n")
+for k in frames:
+    out.append("    {{{\n")
+    for field, end in ((displacements[k], "     }}, {{\n"), (forces[k], "     }},\n")):
+        for x, y, z in field:
+            out.append(f"         {{{x:.6f}, {y:.6f}, {z:.6f}}},\n")
+        out.append(end)
+    x, y, z = resultants[k][0]
+    out.append(f"     {{{x:.6f}, {y:.6f}, {z:.6f}}}}},\n")
 out.append("}};\n\n}  // namespace tac3d::testing::hdl1_0001\n")
 path = os.path.join(root, "src", "tac3d", "vendor", "test_hdl1_0001.h")
 open(path, "w").write("".join(out))

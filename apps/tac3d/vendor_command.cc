@@ -49,6 +49,8 @@ void RegisterEvalVendor(CLI::App& eval) {
     std::string config;
     std::string recording;
     VendorEvaluationOptions options;
+    VendorForceOptions forces = {.cache_dir = DefaultCacheDir()};
+    bool no_forces = false;
     bool no_distortion = false;
     bool no_refraction = false;
     bool json = false;
@@ -63,10 +65,28 @@ void RegisterEvalVendor(CLI::App& eval) {
       ->capture_default_str();
   cmd->add_flag("--no-distortion", args->no_distortion, "triangulate without the lens distortion (to measure it)");
   cmd->add_flag("--no-refraction", args->no_refraction, "triangulate without the refraction (to measure it)");
+  cmd->add_flag("--no-forces", args->no_forces, "the reference positions only (no FEM model of the gel)");
+  VendorGelOptions& gel = args->forces.gel;
+  cmd->add_option("--marker-depth-mm", gel.marker_depth_mm, "the gel's assumed marker depth under its surface")
+      ->capture_default_str();
+  cmd->add_option("--base-offset-mm", gel.base_offset_mm,
+                  "the gel's base above the refraction plane (negative: a thicker gel)")
+      ->capture_default_str();
+  cmd->add_option("--base-diameter-mm", gel.base_diameter_mm,
+                  "the gel's base diameter (0: where the markers' sphere meets the base)")
+      ->capture_default_str();
+  cmd->add_option("--refinement", gel.refinement, "the gel's FEM mesh refinement (1 = the paper's mesh)")
+      ->capture_default_str();
+  cmd->add_option("--min-resultant-n", args->forces.min_resultant_n,
+                  "compare the frames whose recorded |resultant| exceeds this (N)")
+      ->capture_default_str();
+  cmd->add_option("--cache", args->forces.cache_dir, "directory of cached compliance models")->capture_default_str();
   cmd->add_flag("--json", args->json, "print JSON");
   cmd->callback([args] {
     args->options.stereo.undistort = !args->no_distortion;
     args->options.stereo.refract = !args->no_refraction;
+    args->forces.show_progress = !args->json;
+    if (!args->no_forces) args->options.forces = args->forces;
     const VendorEvaluation evaluation = EvaluateVendorRecording(
         LoadSensorConfig(args->config), ReadVendorRecording(args->recording), args->options);
     if (args->json) {

@@ -2,6 +2,7 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numbers>
 
@@ -41,9 +42,44 @@ void RequirePositive(double value, const char* field) {
   }
 }
 
-// Half-width of the central block: the marker grid with its load patches.
+// Half-width of the central block about the axis: the markers with their load patches.
 double CentralHalfWidth(const BodyModelOptions& options) {
-  return 0.5 * std::max(options.marker_rows, options.marker_cols) * options.marker_pitch_mm;
+  if (options.marker_positions_mm.empty()) {
+    return 0.5 * std::max(options.marker_rows, options.marker_cols) * options.marker_pitch_mm;
+  }
+  double half_width = 0.0;
+  for (const Eigen::Vector3d& p : options.marker_positions_mm) {
+    const Eigen::Vector2d from_axis = (p - options.base_center_mm).head<2>();
+    half_width = std::max(half_width, from_axis.cwiseAbs().maxCoeff());
+  }
+  return half_width + 0.5 * options.marker_pitch_mm;
+}
+
+// Given marker positions: rows x cols of them, finite, inside the body.
+void ValidateGivenMarkers(const BodyModelOptions& options) {
+  const auto count = static_cast<int>(options.marker_positions_mm.size());
+  if (count != options.num_markers()) {
+    throw Error(fmt::format("BodyModelOptions.marker_positions_mm has {} positions, the {} x {} "
+                            "grid needs {}",
+                            count,
+                            options.marker_rows,
+                            options.marker_cols,
+                            options.num_markers()));
+  }
+  for (int k = 0; k < count; ++k) {
+    const Eigen::Vector3d p = options.marker_positions_mm[k] - options.base_center_mm;
+    const double r = p.head<2>().norm();
+    if (!p.allFinite() || !(r <= 0.95 * options.base_radius_mm()) || !(p.z() > 0.0) ||
+        !(p.z() < options.SurfaceHeight(r))) {
+      throw Error(fmt::format(
+          "BodyModelOptions.marker_positions_mm[{}] ({}, {}, {}) mm is not inside the body (within "
+          "0.95 x the base radius of the axis, between the base and the outer surface)",
+          k,
+          options.marker_positions_mm[k].x(),
+          options.marker_positions_mm[k].y(),
+          options.marker_positions_mm[k].z()));
+    }
+  }
 }
 
 // Radius of the outermost marker from the axis (mm).
@@ -159,9 +195,14 @@ void BodyModelOptions::Validate() const {
                     corner,
                     0.95 * base_radius_mm()));
   }
+  if (!base_center_mm.allFinite()) {
+    throw Error("BodyModelOptions.base_center_mm must be finite");
+  }
   const double max_depth =
       sphere_radius_mm - std::hypot(OutermostMarkerRadius(*this), sphere_center_z_mm());
-  if (!(marker_depth_mm > 0.0 && marker_depth_mm < max_depth)) {
+  if (!marker_positions_mm.empty()) {
+    ValidateGivenMarkers(*this);
+  } else if (!(marker_depth_mm > 0.0 && marker_depth_mm < max_depth)) {
     throw Error(fmt::format(
         "BodyModelOptions.marker_depth_mm must be in (0, {}) mm (the body's depth at the "
         "outermost marker), got {}",
@@ -196,7 +237,7 @@ BodyModelOptions BodyModelOptionsFromSensor(const SensorConfig& config) {
 }
 
 nlohmann::json ToJson(const BodyModelOptions& options) {
-  return {
+  nlohmann::json json = {
       {"base_diameter_mm", options.base_diameter_mm},
       {"thickness_mm", options.thickness_mm},
       {"sphere_radius_mm", options.sphere_radius_mm},
@@ -209,6 +250,15 @@ nlohmann::json ToJson(const BodyModelOptions& options) {
       {"marker_depth_mm", options.marker_depth_mm},
       {"refinement", options.refinement},
   };
+  if (!options.base_center_mm.isZero(0.0)) {
+    json["base_center_mm"] = {
+        options.base_center_mm.x(), options.base_center_mm.y(), options.base_center_mm.z()};
+  }
+  if (!options.marker_positions_mm.empty()) {
+    nlohmann::json& markers = json["marker_positions_mm"] = nlohmann::json::array();
+    for (const Eigen::Vector3d& p : options.marker_positions_mm) markers.push_back({p.x(), p.y(), p.z()});
+  }
+  return json;
 }
 
 BodyModelOptions BodyModelOptionsFromJson(const nlohmann::json& json) {
@@ -231,6 +281,16 @@ BodyModelOptions BodyModelOptionsFromJson(const nlohmann::json& json) {
     options.marker_pitch_mm = json.at("marker_pitch_mm").get<double>();
     options.marker_depth_mm = json.at("marker_depth_mm").get<double>();
     options.refinement = json.at("refinement").get<double>();
+    const auto point = [](const nlohmann::json& xyz) {
+      const auto v = xyz.get<std::array<double, 3>>();
+      return Eigen::Vector3d(v[0], v[1], v[2]);
+    };
+    if (json.contains("base_center_mm")) options.base_center_mm = point(json["base_center_mm"]);
+    if (json.contains("marker_positions_mm")) {
+      for (const nlohmann::json& p : json["marker_positions_mm"]) {
+        options.marker_positions_mm.push_back(point(p));
+      }
+    }
     return options;
   } catch (const nlohmann::json::exception& e) {
     throw Error(fmt::format("BodyModelOptions from JSON: {}", e.what()));
@@ -239,6 +299,7 @@ BodyModelOptions BodyModelOptionsFromJson(const nlohmann::json& json) {
 
 std::vector<Eigen::Vector3d> CalcMarkerPositions(const BodyModelOptions& options) {
   options.Validate();
+  if (!options.marker_positions_mm.empty()) return options.marker_positions_mm;
   const double radius = options.sphere_radius_mm - options.marker_depth_mm;
   std::vector<Eigen::Vector3d> markers;
   markers.reserve(options.num_markers());
@@ -247,7 +308,7 @@ std::vector<Eigen::Vector3d> CalcMarkerPositions(const BodyModelOptions& options
       const double x = (j - 0.5 * (options.marker_cols - 1)) * options.marker_pitch_mm;
       const double y = (i - 0.5 * (options.marker_rows - 1)) * options.marker_pitch_mm;
       const double z = options.sphere_center_z_mm() + std::sqrt(radius * radius - x * x - y * y);
-      markers.emplace_back(x, y, z);
+      markers.push_back(options.base_center_mm + Eigen::Vector3d(x, y, z));
     }
   }
   return markers;
@@ -326,7 +387,8 @@ DomeMesh BuildDomeMesh(const BodyModelOptions& options) {
   for (int l = 0; l <= nz; ++l) {
     for (const Eigen::Vector2d& p : planar) {
       const double height = options.SurfaceHeight(p.norm());
-      dome.mesh.nodes.emplace_back(p.x(), p.y(), (1.0 - depth[nz - l]) * height);
+      dome.mesh.nodes.push_back(options.base_center_mm +
+                                Eigen::Vector3d(p.x(), p.y(), (1.0 - depth[nz - l]) * height));
     }
   }
   for (int l = 0; l < nz; ++l) {
@@ -377,7 +439,8 @@ Eigen::SparseMatrix<double> BodyModel::CalcMarkerPatchLoads() const {
 
   std::vector<Eigen::Triplet<double>> triplets;
   for (int k = 0; k < num_markers; ++k) {
-    const Eigen::Vector3d& marker = marker_positions_[k];
+    // The central block's cells are about the axis.
+    const Eigen::Vector3d marker = marker_positions_[k] - options_.base_center_mm;
     const double x0 = marker.x() - half_pitch, x1 = marker.x() + half_pitch;
     const double y0 = marker.y() - half_pitch, y1 = marker.y() + half_pitch;
     // The central block's outer-surface elements under the patch, and the part of each.

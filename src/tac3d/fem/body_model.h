@@ -18,11 +18,13 @@ namespace tac3d::fem {
 enum class LateralBoundary { kFree, kFixed };
 
 /// The silicone fingertip of a Tac3D sensor and its FEM mesh, in the sensor frame (mm):
-/// the base is a disc in the plane z = 0 bonded to the rigid glass plate (every base node
-/// fixed); the outer surface is a sphere whose top is at z = thickness on the axis; the
-/// lateral face is the cylinder r = base radius between the two. Markers sit on a square
-/// grid on the sphere concentric with the outer surface, marker_depth below it. Defaults are
-/// the paper's prototype (Zhang et al., Tac3D, section III.A and IV.A).
+/// the base is a disc in the horizontal plane through base_center_mm bonded to the rigid
+/// glass plate (every base node fixed); the outer surface is a sphere whose top is thickness
+/// above the base on the axis (the vertical line through base_center_mm); the lateral face is
+/// the cylinder r = base radius about the axis between the two. Markers sit on a square grid
+/// on the sphere concentric with the outer surface, marker_depth below it, or where
+/// marker_positions_mm puts them (a real sensor's measured rest positions). Defaults are the
+/// paper's prototype (Zhang et al., Tac3D, section III.A and IV.A).
 struct BodyModelOptions {
   /// Diameter of the base disc (mm).
   double base_diameter_mm = 40.0;
@@ -42,18 +44,28 @@ struct BodyModelOptions {
   /// Multiplies the element count in every direction; 1 = the paper's mesh (in-plane edge
   /// pitch / 3 under the sensing area).
   double refinement = 1.0;
+  /// Centre of the base disc (mm, sensor frame); the prototype's is the origin, an imported
+  /// sensor's is under its dome's fitted centre, on its refraction plane.
+  Eigen::Vector3d base_center_mm = Eigen::Vector3d::Zero();
+  /// The markers' rest positions (mm, sensor frame) in index order, or empty for the square
+  /// grid above. Given, they replace the grid (marker_depth_mm then only records how deep the
+  /// outer surface was put above them); the central mesh block then spans their load patches.
+  std::vector<Eigen::Vector3d> marker_positions_mm;
 
   /// @throws tac3d::Error naming the field and the bound it breaks: every length > 0;
   ///   sphere radius > base radius and the sphere above z = 0 at the rim; the marker grid's
   ///   load patches (a square of half-width max(rows, cols) pitch / 2) inside the base with
   ///   its corners within 0.95 of the base radius; 0 < marker depth < the body's height at the
-  ///   outermost marker; rows, cols in [1, 200]; refinement in [0.25, 4]; the material's bounds.
+  ///   outermost marker; rows, cols in [1, 200]; refinement in [0.25, 4]; the material's bounds;
+  ///   base_center_mm finite; given marker positions: rows x cols of them, each finite and
+  ///   inside the body (its radius from the axis within 0.95 of the base radius, above the base
+  ///   and under the outer surface).
   void Validate() const;
 
   double base_radius_mm() const { return 0.5 * base_diameter_mm; }
-  /// z of the sphere's centre (mm), on the axis below the base.
+  /// z of the sphere's centre (mm, relative to the base plane), on the axis below the base.
   double sphere_center_z_mm() const { return thickness_mm - sphere_radius_mm; }
-  /// Height of the outer surface above the base at radius r (mm).
+  /// Height of the outer surface above the base at radius r from the axis (mm).
   double SurfaceHeight(double r_mm) const;
   int num_markers() const { return marker_rows * marker_cols; }
 };
@@ -61,11 +73,14 @@ struct BodyModelOptions {
 /// The body a SensorConfig describes (elastic body, markers), at refinement 1.
 BodyModelOptions BodyModelOptionsFromSensor(const SensorConfig& config);
 
+/// Every option; base_center_mm and marker_positions_mm only when not their defaults, so a
+/// prototype's JSON (and its compliance cache key) is what it was before they existed.
 nlohmann::json ToJson(const BodyModelOptions& options);
 /// @throws tac3d::Error on a missing field or a wrong type.
 BodyModelOptions BodyModelOptionsFromJson(const nlohmann::json& json);
 
-/// Marker positions (mm, sensor frame) in index order i * cols + j.
+/// Marker positions (mm, sensor frame) in index order i * cols + j: marker_positions_mm if
+/// given, else the grid.
 std::vector<Eigen::Vector3d> CalcMarkerPositions(const BodyModelOptions& options);
 
 /// The dome's hexahedral mesh: an O-grid in the base plane (a square block of uniform spacing
@@ -77,7 +92,7 @@ struct DomeMesh {
   std::vector<bool> fixed;
   /// Elements whose top face (zeta = +1) lies on the outer surface.
   std::vector<int> outer_surface_elements;
-  /// Half-width (mm) and elements a side of the central square block.
+  /// Half-width (mm) and elements a side of the central square block, centred on the axis.
   double central_half_width_mm = 0.0;
   int central_elements = 0;
   int ring_elements = 0;
@@ -131,7 +146,7 @@ class BodyModel {
 
   /// Nodal forces (num_dofs x 3N) for a unit force (1 N) in x, y, z spread uniformly by area
   /// over the outer-surface patch of each marker, the pitch x pitch square around the
-  /// marker's (x, y) on the sphere; column c * N + k for direction c, marker k (eq. 1's F).
+  /// marker's (x, y) on the sphere (clipped to the central block); column c * N + k for direction c, marker k (eq. 1's F).
   Eigen::SparseMatrix<double> CalcMarkerPatchLoads() const;
 
   /// The interpolation (3 P x num_dofs, rows c * P + p) of the displacement at P points.

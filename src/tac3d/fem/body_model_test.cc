@@ -107,6 +107,43 @@ TEST(MarkerPositions, GridOrderAndDepth) {
   EXPECT_NEAR(markers[399].x(), 9.5 * 1.27, 1e-12);
 }
 
+TEST(MarkerPositions, GivenPositionsAreValidatedAndKept) {
+  BodyModelOptions options = SmallDome();
+  options.base_center_mm = Eigen::Vector3d(0.4, -0.2, 1.5);
+  const std::vector<Eigen::Vector3d> grid = CalcMarkerPositions(options);
+  // The grid moves with the base: 0.5 mm under the outer sphere, whose centre moved too.
+  const Eigen::Vector3d sphere_center = options.base_center_mm + Eigen::Vector3d(0, 0, options.sphere_center_z_mm());
+  for (const Eigen::Vector3d& p : grid) EXPECT_NEAR((p - sphere_center).norm(), 20.0 - 0.5, 1e-12);
+  EXPECT_NEAR(grid[0].x(), 0.4 - 1.5 * 1.27, 1e-12);
+  options.marker_positions_mm = grid;
+  options.marker_positions_mm[5].z() -= 0.2;
+  EXPECT_EQ(CalcMarkerPositions(options), options.marker_positions_mm);
+  const BodyModelOptions back = BodyModelOptionsFromJson(ToJson(options));
+  EXPECT_EQ(back.marker_positions_mm, options.marker_positions_mm);
+  EXPECT_EQ(back.base_center_mm, options.base_center_mm);
+  EXPECT_FALSE(ToJson(SmallDome()).contains("marker_positions_mm"));
+  EXPECT_FALSE(ToJson(SmallDome()).contains("base_center_mm"));
+
+  BodyModelOptions broken = options;
+  broken.marker_positions_mm.pop_back();
+  try {
+    broken.Validate();
+    ADD_FAILURE() << "11 positions for 12 markers accepted";
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(),
+                 "BodyModelOptions.marker_positions_mm has 11 positions, the 3 x 4 grid needs 12");
+  }
+  broken = options;
+  broken.marker_positions_mm[3].z() += 0.6;  // above the outer surface
+  EXPECT_THROW(broken.Validate(), Error);
+  broken = options;
+  broken.marker_positions_mm[3].z() = 1.4;  // under the base
+  EXPECT_THROW(broken.Validate(), Error);
+  broken = options;
+  broken.marker_positions_mm[0].x() = 0.4 + 5.8;  // beyond 0.95 of the 6 mm base radius
+  EXPECT_THROW(broken.Validate(), Error);
+}
+
 TEST(DomeMesh, DefaultMeshIsValidWithThePapersElementSize) {
   const BodyModelOptions options;
   const DomeMesh dome = BuildDomeMesh(options);
@@ -234,6 +271,22 @@ TEST(ComplianceModel, RespectsTheDomesMirrorSymmetries) {
     EXPECT_GT(model.h(k, k), 0.0);
   }
   EXPECT_EQ(model.provenance.num_elements, BuildDomeMesh(SmallDome()).mesh.num_elements());
+}
+
+TEST(ComplianceModel, IsTheSameForTheSameBodyMoved) {
+  // A body moved (its base centre) with its markers given where they moved to is the same
+  // body: H is unchanged; the markers are where they were put.
+  const ComplianceModel at_origin = CalcComplianceModel(SmallDome());
+  BodyModelOptions moved = SmallDome();
+  const Eigen::Vector3d offset(-0.4, 0.3, 2.0);
+  moved.base_center_mm = offset;
+  for (const Eigen::Vector3d& p : at_origin.marker_positions) {
+    moved.marker_positions_mm.push_back(p + offset);
+  }
+  const ComplianceModel model = CalcComplianceModel(moved);
+  EXPECT_LT((model.h - at_origin.h).cwiseAbs().maxCoeff(), 1e-9 * at_origin.h.cwiseAbs().maxCoeff());
+  EXPECT_EQ(model.marker_positions, moved.marker_positions_mm);
+  EXPECT_NE(CalcComplianceCacheKey(moved), CalcComplianceCacheKey(SmallDome()));
 }
 
 TEST(ComplianceModel, FixedLateralFaceStiffensTheRim) {

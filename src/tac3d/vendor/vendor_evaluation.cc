@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "tac3d/force/force_reconstructor.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/json_number.h"
 
@@ -24,7 +25,147 @@ nlohmann::json Json(const ErrorSummary& s) {
   return {{"median", FiniteOrNull(s.median)}, {"p95", FiniteOrNull(s.p95)}, {"max", FiniteOrNull(s.max)}, {"count", s.count}};
 }
 
+nlohmann::json Json(const ResultantErrors& e) {
+  const Eigen::Vector3d& f = e.median_resultant_n;
+  return {{"x", Json(e.axis_pct[0])},
+          {"y", Json(e.axis_pct[1])},
+          {"z", Json(e.axis_pct[2])},
+          {"magnitude", Json(e.magnitude_pct)},
+          {"vector", Json(e.vector_pct)},
+          {"median_magnitude_ratio", FiniteOrNull(e.median_magnitude_ratio)},
+          {"median_resultant_n", {FiniteOrNull(f.x()), FiniteOrNull(f.y()), FiniteOrNull(f.z())}}};
+}
+
+nlohmann::json Json(const VendorForceEvaluation& f) {
+  const Eigen::Vector3d& r = f.median_recorded_resultant_n;
+  return {{"resultant_error_pct", Json(f.tac3d)},
+          {"support_resolve_error_pct", Json(f.tac3d_support_resolve)},
+          {"vendor_marker_sum_error_pct", Json(f.vendor_marker_sum)},
+          {"frames_compared", f.frames_compared},
+          {"frames_support_refined", f.frames_support_refined},
+          {"min_resultant_n", f.options.min_resultant_n},
+          {"median_recorded_resultant_n", {FiniteOrNull(r.x()), FiniteOrNull(r.y()), FiniteOrNull(r.z())}},
+          {"position_noise_mm", {f.position_noise_mm.x(), f.position_noise_mm.y(), f.position_noise_mm.z()}},
+          {"weight", ToJson(f.weight)},
+          {"gel",
+           {{"assumptions", ToJson(f.options.gel)},
+            {"description", f.gel_description},
+            {"body", fem::ToJson(f.body)},
+            {"compliance", fem::ToJson(f.compliance)}}}};
+}
+
+// One line of the report: an estimate's errors in % of |R|.
+std::string FormatResultantErrors(const std::string& name, const ResultantErrors& e) {
+  const auto triple = [](const ErrorSummary& s) { return fmt::format("{:.2f} / {:.2f} / {:.2f}", s.median, s.p95, s.max); };
+  return fmt::format("{}: median |F| / |R| {:.4f}; error in % of |R|, median / p95 / max: magnitude {}, x {}, y {}, "
+                     "z {}, vector {}\n",
+                     name, e.median_magnitude_ratio, triple(e.magnitude_pct), triple(e.axis_pct[0]),
+                     triple(e.axis_pct[1]), triple(e.axis_pct[2]), triple(e.vector_pct));
+}
+
+// An estimate's resultants against the recorded ones, frame by frame.
+ResultantErrors CompareResultants(const std::vector<Eigen::Vector3d>& estimated,
+                                  const std::vector<Eigen::Vector3d>& recorded) {
+  ResultantErrors e;
+  if (estimated.empty()) return e;
+  std::array<std::vector<double>, 3> axis;
+  std::vector<double> magnitude, vector, ratio;
+  std::array<std::vector<double>, 3> components;
+  for (size_t k = 0; k < estimated.size(); ++k) {
+    const Eigen::Vector3d& f = estimated[k];
+    const Eigen::Vector3d& r = recorded[k];
+    const double scale = 100.0 / r.norm();
+    for (int a = 0; a < 3; ++a) {
+      axis[a].push_back(std::abs(f(a) - r(a)) * scale);
+      components[a].push_back(f(a));
+    }
+    magnitude.push_back(std::abs(f.norm() - r.norm()) * scale);
+    vector.push_back((f - r).norm() * scale);
+    ratio.push_back(f.norm() / r.norm());
+  }
+  for (int a = 0; a < 3; ++a) {
+    e.axis_pct[a] = ErrorSummary::Of(axis[a]);
+    e.median_resultant_n(a) = ErrorSummary::Of(components[a]).median;
+  }
+  e.magnitude_pct = ErrorSummary::Of(magnitude);
+  e.vector_pct = ErrorSummary::Of(vector);
+  e.median_magnitude_ratio = ErrorSummary::Of(ratio).median;
+  return e;
+}
+
+// D in the paper's ordering (dx^1..dx^N, dy^1..dy^N, dz^1..dz^N) from one marker a row.
+Eigen::VectorXd PaperOrder(const Eigen::MatrixX3d& per_marker) {
+  Eigen::VectorXd d(3 * per_marker.rows());
+  for (int c = 0; c < 3; ++c) d.segment(c * per_marker.rows(), per_marker.rows()) = per_marker.col(c);
+  return d;
+}
+
 }  // namespace
+
+void VendorForceOptions::Validate() const {
+  gel.Validate();
+  if (!(min_resultant_n >= 0.0)) {
+    throw Error(fmt::format("VendorForceOptions.min_resultant_n must be >= 0, got {}", min_resultant_n));
+  }
+  if (!(discrepancy_factor >= 1.0)) {
+    throw Error(fmt::format("VendorForceOptions.discrepancy_factor must be >= 1, got {}", discrepancy_factor));
+  }
+}
+
+VendorForceEvaluation EvaluateVendorForces(const SensorConfig& config, const VendorRecording& recording,
+                                           const VendorForceOptions& options) {
+  options.Validate();
+  VendorForceEvaluation f;
+  f.options = options;
+  f.body = VendorBodyModelOptions(config, options.gel);
+  if (recording.markers() != f.body.num_markers()) {
+    throw Error(fmt::format("the recording has {} markers, the config {}", recording.markers(), f.body.num_markers()));
+  }
+  f.gel_description = DescribeVendorGel(f.body, options.gel);
+  const fem::ComplianceModel model =
+      options.cache_dir.empty()
+          ? fem::CalcComplianceModel(f.body, options.show_progress)
+          : fem::LoadOrBuildComplianceModel(f.body, options.cache_dir, options.show_progress).model;
+  f.compliance = model.provenance;
+
+  // The compared frames: D and the recorded resultant and per-marker sum.
+  std::vector<Eigen::VectorXd> displacements;
+  std::vector<Eigen::Vector3d> recorded, marker_sums;
+  for (std::int64_t k = 0; k < recording.frames(); ++k) {
+    const Eigen::Vector3d resultant = VendorRecording::Frame(recording.resultant_force, k).row(0).transpose();
+    if (!(resultant.norm() > options.min_resultant_n)) continue;
+    recorded.push_back(resultant);
+    marker_sums.push_back(VendorRecording::Frame(recording.forces, k).colwise().sum().transpose());
+    displacements.push_back(PaperOrder(VendorRecording::Frame(recording.displacements, k)));
+  }
+  f.frames_compared = static_cast<int>(recorded.size());
+  if (recorded.empty()) return f;
+
+  f.position_noise_mm = config.vendor_camera->datasheet.position_noise_mm;
+  DisplacementNoise noise;
+  noise.variance_mm2 = f.position_noise_mm.cwiseAbs2();
+  const ComplianceSpectrum spectrum(model.h);
+  f.weight = SelectRegularizationWeight(spectrum, displacements, noise,
+                                        {.rule = WeightRule::kDiscrepancy, .discrepancy_factor = options.discrepancy_factor});
+  ForceReconstructor inverse(model.h, model.marker_positions,
+                             {.weight = f.weight.weight, .support_refinement = false});
+  ForceReconstructor support_resolve(model.h, model.marker_positions,
+                                     {.weight = f.weight.weight, .support_refinement = true});
+  std::vector<Eigen::Vector3d> estimated, estimated_on_support;
+  std::array<std::vector<double>, 3> recorded_components;
+  for (size_t k = 0; k < displacements.size(); ++k) {
+    estimated.push_back(inverse.Reconstruct(displacements[k]).resultant_force_n);
+    const ForceFrame frame = support_resolve.Reconstruct(displacements[k]);
+    estimated_on_support.push_back(frame.resultant_force_n);
+    f.frames_support_refined += frame.support_refined ? 1 : 0;
+    for (int a = 0; a < 3; ++a) recorded_components[a].push_back(recorded[k](a));
+  }
+  for (int a = 0; a < 3; ++a) f.median_recorded_resultant_n(a) = ErrorSummary::Of(recorded_components[a]).median;
+  f.tac3d = CompareResultants(estimated, recorded);
+  f.tac3d_support_resolve = CompareResultants(estimated_on_support, recorded);
+  f.vendor_marker_sum = CompareResultants(marker_sums, recorded);
+  return f;
+}
 
 ErrorSummary ErrorSummary::Of(std::vector<double> values) {
   TAC3D_DEMAND(!values.empty());
@@ -49,6 +190,29 @@ std::string VendorEvaluation::Report() const {
   text += fmt::format("median |error| x / y / z: {:.4f} / {:.4f} / {:.4f} mm\n", axis.x(), axis.y(), axis.z());
   text += fmt::format("gap between each marker's two rays: median {:.4f} mm, max {:.4f} mm\n", ray_gap_mm.median,
                       ray_gap_mm.max);
+  if (forces) {
+    const VendorForceEvaluation& f = *forces;
+    text += f.gel_description + "\n";
+    text += fmt::format("compliance: {} nodes, {} elements, {} free DOFs\n", f.compliance.num_nodes,
+                        f.compliance.num_elements, f.compliance.num_free_dofs);
+    text += fmt::format("{} frames with the recorded |resultant| over {} N", f.frames_compared,
+                        f.options.min_resultant_n);
+    if (f.frames_compared > 0) {
+      const Eigen::Vector3d& r = f.median_recorded_resultant_n;
+      text += fmt::format(" (median ({:.3f}, {:.3f}, {:.3f}) N)\n", r.x(), r.y(), r.z());
+      text += fmt::format("inverse: Tikhonov weight {:.4g} (mm/N)^2 ({}; datasheet position noise {:.4f} / {:.4f} / "
+                          "{:.4f} mm), no gains\n",
+                          f.weight.weight, f.weight.summary.message, f.position_noise_mm.x(), f.position_noise_mm.y(),
+                          f.position_noise_mm.z());
+      text += FormatResultantErrors("tac3d's inverse F = K D", f.tac3d);
+      text += FormatResultantErrors(fmt::format("with the contact-support re-solve (ran on {} of {} frames)",
+                                                f.frames_support_refined, f.frames_compared),
+                                    f.tac3d_support_resolve);
+      text += FormatResultantErrors("vendor's per-marker forces summed (reference)", f.vendor_marker_sum);
+    } else {
+      text += "\n";
+    }
+  }
   return text + fmt::format("all pass: {}\n", all_pass ? "yes" : "no");
 }
 
@@ -56,7 +220,7 @@ nlohmann::json ToJson(const VendorEvaluation& e) {
   nlohmann::json acceptance = nlohmann::json::object();
   for (const EvalCheck& check : e.checks) acceptance[check.name] = check.tolerance;
   const Eigen::Vector3d& axis = e.reference_position_median_abs_error_mm;
-  return {{"checks", ToJson(e.checks)},
+  nlohmann::json json = {{"checks", ToJson(e.checks)},
           {"all_pass", e.all_pass},
           {"pass", e.all_pass},
           {"serial_number", e.serial_number},
@@ -71,6 +235,8 @@ nlohmann::json ToJson(const VendorEvaluation& e) {
           {"ray_gap_mm", Json(e.ray_gap_mm)},
           {"untriangulated_markers", e.untriangulated_markers},
           {"acceptance", acceptance}};
+  if (e.forces) json.update(Json(*e.forces));
+  return json;
 }
 
 VendorEvaluation EvaluateVendorRecording(const SensorConfig& config, const VendorRecording& recording,
@@ -117,6 +283,13 @@ VendorEvaluation EvaluateVendorRecording(const SensorConfig& config, const Vendo
   e.checks = {EvalCheck::AtMost("reference_position_error_median_mm", e.reference_position_error_mm.median, 0.06, "mm"),
               EvalCheck::AtMost("reference_position_error_max_mm", e.reference_position_error_mm.max, 0.15, "mm"),
               EvalCheck::AtMost("untriangulated_markers", e.untriangulated_markers, 0)};
+  if (options.forces) {
+    e.forces = EvaluateVendorForces(config, recording, *options.forces);
+    constexpr const char* kName = "resultant_magnitude_error_median_pct";
+    e.checks.push_back(e.forces->frames_compared > 0
+                           ? EvalCheck::AtMost(kName, e.forces->tac3d.magnitude_pct.median, 10.0, "%")
+                           : EvalCheck::NotApplicable(kName, 10.0, EvalCheck::Bound::kAtMost, "%"));
+  }
   e.all_pass = AllPass(e.checks);
   return e;
 }
