@@ -126,6 +126,35 @@ TEST(VendorRecording, RefusesMissingTruncatedAndMisshapenFields) {
   EXPECT_THROW(WriteVendorRecording(r, testing::MakeTempDir("sn")), Error);
 }
 
+TEST(VendorRecording, AFolderOfSeveralSensorsIsReadWholeOrRefusedForOne) {
+  const std::string dir = testing::MakeTempDir("several");
+  VendorRecording right = SmallRecording();
+  right.serial_number = "AD2-0065R";
+  WriteVendorRecording(right, dir);
+  WriteVendorRecording(SmallRecording(), dir);
+  fs::create_directories(dir + "/notes");  // a folder without index.npy is not a sensor's
+  EXPECT_EQ(FindVendorRecordingFolders(dir),
+            (std::vector<std::string>{dir + "/AD2-0065L", dir + "/AD2-0065R"}));
+  EXPECT_EQ(FindVendorRecordingFolders(dir + "/AD2-0065R"), std::vector<std::string>{dir + "/AD2-0065R"});
+  const std::vector<VendorRecording> both = ReadVendorRecordings(dir);
+  ASSERT_EQ(both.size(), 2u);
+  EXPECT_EQ(both[0], SmallRecording());
+  EXPECT_EQ(both[1], right);
+  EXPECT_THAT(RecordingRefusalOf(dir), HasSubstr("holds the recordings of 2 sensors (AD2-0065L, AD2-0065R): give one "
+                                                 "<SN> folder"));
+}
+
+TEST(VendorRecording, MaxReferenceShiftIsHowFarTheZeroPointMoved) {
+  VendorRecording r = SmallRecording();
+  EXPECT_EQ(r.MaxReferenceShiftMm(), 0.0);  // P - D is 1.3 everywhere
+  // Frame 2's marker 5 drawn 0.03 mm along x and 0.04 mm along z from its reference.
+  std::vector<double> d = r.displacements.Float64Values();
+  d[(2 * 6 + 5) * 3 + 0] -= 0.03;
+  d[(2 * 6 + 5) * 3 + 2] -= 0.04;
+  r.displacements.data.assign(reinterpret_cast<const char*>(d.data()), d.size() * sizeof(double));
+  EXPECT_NEAR(r.MaxReferenceShiftMm(), 0.05, 1e-12);
+}
+
 // The vendor's own files: read, and written back byte for byte (every .npy and overview.csv).
 TEST(VendorRecording, RealRecordingsRoundTripByteForByte) {
   TAC3D_REQUIRE_REALDATA(realdata);
