@@ -123,7 +123,7 @@ TEST(VendorReplay, TheSnFolderOrTheOnlySensorTakesAnSnSeveralDoNot) {
   WriteVendorRecording(FlatPress("AD2-0065L", 3.0), dir);
   SensorRunSpec spec = AsFastAsPossible();
   spec.sn = "THUMB";
-  for (const std::string folder : {dir, dir + "/AD2-0065L"}) {
+  for (const std::string& folder : {dir, dir + "/AD2-0065L"}) {
     const std::vector<TactileFrame> frames = AllFrames(*OpenVendorStream(folder, spec, /*replace_sn=*/true));
     ASSERT_EQ(frames.size(), static_cast<size_t>(kFrames)) << folder;
     EXPECT_EQ(frames[0].sn, "THUMB");
