@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <charconv>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 
@@ -132,6 +133,14 @@ VendorRecording ReadVendorSensorFolder(const std::string& serial_folder) {
     recording.*slot.array = ReadNpy(path.string());
   }
   CheckShapes(recording, serial_folder);
+  // A replay is paced by these: a NaN or infinite one has no place on a clock.
+  const std::vector<double> time = recording.send_timestamp.Float64Values();
+  for (size_t f = 0; f < time.size(); ++f) {
+    if (!std::isfinite(time[f])) {
+      throw Error(fmt::format("'{}': frame {}'s time is {}: a vendor recording's sendTimestamp are finite seconds",
+                              (fs::path(serial_folder) / "sendTimestamp.npy").string(), f, time[f]));
+    }
+  }
   return recording;
 }
 

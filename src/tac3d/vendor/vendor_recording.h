@@ -53,7 +53,8 @@ std::vector<std::string> FindVendorRecordingFolders(const std::string& folder);
 
 /// Reads one `<SN>` folder's recording (serial number: the folder's name).
 /// @throws Error naming the file of a missing, malformed or truncated field, a field of another
-///   dtype or shape than the others imply (frame counts that differ, markers x 2).
+///   dtype or shape than the others imply (frame counts that differ, markers x 2), or a
+///   sendTimestamp that is NaN or infinite.
 VendorRecording ReadVendorSensorFolder(const std::string& serial_folder);
 
 /// Reads a vendor recording of one sensor: `folder` is the `<SN>` folder holding the .npy files,

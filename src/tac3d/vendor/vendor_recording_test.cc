@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -121,6 +122,13 @@ TEST(VendorRecording, RefusesMissingTruncatedAndMisshapenFields) {
   WriteNpy(dir + "/SN/3D_ResultantForce.npy", CountingDoubles({4, 3}, 0.0));
   EXPECT_THAT(RecordingRefusalOf(dir), HasSubstr("3D_ResultantForce.npy': shape (4, 3), expected (4, 1, 3)"));
   EXPECT_THAT(RecordingRefusalOf(testing::MakeTempDir("empty")), HasSubstr("holds no vendor recording"));
+  WriteNpy(dir + "/SN/3D_ResultantForce.npy", good.resultant_force);
+  std::vector<double> time = good.send_timestamp.Float64Values();
+  time[2] = std::numeric_limits<double>::infinity();
+  WriteNpy(dir + "/SN/sendTimestamp.npy", CountingDoubles({4}, 0.0));
+  EXPECT_EQ(RecordingRefusalOf(dir), "accepted");
+  WriteNpy(dir + "/SN/sendTimestamp.npy", NpyType::kFloat64, {4}, time.data());
+  EXPECT_THAT(RecordingRefusalOf(dir), HasSubstr("sendTimestamp.npy': frame 2's time is inf"));
   r = good;
   r.serial_number = "../x";
   EXPECT_THROW(WriteVendorRecording(r, testing::MakeTempDir("sn")), Error);
