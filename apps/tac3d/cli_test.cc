@@ -240,10 +240,16 @@ TEST(Cli, RunFileMistakesAreRefusedBeforeAnyWork) {
 TEST(Cli, ViewNeedsSomethingToShow) {
   Outcome o = RunCli("view");
   EXPECT_EQ(o.exit_code, 1);
-  EXPECT_THAT(o.output, HasSubstr("give --recording FILE or --dataset DIR, and/or --friction-map"));
+  EXPECT_THAT(o.output, HasSubstr("give --recording FILE, --vendor DIR or --dataset DIR, and/or --friction-map"));
   o = RunCli("view --recording a.rec --dataset b");
   EXPECT_EQ(o.exit_code, 1);
-  EXPECT_THAT(o.output, HasSubstr("--recording and --dataset exclude each other"));
+  EXPECT_THAT(o.output, HasSubstr("--recording, --vendor and --dataset exclude each other"));
+  o = RunCli("view --vendor a --recording b.rec");
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("--recording, --vendor and --dataset exclude each other"));
+  o = RunCli("view --vendor a --sn X");
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("--sn applies to --dataset only"));
   o = RunCli("view --recording a.rec --config s.yaml");
   EXPECT_EQ(o.exit_code, 1);
   EXPECT_THAT(o.output, HasSubstr("--config applies to --dataset only"));

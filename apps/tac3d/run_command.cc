@@ -55,14 +55,19 @@ void Run(const RunArgs& a) {
   runtime::RunSingleSensor(*stream, OutputArgs(a), a.max_frames, "processed");
 }
 
-// `tac3d run --source recording:FILE`: its frames as they were computed, with --sn's SN if given.
-void RunRecording(const RunArgs& a, const std::string& path, bool replace_sn) {
+// `tac3d run --source recording:FILE` or `vendor:DIR`: the frames as they were computed, with
+// --sn's SN if given.
+void RunReplay(const RunArgs& a, bool replace_sn) {
   SensorRunSpec spec = a.sensor;
   spec.speed = a.speed;
-  const std::unique_ptr<runtime::SensorStream> stream = runtime::OpenRecordingStream(path, spec, replace_sn);
+  const std::optional<std::string> recording = runtime::RecordingSourcePath(spec.source);
+  const std::unique_ptr<runtime::SensorStream> stream =
+      recording ? runtime::OpenRecordingStream(*recording, spec, replace_sn)
+                : runtime::OpenVendorStream(*runtime::VendorSourcePath(spec.source), spec, replace_sn);
   FrameOutputArgs outputs = OutputArgs(a);
   if (!replace_sn) outputs.sn = {};
-  runtime::RunSingleSensor(*stream, outputs, a.max_frames, "replayed from " + path);
+  runtime::RunSingleSensor(*stream, outputs, a.max_frames,
+                           "replayed from " + (recording ? *recording : *runtime::VendorSourcePath(spec.source)));
 }
 
 // `tac3d run --run-file FILE`: every sensor's report, then an error if any failed.
@@ -101,10 +106,13 @@ void RegisterRun(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "run",
       "Camera (or video, image folder, twin dataset) to 3D markers, displacements and forces, "
-      "every frame; or a recording's frames replayed; several sensors with --run-file");
+      "every frame; or a recording's frames replayed (tac3d's or the vendor's); several sensors with "
+      "--run-file");
   cmd->add_option("--source", sensor.source,
-                  "camera:N, /dev/videoN, a video file, an image folder, dataset:DIR, or "
-                  "recording:FILE (replays its frames)");
+                  "camera:N, /dev/videoN, a video file, an image folder, dataset:DIR, "
+                  "recording:FILE (replays its frames), or vendor:DIR (replays a recording of the "
+                  "vendor's software: its <SN> folder, or the folder of one or several; "
+                  "docs/real-sensors.md)");
   cmd->add_option("--run-file", a->run_file,
                   "several sensors in one process, each on its thread (YAML; docs/pipeline.md)");
   cmd->add_option("--config", sensor.config, "sensor YAML (default: the built-in prototype)");
@@ -142,7 +150,7 @@ void RegisterRun(CLI::App& app) {
   cmd->add_option("--fps", sensor.camera.fps, "camera frame rate")->capture_default_str();
   cmd->add_option("--exposure", sensor.exposure, "camera exposure (driver units; default automatic)");
   cmd->add_option("--speed", a->speed,
-                  "recording:FILE pace: 1 recorded, 2 twice as fast, 0 as fast as possible; "
+                  "recording:FILE and vendor:DIR pace: 1 recorded, 2 twice as fast, 0 as fast as possible; "
                   "with dataset:DIR, paces it by its timestamps (default there: as fast as possible)")
       ->capture_default_str();
   cmd->add_option("--web", a->viewer.web,
@@ -156,17 +164,17 @@ void RegisterRun(CLI::App& app) {
       return RunFile(*a);
     }
     if (a->sensor.source.empty()) throw Error("run: --source or --run-file is required");
-    if (const std::optional<std::string> path = runtime::RecordingSourcePath(a->sensor.source)) {
+    if (runtime::RecordingSourcePath(a->sensor.source) || runtime::VendorSourcePath(a->sensor.source)) {
       RefuseOptions(*cmd,
                     {"--config", "--cache", "--reference-frames", "--weight", "--gains", "--drift",
                      "--drift-time-constant-s", "--width", "--height", "--fps", "--exposure"},
                     "does not apply to a recording: its frames were computed when it was recorded");
-      return RunRecording(*a, *path, /*replace_sn=*/cmd->count("--sn") > 0);
+      return RunReplay(*a, /*replace_sn=*/cmd->count("--sn") > 0);
     }
     if (a->sensor.source.rfind("dataset:", 0) == 0) {
       if (cmd->count("--speed") > 0) a->sensor.speed = a->speed;
     } else {
-      RefuseOptions(*cmd, {"--speed"}, "applies to --source recording:FILE or dataset:DIR only");
+      RefuseOptions(*cmd, {"--speed"}, "applies to --source recording:FILE, vendor:DIR or dataset:DIR only");
     }
     Run(*a);
   });

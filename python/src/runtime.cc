@@ -145,8 +145,9 @@ naming the field).
            py::arg("record_images") = d.outputs.record_images,
            py::arg("overwrite") = d.outputs.overwrite,
            "sn: the serial number in the stream, recording and frames; source: camera:N,\n"
-           "/dev/videoN, a video file, an image folder, dataset:DIR or recording:FILE; config:\n"
-           "a sensor YAML ('' the built-in prototype); speed: pace of dataset:/recording:\n"
+           "/dev/videoN, a video file, an image folder, dataset:DIR, recording:FILE or vendor:DIR\n"
+           "(a vendor recording's <SN> folder); config: a sensor YAML ('' the built-in\n"
+           "prototype); speed: pace of dataset:/recording:/vendor:\n"
            "(None: a recording at its recorded pace, a dataset as fast as possible); udp:\n"
            "HOST:PORT of a Tac3D client; udp_items: tac3d's extra items after the vendor's six\n"
            "('3D_Normals,SlipState', 'all'; tac3d run's --udp-items); udp_progress: also send\n"

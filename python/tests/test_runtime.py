@@ -75,7 +75,7 @@ def test_a_run_file_runs_as_the_cli_runs_it(tmp_path):
 def test_specs_are_checked_when_made():
     spec = tac3d.SensorSpec("S", "dataset:ds", speed=2, gains=(1, 2, 3), drift="rezero")
     assert (spec.speed, spec.gains, spec.drift, spec.udp) == (2.0, [1.0, 2.0, 3.0], "rezero", "")
-    with pytest.raises(tac3d.Error, match="speed applies to recording:FILE or dataset:DIR only"):
+    with pytest.raises(tac3d.Error, match="speed applies to recording:FILE, vendor:DIR or dataset:DIR only"):
         tac3d.SensorSpec("S", "camera:0", speed=1)
     with pytest.raises(tac3d.Error, match="--udp 'nowhere': expected HOST:PORT"):
         tac3d.SensorSpec("S", "camera:0", udp="nowhere")

@@ -335,16 +335,16 @@ bool ReplayPacer::Wait(double timestamp_s, const std::atomic<bool>* stop) {
   const double elapsed_s = std::chrono::duration<double>(now - start_).count();
   const double delay_s = ReplayDelay(*first_timestamp_s_, timestamp_s, elapsed_s, speed_);
   if (delay_s <= 0.0) return true;
-  const auto due = now + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                             std::chrono::duration<double>(delay_s));
-  // Sleep in slices, so that a stop request (Ctrl-C) ends even a long gap promptly.
-  constexpr auto kSlice = std::chrono::milliseconds(10);
-  for (auto t = now; t < due; t = std::chrono::steady_clock::now()) {
+  // Sleep in slices, so that a stop request (Ctrl-C) ends even a long gap promptly. Counted in
+  // double seconds: a gap of centuries (a file's timestamps, 1e300 s) overflows the clock's
+  // integer nanoseconds.
+  constexpr double kSliceS = 0.01;
+  for (double left_s = delay_s; left_s > 0.0; left_s = delay_s - SecondsSince(now)) {
     if (stop != nullptr && *stop) {
-      waited_s_ += std::chrono::duration<double>(t - now).count();
+      waited_s_ += SecondsSince(now);
       return false;
     }
-    std::this_thread::sleep_for(std::min<std::chrono::steady_clock::duration>(due - t, kSlice));
+    std::this_thread::sleep_for(std::chrono::duration<double>(std::min(left_s, kSliceS)));
   }
   waited_s_ += SecondsSince(now);
   return true;

@@ -148,5 +148,20 @@ TEST(ReplayPacer, StopEndsALongWaitPromptly) {
   EXPECT_FALSE(pacer.Wait(101.0, &stop));  // stays stopped
 }
 
+// A vendor file's timestamps are whatever it holds: a gap of 1e300 s (beyond the clock's integer
+// nanoseconds, where the due time once overflowed) is waited, and a stop still ends it.
+TEST(ReplayPacer, AGapBeyondTheClocksRangeIsWaitedUntilStopped) {
+  ReplayPacer pacer(1.0);
+  std::atomic<bool> stop{false};
+  ASSERT_TRUE(pacer.Wait(-1e300, &stop));
+  std::thread stopper([&stop] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    stop = true;
+  });
+  EXPECT_FALSE(pacer.Wait(1e300, &stop));
+  stopper.join();
+  EXPECT_GE(pacer.waited_s(), 0.04);
+}
+
 }  // namespace
 }  // namespace tac3d

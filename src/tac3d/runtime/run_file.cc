@@ -22,7 +22,7 @@ std::string FromBase(const std::string& base_dir, const std::string& path) {
 
 // A source's file or folder taken from the run file's folder; a camera is left alone.
 std::string ResolveSource(const std::string& base_dir, const std::string& source) {
-  for (const char* prefix : {"dataset:", "recording:"}) {
+  for (const char* prefix : {"dataset:", "recording:", "vendor:"}) {
     const std::string p(prefix);
     if (source.rfind(p, 0) == 0) return p + FromBase(base_dir, source.substr(p.size()));
   }
@@ -49,7 +49,7 @@ SensorRunSpec ReadSensor(YamlReader r, const std::string& base_dir) {
     r.FailAt(r.Required("drift_time_constant_s"), r.Join("drift_time_constant_s"), "must be > 0");
   }
   if (r.Has("speed")) {
-    if (!IsPacedSource(s.source)) r.FailAt(r.Required("speed"), r.Join("speed"), "applies to recording:FILE or dataset:DIR only");
+    if (!IsPacedSource(s.source)) r.FailAt(r.Required("speed"), r.Join("speed"), "applies to recording:FILE, vendor:DIR or dataset:DIR only");
     s.speed = r.Double("speed");
     if (*s.speed < 0) r.FailAt(r.Required("speed"), r.Join("speed"), "must be >= 0");
   }

@@ -270,4 +270,10 @@ std::optional<std::string> RecordingSourcePath(const std::string& source) {
   return source.substr(kPrefix.size());
 }
 
+std::optional<std::string> VendorSourcePath(const std::string& source) {
+  constexpr std::string_view kPrefix = "vendor:";
+  if (source.rfind(kPrefix, 0) != 0) return std::nullopt;
+  return source.substr(kPrefix.size());
+}
+
 }  // namespace tac3d::runtime

@@ -171,4 +171,7 @@ FrameLoopCounts RunFrameLoop(FrameOutputs& outputs,
 /// The recording's path when `source` is "recording:FILE", else nullopt.
 std::optional<std::string> RecordingSourcePath(const std::string& source);
 
+/// The vendor recording's folder when `source` is "vendor:DIR", else nullopt.
+std::optional<std::string> VendorSourcePath(const std::string& source);
+
 }  // namespace tac3d::runtime

@@ -398,7 +398,7 @@ TEST(RunFile, RefusesMistakesNamingTheLine) {
   EXPECT_THAT(RunFileError(a + "  - sn: A\n    source: camera:1\n"),
               HasSubstr("hand.yaml: line 4: sensors[1]: sn 'A' is used twice (first at line 2)"));
   EXPECT_THAT(RunFileError(a + "    speed: 2\n"),
-              HasSubstr("hand.yaml: line 4: sensors[0].speed: applies to recording:FILE or dataset:DIR only"));
+              HasSubstr("hand.yaml: line 4: sensors[0].speed: applies to recording:FILE, vendor:DIR or dataset:DIR only"));
   EXPECT_THAT(RunFileError(a + "    gains: [1, 2]\n"), HasSubstr("line 4: sensors[0].gains: must be a list of 3"));
   EXPECT_THAT(RunFileError(a + "    record_images: maybe\n"), HasSubstr("line 4: sensors[0].record_images: must be true or false"));
   EXPECT_THAT(RunFileError(a + "    drift: sometimes\n"),

@@ -4,6 +4,7 @@
 #include <thread>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "tac3d/sensor/default_sensor.h"
 #include "tac3d/dataset/twin_dataset.h"
@@ -11,6 +12,7 @@
 #include "tac3d/util/error.h"
 #include "tac3d/util/file_io.h"
 #include "tac3d/util/seconds_since.h"
+#include "tac3d/vendor/vendor_frames.h"
 
 namespace tac3d::runtime {
 namespace {
@@ -95,6 +97,15 @@ class PipelineStream final : public SensorStream {
   std::string last_skip_;
 };
 
+// A recording's frames were computed when it was recorded: a `$C` is said to be ignored, once.
+void NoteIgnoredZero(const std::string& log_prefix, bool* noted) {
+  if (!*noted) {
+    std::fprintf(stderr, "%signored $C (zero): a recording's frames were computed when it was recorded\n",
+                 log_prefix.c_str());
+  }
+  *noted = true;
+}
+
 // A recording's frames as they were computed, at its recorded pace times `speed`.
 class RecordingStream final : public SensorStream {
  public:
@@ -119,13 +130,7 @@ class RecordingStream final : public SensorStream {
     return Produced::kFrame;
   }
 
-  void Zero() override {
-    if (!zero_noted_) {
-      std::fprintf(stderr, "%signored $C (zero): a recording's frames were computed when it was recorded\n",
-                   log_prefix_.c_str());
-    }
-    zero_noted_ = true;
-  }
+  void Zero() override { NoteIgnoredZero(log_prefix_, &zero_noted_); }
 
   // A truncated file (a writer killed mid-record) is a warning, a corrupt one a failure.
   StreamEnd End(long emitted) const override {
@@ -148,6 +153,76 @@ class RecordingStream final : public SensorStream {
   bool zero_noted_ = false;
 };
 
+// A vendor recording's sensors, their frames interleaved in the order of their sendTimestamps.
+class VendorStream final : public SensorStream {
+ public:
+  VendorStream(const std::string& path, const SensorRunSpec& spec, bool replace_sn, const std::string& log_prefix)
+      : path_(path), log_prefix_(log_prefix), speed_(spec.speed.value_or(1.0)), pacer_(speed_) {
+    RecordingReplayOptions{.speed = speed_}.Validate();
+    std::vector<std::string> described;
+    for (VendorRecording& recording : ReadVendorRecordings(path)) {
+      const double shift_mm = recording.MaxReferenceShiftMm();
+      sensors_.emplace_back(std::move(recording));
+      const VendorFrames& sensor = sensors_.back();
+      described.push_back(fmt::format("{} ({} frames of {} markers, zero point moved up to {:.3f} mm{})",
+                                      sensor.recording().serial_number, sensor.frames(),
+                                      sensor.recording().markers(), shift_mm,
+                                      sensor.has_normals() ? "" : ", no grid surface: normals zero"));
+    }
+    if (replace_sn && sensors_.size() > 1) {
+      throw Error(fmt::format("vendor recording '{}' holds {} sensors: an SN to give them all would mix them up; "
+                              "give one <SN> folder (vendor:{}/<SN>), or leave the SNs as recorded",
+                              path, sensors_.size(), path));
+    }
+    if (replace_sn) sn_ = spec.sn;
+    next_.assign(sensors_.size(), 0);
+    std::fprintf(stderr, "%ssource: %s\n", log_prefix_.c_str(),
+                 fmt::format("vendor recording {}: {} {}", path_, fmt::join(described, ", "),
+                             speed_ > 0 ? fmt::format("at {}x", speed_) : "as fast as possible")
+                     .c_str());
+  }
+
+  void Start(const StreamClock& clock) override { clock_ = clock; }
+
+  Produced Next(const std::atomic<bool>& stop, ProducedFrame& out) override {
+    // The sensor whose next frame was sent first (the first sensor on a tie).
+    std::optional<size_t> due;
+    for (size_t s = 0; s < sensors_.size(); ++s) {
+      if (next_[s] >= sensors_[s].frames()) continue;
+      if (!due || sensors_[s].timestamp_s(next_[s]) < sensors_[*due].timestamp_s(next_[*due])) due = s;
+    }
+    if (!due) return Produced::kEnd;
+    current_ = sensors_[*due].Frame(next_[*due]++);
+    if (!pacer_.Wait(current_.timestamp_s, &stop)) return Produced::kEnd;
+    if (sn_) current_.sn = *sn_;
+    if (clock_.common) current_.timestamp_s = SecondsSince(clock_.epoch);
+    out.frame = &current_;
+    out.image = nullptr;
+    out.markers = nullptr;
+    out.zero_retakes_reference = false;
+    return Produced::kFrame;
+  }
+
+  void Zero() override { NoteIgnoredZero(log_prefix_, &zero_noted_); }
+
+  // Every file was read and checked when the stream was opened: nothing can fail later.
+  StreamEnd End(long) const override { return {}; }
+
+  std::string Describe() const override { return "vendor:" + path_; }
+
+ private:
+  std::string path_;
+  std::string log_prefix_;
+  double speed_;
+  ReplayPacer pacer_;
+  std::vector<VendorFrames> sensors_;
+  std::vector<std::int64_t> next_;  // each sensor's next frame
+  std::optional<std::string> sn_;
+  StreamClock clock_;
+  TactileFrame current_;
+  bool zero_noted_ = false;
+};
+
 }  // namespace
 
 PipelineOptions SensorRunSpec::ToPipelineOptions() const {
@@ -164,7 +239,7 @@ void SensorRunSpec::Validate() const {
   if (sn.empty()) throw Error("sensor: sn must not be empty");
   if (source.empty()) throw Error(fmt::format("sensor {}: source must not be empty", sn));
   if (speed && !IsPacedSource(source)) {
-    throw Error(fmt::format("sensor {}: speed applies to recording:FILE or dataset:DIR only", sn));
+    throw Error(fmt::format("sensor {}: speed applies to recording:FILE, vendor:DIR or dataset:DIR only", sn));
   }
   if (speed && !(*speed >= 0)) throw Error(fmt::format("sensor {}: speed must be >= 0", sn));
   try {
@@ -195,7 +270,7 @@ const char* DriftModeName(DriftMode mode) {
 }
 
 bool IsPacedSource(const std::string& source) {
-  return source.rfind("dataset:", 0) == 0 || source.rfind("recording:", 0) == 0;
+  return source.rfind("dataset:", 0) == 0 || source.rfind("recording:", 0) == 0 || source.rfind("vendor:", 0) == 0;
 }
 
 CameraSourceOptions CameraWithSensorResolution() {
@@ -212,11 +287,21 @@ std::unique_ptr<SensorStream> OpenRecordingStream(const std::string& path,
   return std::make_unique<RecordingStream>(path, spec, replace_sn, log_prefix);
 }
 
+std::unique_ptr<SensorStream> OpenVendorStream(const std::string& path,
+                                               const SensorRunSpec& spec,
+                                               bool replace_sn,
+                                               const std::string& log_prefix) {
+  return std::make_unique<VendorStream>(path, spec, replace_sn, log_prefix);
+}
+
 std::unique_ptr<SensorStream> OpenSensorStream(const SensorRunSpec& spec,
                                                const ModelLoader& load_model,
                                                const std::string& log_prefix) {
   if (const std::optional<std::string> path = RecordingSourcePath(spec.source)) {
     return OpenRecordingStream(*path, spec, /*replace_sn=*/true, log_prefix);
+  }
+  if (const std::optional<std::string> path = VendorSourcePath(spec.source)) {
+    return OpenVendorStream(*path, spec, /*replace_sn=*/true, log_prefix);
   }
   return std::make_unique<PipelineStream>(spec, load_model, log_prefix);
 }

@@ -28,14 +28,16 @@ CameraSourceOptions CameraWithSensorResolution();
 /// one-sensor flags of `tac3d run`, or one entry of a run file (docs/pipeline.md).
 struct SensorRunSpec {
   std::string sn = PipelineOptions{}.sn;
-  /// camera:N, /dev/videoN, a video file, an image folder, dataset:DIR or recording:FILE.
+  /// camera:N, /dev/videoN, a video file, an image folder, dataset:DIR, recording:FILE or
+  /// vendor:DIR.
   std::string source;
   std::string config;  ///< sensor YAML; "" the built-in prototype
   int reference_frames = PipelineOptions{}.reference_frames;
   double weight = PipelineOptions{}.force.weight;  ///< Tikhonov weight w, (mm/N)^2
   Eigen::Vector3d gains = Eigen::Vector3d::Ones();  ///< force gains Cx, Cy, Cz
   DriftOptions drift = PipelineOptions{}.drift;     ///< drift at rest: flag, rezero or off
-  /// recording:FILE: replay speed (unset: 1, the recorded pace; 0 as fast as possible);
+  /// recording:FILE and vendor:DIR: replay speed (unset: 1, the recorded pace; 0 as fast as
+  /// possible);
   /// dataset:DIR: paced at this times its timestamps (unset: as fast as possible).
   std::optional<double> speed;
   CameraSourceOptions camera = CameraWithSensorResolution();
@@ -57,8 +59,8 @@ std::optional<DriftMode> ParseDriftMode(const std::string& name);
 /// "off", "flag" or "rezero".
 const char* DriftModeName(DriftMode mode);
 
-/// Whether `speed` applies to `source`: dataset:DIR and recording:FILE, paced by their
-/// timestamps.
+/// Whether `speed` applies to `source`: dataset:DIR, recording:FILE and vendor:DIR, paced by
+/// their timestamps.
 bool IsPacedSource(const std::string& source);
 
 /// The compliance model of a sensor config: the CLI loads (or builds) it from its cache;
@@ -94,8 +96,8 @@ class SensorStream {
   virtual std::string Describe() const = 0;
 };
 
-/// Opens the sensor's source and, unless it is a recording, its config, compliance model and
-/// pipeline (spec.speed is used with dataset:DIR and recording:FILE only).
+/// Opens the sensor's source and, unless it is a recording (recording:FILE, vendor:DIR), its
+/// config, compliance model and pipeline (spec.speed is used with paced sources only).
 /// @throws Error if the source cannot be opened (a camera missing, a folder without images)
 ///   or the config is invalid.
 /// @param log_prefix before each line it prints on stderr ("SN: " for a run file's sensors).
@@ -110,6 +112,20 @@ std::unique_ptr<SensorStream> OpenRecordingStream(const std::string& path,
                                                   const SensorRunSpec& spec,
                                                   bool replace_sn,
                                                   const std::string& log_prefix = "");
+
+/// A vendor recording's frames (docs/real-sensors.md): `path` is its `<SN>` folder or the
+/// recording folder holding one or several (FindVendorRecordingFolders), each read whole and
+/// checked first (ReadVendorRecordings). Each sensor's frames (VendorFrames: the vendor's fields
+/// as recorded, normals and contact as tac3d makes them) keep its SN and sendTimestamp; several
+/// sensors' frames come interleaved in the order of their timestamps (one clock, the vendor's),
+/// at spec.speed (unset: 1) times that pace. With `replace_sn`, spec.sn replaces the SN. A `$C`
+/// is noted and ignored.
+/// @throws Error naming the file of a missing, malformed or truncated field, or for
+///   `replace_sn` with several sensors.
+std::unique_ptr<SensorStream> OpenVendorStream(const std::string& path,
+                                               const SensorRunSpec& spec,
+                                               bool replace_sn,
+                                               const std::string& log_prefix = "");
 
 /// The compliance model from `cache_dir`, built there the first time (~1 min).
 ModelLoader CachedModelLoader(const std::string& cache_dir);

@@ -23,35 +23,67 @@ void Append(std::vector<double>* values, const Eigen::Vector3d& v) {
 
 }  // namespace
 
-std::vector<TactileFrame> FramesOfVendorRecording(const VendorRecording& recording) {
-  const std::int64_t markers = recording.markers();
-  const int side = static_cast<int>(std::lround(std::sqrt(static_cast<double>(markers))));
-  if (side < 1 || side > TactileFrame::kMaxGridSide || static_cast<std::int64_t>(side) * side != markers) {
+VendorFrames::VendorFrames(VendorRecording recording) : recording_(std::move(recording)) {
+  const std::int64_t markers = recording_.markers();
+  side_ = static_cast<int>(std::lround(std::sqrt(static_cast<double>(markers))));
+  if (side_ < 1 || side_ > TactileFrame::kMaxGridSide || static_cast<std::int64_t>(side_) * side_ != markers) {
     throw Error(fmt::format("recording of '{}': {} markers are not a square grid of at most {} x {}",
-                            recording.serial_number, markers, TactileFrame::kMaxGridSide,
+                            recording_.serial_number, markers, TactileFrame::kMaxGridSide,
                             TactileFrame::kMaxGridSide));
   }
-  const std::vector<std::int64_t> index = recording.index.Int64Values();
-  const std::vector<double> time = recording.send_timestamp.Float64Values();
-  std::vector<TactileFrame> frames;
-  frames.reserve(index.size());
-  for (std::int64_t f = 0; f < recording.frames(); ++f) {
-    TactileFrame frame = TactileFrame::Sized(side, side);
-    frame.sn = recording.serial_number;
-    frame.index = index[f];
-    frame.timestamp_s = time[f];
-    const Eigen::MatrixX3d positions = VendorRecording::Frame(recording.positions, f);
-    const Eigen::MatrixX3d displacements = VendorRecording::Frame(recording.displacements, f);
-    const Eigen::MatrixX3d forces = VendorRecording::Frame(recording.forces, f);
-    for (std::int64_t i = 0; i < markers; ++i) {
-      frame.positions_mm[i] = positions.row(i).transpose();
-      frame.displacements_mm[i] = displacements.row(i).transpose();
-      frame.forces_n[i] = forces.row(i).transpose();
-    }
-    frame.resultant_force_n = VendorRecording::Frame(recording.resultant_force, f).row(0).transpose();
-    frame.resultant_moment_nmm = VendorRecording::Frame(recording.resultant_moment, f).row(0).transpose();
-    frames.push_back(std::move(frame));
+  index_ = recording_.index.Int64Values();
+  time_s_ = recording_.send_timestamp.Float64Values();
+  if (frames() == 0) return;
+  reference_ = recording_.ReferencePositions(0);
+  std::vector<Eigen::Vector3d> rest(static_cast<std::size_t>(markers));
+  for (std::int64_t i = 0; i < markers; ++i) rest[i] = reference_.row(i).transpose();
+  try {
+    surface_.emplace(side_, side_, std::move(rest));
+  } catch (const Error&) {
+    // No grid surface to take normals of (a test's points on a line, say): they stay zero.
   }
+}
+
+TactileFrame VendorFrames::Frame(std::int64_t f) const {
+  TAC3D_DEMAND(f >= 0 && f < frames());
+  const std::int64_t markers = recording_.markers();
+  TactileFrame frame = TactileFrame::Sized(side_, side_);
+  frame.sn = recording_.serial_number;
+  frame.index = index_[f];
+  frame.timestamp_s = time_s_[f];
+  const Eigen::MatrixX3d positions = VendorRecording::Frame(recording_.positions, f);
+  const Eigen::MatrixX3d displacements = VendorRecording::Frame(recording_.displacements, f);
+  const Eigen::MatrixX3d forces = VendorRecording::Frame(recording_.forces, f);
+  for (std::int64_t i = 0; i < markers; ++i) {
+    frame.positions_mm[i] = positions.row(i).transpose();
+    frame.displacements_mm[i] = displacements.row(i).transpose();
+    frame.forces_n[i] = forces.row(i).transpose();
+  }
+  frame.resultant_force_n = VendorRecording::Frame(recording_.resultant_force, f).row(0).transpose();
+  frame.resultant_moment_nmm = VendorRecording::Frame(recording_.resultant_moment, f).row(0).transpose();
+  if (surface_) {
+    // The surface's displacements from frame 0's reference: the positions themselves, whatever
+    // the vendor's zero point did since (MarkerSurface takes x, then y, then z).
+    const Eigen::MatrixX3d from_reference = positions - reference_;
+    Eigen::VectorXd d(3 * markers), f_n(3 * markers);
+    for (int k = 0; k < 3; ++k) {
+      d.segment(k * markers, markers) = from_reference.col(k);
+      f_n.segment(k * markers, markers) = forces.col(k);
+    }
+    const ForceDecomposition parts = surface_->Decompose(d, {}, f_n);
+    for (std::int64_t i = 0; i < markers; ++i) {
+      frame.normals[i] = parts.normals.col(i);
+      frame.contact[i] = parts.contact[i];
+    }
+  }
+  return frame;
+}
+
+std::vector<TactileFrame> FramesOfVendorRecording(const VendorRecording& recording) {
+  const VendorFrames vendor(recording);
+  std::vector<TactileFrame> frames;
+  frames.reserve(static_cast<std::size_t>(vendor.frames()));
+  for (std::int64_t f = 0; f < vendor.frames(); ++f) frames.push_back(vendor.Frame(f));
   return frames;
 }
 

@@ -1,6 +1,8 @@
 #include "tac3d/vendor/vendor_recording.h"
 
+#include <algorithm>
 #include <charconv>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 
@@ -59,22 +61,26 @@ void CheckShapes(const VendorRecording& recording, const std::string& folder) {
   if (markers < 1) throw Error(fmt::format("'{}': a recording without markers", folder));
 }
 
-// The <SN> folder: the one given if it holds index.npy, else its only subfolder.
-std::string FindSerialFolder(const std::string& folder) {
+}  // namespace
+
+std::vector<std::string> FindVendorRecordingFolders(const std::string& folder) {
   std::error_code error;
   if (!fs::is_directory(folder, error)) throw Error(fmt::format("'{}' is not a folder", folder));
-  if (fs::exists(fs::path(folder) / "index.npy", error)) return folder;
-  std::vector<fs::path> candidates;
+  if (fs::exists(fs::path(folder) / "index.npy", error)) return {folder};
+  std::vector<std::string> found;
   for (const fs::directory_entry& entry : fs::directory_iterator(folder, error)) {
-    if (entry.is_directory() && fs::exists(entry.path() / "index.npy")) candidates.push_back(entry.path());
+    if (entry.is_directory() && fs::exists(entry.path() / "index.npy")) found.push_back(entry.path().string());
   }
-  if (candidates.size() != 1) {
+  std::sort(found.begin(), found.end());
+  if (found.empty()) {
     throw Error(fmt::format("'{}' holds no vendor recording: expected the <SN> folder of index.npy, "
-                            "3D_Positions.npy, ... or a folder holding exactly one such folder ({} found)",
-                            folder, candidates.size()));
+                            "3D_Positions.npy, ... or a recording folder holding such folders",
+                            folder));
   }
-  return candidates[0].string();
+  return found;
 }
+
+namespace {
 
 std::string CsvDouble(double v) {
   char buffer[64];
@@ -105,8 +111,17 @@ Eigen::MatrixX3d VendorRecording::ReferencePositions(std::int64_t frame) const {
   return Frame(positions, frame) - Frame(displacements, frame);
 }
 
-VendorRecording ReadVendorRecording(const std::string& folder) {
-  const std::string serial_folder = FindSerialFolder(folder);
+double VendorRecording::MaxReferenceShiftMm() const {
+  if (frames() == 0) return 0.0;
+  const Eigen::MatrixX3d first = ReferencePositions(0);
+  double shift = 0.0;
+  for (std::int64_t f = 1; f < frames(); ++f) {
+    shift = std::max(shift, (ReferencePositions(f) - first).rowwise().norm().maxCoeff());
+  }
+  return shift;
+}
+
+VendorRecording ReadVendorSensorFolder(const std::string& serial_folder) {
   VendorRecording recording;
   recording.serial_number = fs::path(serial_folder).filename().string();
   for (const FieldSlot& slot : kSlots) {
@@ -118,7 +133,34 @@ VendorRecording ReadVendorRecording(const std::string& folder) {
     recording.*slot.array = ReadNpy(path.string());
   }
   CheckShapes(recording, serial_folder);
+  // A replay is paced by these: a NaN or infinite one has no place on a clock.
+  const std::vector<double> time = recording.send_timestamp.Float64Values();
+  for (size_t f = 0; f < time.size(); ++f) {
+    if (!std::isfinite(time[f])) {
+      throw Error(fmt::format("'{}': frame {}'s time is {}: a vendor recording's sendTimestamp are finite seconds",
+                              (fs::path(serial_folder) / "sendTimestamp.npy").string(), f, time[f]));
+    }
+  }
   return recording;
+}
+
+VendorRecording ReadVendorRecording(const std::string& folder) {
+  const std::vector<std::string> found = FindVendorRecordingFolders(folder);
+  if (found.size() != 1) {
+    std::vector<std::string> names;
+    for (const std::string& f : found) names.push_back(fs::path(f).filename().string());
+    throw Error(fmt::format("'{}' holds the recordings of {} sensors ({}): give one <SN> folder", folder,
+                            found.size(), fmt::join(names, ", ")));
+  }
+  return ReadVendorSensorFolder(found[0]);
+}
+
+std::vector<VendorRecording> ReadVendorRecordings(const std::string& folder) {
+  std::vector<VendorRecording> recordings;
+  for (const std::string& serial_folder : FindVendorRecordingFolders(folder)) {
+    recordings.push_back(ReadVendorSensorFolder(serial_folder));
+  }
+  return recordings;
 }
 
 void WriteVendorRecording(const VendorRecording& recording, const std::string& folder) {

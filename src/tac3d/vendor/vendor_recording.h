@@ -39,16 +39,33 @@ struct VendorRecording {
   /// 3D_Displacements (the vendor corrects its zero point while nothing touches the gel, so
   /// this drifts between frames).
   Eigen::MatrixX3d ReferencePositions(std::int64_t frame) const;
+  /// How far the vendor's zero point moved over the recording: the largest distance of a
+  /// marker's reference position (ReferencePositions) in a frame from its own in frame 0 (mm).
+  double MaxReferenceShiftMm() const;
 
   bool operator==(const VendorRecording&) const = default;
 };
 
-/// Reads a vendor recording: `folder` is the `<SN>` folder holding the .npy files, or the
-/// recording folder holding exactly one such `<SN>` folder.
+/// The `<SN>` folders of a vendor recording, sorted: `folder` itself if it holds index.npy, else
+/// each of its subfolders that does (a recording of several sensors has one each).
+/// @throws Error if `folder` is no folder or holds no such folder.
+std::vector<std::string> FindVendorRecordingFolders(const std::string& folder);
+
+/// Reads one `<SN>` folder's recording (serial number: the folder's name).
 /// @throws Error naming the file of a missing, malformed or truncated field, a field of another
-///   dtype or shape than the others imply (frame counts that differ, markers x 2), or a folder
-///   that holds no recording.
+///   dtype or shape than the others imply (frame counts that differ, markers x 2), or a
+///   sendTimestamp that is NaN or infinite.
+VendorRecording ReadVendorSensorFolder(const std::string& serial_folder);
+
+/// Reads a vendor recording of one sensor: `folder` is the `<SN>` folder holding the .npy files,
+/// or the recording folder holding exactly one such `<SN>` folder.
+/// @throws Error as FindVendorRecordingFolders and ReadVendorSensorFolder do, or naming the
+///   sensors of a folder that holds several.
 VendorRecording ReadVendorRecording(const std::string& folder);
+
+/// Every sensor's recording in `folder` (FindVendorRecordingFolders), in the order of their SNs.
+/// @throws Error as ReadVendorSensorFolder does, naming the file.
+std::vector<VendorRecording> ReadVendorRecordings(const std::string& folder);
 
 /// Writes `recording` as `<folder>/<serial_number>/<field>.npy` and its overview.csv
 /// (index,timestamp,FRx,FRy,FRz,MRx,MRy,MRz) as the vendor's recorder does; ReadVendorRecording

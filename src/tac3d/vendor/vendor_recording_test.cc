@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -121,9 +122,45 @@ TEST(VendorRecording, RefusesMissingTruncatedAndMisshapenFields) {
   WriteNpy(dir + "/SN/3D_ResultantForce.npy", CountingDoubles({4, 3}, 0.0));
   EXPECT_THAT(RecordingRefusalOf(dir), HasSubstr("3D_ResultantForce.npy': shape (4, 3), expected (4, 1, 3)"));
   EXPECT_THAT(RecordingRefusalOf(testing::MakeTempDir("empty")), HasSubstr("holds no vendor recording"));
+  WriteNpy(dir + "/SN/3D_ResultantForce.npy", good.resultant_force);
+  std::vector<double> time = good.send_timestamp.Float64Values();
+  time[2] = std::numeric_limits<double>::infinity();
+  WriteNpy(dir + "/SN/sendTimestamp.npy", CountingDoubles({4}, 0.0));
+  EXPECT_EQ(RecordingRefusalOf(dir), "accepted");
+  WriteNpy(dir + "/SN/sendTimestamp.npy", NpyType::kFloat64, {4}, time.data());
+  EXPECT_THAT(RecordingRefusalOf(dir), HasSubstr("sendTimestamp.npy': frame 2's time is inf"));
   r = good;
   r.serial_number = "../x";
   EXPECT_THROW(WriteVendorRecording(r, testing::MakeTempDir("sn")), Error);
+}
+
+TEST(VendorRecording, AFolderOfSeveralSensorsIsReadWholeOrRefusedForOne) {
+  const std::string dir = testing::MakeTempDir("several");
+  VendorRecording right = SmallRecording();
+  right.serial_number = "AD2-0065R";
+  WriteVendorRecording(right, dir);
+  WriteVendorRecording(SmallRecording(), dir);
+  fs::create_directories(dir + "/notes");  // a folder without index.npy is not a sensor's
+  EXPECT_EQ(FindVendorRecordingFolders(dir),
+            (std::vector<std::string>{dir + "/AD2-0065L", dir + "/AD2-0065R"}));
+  EXPECT_EQ(FindVendorRecordingFolders(dir + "/AD2-0065R"), std::vector<std::string>{dir + "/AD2-0065R"});
+  const std::vector<VendorRecording> both = ReadVendorRecordings(dir);
+  ASSERT_EQ(both.size(), 2u);
+  EXPECT_EQ(both[0], SmallRecording());
+  EXPECT_EQ(both[1], right);
+  EXPECT_THAT(RecordingRefusalOf(dir), HasSubstr("holds the recordings of 2 sensors (AD2-0065L, AD2-0065R): give one "
+                                                 "<SN> folder"));
+}
+
+TEST(VendorRecording, MaxReferenceShiftIsHowFarTheZeroPointMoved) {
+  VendorRecording r = SmallRecording();
+  EXPECT_LT(r.MaxReferenceShiftMm(), 1e-12);  // P - D is 1.3 everywhere (to rounding)
+  // Frame 2's marker 5 drawn 0.03 mm along x and 0.04 mm along z from its reference.
+  std::vector<double> d = r.displacements.Float64Values();
+  d[(2 * 6 + 5) * 3 + 0] -= 0.03;
+  d[(2 * 6 + 5) * 3 + 2] -= 0.04;
+  r.displacements.data.assign(reinterpret_cast<const char*>(d.data()), d.size() * sizeof(double));
+  EXPECT_NEAR(r.MaxReferenceShiftMm(), 0.05, 1e-12);
 }
 
 // The vendor's own files: read, and written back byte for byte (every .npy and overview.csv).
