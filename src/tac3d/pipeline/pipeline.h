@@ -34,6 +34,7 @@ struct PipelineOptions {
   /// displacement noise are replaced by the measured ones after each reference.
   SlipOptions slip;
   MarkerTrackerOptions tracking;
+  /// The mirror model's triangulation; a vendor camera model uses only its max_ray_gap_mm.
   MarkerTriangulatorOptions stereo;
   /// A frame is flagged when a valid marker moved farther than this from its reference (mm),
   /// or the resultant force exceeds this (N): beyond what the sensor was built and calibrated
@@ -57,7 +58,8 @@ struct PipelineOptions {
 /// displacements and forces. One instance per sensor stream; not thread-safe.
 class Pipeline {
  public:
-  /// @param config the sensor (calibrated virtual cameras, markers).
+  /// @param config the sensor: calibrated virtual cameras (the twin's mirror model) or a
+  ///   vendor camera model (`tac3d import-vendor`), and its markers.
   /// @param h the compliance H (3N x 3N) of the sensor's FEM and its rest marker positions.
   /// @throws Error if the options are invalid or the sensor, H and grid disagree.
   Pipeline(const SensorConfig& config, const Eigen::MatrixXd& h,
@@ -92,7 +94,7 @@ class Pipeline {
   PipelineOptions options_;
   int rows_, cols_;
   MarkerTracker tracker_;
-  MarkerTriangulator triangulator_;
+  std::unique_ptr<StereoTriangulator> triangulator_;
   ForceReconstructor reconstructor_;
   MarkerSurface surface_;
   SlipEstimator slip_;

@@ -15,6 +15,78 @@ namespace {
 // grid neighbour is accepted (its prediction gets better), up to this bound.
 constexpr int kMaxTries = 3;
 
+// Where a half's markers are looked for and where the undeformed sensor's are in it.
+struct HalfSeed {
+  cv::Rect roi;
+  std::vector<Eigen::Vector2d> nominal;
+};
+
+// The mirror model's halves: each virtual camera's columns, the nominal markers projected
+// through the mirrors, glass and silicone.
+std::array<HalfSeed, 2> SeedMirrorHalves(const SensorConfig& config) {
+  const OpticalLayout layout = config.MakeOpticalLayout(true);
+  const std::vector<Eigen::Vector3d> markers = config.MarkerPositions();
+  const int width = config.camera.intrinsics.width, height = config.camera.intrinsics.height;
+  std::array<HalfSeed, 2> seeds;
+  for (ImageHalf which : kImageHalves) {
+    HalfSeed& seed = seeds[static_cast<int>(which)];
+    const auto camera = std::find_if(config.virtual_cameras.begin(), config.virtual_cameras.end(),
+                                     [&](const VirtualCameraConfig& v) { return v.half == which; });
+    if (camera == config.virtual_cameras.end()) {
+      throw Error(fmt::format("marker tracker: the sensor config has no virtual camera for the {} half",
+                              ToString(which)));
+    }
+    seed.roi = cv::Rect(camera->column_begin, 0, camera->column_end - camera->column_begin, height) &
+               cv::Rect(0, 0, width, height);
+    if (seed.roi.empty()) {
+      throw Error(fmt::format("marker tracker: {} has no columns in the {} x {} image", camera->name,
+                              width, height));
+    }
+    for (size_t i = 0; i < markers.size(); ++i) {
+      const auto uv = ProjectPoint(layout, which, markers[i]);
+      if (!uv) {
+        throw Error(fmt::format("marker tracker: marker {} (row {}, col {}) of the nominal sensor is "
+                                "not seen in the {} half",
+                                i, i / config.markers.cols, i % config.markers.cols, ToString(which)));
+      }
+      seed.nominal.push_back(*uv);
+    }
+  }
+  return seeds;
+}
+
+// A vendor model's views (VendorCameraModelConfig::ViewColumns): the reference pixels, in the
+// camera's image as delivered (the vendor's flip undone).
+std::array<HalfSeed, 2> SeedVendorHalves(const SensorConfig& config) {
+  const VendorCameraModelConfig& model = *config.vendor_camera;
+  const int width = config.camera.intrinsics.width, height = config.camera.intrinsics.height;
+  const std::array<std::pair<int, int>, 2> columns = model.ViewColumns(width, height);
+  std::array<HalfSeed, 2> seeds;
+  for (ImageHalf which : kImageHalves) {
+    const int h = static_cast<int>(which);
+    seeds[h].roi = cv::Rect(columns[h].first, 0, columns[h].second - columns[h].first, height);
+    for (const Eigen::Vector2d& p : model.reference_pixels[h]) seeds[h].nominal.push_back(model.FlipPixel(p, width, height));
+  }
+  return seeds;
+}
+
+// Every nominal marker must lie in its half's columns.
+std::array<HalfSeed, 2> SeedHalves(const SensorConfig& config) {
+  std::array<HalfSeed, 2> seeds = config.vendor_camera ? SeedVendorHalves(config) : SeedMirrorHalves(config);
+  for (ImageHalf which : kImageHalves) {
+    const HalfSeed& seed = seeds[static_cast<int>(which)];
+    for (size_t i = 0; i < seed.nominal.size(); ++i) {
+      const Eigen::Vector2d& uv = seed.nominal[i];
+      if (!seed.roi.contains(cv::Point(static_cast<int>(std::lround(uv.x())), static_cast<int>(std::lround(uv.y()))))) {
+        throw Error(fmt::format("marker tracker: marker {} (row {}, col {}) of the nominal sensor is not seen in "
+                                "the {} half",
+                                i, i / config.markers.cols, i % config.markers.cols, ToString(which)));
+      }
+    }
+  }
+  return seeds;
+}
+
 }  // namespace
 
 void MarkerTrackerOptions::Validate() const {
@@ -46,10 +118,7 @@ std::string_view ToString(MarkerState state) {
 MarkerTracker::MarkerTracker(const SensorConfig& config, const MarkerTrackerOptions& options)
     : config_(config), options_(options), rows_(config.markers.rows), cols_(config.markers.cols) {
   options_.Validate();
-  const OpticalLayout layout = config.MakeOpticalLayout(true);
-  const std::vector<Eigen::Vector3d> markers = config.MarkerPositions();
   const int n = rows_ * cols_;
-  const int width = config.camera.intrinsics.width, height = config.camera.intrinsics.height;
   neighbour_begin_.reserve(n + 1);
   for (int i = 0; i < n; ++i) {
     neighbour_begin_.push_back(static_cast<int>(neighbours_.size()));
@@ -64,31 +133,11 @@ MarkerTracker::MarkerTracker(const SensorConfig& config, const MarkerTrackerOpti
     }
   }
   neighbour_begin_.push_back(static_cast<int>(neighbours_.size()));
+  std::array<HalfSeed, 2> seeds = SeedHalves(config);
   for (ImageHalf which : kImageHalves) {
     Half& half = halves_[static_cast<int>(which)];
-    const auto camera = std::find_if(config.virtual_cameras.begin(), config.virtual_cameras.end(),
-                                     [&](const VirtualCameraConfig& v) { return v.half == which; });
-    if (camera == config.virtual_cameras.end()) {
-      throw Error(fmt::format("marker tracker: the sensor config has no virtual camera for the {} half",
-                              ToString(which)));
-    }
-    half.roi = cv::Rect(camera->column_begin, 0, camera->column_end - camera->column_begin, height) &
-               cv::Rect(0, 0, width, height);
-    if (half.roi.empty()) {
-      throw Error(fmt::format("marker tracker: {} has no columns in the {} x {} image", camera->name,
-                              width, height));
-    }
-    half.nominal.resize(n);
-    for (int i = 0; i < n; ++i) {
-      const auto uv = ProjectPoint(layout, which, markers[i]);
-      if (!uv || !half.roi.contains(cv::Point(static_cast<int>(std::lround(uv->x())),
-                                              static_cast<int>(std::lround(uv->y()))))) {
-        throw Error(fmt::format("marker tracker: marker {} (row {}, col {}) of the nominal sensor is "
-                                "not seen in the {} half",
-                                i, i / cols_, i % cols_, ToString(which)));
-      }
-      half.nominal[i] = *uv;
-    }
+    half.roi = seeds[static_cast<int>(which)].roi;
+    half.nominal = std::move(seeds[static_cast<int>(which)].nominal);
     half.pitch.assign(n, std::numeric_limits<double>::infinity());
     for (int i = 0; i < n; ++i) {
       const int r = i / cols_, c = i % cols_;

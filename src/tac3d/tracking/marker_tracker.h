@@ -119,8 +119,12 @@ struct MarkerObservation {
 /// reveals it (a side lost, dots beyond the opposite one), and the half is re-acquired.
 class MarkerTracker {
  public:
-  /// @throws Error if the options are invalid, the config has no designed mirrors or
-  /// virtual cameras, or a marker of the nominal sensor is not seen in its half.
+  /// Seeded from the sensor's camera model: the mirror model's nominal markers projected into
+  /// each virtual camera's columns, or a vendor model's reference pixels in each view's columns
+  /// (VendorCameraModelConfig::ViewColumns; the image as the camera delivers it, before the
+  /// vendor's flip).
+  /// @throws Error if the options are invalid, the config has neither a vendor camera model nor
+  /// designed mirrors and virtual cameras, or a marker of the nominal sensor is not seen in its half.
   explicit MarkerTracker(const SensorConfig& config, const MarkerTrackerOptions& options = {});
 
   /// Measures the markers in a camera frame, writing into `observation` (whose storage is
