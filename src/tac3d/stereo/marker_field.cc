@@ -63,7 +63,6 @@ std::optional<Eigen::Vector3d> MarkerTriangulator::TriangulateMarker(const Eigen
   }
   return p;
 }
-}
 
 void DisplacementReference::Set(const std::vector<MarkerField>& frames) {
   if (frames.empty()) throw Error("displacement reference: no frames to take it from");

@@ -1,5 +1,7 @@
 #include "tac3d/twin/vendor_optics.h"
 
+#include <cmath>
+
 #include <gtest/gtest.h>
 
 #include "tac3d/twin/camera_renderer.h"
@@ -51,9 +53,15 @@ TEST(VendorOptics, RendersTheMarkersWhereTheModelProjectsThem) {
     for (const int i : {0, 19, 210, 380, 399}) {
       const std::optional<Eigen::Vector2d> uv = renderer.rays().optics().Project(view, markers[i]);
       ASSERT_TRUE(uv);
-      const int u = static_cast<int>(std::lround(uv->x())), v = static_cast<int>(std::lround(uv->y()));
-      const int dot = image.at<std::uint8_t>(v, u);
-      const int film = image.at<std::uint8_t>(v + 12, u);  // half a pitch (~25-40 px) away is film
+      // Midway to a grid neighbour is film: half a pitch (0.51 mm) from both dots' centres,
+      // beyond their 0.3 mm radius.
+      const int neighbour = i % 20 == 19 ? i - 1 : i + 1;
+      const std::optional<Eigen::Vector2d> next = renderer.rays().optics().Project(view, markers[neighbour]);
+      ASSERT_TRUE(next);
+      const Eigen::Vector2d between = 0.5 * (*uv + *next);
+      const int dot = image.at<std::uint8_t>(static_cast<int>(std::lround(uv->y())), static_cast<int>(std::lround(uv->x())));
+      const int film =
+          image.at<std::uint8_t>(static_cast<int>(std::lround(between.y())), static_cast<int>(std::lround(between.x())));
       EXPECT_LT(dot, 0.5 * film) << ToString(view) << " marker " << i << " at " << uv->transpose();
     }
   }
