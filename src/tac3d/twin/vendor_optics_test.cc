@@ -20,7 +20,7 @@ TEST(VendorOptics, TracesTheVendorsRaysInEachViewsColumns) {
   const auto columns = model.ViewColumns(1920, 1080);
   for (const ImageHalf view : kImageHalves) {
     const auto [first, last] = columns[static_cast<int>(view)];
-    for (const Eigen::Vector2d pixel : {Eigen::Vector2d(first + 3, 200), Eigen::Vector2d(last - 4, 900),
+    for (const Eigen::Vector2d& pixel : {Eigen::Vector2d(first + 3, 200), Eigen::Vector2d(last - 4, 900),
                                         Eigen::Vector2d(0.5 * (first + last), 540)}) {
       const std::optional<HalfRay> traced = optics.Trace(pixel);
       ASSERT_TRUE(traced) << pixel.transpose();

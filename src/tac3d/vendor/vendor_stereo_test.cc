@@ -71,7 +71,7 @@ TEST(VendorStereo, ProjectInvertsPixelRay) {
   for (const bool refract : {true, false}) {
     const VendorStereo stereo(config, {.undistort = true, .refract = refract});
     for (const ImageHalf view : kImageHalves) {
-      for (const Eigen::Vector2d pixel : {Eigen::Vector2d(300, 250), Eigen::Vector2d(700, 800),
+      for (const Eigen::Vector2d& pixel : {Eigen::Vector2d(300, 250), Eigen::Vector2d(700, 800),
                                           Eigen::Vector2d(1200, 300), Eigen::Vector2d(1650, 900)}) {
         const std::optional<Ray> ray = stereo.PixelRay(view, pixel);
         ASSERT_TRUE(ray);
@@ -81,7 +81,9 @@ TEST(VendorStereo, ProjectInvertsPixelRay) {
       }
     }
     // A point on the cameras' side of the plane is not seen through it.
-    if (refract) EXPECT_FALSE(stereo.Project(ImageHalf::kLeft, {0, 0, -1}));
+    if (refract) {
+      EXPECT_FALSE(stereo.Project(ImageHalf::kLeft, {0, 0, -1}));
+    }
   }
 }
 
