@@ -6,6 +6,7 @@
 
 #include "tac3d/force/synthetic_compliance.h"
 #include "tac3d/pipeline/pipeline.h"
+#include "tac3d/sensor/test_sensor.h"
 #include "tac3d/stereo/marker_field.h"
 #include "tac3d/tracking/marker_tracker.h"
 #include "tac3d/twin/camera_renderer.h"
@@ -63,6 +64,21 @@ std::vector<Eigen::Vector3d> Displaced(const std::vector<Eigen::Vector3d>& rest,
   std::vector<Eigen::Vector3d> moved = rest;
   for (int i = 0; i < n; ++i) moved[i] += Eigen::Vector3d(d[i], d[n + i], d[2 * n + i]);
   return moved;
+}
+
+// The blob detector's pixel sizes are the built-in sensor's (640 x 480, pitch up to 16 px) as
+// given; a 1920 x 1080 sensor's dots (up to ~42 px apart) get them scaled.
+TEST(VendorPipeline, BlobSizesScaleWithTheImage) {
+  const MarkerTrackerOptions options;
+  const BlobOptions builtin = MarkerTracker(testing::DefaultSensor(), options).blob_options();
+  EXPECT_EQ(builtin.max_spread_px, options.blob.max_spread_px);
+  EXPECT_EQ(builtin.max_area_px, options.blob.max_area_px);
+  EXPECT_EQ(builtin.background_kernel_px, options.blob.background_kernel_px);
+  const BlobOptions hdl1 = MarkerTracker(Hdl1(), options).blob_options();
+  EXPECT_GT(hdl1.max_spread_px, 2 * options.blob.max_spread_px);
+  EXPECT_GT(hdl1.max_area_px, 4 * options.blob.max_area_px);
+  EXPECT_EQ(hdl1.background_kernel_px % 2, 1);
+  EXPECT_NO_THROW(hdl1.Validate());
 }
 
 // Tracking and triangulation alone: every marker of a rendered 1920 x 1080 image found in both

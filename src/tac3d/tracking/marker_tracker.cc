@@ -87,6 +87,22 @@ std::array<HalfSeed, 2> SeedHalves(const SensorConfig& config) {
   return seeds;
 }
 
+// The blob options' pixel sizes for this sensor's image scale (MarkerTrackerOptions::blob).
+BlobOptions ScaleBlobOptions(const BlobOptions& options, const std::vector<double>& left_pitch_px,
+                             const std::vector<double>& right_pitch_px) {
+  const double largest_pitch_px = std::max(*std::max_element(left_pitch_px.begin(), left_pitch_px.end()),
+                                           *std::max_element(right_pitch_px.begin(), right_pitch_px.end()));
+  const double scale = largest_pitch_px / kBlobOptionsPitchPx;
+  if (scale <= 1.0) return options;
+  BlobOptions scaled = options;
+  scaled.min_spread_px *= scale;
+  scaled.max_spread_px *= scale;
+  scaled.background_kernel_px = 2 * static_cast<int>(std::lround(0.5 * (options.background_kernel_px - 1) * scale)) + 1;
+  scaled.min_area_px = static_cast<int>(std::lround(options.min_area_px * scale * scale));
+  scaled.max_area_px = static_cast<int>(std::lround(options.max_area_px * scale * scale));
+  return scaled;
+}
+
 }  // namespace
 
 void MarkerTrackerOptions::Validate() const {
@@ -160,6 +176,7 @@ MarkerTracker::MarkerTracker(const SensorConfig& config, const MarkerTrackerOpti
     half.tries.assign(n, 0);
     half.queue.assign(kMaxTries * n, 0);
   }
+  blob_ = ScaleBlobOptions(options_.blob, halves_[0].pitch, halves_[1].pitch);
 }
 
 template <typename F>
@@ -200,7 +217,7 @@ void MarkerTracker::Grow(const cv::Mat& image, Half& half, int head, int tail) c
       const double search = options_.search_radius * pitch;
       Blob blob;
       const BlobStatus status = MeasureBlob(image, half.roi, prediction, search,
-                                            options_.blob_radius * pitch, options_.blob, blob);
+                                            options_.blob_radius * pitch, blob_, blob);
       if (status != BlobStatus::kFound) {
         half.state[i] = status == BlobStatus::kNoBlob ? MarkerState::kNotFound : MarkerState::kBadShape;
         continue;
@@ -298,7 +315,7 @@ bool MarkerTracker::GridJumped(const cv::Mat& image, const Half& half) const {
       Blob blob;
       const double gate = options_.gate * pitch;
       dots += MeasureBlob(image, half.roi, beyond, options_.search_radius * pitch,
-                          options_.blob_radius * pitch, options_.blob, blob) == BlobStatus::kFound &&
+                          options_.blob_radius * pitch, blob_, blob) == BlobStatus::kFound &&
               (blob.center - beyond).squaredNorm() <= gate * gate;
     }
     if (2 * dots > leading.count) return true;
@@ -345,7 +362,7 @@ void MarkerTracker::KeepLargestConsistentSeeds(Half& half) const {
 
 void MarkerTracker::AcquireHalf(const cv::Mat& image, Half& half) const {
   const int n = rows_ * cols_;
-  const std::vector<Blob> blobs = DetectBlobs(image, half.roi, options_.blob);
+  const std::vector<Blob> blobs = DetectBlobs(image, half.roi, blob_);
   std::vector<Eigen::Vector2d> centers(blobs.size());
   for (size_t j = 0; j < blobs.size(); ++j) centers[j] = blobs[j].center;
   // Each candidate indexing seeds the grid with its matched markers (the largest part that

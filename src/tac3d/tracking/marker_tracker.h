@@ -20,6 +20,9 @@ namespace tac3d {
 /// nominal sensor's image, 9-16 px for the built-in sensor), so they hold across the
 /// perspective-distorted grid.
 struct MarkerTrackerOptions {
+  /// In pixels for images whose largest marker pitch is at most kBlobOptionsPitchPx (the
+  /// built-in sensor's 640 x 480); in larger ones (a 1920 x 1080 Tac3D's, up to ~42 px) the
+  /// tracker scales its sizes by the pitch over that (MarkerTracker::blob_options).
   BlobOptions blob;
   GridIndexOptions index;
   /// A marker's blob is looked for within this distance of its prediction.
@@ -38,6 +41,9 @@ struct MarkerTrackerOptions {
   /// @throws Error naming the field and the bound.
   void Validate() const;
 };
+
+/// The largest marker pitch (px) MarkerTrackerOptions::blob's pixel sizes are meant for.
+inline constexpr double kBlobOptionsPitchPx = 16.0;
 
 /// Why a marker has, or has not, a measurement in a frame.
 enum class MarkerState : std::uint8_t {
@@ -147,6 +153,10 @@ class MarkerTracker {
     return halves_[static_cast<int>(half)].pitch;
   }
   const MarkerTrackerOptions& options() const { return options_; }
+  /// options().blob as used: its pixel sizes scaled by this sensor's largest nominal pitch over
+  /// kBlobOptionsPitchPx when that is over 1 (radii and kernel linearly, areas squared): the
+  /// largest dots must pass the spread and area bounds and the background kernel be wider.
+  const BlobOptions& blob_options() const { return blob_; }
 
  private:
   // Everything one half needs between frames, and its per-frame scratch.
@@ -188,6 +198,7 @@ class MarkerTracker {
 
   SensorConfig config_;
   MarkerTrackerOptions options_;
+  BlobOptions blob_;
   int rows_ = 0;
   int cols_ = 0;
   // Marker i's grid neighbours: neighbours_[neighbour_begin_[i] .. neighbour_begin_[i + 1]),
