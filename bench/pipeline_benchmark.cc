@@ -49,9 +49,9 @@ struct PressStream {
   std::vector<Frame> frames;
 
   explicit PressStream(double shear = 0.0, SensorConfig sensor = DefaultSensorConfig())
-      : config(std::move(sensor)), pipeline(config, SyntheticCompliance(config), config.MarkerPositions(), Options()) {
+      : config(std::move(sensor)), pipeline(config, SyntheticCompliance(config), RestMarkerPositions(config), Options()) {
     // H's values do not change the cost; the synthetic one saves building the FEM here.
-    const std::vector<Eigen::Vector3d> rest = config.MarkerPositions();
+    const std::vector<Eigen::Vector3d> rest = RestMarkerPositions(config);
     const MarkerImageRenderer renderer(config);
     for (int k = 0; k < 16; ++k) {
       std::vector<Eigen::Vector3d> markers = rest;
@@ -104,7 +104,7 @@ BENCHMARK(BM_VendorImageToTactileFrame)->Unit(benchmark::kMicrosecond);
 // cvtColor), /1 decoding the luma only (cv::IMREAD_GRAYSCALE).
 void BM_DecodeMjpeg1080p(benchmark::State& state) {
   const SensorConfig config = Hdl1Sensor();
-  const cv::Mat grey = MarkerImageRenderer(config).Render(config.MarkerPositions(), 0);
+  const cv::Mat grey = MarkerImageRenderer(config).Render(RestMarkerPositions(config), 0);
   cv::Mat bgr;
   cv::cvtColor(grey, bgr, cv::COLOR_GRAY2BGR);
   std::vector<std::uint8_t> jpeg;

@@ -22,7 +22,15 @@ std::unique_ptr<StereoTriangulator> MakeTriangulator(const SensorConfig& config,
   return std::make_unique<MarkerTriangulator>(config, options);
 }
 
+
 }  // namespace
+
+std::vector<Eigen::Vector3d> RestMarkerPositions(const SensorConfig& config) {
+  if (!config.vendor_camera) return config.MarkerPositions();
+  std::vector<Eigen::Vector3d> points;
+  for (const Triangulation& t : VendorStereo(config).TriangulateReference()) points.push_back(t.point);
+  return points;
+}
 
 void PipelineOptions::Validate() const {
   const OptionCheck require("pipeline");
@@ -57,7 +65,7 @@ Pipeline::Pipeline(const SensorConfig& config, const Eigen::MatrixXd& h,
                             fem_markers_mm.size()));
   }
   // The FEM's markers must be the sensor's: H was built for them.
-  const std::vector<Eigen::Vector3d> sensor_markers = config.MarkerPositions();
+  const std::vector<Eigen::Vector3d> sensor_markers = RestMarkerPositions(config);
   for (size_t i = 0; i < n; ++i) {
     if ((sensor_markers[i] - fem_markers_mm[i]).norm() > 1e-6) {
       throw Error(fmt::format("pipeline: marker {} is at ({:.3f}, {:.3f}, {:.3f}) in the sensor config but at "

@@ -50,6 +50,12 @@ struct PipelineOptions {
   void Validate() const;
 };
 
+/// The rest markers a compliance model of the sensor must have been built for: the mirror model's
+/// nominal grid (SensorConfig::MarkerPositions), or a vendor model's reference pixels triangulated
+/// (VendorStereo::TriangulateReference: the real markers, in the vendor's order, row 0 at +y and
+/// column 0 at +x for HDL1-0001).
+std::vector<Eigen::Vector3d> RestMarkerPositions(const SensorConfig& config);
+
 /// The per-frame chain of the paper (section IV): tracking -> 3D markers -> displacement ->
 /// forces (F = K D) -> normals -> contact -> resultants, as one TactileFrame per image, and
 /// beyond the paper the contact's slip state and friction coefficient (SlipEstimator).
@@ -60,7 +66,8 @@ class Pipeline {
  public:
   /// @param config the sensor: calibrated virtual cameras (the twin's mirror model) or a
   ///   vendor camera model (`tac3d import-vendor`), and its markers.
-  /// @param h the compliance H (3N x 3N) of the sensor's FEM and its rest marker positions.
+  /// @param h the compliance H (3N x 3N) of the sensor's FEM and its rest marker positions:
+  ///   RestMarkerPositions(config).
   /// @throws Error if the options are invalid or the sensor, H and grid disagree.
   Pipeline(const SensorConfig& config, const Eigen::MatrixXd& h,
            const std::vector<Eigen::Vector3d>& fem_markers_mm, const PipelineOptions& options = {});

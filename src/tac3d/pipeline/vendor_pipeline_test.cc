@@ -16,10 +16,9 @@
 // The chain on twin images of a vendor-calibrated sensor: HDL1-0001 as the fixture's calibration
 // imports it (1920 x 1080, two views in the one image, refraction at z = h0), rendered by the twin
 // through the vendor's model (VendorOptics) and measured by the pipeline seeded from the reference
-// pixels (VendorMarkerTriangulator). The twin's markers are its own (the imported sensor's regular
-// grid on the fitted dome, up to ~0.4 mm from where the reference pixels put the real ones), its
-// images discs with blur, noise and 8-bit quantisation: the tracker has to find them. The
-// compliance is the synthetic half-space H at the gel's E and nu, a stand-in for the FEM's.
+// pixels (VendorMarkerTriangulator). The twin's images are discs with blur, noise and 8-bit
+// quantisation, moved by a known displacement field. The compliance is the synthetic half-space H
+// at the gel's E and nu, a stand-in for the FEM's.
 
 namespace tac3d {
 namespace {
@@ -32,6 +31,13 @@ const SensorConfig& Hdl1() {
 const MarkerImageRenderer& Hdl1Renderer() {
   static const MarkerImageRenderer renderer(Hdl1());
   return renderer;
+}
+
+// The twin's markers: where the reference pixels triangulate (the real markers, in the vendor's
+// order: row 0 at +y, column 0 at +x), as the compliance model has them.
+const std::vector<Eigen::Vector3d>& Hdl1Markers() {
+  static const std::vector<Eigen::Vector3d> markers = RestMarkerPositions(Hdl1());
+  return markers;
 }
 
 const Eigen::MatrixXd& Hdl1Compliance() {
@@ -85,7 +91,7 @@ TEST(VendorPipeline, BlobSizesScaleWithTheImage) {
 // views and triangulated to within 0.02 mm of where the twin put it (measured: RMS 0.005 mm,
 // max 0.013 mm; the dots' images are blurred, noisy discs seen through the refraction).
 TEST(VendorPipeline, TracksAndTriangulatesRenderedMarkers) {
-  const std::vector<Eigen::Vector3d> rest = Hdl1().MarkerPositions();
+  const std::vector<Eigen::Vector3d>& rest = Hdl1Markers();
   const cv::Mat image = Hdl1Renderer().Render(rest, 0);
   ASSERT_EQ(image.cols, 1920);
   ASSERT_EQ(image.rows, 1080);
@@ -111,7 +117,7 @@ TEST(VendorPipeline, TracksAndTriangulatesRenderedMarkers) {
 // The whole chain, `tac3d run`'s Pipeline: the reference from static frames, then a press whose
 // displacements (D = H F) come back within 0.01 mm RMS and whose resultant within 2 %.
 TEST(VendorPipeline, RecoversAKnownPressOnTheImportedSensor) {
-  const std::vector<Eigen::Vector3d> rest = Hdl1().MarkerPositions();
+  const std::vector<Eigen::Vector3d>& rest = Hdl1Markers();
   PipelineOptions options;
   options.sn = "HDL1-0001";
   options.reference_frames = 3;
