@@ -4,13 +4,18 @@
 // the slip estimate sees a tangential load); the slip estimate alone on the sheared press's
 // frames (BM_SlipEstimate); and
 // the throughput with the Tac3D UDP sender on, streaming every frame to a loopback client
-// socket that drains what arrives (issue 6).
+// socket that drains what arrives (issue 6). At 1920 x 1080 on a vendor-calibrated sensor
+// (issue 23: median <= 2 ms on one core), with the decoding of a 1920 x 1080 MJPEG frame beside
+// it (BM_VendorImageToTactileFrame, BM_DecodeMjpeg1080p).
 // Run: taskset -c 0 build/bin/bench_pipeline --benchmark_repetitions=10
 //        --benchmark_report_aggregates_only=true
 #include <array>
 #include <cmath>
+#include <filesystem>
 
 #include <benchmark/benchmark.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "tac3d/design/light_path_design.h"
 #include "tac3d/force/synthetic_compliance.h"
@@ -18,20 +23,35 @@
 #include "tac3d/protocol/udp_sender.h"
 #include "tac3d/protocol/udp_socket.h"
 #include "tac3d/twin/camera_renderer.h"
+#include "tac3d/vendor/test_hdl1_0001_folder.h"
 
 namespace tac3d {
 namespace {
 
+// HDL1-0001 as `tac3d import-vendor` makes it from the fixture's calibration (1920 x 1080).
+SensorConfig Hdl1Sensor() {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "tac3d_bench_hdl1_0001";
+  testing::WriteHdl1VendorFolder(dir);
+  return ImportVendorSensor(dir.string());
+}
+
+// The synthetic H (the cost does not depend on its values) on the sensor's grid.
+Eigen::MatrixXd SyntheticCompliance(const SensorConfig& config) {
+  return CalcSyntheticCompliance({.rows = config.markers.rows, .cols = config.markers.cols,
+                                  .pitch_mm = config.markers.pitch_mm})
+      .h;
+}
+
 // A pipeline past its reference and 16 frames of a press coming and going.
 struct PressStream {
-  SensorConfig config = DefaultSensorConfig();
+  SensorConfig config;
   Pipeline pipeline;
   std::vector<Frame> frames;
 
-  explicit PressStream(double shear = 0.0)
-      : pipeline(config, CalcSyntheticCompliance({}).h, config.MarkerPositions(), Options()) {
+  explicit PressStream(double shear = 0.0, SensorConfig sensor = DefaultSensorConfig())
+      : config(std::move(sensor)), pipeline(config, SyntheticCompliance(config), RestMarkerPositions(config), Options()) {
     // H's values do not change the cost; the synthetic one saves building the FEM here.
-    const std::vector<Eigen::Vector3d> rest = config.MarkerPositions();
+    const std::vector<Eigen::Vector3d> rest = RestMarkerPositions(config);
     const MarkerImageRenderer renderer(config);
     for (int k = 0; k < 16; ++k) {
       std::vector<Eigen::Vector3d> markers = rest;
@@ -64,6 +84,45 @@ void BM_ImageToTactileFrame(benchmark::State& state) {
   if (out.has(FrameFlag::kInitializing) || out.has(FrameFlag::kMarkersLost)) state.SkipWithError("bad frame");
 }
 BENCHMARK(BM_ImageToTactileFrame)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+
+// The same chain at 1920 x 1080 on HDL1-0001 (the vendor's camera model: tracking seeded from
+// its reference pixels, VendorStereo's refracted rays), the press straight down.
+void BM_VendorImageToTactileFrame(benchmark::State& state) {
+  PressStream stream(0.0, Hdl1Sensor());
+  TactileFrame out;
+  size_t k = 0;
+  for (auto _ : state) {
+    stream.pipeline.Process(stream.frames[k++ % stream.frames.size()], out);
+    benchmark::DoNotOptimize(out.resultant_force_n);
+  }
+  if (out.has(FrameFlag::kInitializing) || out.has(FrameFlag::kMarkersLost)) state.SkipWithError("bad frame");
+}
+BENCHMARK(BM_VendorImageToTactileFrame)->Unit(benchmark::kMicrosecond);
+
+// A 1920 x 1080 MJPEG frame (one JPEG, quality 90, of a twin image of HDL1-0001) decoded to the
+// pipeline's 8-bit grey image: /0 as the camera source does it (cv::VideoCapture's BGR, then
+// cvtColor), /1 decoding the luma only (cv::IMREAD_GRAYSCALE).
+void BM_DecodeMjpeg1080p(benchmark::State& state) {
+  const SensorConfig config = Hdl1Sensor();
+  const cv::Mat grey = MarkerImageRenderer(config).Render(RestMarkerPositions(config), 0);
+  cv::Mat bgr;
+  cv::cvtColor(grey, bgr, cv::COLOR_GRAY2BGR);
+  std::vector<std::uint8_t> jpeg;
+  cv::imencode(".jpg", bgr, jpeg, {cv::IMWRITE_JPEG_QUALITY, 90});
+  cv::Mat decoded, out;
+  for (auto _ : state) {
+    if (state.range(0) == 0) {
+      decoded = cv::imdecode(jpeg, cv::IMREAD_COLOR);
+      cv::cvtColor(decoded, out, cv::COLOR_BGR2GRAY);
+    } else {
+      out = cv::imdecode(jpeg, cv::IMREAD_GRAYSCALE);
+    }
+    benchmark::DoNotOptimize(out.data);
+  }
+  if (out.cols != 1920 || out.rows != 1080) state.SkipWithError("not 1920 x 1080");
+  state.counters["jpeg_kib"] = static_cast<double>(jpeg.size()) / 1024.0;
+}
+BENCHMARK(BM_DecodeMjpeg1080p)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 
 // The SlipEstimator's share: its Estimate alone on the sheared press's TactileFrames.
 void BM_SlipEstimate(benchmark::State& state) {

@@ -8,13 +8,29 @@
 
 #include "tac3d/force/regularization.h"
 #include "tac3d/util/error.h"
+#include "tac3d/vendor/vendor_stereo.h"
 
 namespace tac3d {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
+// The sensor's camera model: a vendor's when it was imported with one, else the mirror rig.
+std::unique_ptr<StereoTriangulator> MakeTriangulator(const SensorConfig& config,
+                                                     const MarkerTriangulatorOptions& options) {
+  if (config.vendor_camera) return std::make_unique<VendorMarkerTriangulator>(config, options.max_ray_gap_mm);
+  return std::make_unique<MarkerTriangulator>(config, options);
+}
+
+
 }  // namespace
+
+std::vector<Eigen::Vector3d> RestMarkerPositions(const SensorConfig& config) {
+  if (!config.vendor_camera) return config.MarkerPositions();
+  std::vector<Eigen::Vector3d> points;
+  for (const Triangulation& t : VendorStereo(config).TriangulateReference()) points.push_back(t.point);
+  return points;
+}
 
 void PipelineOptions::Validate() const {
   const OptionCheck require("pipeline");
@@ -37,7 +53,7 @@ Pipeline::Pipeline(const SensorConfig& config, const Eigen::MatrixXd& h,
       rows_(config.markers.rows),
       cols_(config.markers.cols),
       tracker_(config, options.tracking),
-      triangulator_(config, options.stereo),
+      triangulator_(MakeTriangulator(config, options.stereo)),
       reconstructor_(h, fem_markers_mm, options.force),
       surface_(config.markers.rows, config.markers.cols, fem_markers_mm, options.contact),
       slip_(config.markers.rows * config.markers.cols, options.slip),
@@ -49,7 +65,7 @@ Pipeline::Pipeline(const SensorConfig& config, const Eigen::MatrixXd& h,
                             fem_markers_mm.size()));
   }
   // The FEM's markers must be the sensor's: H was built for them.
-  const std::vector<Eigen::Vector3d> sensor_markers = config.MarkerPositions();
+  const std::vector<Eigen::Vector3d> sensor_markers = RestMarkerPositions(config);
   for (size_t i = 0; i < n; ++i) {
     if ((sensor_markers[i] - fem_markers_mm[i]).norm() > 1e-6) {
       throw Error(fmt::format("pipeline: marker {} is at ({:.3f}, {:.3f}, {:.3f}) in the sensor config but at "
@@ -145,7 +161,7 @@ void Pipeline::Process(const Frame& frame, TactileFrame& out) {
     out = TactileFrame::Sized(rows_, cols_);
   }
   tracker_.Track(frame.image, observation_);
-  triangulator_.Triangulate(observation_.half(ImageHalf::kLeft).uv, observation_.half(ImageHalf::kRight).uv,
+  triangulator_->Triangulate(observation_.half(ImageHalf::kLeft).uv, observation_.half(ImageHalf::kRight).uv,
                             field_);
   out.sn = options_.sn;
   out.index = frames_;

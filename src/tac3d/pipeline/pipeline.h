@@ -34,6 +34,7 @@ struct PipelineOptions {
   /// displacement noise are replaced by the measured ones after each reference.
   SlipOptions slip;
   MarkerTrackerOptions tracking;
+  /// The mirror model's triangulation; a vendor camera model uses only its max_ray_gap_mm.
   MarkerTriangulatorOptions stereo;
   /// A frame is flagged when a valid marker moved farther than this from its reference (mm),
   /// or the resultant force exceeds this (N): beyond what the sensor was built and calibrated
@@ -49,6 +50,12 @@ struct PipelineOptions {
   void Validate() const;
 };
 
+/// The rest markers a compliance model of the sensor must have been built for: the mirror model's
+/// nominal grid (SensorConfig::MarkerPositions), or a vendor model's reference pixels triangulated
+/// (VendorStereo::TriangulateReference: the real markers, in the vendor's order, row 0 at +y and
+/// column 0 at +x for HDL1-0001).
+std::vector<Eigen::Vector3d> RestMarkerPositions(const SensorConfig& config);
+
 /// The per-frame chain of the paper (section IV): tracking -> 3D markers -> displacement ->
 /// forces (F = K D) -> normals -> contact -> resultants, as one TactileFrame per image, and
 /// beyond the paper the contact's slip state and friction coefficient (SlipEstimator).
@@ -57,8 +64,10 @@ struct PipelineOptions {
 /// displacements and forces. One instance per sensor stream; not thread-safe.
 class Pipeline {
  public:
-  /// @param config the sensor (calibrated virtual cameras, markers).
-  /// @param h the compliance H (3N x 3N) of the sensor's FEM and its rest marker positions.
+  /// @param config the sensor: calibrated virtual cameras (the twin's mirror model) or a
+  ///   vendor camera model (`tac3d import-vendor`), and its markers.
+  /// @param h the compliance H (3N x 3N) of the sensor's FEM and its rest marker positions:
+  ///   RestMarkerPositions(config).
   /// @throws Error if the options are invalid or the sensor, H and grid disagree.
   Pipeline(const SensorConfig& config, const Eigen::MatrixXd& h,
            const std::vector<Eigen::Vector3d>& fem_markers_mm, const PipelineOptions& options = {});
@@ -92,7 +101,7 @@ class Pipeline {
   PipelineOptions options_;
   int rows_, cols_;
   MarkerTracker tracker_;
-  MarkerTriangulator triangulator_;
+  std::unique_ptr<StereoTriangulator> triangulator_;
   ForceReconstructor reconstructor_;
   MarkerSurface surface_;
   SlipEstimator slip_;

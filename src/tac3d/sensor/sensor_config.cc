@@ -1,8 +1,10 @@
 #include "tac3d/sensor/sensor_config.h"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include <yaml-cpp/yaml.h>
@@ -449,6 +451,36 @@ void SensorConfig::Validate() const {
 Eigen::Vector3d RefractionPlaneConfig::Normal() const {
   return {std::sin(theta_rad) * std::cos(phi_rad), std::sin(theta_rad) * std::sin(phi_rad),
           std::cos(theta_rad)};
+}
+
+Eigen::Vector2d VendorCameraModelConfig::FlipPixel(const Eigen::Vector2d& pixel, int width, int height) const {
+  return {image_flip_x ? width - 1 - pixel.x() : pixel.x(), image_flip_y ? height - 1 - pixel.y() : pixel.y()};
+}
+
+std::array<std::pair<int, int>, 2> VendorCameraModelConfig::ViewColumns(int width, int height) const {
+  std::array<double, 2> lo, hi;  // each view's reference pixels' u range in the camera's image
+  for (const ImageHalf half : kImageHalves) {
+    const int h = static_cast<int>(half);
+    lo[h] = std::numeric_limits<double>::infinity();
+    hi[h] = -lo[h];
+    for (const Eigen::Vector2d& p : reference_pixels[h]) {
+      const double u = FlipPixel(p, width, height).x();
+      lo[h] = std::min(lo[h], u);
+      hi[h] = std::max(hi[h], u);
+    }
+  }
+  const int first = lo[0] < lo[1] ? 0 : 1;  // the view on the image's left
+  const int second = 1 - first;
+  if (!(hi[first] < lo[second])) {
+    throw Error(fmt::format("sensor config: camera_model.reference_pixels: the left view's span u = [{}, {}] and "
+                            "the right view's [{}, {}] overlap in the camera's image: no column parts the two views",
+                            lo[0], hi[0], lo[1], hi[1]));
+  }
+  const int cut = static_cast<int>(std::ceil(0.5 * (hi[first] + lo[second])));
+  std::array<std::pair<int, int>, 2> columns;
+  columns[first] = {0, cut};
+  columns[second] = {cut, width};
+  return columns;
 }
 
 Eigen::Vector3d SensorConfig::SphereCenter() const {

@@ -3,6 +3,7 @@
 #include <array>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "tac3d/geometry/geometry.h"
@@ -136,6 +137,17 @@ struct VendorCameraModelConfig {
   std::array<std::vector<Eigen::Vector2d>, 2> reference_pixels;
   DomeFitConfig dome;
   VendorDatasheetConfig datasheet;
+
+  /// A pixel of the camera's image as the camera delivers it, in the image the vendor's model
+  /// and reference pixels are in (after image_flip_x and image_flip_y), or back: the flip is its
+  /// own inverse. Pixel centres are whole numbers, so a flipped u is width - 1 - u.
+  Eigen::Vector2d FlipPixel(const Eigen::Vector2d& pixel, int width, int height) const;
+  /// The columns [first, second) of the camera's image (as delivered) each view owns, indexed
+  /// by ImageHalf: both views share the one image, cut at the column midway between the two
+  /// views' reference pixels (the gap between the left view's largest u and the right view's
+  /// smallest, or the other way round).
+  /// @throws Error if the two views' reference pixels overlap in u (no column parts them).
+  std::array<std::pair<int, int>, 2> ViewColumns(int width, int height) const;
 };
 
 /// One description of a sensor: everything the software needs to know about it. The

@@ -19,20 +19,8 @@ void MarkerTriangulatorOptions::Validate() const {
   if (model != RefractionModel::kNone) compensation.Validate();
 }
 
-MarkerTriangulator::MarkerTriangulator(const SensorConfig& config,
-                                       const MarkerTriangulatorOptions& options)
-    : options_((options.Validate(), options)),
-      markers_(config.markers.rows * config.markers.cols),
-      rig_(StereoRig::FromSensorConfig(config, /*with_gel=*/true)) {
-  // The exact model starts from the polynomial's answer, so both need it.
-  if (options.model != RefractionModel::kNone) {
-    compensation_ = RefractionCompensation::Fit(rig_, config, options.compensation);
-  }
-}
-
-void MarkerTriangulator::Triangulate(const std::vector<Eigen::Vector2d>& left,
-                                     const std::vector<Eigen::Vector2d>& right,
-                                     MarkerField& out) const {
+void StereoTriangulator::Triangulate(const std::vector<Eigen::Vector2d>& left,
+                                     const std::vector<Eigen::Vector2d>& right, MarkerField& out) const {
   if (static_cast<int>(left.size()) != markers_ || static_cast<int>(right.size()) != markers_) {
     throw Error(fmt::format("triangulation: {} left and {} right markers given, the grid has {}",
                             left.size(), right.size(), markers_));
@@ -44,21 +32,36 @@ void MarkerTriangulator::Triangulate(const std::vector<Eigen::Vector2d>& left,
   }
   const Eigen::Vector3d nan = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
   for (int i = 0; i < markers_; ++i) {
-    out.valid[i] = 0;
-    out.positions[i] = nan;
-    if (!left[i].allFinite() || !right[i].allFinite()) continue;
-    const Triangulation air = TriangulateMidpoint(rig_, left[i], right[i]);
-    if (!air.valid || air.residual > options_.max_ray_gap_mm) continue;
-    Eigen::Vector3d p = air.point;
-    if (options_.model != RefractionModel::kNone) p = compensation_->Correct(p);
-    if (options_.model == RefractionModel::kExact) {
-      const Triangulation exact = TriangulateRefracted(rig_, left[i], right[i], p);
-      if (!exact.valid) continue;
-      p = exact.point;
-    }
-    out.positions[i] = p;
-    out.valid[i] = 1;
+    const std::optional<Eigen::Vector3d> p =
+        left[i].allFinite() && right[i].allFinite() ? TriangulateMarker(left[i], right[i]) : std::nullopt;
+    out.valid[i] = p ? 1 : 0;
+    out.positions[i] = p ? *p : nan;
   }
+}
+
+MarkerTriangulator::MarkerTriangulator(const SensorConfig& config,
+                                       const MarkerTriangulatorOptions& options)
+    : StereoTriangulator(config.markers.rows * config.markers.cols),
+      options_((options.Validate(), options)),
+      rig_(StereoRig::FromSensorConfig(config, /*with_gel=*/true)) {
+  // The exact model starts from the polynomial's answer, so both need it.
+  if (options.model != RefractionModel::kNone) {
+    compensation_ = RefractionCompensation::Fit(rig_, config, options.compensation);
+  }
+}
+
+std::optional<Eigen::Vector3d> MarkerTriangulator::TriangulateMarker(const Eigen::Vector2d& left,
+                                                                     const Eigen::Vector2d& right) const {
+  const Triangulation air = TriangulateMidpoint(rig_, left, right);
+  if (!air.valid || air.residual > options_.max_ray_gap_mm) return std::nullopt;
+  Eigen::Vector3d p = air.point;
+  if (options_.model != RefractionModel::kNone) p = compensation_->Correct(p);
+  if (options_.model == RefractionModel::kExact) {
+    const Triangulation exact = TriangulateRefracted(rig_, left, right, p);
+    if (!exact.valid) return std::nullopt;
+    p = exact.point;
+  }
+  return p;
 }
 
 void DisplacementReference::Set(const std::vector<MarkerField>& frames) {

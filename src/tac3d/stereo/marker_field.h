@@ -36,26 +36,46 @@ struct MarkerTriangulatorOptions {
   void Validate() const;
 };
 
-/// Triangulates the tracked markers of both image halves (paired by index) and corrects the
-/// refraction; a marker is valid only if both halves saw it and the two rays agree.
-class MarkerTriangulator {
+/// Triangulates a frame's tracked markers (both halves' pixels, paired by index) into a
+/// MarkerField: the seam between tracking and a sensor's camera model. A marker is valid only if
+/// both halves saw it and its two rays agree. The twin's mirror rig is MarkerTriangulator; a
+/// vendor's pinhole-and-refraction model is VendorMarkerTriangulator (vendor/vendor_stereo.h).
+class StereoTriangulator {
+ public:
+  virtual ~StereoTriangulator() = default;
+
+  /// @param left, right pixel centroids per marker (NaN when the tracker lost it).
+  /// @param out resized on the first call only; `displacements` are left untouched.
+  /// @throws Error if the two halves' counts differ from the grid's.
+  void Triangulate(const std::vector<Eigen::Vector2d>& left, const std::vector<Eigen::Vector2d>& right,
+                   MarkerField& out) const;
+
+ protected:
+  explicit StereoTriangulator(int markers) : markers_(markers) {}
+  /// One marker from its pixels in both halves (finite); nullopt if they do not make one.
+  virtual std::optional<Eigen::Vector3d> TriangulateMarker(const Eigen::Vector2d& left,
+                                                           const Eigen::Vector2d& right) const = 0;
+
+ private:
+  int markers_;
+};
+
+/// The mirror rig's triangulation: the virtual cameras' straight rays, then the refraction
+/// corrected (MarkerTriangulatorOptions::model).
+class MarkerTriangulator : public StereoTriangulator {
  public:
   /// @param config a sensor with calibrated (or designed) virtual cameras.
   /// @throws Error if it has none, or if the options are invalid.
   MarkerTriangulator(const SensorConfig& config, const MarkerTriangulatorOptions& options = {});
 
-  /// @param left, right pixel centroids per marker (NaN when the tracker lost it).
-  /// @param out resized on the first call only; `displacements` are left untouched.
-  /// @throws Error if the two halves' counts differ from the grid's.
-  void Triangulate(const std::vector<Eigen::Vector2d>& left,
-                   const std::vector<Eigen::Vector2d>& right, MarkerField& out) const;
-
   const StereoRig& rig() const { return rig_; }
   const std::optional<RefractionCompensation>& compensation() const { return compensation_; }
 
  private:
+  std::optional<Eigen::Vector3d> TriangulateMarker(const Eigen::Vector2d& left,
+                                                   const Eigen::Vector2d& right) const override;
+
   MarkerTriangulatorOptions options_;
-  int markers_;
   StereoRig rig_;
   std::optional<RefractionCompensation> compensation_;
 };

@@ -19,6 +19,9 @@ namespace tac3d {
 /// nominal grid, 9-16 px for the built-in sensor), so they hold across a
 /// perspective-distorted grid.
 struct MarkerTrackerOptions {
+  /// In pixels for a grid whose largest pitch is at most 16 px (the built-in 640 x 480 sensor);
+  /// MarkerTracker scales them for larger ones (kBlobOptionsPitchPx), the single-view tracker
+  /// sizes them to the dots it measures (SizeBlobOptionsToDots).
   BlobOptions blob;
   GridIndexOptions index;
   /// A marker's blob is looked for within this distance of its prediction.

@@ -4,45 +4,131 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 #include "tac3d/util/error.h"
 #include "tac3d/util/seconds_since.h"
 
 namespace tac3d {
 
-MarkerTracker::MarkerTracker(const SensorConfig& config, const MarkerTrackerOptions& options)
-    : width_(config.camera.intrinsics.width), height_(config.camera.intrinsics.height), options_(options) {
-  options_.Validate();
+namespace {
+
+// Where a half's markers are looked for and where the undeformed sensor's are in it.
+struct HalfSeed {
+  cv::Rect roi;
+  std::vector<Eigen::Vector2d> nominal;
+};
+
+// The mirror model's halves: each virtual camera's columns, the nominal markers projected
+// through the mirrors, glass and silicone.
+std::array<HalfSeed, 2> SeedMirrorHalves(const SensorConfig& config) {
   const OpticalLayout layout = config.MakeOpticalLayout(true);
   const std::vector<Eigen::Vector3d> markers = config.MarkerPositions();
-  const int rows = config.markers.rows, cols = config.markers.cols, n = rows * cols;
+  const int width = config.camera.intrinsics.width, height = config.camera.intrinsics.height;
+  std::array<HalfSeed, 2> seeds;
   for (ImageHalf which : kImageHalves) {
+    HalfSeed& seed = seeds[static_cast<int>(which)];
     const auto camera = std::find_if(config.virtual_cameras.begin(), config.virtual_cameras.end(),
                                      [&](const VirtualCameraConfig& v) { return v.half == which; });
     if (camera == config.virtual_cameras.end()) {
       throw Error(fmt::format("marker tracker: the sensor config has no virtual camera for the {} half",
                               ToString(which)));
     }
-    const cv::Rect roi = cv::Rect(camera->column_begin, 0, camera->column_end - camera->column_begin, height_) &
-                         cv::Rect(0, 0, width_, height_);
-    if (roi.empty()) {
-      throw Error(fmt::format("marker tracker: {} has no columns in the {} x {} image", camera->name, width_,
-                              height_));
+    seed.roi = cv::Rect(camera->column_begin, 0, camera->column_end - camera->column_begin, height) &
+               cv::Rect(0, 0, width, height);
+    if (seed.roi.empty()) {
+      throw Error(fmt::format("marker tracker: {} has no columns in the {} x {} image", camera->name,
+                              width, height));
     }
-    std::vector<Eigen::Vector2d> nominal(n);
-    for (int i = 0; i < n; ++i) {
+    for (size_t i = 0; i < markers.size(); ++i) {
       const auto uv = ProjectPoint(layout, which, markers[i]);
-      if (!uv || !roi.contains(cv::Point(static_cast<int>(std::lround(uv->x())),
-                                         static_cast<int>(std::lround(uv->y()))))) {
+      if (!uv) {
         throw Error(fmt::format("marker tracker: marker {} (row {}, col {}) of the nominal sensor is "
                                 "not seen in the {} half",
-                                i, i / cols, i % cols, ToString(which)));
+                                i, i / config.markers.cols, i % config.markers.cols, ToString(which)));
       }
-      nominal[i] = *uv;
+      seed.nominal.push_back(*uv);
     }
-    TAC3D_DEMAND(static_cast<int>(halves_.size()) == static_cast<int>(which));
-    halves_.emplace_back(rows, cols, roi, std::move(nominal), options_,
-                         fmt::format("the {} half", ToString(which)));
+  }
+  return seeds;
+}
+
+// A vendor model's views (VendorCameraModelConfig::ViewColumns): the reference pixels, in the
+// camera's image as delivered (the vendor's flip undone).
+std::array<HalfSeed, 2> SeedVendorHalves(const SensorConfig& config) {
+  const VendorCameraModelConfig& model = *config.vendor_camera;
+  const int width = config.camera.intrinsics.width, height = config.camera.intrinsics.height;
+  const std::array<std::pair<int, int>, 2> columns = model.ViewColumns(width, height);
+  std::array<HalfSeed, 2> seeds;
+  for (ImageHalf which : kImageHalves) {
+    const int h = static_cast<int>(which);
+    seeds[h].roi = cv::Rect(columns[h].first, 0, columns[h].second - columns[h].first, height);
+    for (const Eigen::Vector2d& p : model.reference_pixels[h]) seeds[h].nominal.push_back(model.FlipPixel(p, width, height));
+  }
+  return seeds;
+}
+
+// Every nominal marker must lie in its half's columns.
+std::array<HalfSeed, 2> SeedHalves(const SensorConfig& config) {
+  std::array<HalfSeed, 2> seeds = config.vendor_camera ? SeedVendorHalves(config) : SeedMirrorHalves(config);
+  for (ImageHalf which : kImageHalves) {
+    const HalfSeed& seed = seeds[static_cast<int>(which)];
+    for (size_t i = 0; i < seed.nominal.size(); ++i) {
+      const Eigen::Vector2d& uv = seed.nominal[i];
+      if (!seed.roi.contains(cv::Point(static_cast<int>(std::lround(uv.x())), static_cast<int>(std::lround(uv.y()))))) {
+        throw Error(fmt::format("marker tracker: marker {} (row {}, col {}) of the nominal sensor is not seen in "
+                                "the {} half",
+                                i, i / config.markers.cols, i % config.markers.cols, ToString(which)));
+      }
+    }
+  }
+  return seeds;
+}
+
+// The largest nominal pitch of both halves over the one MarkerTrackerOptions::blob is meant for.
+double BlobScale(const std::vector<GridTracker>& halves) {
+  double largest_pitch_px = 0;
+  for (const GridTracker& half : halves) {
+    for (double pitch : half.pitch_px()) {
+      if (std::isfinite(pitch)) largest_pitch_px = std::max(largest_pitch_px, pitch);
+    }
+  }
+  return largest_pitch_px / kBlobOptionsPitchPx;
+}
+
+// The blob options' pixel sizes scaled up (radii and kernel linearly, areas squared).
+BlobOptions ScaleBlobOptions(const BlobOptions& options, double scale) {
+  BlobOptions scaled = options;
+  scaled.min_spread_px *= scale;
+  scaled.max_spread_px *= scale;
+  scaled.background_kernel_px = 2 * static_cast<int>(std::lround(0.5 * (options.background_kernel_px - 1) * scale)) + 1;
+  scaled.min_area_px = static_cast<int>(std::lround(options.min_area_px * scale * scale));
+  scaled.max_area_px = static_cast<int>(std::lround(options.max_area_px * scale * scale));
+  return scaled;
+}
+
+}  // namespace
+
+MarkerTracker::MarkerTracker(const SensorConfig& config, const MarkerTrackerOptions& options)
+    : width_(config.camera.intrinsics.width), height_(config.camera.intrinsics.height), options_(options) {
+  options_.Validate();
+  const int rows = config.markers.rows, cols = config.markers.cols;
+  const std::array<HalfSeed, 2> seeds = SeedHalves(config);
+  const auto make_halves = [&](const MarkerTrackerOptions& half_options) {
+    halves_.clear();
+    for (ImageHalf which : kImageHalves) {
+      const HalfSeed& seed = seeds[static_cast<int>(which)];
+      halves_.emplace_back(rows, cols, seed.roi, seed.nominal, half_options,
+                           fmt::format("the {} half", ToString(which)));
+    }
+  };
+  make_halves(options_);
+  // The blob sizes follow the pitch the grid trackers measured on the seeds.
+  blob_ = options_.blob;
+  if (const double scale = BlobScale(halves_); scale > 1) {
+    MarkerTrackerOptions scaled = options_;
+    scaled.blob = blob_ = ScaleBlobOptions(options_.blob, scale);
+    make_halves(scaled);
   }
 }
 

@@ -17,6 +17,11 @@ namespace tac3d {
 /// The markers seen in one image half.
 using HalfObservation = GridObservation;
 
+/// The largest marker pitch (px) MarkerTrackerOptions::blob's pixel sizes are meant for (the
+/// built-in 640 x 480 sensor's); a sensor whose nominal pitch is larger (a 1920 x 1080 Tac3D's,
+/// up to about 42 px) has them scaled (MarkerTracker::blob_options).
+inline constexpr double kBlobOptionsPitchPx = 16.0;
+
 /// The markers of one frame in both halves. Left and right are paired by index: marker i
 /// is the same physical marker in both.
 struct MarkerObservation {
@@ -43,8 +48,12 @@ struct MarkerObservation {
 /// sensor's marker pixels in it (see GridTracker for how).
 class MarkerTracker {
  public:
-  /// @throws Error if the options are invalid, the config has no designed mirrors or
-  /// virtual cameras, or a marker of the nominal sensor is not seen in its half.
+  /// Seeded from the sensor's camera model: the mirror model's nominal markers projected into
+  /// each virtual camera's columns, or a vendor model's reference pixels in each view's columns
+  /// (VendorCameraModelConfig::ViewColumns; the image as the camera delivers it, before the
+  /// vendor's flip).
+  /// @throws Error if the options are invalid, the config has neither a vendor camera model nor
+  /// designed mirrors and virtual cameras, or a marker of the nominal sensor is not seen in its half.
   explicit MarkerTracker(const SensorConfig& config, const MarkerTrackerOptions& options = {});
 
   /// Measures the markers in a camera frame, writing into `observation` (whose storage is
@@ -67,11 +76,16 @@ class MarkerTracker {
     return halves_[static_cast<int>(half)].pitch_px();
   }
   const MarkerTrackerOptions& options() const { return options_; }
+  /// options().blob as used: its pixel sizes scaled by this sensor's largest nominal pitch over
+  /// kBlobOptionsPitchPx when that is over 1 (radii and kernel linearly, areas squared): the
+  /// largest dots must pass the spread and area bounds and the background kernel be wider.
+  const BlobOptions& blob_options() const { return blob_; }
 
  private:
   int width_ = 0;
   int height_ = 0;
   MarkerTrackerOptions options_;
+  BlobOptions blob_;
   std::vector<GridTracker> halves_;  // indexed by ImageHalf
   std::int64_t frame_index_ = 0;
 };

@@ -56,7 +56,7 @@ float InsideFraction(float s, const Eigen::Vector2f& n) {
 // distance of the pixel centre's hit to the disk's rim, turned into covered area by the
 // local pixel -> disk-plane map.
 void SplatDisks(const RayField& rays, const std::vector<Disk>& disks, cv::Mat& image) {
-  const OpticalLayout& layout = rays.layout();
+  const PixelOptics& optics = rays.optics();
   const int w = rays.width(), h = rays.height();
   Eigen::Vector3f o, d;
   for (const Disk& disk : disks) {
@@ -74,7 +74,7 @@ void SplatDisks(const RayField& rays, const std::vector<Disk>& disks, cv::Mat& i
       return true;
     };
     for (ImageHalf half : kImageHalves) {
-      const auto centre_px = ProjectPoint(layout, half, disk.center);
+      const auto centre_px = optics.Project(half, disk.center);
       if (!centre_px) continue;
       const int u0 = static_cast<int>(std::lround(centre_px->x()));
       const int v0 = static_cast<int>(std::lround(centre_px->y()));
@@ -216,7 +216,7 @@ Rigid3 DotBoard::SensorFromBoard(const Eigen::Vector3d& centre_in_sensor,
 }
 
 MarkerImageRenderer::MarkerImageRenderer(const SensorConfig& config, const RenderOptions& options)
-    : config_(config), options_(options), rays_((options.Validate(), config.MakeOpticalLayout(true))) {
+    : config_(config), options_(options), rays_((options.Validate(), MakeMarkerOptics(config))) {
   // The film is seen where a pixel's ray reaches the marker layer inside the fingertip.
   const cv::Mat vignette = MakeVignette(config.camera.intrinsics, options);
   base_ = cv::Mat(rays_.height(), rays_.width(), CV_32FC1);

@@ -59,7 +59,10 @@ struct DotBoard {
 /// pixel corner once; Render is then cheap enough for video rates.
 class MarkerImageRenderer {
  public:
-  /// @throws Error if the config has no mirrors or the options are invalid.
+  /// Renders through the sensor's camera model (MakeMarkerOptics): the mirrors, glass and
+  /// silicone, or an imported vendor model's views (1920 x 1080 for HDL1-0001).
+  /// @throws Error if the config has neither mirrors nor a vendor camera model, or the options
+  ///   are invalid.
   MarkerImageRenderer(const SensorConfig& config, const RenderOptions& options = {});
   ~MarkerImageRenderer();
 

@@ -1,22 +1,38 @@
 #include "tac3d/twin/ray_field.h"
 
+#include "tac3d/twin/vendor_optics.h"
+
 namespace tac3d {
 
-RayField::RayField(const OpticalLayout& layout)
-    : layout_(layout), width_(layout.intrinsics.width), height_(layout.intrinsics.height) {
+std::optional<HalfRay> MirrorOptics::Trace(const Eigen::Vector2d& pixel) const {
+  const TracedRay r = TracePixel(layout_, pixel);
+  if (!r.ok()) return std::nullopt;
+  return HalfRay{r.half, layout_.layers.has_gel ? r.in_silicone : r.in_air};
+}
+
+std::optional<Eigen::Vector2d> MirrorOptics::Project(ImageHalf half, const Eigen::Vector3d& p_in_sensor) const {
+  return ProjectPoint(layout_, half, p_in_sensor);
+}
+
+std::unique_ptr<PixelOptics> MakeMarkerOptics(const SensorConfig& config) {
+  if (config.vendor_camera) return std::make_unique<VendorOptics>(config);
+  return std::make_unique<MirrorOptics>(config.MakeOpticalLayout(true));
+}
+
+RayField::RayField(std::unique_ptr<PixelOptics> optics)
+    : optics_(std::move(optics)), width_(optics_->intrinsics().width), height_(optics_->intrinsics().height) {
   const int corners = (width_ + 1) * (height_ + 1);
   origin_.resize(corners);
   direction_.resize(corners);
   std::vector<std::int8_t> corner_half(corners, -1);
   for (int j = 0; j <= height_; ++j) {
     for (int i = 0; i <= width_; ++i) {
-      const TracedRay r = TracePixel(layout_, {i - 0.5, j - 0.5});
-      if (!r.ok()) continue;
-      const Ray& final_ray = layout_.layers.has_gel ? r.in_silicone : r.in_air;
+      const std::optional<HalfRay> r = optics_->Trace({i - 0.5, j - 0.5});
+      if (!r) continue;
       const int k = CornerIndex(i, j);
-      origin_[k] = final_ray.origin.cast<float>();
-      direction_[k] = final_ray.direction.cast<float>();
-      corner_half[k] = static_cast<std::int8_t>(r.half);
+      origin_[k] = r->ray.origin.cast<float>();
+      direction_[k] = r->ray.direction.cast<float>();
+      corner_half[k] = static_cast<std::int8_t>(r->half);
     }
   }
   pixel_half_.assign(width_ * height_, -1);

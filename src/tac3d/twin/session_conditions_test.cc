@@ -78,7 +78,7 @@ TEST(SessionConditions, TheRendererAppliesEachNuisance) {
   const cv::Point left(100, 240), right(540, 240);
   ASSERT_GT(nominal.at<float>(left), 0.5f);
   ASSERT_GT(nominal.at<float>(right), 0.5f);
-  const auto uv = ProjectPoint(renderer.rays().layout(), ImageHalf::kLeft, markers[210]);
+  const auto uv = renderer.rays().optics().Project(ImageHalf::kLeft, markers[210]);
   ASSERT_TRUE(uv.has_value());
   const cv::Point dot(static_cast<int>(std::lround(uv->x())),
                       static_cast<int>(std::lround(uv->y())));

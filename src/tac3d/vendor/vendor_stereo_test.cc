@@ -64,6 +64,81 @@ TEST(VendorStereo, RaysBendAtThePlaneBySnellsLaw) {
   EXPECT_GT((tilted.point - flat.point).norm(), 0.05);  // 0.076 mm
 }
 
+// Project is PixelRay's inverse: a point on a pixel's ray projects back onto that pixel, in both
+// views, with and without the refraction.
+TEST(VendorStereo, ProjectInvertsPixelRay) {
+  const SensorConfig config = testing::FixtureVendorSensor();
+  for (const bool refract : {true, false}) {
+    const VendorStereo stereo(config, {.undistort = true, .refract = refract});
+    for (const ImageHalf view : kImageHalves) {
+      for (const Eigen::Vector2d& pixel : {Eigen::Vector2d(300, 250), Eigen::Vector2d(700, 800),
+                                          Eigen::Vector2d(1200, 300), Eigen::Vector2d(1650, 900)}) {
+        const std::optional<Ray> ray = stereo.PixelRay(view, pixel);
+        ASSERT_TRUE(ray);
+        const std::optional<Eigen::Vector2d> back = stereo.Project(view, ray->At(refract ? 8.0 : 40.0));
+        ASSERT_TRUE(back) << pixel.transpose();
+        EXPECT_LT((*back - pixel).norm(), 1e-6) << "refract " << refract << " pixel " << pixel.transpose();
+      }
+    }
+    // A point on the cameras' side of the plane is not seen through it.
+    if (refract) {
+      EXPECT_FALSE(stereo.Project(ImageHalf::kLeft, {0, 0, -1}));
+    }
+  }
+}
+
+// The views share the image: the fixture's left view (reference pixels u 208-832 after the
+// vendor's flipX) owns the camera image's right columns, the right view its left ones.
+TEST(VendorCameraModel, ViewColumnsPartTheTwoViews) {
+  const SensorConfig config = testing::FixtureVendorSensor();
+  const VendorCameraModelConfig& model = *config.vendor_camera;
+  const auto columns = model.ViewColumns(fixture::kWidth, fixture::kHeight);
+  const auto& left = columns[static_cast<int>(ImageHalf::kLeft)];
+  const auto& right = columns[static_cast<int>(ImageHalf::kRight)];
+  EXPECT_EQ(right.first, 0);
+  EXPECT_EQ(right.second, left.first);
+  EXPECT_EQ(left.second, fixture::kWidth);
+  for (const ImageHalf view : kImageHalves) {
+    const auto [first, last] = columns[static_cast<int>(view)];
+    for (const Eigen::Vector2d& p : model.reference_pixels[static_cast<int>(view)]) {
+      const double u = model.FlipPixel(p, fixture::kWidth, fixture::kHeight).x();
+      EXPECT_TRUE(u >= first && u < last) << ToString(view) << " u " << u;
+    }
+  }
+  EXPECT_EQ(model.FlipPixel({208, 215}, 1920, 1080), Eigen::Vector2d(1711, 215));
+  VendorCameraModelConfig overlapping = model;
+  overlapping.reference_pixels[1][0].x() = 500;
+  EXPECT_THAT([&] { overlapping.ViewColumns(1920, 1080); },
+              ::testing::ThrowsMessage<Error>(::testing::HasSubstr("overlap in the camera's image")));
+}
+
+// The chain's triangulation takes the camera's pixels (before the vendor's flip) and refuses a
+// pair whose rays miss each other.
+TEST(VendorMarkerTriangulator, TriangulatesTheCamerasPixels) {
+  const SensorConfig config = testing::FixtureVendorSensor();
+  const VendorCameraModelConfig& model = *config.vendor_camera;
+  const std::vector<Triangulation> reference = VendorStereo(config).TriangulateReference();
+  std::vector<Eigen::Vector2d> left, right;
+  for (size_t i = 0; i < reference.size(); ++i) {
+    left.push_back(model.FlipPixel(model.reference_pixels[0][i], fixture::kWidth, fixture::kHeight));
+    right.push_back(model.FlipPixel(model.reference_pixels[1][i], fixture::kWidth, fixture::kHeight));
+  }
+  left[1] = Eigen::Vector2d::Constant(std::nan(""));  // lost by the tracker
+  right[2] += Eigen::Vector2d(0, 30);                 // a mismatched pair: its rays miss
+  MarkerField field;
+  VendorMarkerTriangulator(config, 0.15).Triangulate(left, right, field);
+  ASSERT_EQ(field.positions.size(), reference.size());
+  EXPECT_FALSE(field.valid[1]);
+  EXPECT_FALSE(field.valid[2]);
+  for (size_t i = 0; i < reference.size(); ++i) {
+    if (i == 1 || i == 2) continue;
+    ASSERT_TRUE(field.valid[i]) << i;
+    EXPECT_LT((field.positions[i] - reference[i].point).norm(), 1e-12) << i;
+  }
+  EXPECT_THAT([&] { VendorMarkerTriangulator(config, 0.0); },
+              ::testing::ThrowsMessage<Error>(::testing::HasSubstr("max_ray_gap_mm = 0 must be > 0")));
+}
+
 TEST(VendorStereo, RefusesAConfigWithoutTheVendorsModel) {
   try {
     VendorStereo stereo{SensorConfig{}};
