@@ -13,6 +13,7 @@
 #include "tac3d/util/eval_check.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/progress.h"
+#include "tac3d/vendor/vendor_gel.h"
 
 namespace tac3d::cli {
 namespace {
@@ -48,7 +49,7 @@ ReplaySetup PrepareReplay(const ReplayArgs& a, const TwinDatasetReader& dataset)
   setup.config = a.config.empty() ? DatasetSensor(dataset) : LoadSensorConfig(a.config);
   MakeCacheDirectory(a.cache_dir);
   fem::ComplianceCacheResult model = fem::LoadOrBuildComplianceModel(
-      fem::BodyModelOptionsFromSensor(setup.config), a.cache_dir, a.show_progress);
+      SensorBodyModelOptions(setup.config), a.cache_dir, a.show_progress);
   setup.h = std::move(model.model.h);
   setup.fem_markers_mm = std::move(model.model.marker_positions);
   setup.options.max_steps = a.max_steps;

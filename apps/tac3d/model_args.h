@@ -5,6 +5,7 @@
 
 #include "commands.h"
 #include "tac3d/fem/body_model.h"
+#include "tac3d/vendor/vendor_gel.h"
 
 namespace tac3d::cli {
 
@@ -25,7 +26,7 @@ struct ModelArgs {
     cmd->add_flag("--json", json, "print JSON");
   }
   fem::BodyModelOptions Body() const {
-    fem::BodyModelOptions body = fem::BodyModelOptionsFromSensor(LoadSensorOrDefault(config));
+    fem::BodyModelOptions body = SensorBodyModelOptions(LoadSensorOrDefault(config));
     body.refinement = refinement;
     return body;
   }

@@ -20,6 +20,7 @@
 #include "tac3d/sensor/default_sensor.h"
 #include "tac3d/sensor/sensor_config.h"
 #include "tac3d/source/frame_source.h"
+#include "tac3d/vendor/vendor_gel.h"
 #include "twin_common.h"
 
 namespace tac3d::python {
@@ -106,7 +107,7 @@ std::unique_ptr<PyPipeline> MakePipeline(const std::string& config_path,
   const SensorConfig config = LoadSensorOrDefault(config_path);
   const std::string cache = ResolveCacheDir(cache_dir);
   const fem::ComplianceCacheResult model = fem::LoadOrBuildComplianceModel(
-      fem::BodyModelOptionsFromSensor(config), cache, /*show_progress=*/false);
+      SensorBodyModelOptions(config), cache, /*show_progress=*/false);
   p->pipeline =
       std::make_unique<Pipeline>(config, model.model.h, model.model.marker_positions, options);
   return p;

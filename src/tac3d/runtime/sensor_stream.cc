@@ -13,6 +13,7 @@
 #include "tac3d/util/file_io.h"
 #include "tac3d/util/seconds_since.h"
 #include "tac3d/vendor/vendor_frames.h"
+#include "tac3d/vendor/vendor_gel.h"
 
 namespace tac3d::runtime {
 namespace {
@@ -310,7 +311,7 @@ ModelLoader CachedModelLoader(const std::string& cache_dir) {
   return [cache_dir](const SensorConfig& config) {
     MakeCacheDirectory(cache_dir);
     return std::make_shared<const fem::ComplianceModel>(
-        fem::LoadOrBuildComplianceModel(fem::BodyModelOptionsFromSensor(config), cache_dir,
+        fem::LoadOrBuildComplianceModel(SensorBodyModelOptions(config), cache_dir,
                                         /*show_progress=*/true)
             .model);
   };

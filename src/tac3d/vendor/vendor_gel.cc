@@ -79,6 +79,10 @@ fem::BodyModelOptions VendorBodyModelOptions(const SensorConfig& config, const V
   return body;
 }
 
+fem::BodyModelOptions SensorBodyModelOptions(const SensorConfig& config) {
+  return config.vendor_camera ? VendorBodyModelOptions(config) : fem::BodyModelOptionsFromSensor(config);
+}
+
 std::string DescribeVendorGel(const fem::BodyModelOptions& body, const VendorGelOptions& options) {
   return fmt::format(
       "gel: {:.3f} mm thick on the axis (outer sphere radius {:.3f} mm = the markers' fitted sphere + {:.2f} mm "

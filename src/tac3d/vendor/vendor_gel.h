@@ -46,6 +46,11 @@ nlohmann::json ToJson(const VendorGelOptions& options);
 fem::BodyModelOptions VendorBodyModelOptions(const SensorConfig& config,
                                              const VendorGelOptions& options = {});
 
+/// The FEM body a sensor's compliance model (the pipeline's H) is built from: an imported sensor's
+/// gel under VendorGelOptions' defaults (VendorBodyModelOptions) when the config has a vendor camera
+/// model, else the designed sensor's (fem::BodyModelOptionsFromSensor).
+fem::BodyModelOptions SensorBodyModelOptions(const SensorConfig& config);
+
 /// One line: the gel's shape and how it was chosen (thickness on the axis, outer radius, base
 /// diameter and height, marker depth, E, nu, refinement).
 std::string DescribeVendorGel(const fem::BodyModelOptions& body, const VendorGelOptions& options);
