@@ -327,6 +327,86 @@ TEST(TwoGridSolver, ThrowsWhenItDoesNotConverge) {
               ::testing::ThrowsMessage<Error>(::testing::HasSubstr("did not converge")));
 }
 
+BodySolverOptions AlwaysMixed() {
+  BodySolverOptions solver = AlwaysTwoGrid();
+  solver.pcg.mixed_above_poisson_ratio = -1.0;
+  return solver;
+}
+
+BodyModelOptions SmallDomeWithPoissonRatio(double nu, double refinement = 1.0) {
+  BodyModelOptions options = SmallDome();
+  options.material.poisson_ratio = nu;
+  options.refinement = refinement;
+  return options;
+}
+
+int MaxIterations(const SolveSummary& summary) {
+  return *std::max_element(summary.iterations.begin(), summary.iterations.end());
+}
+
+TEST(MixedSolver, MatchesTheDirectSolutionUpToNearIncompressibility) {
+  for (double nu : {0.3, 0.49, 0.499, 0.4999}) {
+    const BodyModel direct(SmallDomeWithPoissonRatio(nu, 0.5));
+    const BodyModel mixed(SmallDomeWithPoissonRatio(nu, 0.5), false, AlwaysMixed());
+    ASSERT_EQ(mixed.solver().summary().method, ElasticSolverMethod::kTwoGridMixedMinres);
+    EXPECT_EQ(mixed.solver().summary().num_pressures, mixed.mesh().num_elements());
+    SolveSummary summary;
+    const Eigen::MatrixXd expected = MarkerResponse(direct);
+    const Eigen::MatrixXd actual = MarkerResponse(mixed, &summary);
+    EXPECT_LT((actual - expected).norm() / expected.norm(), 1e-8) << "nu " << nu;
+    ASSERT_EQ(summary.iterations.size(), 36);
+    for (size_t c = 0; c < summary.iterations.size(); ++c) {
+      EXPECT_LE(summary.relative_residuals[c], 1e-8) << "nu " << nu << ", case " << c;
+      EXPECT_GT(summary.iterations[c], 0) << "nu " << nu << ", case " << c;
+    }
+    // Prescribed displacements: K_fp holds the volumetric part that A_r lacks (without it the
+    // error is of order 1). The right-hand side -K_fp u_p is large against the load and K's
+    // condition grows with K_bulk, so the same residual tolerance bounds u less tightly here:
+    // conjugate gradients on K were 2.7e-8 / 2.1e-7 / 2.0e-6 off at nu 0.49 / 0.499 / 0.4999.
+    Eigen::VectorXd prescribed = Eigen::VectorXd::Zero(direct.mesh().num_dofs());
+    for (int n = 0; n < direct.mesh().num_nodes(); ++n) prescribed(3 * n + 2) = 0.01;
+    const Eigen::VectorXd forces = direct.CalcMarkerPatchLoads().col(30);
+    const Eigen::VectorXd u = direct.solver().Solve(forces, prescribed);
+    EXPECT_LT((mixed.solver().Solve(forces, prescribed) - u).norm() / u.norm(), 1e-7)
+        << "nu " << nu;
+  }
+}
+
+TEST(MixedSolver, IterationsStayBoundedAsPoissonsRatioNearsOneHalf) {
+  // Ten times the bulk modulus (0.499 -> 0.4999): MINRES on the mixed form barely notices,
+  // conjugate gradients on K (the same two-grid cycle) need several times the iterations.
+  const auto max_iterations = [](double nu, double mixed_above) {
+    BodySolverOptions solver = AlwaysTwoGrid();
+    solver.pcg.mixed_above_poisson_ratio = mixed_above;
+    const BodyModel model(SmallDomeWithPoissonRatio(nu, 0.5), false, solver);
+    SolveSummary summary;
+    MarkerResponse(model, &summary);
+    return MaxIterations(summary);
+  };
+  const int mixed_0499 = max_iterations(0.499, -1.0), mixed_04999 = max_iterations(0.4999, -1.0);
+  const int pcg_0499 = max_iterations(0.499, 0.5), pcg_04999 = max_iterations(0.4999, 0.5);
+  EXPECT_LE(mixed_04999, 1.5 * mixed_0499) << mixed_0499 << " -> " << mixed_04999;
+  EXPECT_GT(pcg_04999, 2.0 * pcg_0499) << pcg_0499 << " -> " << pcg_04999;
+  EXPECT_LT(mixed_04999, pcg_04999);
+}
+
+TEST(MixedSolver, ChosenAboveTheDefaultThreshold) {
+  const BodyModel pcg(SmallDomeWithPoissonRatio(0.499, 0.5), false, AlwaysTwoGrid());
+  EXPECT_EQ(pcg.solver().summary().method, ElasticSolverMethod::kTwoGridPcg);
+  EXPECT_EQ(pcg.solver().summary().num_pressures, 0);
+  const BodyModel mixed(SmallDomeWithPoissonRatio(0.4999, 0.5), false, AlwaysTwoGrid());
+  EXPECT_EQ(mixed.solver().summary().method, ElasticSolverMethod::kTwoGridMixedMinres);
+}
+
+TEST(MixedSolver, ThrowsWhenItDoesNotConverge) {
+  BodySolverOptions solver = AlwaysMixed();
+  solver.pcg.max_iterations = 3;
+  const BodyModel model(SmallDomeWithPoissonRatio(0.499, 0.5), false, solver);
+  EXPECT_THAT([&] { MarkerResponse(model); },
+              ::testing::ThrowsMessage<Error>(
+                  ::testing::HasSubstr("MINRES on the mixed form did not converge")));
+}
+
 TEST(BodySolverOptions, ValidateNamesTheField) {
   const auto throws_naming = [](const BodySolverOptions& options, const std::string& field) {
     EXPECT_THAT([&] { options.Validate(); },
@@ -353,6 +433,14 @@ TEST(BodySolverOptions, ValidateNamesTheField) {
   options = {};
   options.pcg.block_columns = 0;
   throws_naming(options, "block_columns");
+  for (double ratio : {-1.01, 0.51}) {
+    options = {};
+    options.pcg.mixed_above_poisson_ratio = ratio;
+    throws_naming(options, "mixed_above_poisson_ratio");
+  }
+  options = {};
+  options.pcg.mixed_bulk_split = 0.0;
+  throws_naming(options, "mixed_bulk_split");
   // A coarse level below the mesh's smallest refinement.
   options = {};
   options.max_direct_free_dofs = 0;
