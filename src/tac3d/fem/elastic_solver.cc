@@ -378,8 +378,7 @@ void PcgOptions::Validate() const {
                             mixed_above_poisson_ratio));
   }
   if (!(mixed_bulk_split > 0.0)) {
-    throw Error(
-        fmt::format("PcgOptions.mixed_bulk_split must be > 0, got {}", mixed_bulk_split));
+    throw Error(fmt::format("PcgOptions.mixed_bulk_split must be > 0, got {}", mixed_bulk_split));
   }
   for (const auto& [value, field] : {std::pair{max_iterations, "max_iterations"},
                                      std::pair{smoothing_sweeps, "smoothing_sweeps"},
@@ -568,8 +567,8 @@ void ElasticSolver::Impl::DisplacementResidual(const Block& rhs,
                                                const Block& u,
                                                Block* residual) const {
   MultiplySymmetric(stiffness_lower, u, residual);
-  const Block pressure = (bulk_excess / element_volume.array()).matrix().asDiagonal() *
-                         (volume_change * u);
+  const Block pressure =
+      (bulk_excess / element_volume.array()).matrix().asDiagonal() * (volume_change * u);
   *residual = rhs - *residual;
   residual->noalias() -= volume_change.transpose() * pressure;
 }

@@ -111,8 +111,8 @@ class ElasticSolver {
   /// mesh gives its DOFs and P). Each preconditioner application is a
   /// symmetric two-grid cycle, so the preconditioner is symmetric positive definite:
   /// `smoothing_sweeps` forward Gauss-Seidel sweeps on K e = r from e = 0, the coarse
-  /// correction e += P (P^T K P)^-1 P^T (r - K e), the same number of backward sweeps (e.g. Trottenberg,
-  /// Oosterlee, Schueller, Multigrid, 2001, sections 2.4 and 7.8).
+  /// correction e += P (P^T K P)^-1 P^T (r - K e), the same number of backward sweeps (e.g.
+  /// Trottenberg, Oosterlee, Schueller, Multigrid, 2001, sections 2.4 and 7.8).
   /// @param coarse_mesh, coarse_fixed a coarser mesh of the same body and its fixed-DOF flags.
   /// @param prolongation P, the interpolation of coarse nodal displacements at the fine nodes:
   ///   mesh.num_dofs() x coarse_mesh.num_dofs() (rows and columns at fixed DOFs are ignored).

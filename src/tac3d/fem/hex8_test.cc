@@ -94,8 +94,8 @@ TEST(Hex8, VolumeChangeIsTheStiffnesssVolumetricPart) {
   const ElasticMaterial stiff{9.0 * bulk * g / (3.0 * bulk + g),
                               (3.0 * bulk - 2.0 * g) / (2.0 * (3.0 * bulk + g))};
   const Hex8Matrix difference = CalcHex8Stiffness(x, stiff) - CalcHex8Stiffness(x, soft);
-  const Hex8Matrix expected = (bulk - soft.bulk_modulus()) / volume * volume_change *
-                              volume_change.transpose();
+  const Hex8Matrix expected =
+      (bulk - soft.bulk_modulus()) / volume * volume_change * volume_change.transpose();
   EXPECT_LT((difference - expected).cwiseAbs().maxCoeff(), 1e-12 * expected.cwiseAbs().maxCoeff());
 }
 
