@@ -440,7 +440,12 @@ ElasticSolver::ElasticSolver(const HexMesh& mesh,
   // rediscretised one (docs/fem.md).
   s.coarse = std::make_unique<Impl>();
   s.coarse->Assemble(coarse_mesh, level_material, coarse_fixed, show_progress);
+  // Interpolation weights of a fine node on a coarse face at the far nodes of the element it
+  // was located in are rounding, but they widen P^T K P's pattern: at refinement 2 of the
+  // default dome its factor had 3.3e8 non-zeros with them, 1.2e8 without.
+  constexpr double kNegligibleWeight = 1e-9;
   s.prolongation = s.selection.transpose() * prolongation * s.coarse->selection;
+  s.prolongation.prune(1.0, kNegligibleWeight);
   const auto galerkin_start = std::chrono::steady_clock::now();
   const Eigen::SparseMatrix<double> coarse_stiffness =
       GalerkinLower(s.stiffness_lower, s.prolongation);
