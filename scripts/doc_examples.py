@@ -9,7 +9,9 @@ A page marks what a user is meant to run with fenced blocks whose info string sa
   ```yaml file=scene.yaml  a file the page tells the user to write (any language)
 
 Attributes after `example`: `long` (takes minutes: listed, run only with --long),
-`fails` (the command is meant to exit non-zero, to show its message), `timeout=SECONDS`.
+`fails` (the command is meant to exit non-zero, to show its message), `timeout=SECONDS`,
+`realdata` (reads real sensor data from $TAC3D_REALDATA, by default ../shared/realdata beside
+the repository: listed and not run where that folder is absent, as in a user's clone).
 
 Each page runs in a scratch folder of its own that holds symlinks to the repository's
 top-level entries (so `python3 examples/python/x.py` works as from a clone), with the
@@ -40,6 +42,8 @@ import tempfile
 import time
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+REALDATA = os.path.abspath(os.environ.get("TAC3D_REALDATA") or
+                           os.path.join(REPO, "..", "shared", "realdata"))
 DEFAULT_TIMEOUT_S = 300
 FENCE = re.compile(r"^(```+|~~~+)\s*(.*)$")
 # What tac3d's ProgressBar prints (util/progress.cc): "label [####......]  40% 4/10 1.2s".
@@ -122,7 +126,8 @@ def tie_outputs(blocks):
         if block.runnable and block.language not in ("sh", "bash", "python"):
             raise PageError(f"{block.where()}: examples are sh, bash or python, not "
                             f"'{block.language}'")
-        unknown = [a for a in block.attributes if a not in ("example", "long", "fails", "output")
+        unknown = [a for a in block.attributes
+                   if a not in ("example", "long", "fails", "output", "realdata")
                    and not a.startswith(("file=", "timeout="))]
         if block.runnable and unknown:
             raise PageError(f"{block.where()}: unknown attribute(s) {' '.join(unknown)}")
@@ -186,6 +191,7 @@ def make_scratch(build_dir):
     env["PYTHONPATH"] = os.pathsep.join(
         p for p in [os.path.join(build_dir, "python"), env.get("PYTHONPATH", "")] if p)
     env["TAC3D_CLI"] = os.path.join(build_dir, "bin", "tac3d")
+    env["TAC3D_REALDATA"] = REALDATA
     env.setdefault("COLUMNS", "100")
     return scratch, env
 
@@ -290,6 +296,10 @@ def run_page(page, build_dir, run_long, keep):
                 print(f"{block.where()}: long, not run (--long runs it)")
                 skipped += 1
                 continue
+            if "realdata" in block.attributes and not os.path.isdir(REALDATA):
+                print(f"{block.where()}: needs the real data, not run (no folder {REALDATA})")
+                skipped += 1
+                continue
             start = time.monotonic()
             block_problems = run_block(block, scratch, env)
             ran += 1
@@ -303,7 +313,7 @@ def run_page(page, build_dir, run_long, keep):
             print(f"scratch folder kept: {scratch}")
         else:
             shutil.rmtree(scratch, ignore_errors=True)
-    print(f"{page_name(page)}: {ran} example(s) run, {skipped} long not run")
+    print(f"{page_name(page)}: {ran} example(s) run, {skipped} not run (long, or no real data)")
     return problems
 
 

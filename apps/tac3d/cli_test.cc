@@ -75,6 +75,28 @@ TEST(Cli, CalibrateForceSaysWhatItNeedsBeforeAnyWork) {
   EXPECT_THAT(o.output, HasSubstr("excludes"));
 }
 
+// Issue 27: gains fitted to noise (R^2 -0.08 and -1.00) were printed as usable.
+TEST(Cli, CalibrateForceRefusesGainsFittedToNoise) {
+  const std::string dir = testing::MakeTempDir("gains");
+  // Normal presses: fz measured and referenced alike, fx and fy noise on both sides (their
+  // products sum positive, so only R^2 can refuse them).
+  std::ofstream(dir + "/pairs.csv") << "fx_meas,fy_meas,fz_meas,fx_ref,fy_ref,fz_ref\n"
+                                       "0.02,0.01,-2.0,0.03,-0.03,-2.2\n"
+                                       "-0.01,0.03,-4.1,0.02,0.01,-4.5\n"
+                                       "0.03,-0.02,-6.0,0.01,-0.02,-6.6\n"
+                                       "-0.02,-0.01,-8.2,-0.03,0.02,-9.0\n";
+  Outcome o = RunCli(fmt::format("calibrate-force --pairs {}/pairs.csv", dir));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, ::testing::ContainsRegex("the fx gain's R\\^2 is 0.344, the fy gain's R\\^2 "
+                                                 "is -0.043 \\(over 4 pairs\\), under the floor 0.9"));
+  EXPECT_THAT(o.output, HasSubstr("add presses with shear"));
+  EXPECT_THAT(o.output, Not(HasSubstr("use them with")));
+  // Asked to take any fit, it prints the gains and their R^2.
+  o = RunCli(fmt::format("calibrate-force --pairs {}/pairs.csv --min-r-squared -100", dir));
+  EXPECT_EQ(o.exit_code, 0) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("use them with"));
+}
+
 TEST(Cli, RecordingPairsChecksItsOutputsBeforeReading) {
   const std::string dir = testing::MakeTempDir("pairs");
   Outcome o = RunCli(fmt::format("recording pairs {0}/none.t3r --reference {0}/none.csv", dir));
@@ -89,6 +111,25 @@ TEST(Cli, RecordingPairsChecksItsOutputsBeforeReading) {
   EXPECT_EQ(o.exit_code, 1);
   EXPECT_THAT(o.output, HasSubstr("none.csv"));
   EXPECT_EQ(CountFiles(dir), 0);
+}
+
+// Issue 27: the answer came after ~100 lines of rejected roots; they are --verbose's now.
+TEST(Cli, DesignPrintsTheRejectedRootsOnlyWhenVerbose) {
+  const std::string dir = testing::MakeTempDir("design_verbose");
+  Outcome o = RunCli(fmt::format("design --out {}/s.yaml", dir));
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("parallax angle"));
+  EXPECT_THAT(o.output, Not(HasSubstr("impossible")));
+  EXPECT_THAT(o.output, Not(HasSubstr("      - ")));
+  o = RunCli(fmt::format("design --out {}/s.yaml --verbose", dir));
+  ASSERT_EQ(o.exit_code, 0) << o.output;
+  EXPECT_THAT(o.output, HasSubstr(": impossible (max residual"));
+  EXPECT_THAT(o.output, HasSubstr("      - "));
+  EXPECT_THAT(o.output, HasSubstr("parallax angle"));
+  // With no valid root the error says where the reasons are.
+  o = RunCli(fmt::format("design --h 20 --out {}/s.yaml", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("(--verbose prints each root's reasons)"));
 }
 
 TEST(Cli, DesignRefusesAThicknessBeyondTheLimit) {

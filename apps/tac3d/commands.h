@@ -32,6 +32,7 @@ void RegisterCalibrateForce(CLI::App& app);
 void RegisterRecording(CLI::App& app);  // recording_command.cc: `tac3d recording info|export`
 void RegisterFrictionMap(CLI::App& app);
 void RegisterView(CLI::App& app);  // view_command.cc: `tac3d view`
+void RegisterImportVendor(CLI::App& app);  // vendor_command.cc: `tac3d import-vendor`
 
 /// `tac3d eval <what>`: accuracy evaluations against the twin's truth or analytic oracles,
 /// each printing its figures (JSON with --json). Each adds itself to the `eval` group.
@@ -44,6 +45,7 @@ void RegisterEvalForce(CLI::App& eval);
 void RegisterEvalReplay(CLI::App& eval);
 void RegisterEvalConditions(CLI::App& eval);
 void RegisterEvalFriction(CLI::App& eval);
+void RegisterEvalVendor(CLI::App& eval);  // vendor_command.cc
 
 /// @throws Error naming the first of `names` given on `cmd`'s command line, with `why`.
 void RefuseOptions(const CLI::App& cmd,

@@ -238,16 +238,24 @@ class Demo {
     ReplayArgs replay;
     replay.dataset = out_ + "/two_material_slide";
     replay.calibration = out_ + "/force_calibration";
+    // Flagged, not refused: the demo's later steps still show their figures, marked as wrong.
+    replay.gain_fit.on_poor_fit = PoorGainFit::kFlag;
     const TwinDatasetReader slide(replay.dataset);
     const std::vector<int> picks = ForceFieldSteps(slide);
     sensor_ = DatasetSensor(slide);
     friction_map_.emplace(FrictionMapArgs{}.Options(sensor_));
     FrictionReplayRecorder recorder(*friction_map_);
     const auto t = std::chrono::steady_clock::now();
+    int frames = 0;
     const ReplayRun run = RunReplay(replay, [&](const TwinStep& truth, const TactileFrame& frame) {
       recorder.Add(truth, frame);
+      ++frames;
       if (std::find(picks.begin(), picks.end(), truth.index) != picks.end()) kept_.emplace_back(truth, frame);
     });
+    // What `tac3d friction-map --dataset` would say of its input (the replay's time included).
+    friction_inputs_ = ReplayMapInputs(run, recorder);
+    friction_inputs_["frames_in"] = frames;
+    friction_inputs_["input_s"] = SecondsSince(t);
     WriteReplayFiles(run, out_ + "/replay");
     report_["replay"] = run.report;
     report_["replay_seconds"] = SecondsSince(t);  // both replays and the model load
@@ -255,6 +263,10 @@ class Demo {
     const ReplaySummary& s = run.replay.summary;
     std::printf("      gains %.4f %.4f %.4f (R^2 %.4f %.4f %.4f over %d loaded calibration frames)\n", fit.gains.x(),
                 fit.gains.y(), fit.gains.z(), fit.r_squared.x(), fit.r_squared.y(), fit.r_squared.z(), fit.num_pairs);
+    if (!fit.usable()) {
+      std::printf("      WARNING: unusable gains, every force below is scaled wrongly: %s\n",
+                  fit.PoorFitMessage().c_str());
+    }
     std::printf("      slide: %d loaded frames; resultant error %% of full scale (Fx, Fy 5 N; Fz 10 N)\n"
                 "      max %.2f %.2f %.2f, RMS %.2f %.2f %.2f (worst step %d); %d frames flagged\n",
                 s.loaded_frames, s.force_error_max_pct_fs.x(), s.force_error_max_pct_fs.y(),
@@ -291,11 +303,14 @@ class Demo {
     const auto t = std::chrono::steady_clock::now();
     const friction::FrictionMapResult map = friction_map_->Build();
     const std::string folder = out_ + "/friction_map";
-    const nlohmann::json files = WriteFrictionMapFiles(map, folder, FrictionMapArgs{}.View(map));
-    report_["friction_map"] = {{"summary", friction::ToJson(map.summary)}, {"files", files},
+    nlohmann::json inputs = friction_inputs_;
+    inputs["out"] = folder;
+    const nlohmann::json summary = friction::WriteFrictionMapOutputs(
+        map, friction_map_->options(), folder, FrictionMapArgs{}.View(map), std::move(inputs));
+    report_["friction_map"] = {{"summary", summary.at("map")}, {"files", summary.at("files")},
                                {"seconds", SecondsSince(t)}};
-    std::printf("      %s\n      %s/{map.png, map.ply, slip_points.csv}\n", map.summary.BriefReport().c_str(),
-                folder.c_str());
+    std::printf("      %s\n      %s/{map.png, map.ply, slip_points.csv, summary.json}\n",
+                map.summary.BriefReport().c_str(), folder.c_str());
   }
 
   std::string out_;
@@ -304,6 +319,7 @@ class Demo {
   nlohmann::json report_;
   SensorConfig sensor_;
   std::optional<friction::FrictionMapBuilder> friction_map_;
+  nlohmann::json friction_inputs_;  ///< the slide's replay as the friction map's summary names it
   std::vector<std::pair<TwinStep, TactileFrame>> kept_;
 };
 

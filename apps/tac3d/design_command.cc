@@ -21,6 +21,7 @@ struct DesignArgs {
   std::string svg;
   std::string png;
   bool json = false;
+  bool verbose = false;
 };
 
 nlohmann::json XZ(const Eigen::Vector2d& p) { return {p.x(), p.y()}; }
@@ -96,7 +97,9 @@ void Run(const DesignArgs& args) {
                 o.d_mm, o.fov_deg);
     std::printf("%d roots from %d starts (%.2f s), %d valid\n", design.summary.distinct_roots,
                 design.summary.starts, design.summary.seconds, design.summary.valid_roots);
-    for (size_t i = 0; i < design.roots.size(); ++i) {
+    // Most roots are impossible (15 found, 1 valid on the default sensor): their reasons run
+    // to ~100 lines, which only someone changing the design needs.
+    for (size_t i = 0; args.verbose && i < design.roots.size(); ++i) {
       const auto& r = design.roots[i];
       std::printf("  root %zu: %s (max residual %.1e)\n", i + 1, r.valid() ? "VALID" : "impossible",
                   r.max_residual());
@@ -119,8 +122,11 @@ void Run(const DesignArgs& args) {
   if (!design.chosen) {
     throw Error(fmt::format(
         "no valid mirror layout for h = {} mm, l = {} mm, d = {} mm, FOV = {} deg: all {} roots of "
-        "the design equations are physically impossible (reasons above)",
-        o.h_mm, o.l_mm, o.d_mm, o.fov_deg, design.roots.size()));
+        "the design equations are physically impossible ({})",
+        o.h_mm, o.l_mm, o.d_mm, o.fov_deg, design.roots.size(),
+        args.json      ? "each root's reasons are in the JSON's roots"
+        : args.verbose ? "reasons above"
+                       : "--verbose prints each root's reasons"));
   }
 }
 
@@ -141,6 +147,7 @@ void RegisterDesign(CLI::App& app) {
   cmd->add_option("--svg", args->svg, "write the cross-section drawing as SVG");
   cmd->add_option("--png", args->png, "write the cross-section drawing as PNG");
   cmd->add_flag("--json", args->json, "print the result as JSON");
+  cmd->add_flag("--verbose", args->verbose, "also print every root found, each rejected one with its reasons");
   cmd->callback([args] { Run(*args); });
 }
 

@@ -16,6 +16,7 @@ void RegisterEval(CLI::App& app) {
   RegisterEvalReplay(*eval);
   RegisterEvalConditions(*eval);
   RegisterEvalFriction(*eval);
+  RegisterEvalVendor(*eval);
 }
 
 }  // namespace tac3d::cli

@@ -131,10 +131,10 @@ void RegisterEvalFriction(CLI::App& eval) {
       e.replay_s = replay_s;
       e.map_s = map_s;
       nlohmann::json j = ToJson(e);
-      j["files"] = WriteFrictionMapFiles(map, args->out + "/" + scene.name, args->map.View(map));
+      j["files"] = friction::WriteFrictionMapFiles(map, args->out + "/" + scene.name, args->map.View(map));
       j["replay"] = run.report;
       j["strokes"] = recorder.strokes();
-      j["map_options"] = MapOptionsJson(builder.options());
+      j["map_options"] = friction::ToJson(builder.options());
       WriteTextFileAtomically(args->out + "/" + scene.name + "/evaluation.json", j.dump(2) + "\n");
       results.push_back(std::move(e));
       scenes.push_back(std::move(j));

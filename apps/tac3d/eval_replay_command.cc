@@ -10,6 +10,7 @@
 #include "tac3d/util/file_io.h"
 #include "twin_runs.h"
 #include "tac3d/fem/compliance.h"
+#include "tac3d/util/eval_check.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/progress.h"
 
@@ -32,6 +33,9 @@ void AddReplayOptions(CLI::App* cmd, ReplayArgs& replay) {
       ->expected(3);
   cmd->add_option("--calibration", replay.calibration,
                   "fit the gains on this twin dataset replayed with unit gains");
+  cmd->add_option("--min-r-squared", replay.gain_fit.min_r_squared,
+                  "with --calibration: the least R^2 a fitted gain is usable with")
+      ->capture_default_str();
   cmd->add_option("--config", replay.config, "sensor YAML (default: the dataset's scene's sensor)");
   cmd->add_option("--cache", replay.cache_dir, "directory of cached compliance models")->capture_default_str();
   cmd->add_option("--steps", replay.max_steps, "replay only the first N steps (0: all)")->capture_default_str();
@@ -48,6 +52,7 @@ ReplaySetup PrepareReplay(const ReplayArgs& a, const TwinDatasetReader& dataset)
   setup.h = std::move(model.model.h);
   setup.fem_markers_mm = std::move(model.model.marker_positions);
   setup.options.max_steps = a.max_steps;
+  setup.options.gain_fit = a.gain_fit;
   if (a.max_support_markers != 0) setup.options.pipeline.force.max_support_markers = a.max_support_markers;
   if (!a.gains.empty()) setup.options.pipeline.force.gains = {a.gains[0], a.gains[1], a.gains[2]};
   if (!a.calibration.empty()) {
@@ -74,9 +79,14 @@ ReplayRun RunReplay(const ReplayArgs& a, const std::function<void(const TwinStep
   if (run.calibration) {
     ReplayOptions unit_gains = run.options;
     unit_gains.pipeline.force.gains = Eigen::Vector3d::Ones();
+    const ForceGainFit& fit = run.calibration->fit;
     run.report["calibration"] = {{"dataset", a.calibration},
-                                 {"fit", ToJson(run.calibration->fit)},
+                                 {"fit", ToJson(fit)},
                                  {"replay_with_unit_gains", ToJson(run.calibration->replay.summary, unit_gains)}};
+    // A flagged fit fails the run's checks: its forces are scaled by gains fitted to noise.
+    run.report["checks"].push_back(ToJson(
+        EvalCheck::AtLeast("gain_fit_r_squared_min", fit.r_squared.minCoeff(), fit.min_r_squared)));
+    run.report["all_pass"] = run.report["all_pass"].get<bool>() && fit.usable();
   }
   return run;
 }
@@ -112,6 +122,8 @@ void RegisterEvalReplay(CLI::App& eval) {
   cmd->callback([args] {
     ReplayArgs a = args->replay;
     a.show_progress = !args->json;
+    // An evaluation reports a poor fit (a failed check, the fit's warning) rather than stop.
+    a.gain_fit.on_poor_fit = PoorGainFit::kFlag;
     const ReplayRun run = RunReplay(a);
     if (!args->out.empty()) WriteReplayFiles(run, args->out);
     const nlohmann::json& j = run.report;
@@ -124,6 +136,7 @@ void RegisterEvalReplay(CLI::App& eval) {
       std::printf("gains fitted on %s (%d loaded frames): %.5f %.5f %.5f, R^2 %.5f %.5f %.5f\n",
                   a.calibration.c_str(), fit.num_pairs, fit.gains.x(), fit.gains.y(), fit.gains.z(),
                   fit.r_squared.x(), fit.r_squared.y(), fit.r_squared.z());
+      if (!fit.usable()) std::printf("WARNING: unusable gains: %s\n", fit.PoorFitMessage().c_str());
     }
     const ReplaySummary& s = run.replay.summary;
     std::printf("%d steps, %d frames after the reference, %d loaded, %d flagged, %ld lost marker-frames\n",

@@ -213,13 +213,17 @@ void RegisterCalibrateForce(CLI::App& app) {
                   args->material.max_poisson_error,
                   "with --presses: refuse the fit if nu is less certain than this")
       ->capture_default_str();
+  cmd->add_option("--min-r-squared", args->material.gain_fit.min_r_squared,
+                  "refuse the gains if an axis' R^2 is below this (a fit to noise)")
+      ->capture_default_str();
   args->model.Add(cmd);
   cmd->add_option("--out", args->out, "also write the fit as JSON to this file");
   cmd->callback([args] {
     if (!args->out.empty()) CheckOutputFile(args->out, "--out");
     nlohmann::json j;
     if (!args->pairs.empty()) {
-      const ForceGainFit fit = FitForceGains(LoadForcePairs(args->pairs));
+      args->material.gain_fit.Validate();  // before the file is read
+      const ForceGainFit fit = FitForceGains(LoadForcePairs(args->pairs), args->material.gain_fit);
       j = ToJson(fit);
       if (!args->model.json) PrintGains(fit);
     } else if (!args->presses.empty()) {

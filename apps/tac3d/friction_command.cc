@@ -8,6 +8,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <type_traits>
+#include <variant>
 
 #include "commands.h"
 #include "twin_runs.h"
@@ -30,8 +32,7 @@ Eigen::Vector3d Vector(const std::vector<double>& v, const char* option) {
   return d.normalized();
 }
 
-// Frames from a recording, with poses from the CSV; a frame with no contact marker (the
-// sensor lifted) ends a stroke.
+// Frames from a recording, with poses from the CSV, in strokes (AddFrameOfStrokes).
 void AddRecording(const std::string& path,
                   const friction::PoseTrack& poses,
                   friction::FrictionMapBuilder& builder,
@@ -42,14 +43,7 @@ void AddRecording(const std::string& path,
   const auto size = static_cast<long>(std::filesystem::file_size(path, ec));
   ProgressBar bar("recording", ec ? 1 : std::max(1L, size), show_progress);
   while (const std::optional<RecordedFrame> recorded = reader.Next()) {
-    const TactileFrame& frame = recorded->frame;
-    builder.AddFrame(frame, poses.At(frame.timestamp_s));
-    bool contact = false;
-    for (size_t i = 0; i < frame.forces_n.size() && !contact; ++i) {
-      contact = frame.valid[i] &&
-                -frame.forces_n[i].dot(frame.normals[i]) > builder.options().contact_threshold_n;
-    }
-    if (!contact) builder.BreakStroke();
+    builder.AddFrameOfStrokes(recorded->frame, poses.At(recorded->frame.timestamp_s));
     ++*frames;
     if (!ec) bar.Update(reader.offset());
   }
@@ -62,53 +56,18 @@ void AddRecording(const std::string& path,
 }  // namespace
 
 void FrictionMapArgs::Add(CLI::App* cmd) {
-  cmd->add_option("--contact-threshold",
-                  contact_threshold_n,
-                  "contact marker's normal force, N (default 0.02)");
-  cmd->add_option("--slip-contact-threshold",
-                  slip_contact_threshold_n,
-                  "normal force of a marker for slip detection, N (< 0: --contact-threshold)")
-      ->capture_default_str();
-  cmd->add_option("--tangential-motion",
-                  tangential_motion,
-                  "slip by the motion in the tangent plane (false: the paper's 3D motion)")
-      ->capture_default_str();
-  cmd->add_option("--gross-slip-only",
-                  gross_slip_only,
-                  "only slip points of frames in steady gross slip vote for mu (false: the "
-                  "paper's, every slip point)")
-      ->capture_default_str();
-  cmd->add_option("--friction-along-slip",
-                  friction_along_slip,
-                  "mu_i from the tangential force's component against the slip (false: the "
-                  "paper's |F_t| / F_n)")
-      ->capture_default_str();
-  cmd->add_option("--gross-slip-margin",
-                  gross_slip_margin,
-                  "frames on either side that must be in steady gross slip too (default 0)");
-  cmd->add_option("--slip-sigmas", slip_sigmas, "k of the slip threshold (default 4)");
-  cmd->add_option(
-      "--marker-noise", marker_noise_mm, "per-axis marker position noise, mm (default 0.002)");
-  cmd->add_option("--radius", radius_mm, "r of equations 5 and 6, mm (default 1.5)");
-  cmd->add_option("--voxel", voxel_size_mm, "resampling voxel, mm (default 0.25)");
-  cmd->add_option("--depth", poisson_depth, "Poisson octree depth (default 8)");
-  cmd->add_option("--beta", beta, "mu_i exponent of the weights (the paper's: 2)")
-      ->capture_default_str();
-  cmd->add_option(
-         "--gamma",
-         gamma,
-         "F_n exponent of the weights (the paper's: 0; 1 with --beta 0: the ratio of the summed "
-         "forces)")
-      ->capture_default_str();
-  cmd->add_option("--min-slip-points",
-                  min_slip_points,
-                  "slip points within r a vertex needs for a mu (the paper's: 1)")
-      ->capture_default_str();
-  cmd->add_option("--max-support-offset",
-                  max_support_offset,
-                  "a vertex keeps mu unknown when its slip points' weighted centre lies farther "
-                  "than this fraction of r from it (the paper's: 1, no such test)")
-      ->capture_default_str();
+  for (const friction::FrictionMapCommandOption& o : friction::FrictionMapCommandOptions()) {
+    std::visit(
+        [&](auto field) {
+          CLI::Option* flag = cmd->add_option(o.Flag(), options.*field, o.help);
+          if constexpr (std::is_same_v<std::decay_t<decltype(options.*field)>, bool>) {
+            flag->default_str(options.*field ? "true" : "false");  // not CLI11's 1 and 0
+          } else {
+            flag->capture_default_str();
+          }
+        },
+        o.field);
+  }
   cmd->add_option(
          "--view", view, "PNG view direction X Y Z, world (default: onto the mesh's outer side)")
       ->expected(3);
@@ -116,23 +75,8 @@ void FrictionMapArgs::Add(CLI::App* cmd) {
 }
 
 friction::FrictionMapOptions FrictionMapArgs::Options(const SensorConfig& sensor) const {
-  friction::FrictionMapOptions o = friction::FrictionMapOptions::FromSensor(sensor);
-  if (contact_threshold_n >= 0) o.contact_threshold_n = contact_threshold_n;
-  if (slip_sigmas >= 0) o.slip_sigmas = slip_sigmas;
-  if (marker_noise_mm >= 0) o.marker_noise_mm = marker_noise_mm;
-  if (radius_mm >= 0) o.radius_mm = radius_mm;
-  if (voxel_size_mm >= 0) o.voxel_size_mm = voxel_size_mm;
-  if (poisson_depth >= 0) o.poisson_depth = poisson_depth;
-  if (beta >= 0) o.beta = beta;
-  if (gamma >= 0) o.normal_force_exponent = gamma;
-  if (min_slip_points >= 0) o.min_slip_points = min_slip_points;
-  if (max_support_offset >= 0) o.max_support_offset = max_support_offset;
-  if (slip_contact_threshold_n >= 0) o.slip_contact_threshold_n = slip_contact_threshold_n;
-  o.tangential_motion = tangential_motion;
-  o.gross_slip_only = gross_slip_only;
-  o.friction_along_slip = friction_along_slip;
-  if (gross_slip_margin >= 0) o.gross_slip_margin = gross_slip_margin;
-  o.Validate();
+  const friction::FrictionMapOptions o = options.WithSensor(sensor);
+  friction::ValidateCommandOptions(o, friction::OptionNaming::kFlag);
   return o;
 }
 
@@ -154,51 +98,11 @@ friction::RenderOptions FrictionMapArgs::View(const friction::FrictionMapResult&
   return r;
 }
 
-nlohmann::json MapOptionsJson(const friction::FrictionMapOptions& o) {
-  return {{"contact_threshold_n", o.contact_threshold_n},
-          {"slip_contact_threshold_n", o.SlipContactThresholdN()},
-          {"cover_thickness_mm", o.cover_thickness_mm},
-          {"marker_noise_mm", o.marker_noise_mm},
-          {"pose_noise_mm", o.pose_noise_mm},
-          {"slip_sigmas", o.slip_sigmas},
-          {"slip_threshold_mm", o.SlipThresholdMm()},
-          {"tangential_motion", o.tangential_motion},
-          {"gross_slip_only", o.gross_slip_only},
-          {"friction_along_slip", o.friction_along_slip},
-          {"gross_slip_margin", o.gross_slip_margin},
-          {"voxel_size_mm", o.voxel_size_mm},
-          {"poisson_depth", o.poisson_depth},
-          {"trim_distance_mm", o.trim_distance_mm},
-          {"radius_mm", o.radius_mm},
-          {"alpha", o.alpha},
-          {"beta", o.beta},
-          {"gamma", o.normal_force_exponent},
-          {"min_slip_points", o.min_slip_points},
-          {"max_support_offset", o.max_support_offset}};
-}
-
-nlohmann::json WriteFrictionMapFiles(const friction::FrictionMapResult& map,
-                                     const std::string& folder,
-                                     const friction::RenderOptions& view) {
-  MakeDirectory(folder);
-  nlohmann::json files = {{"slip_points_csv", folder + "/slip_points.csv"}};
-  friction::WriteSlipPointsCsv(map.slip_points, folder + "/slip_points.csv");
-  if (map.triangles.empty()) return files;
-  friction::WriteFrictionMapPly(map, folder + "/map.ply");
-  const friction::RenderSummary r = friction::WriteFrictionMapPng(map, folder + "/map.png", view);
-  files["ply"] = folder + "/map.ply";
-  files["png"] = folder + "/map.png";
-  files["png_view"] = {
-      {"view_direction",
-       {view.view_direction.x(), view.view_direction.y(), view.view_direction.z()}},
-      {"up", {view.up.x(), view.up.y(), view.up.z()}},
-      {"covered_pixels", r.covered_pixels},
-      {"band_pixels",
-       {{"unknown", r.band_pixels[0]},
-        {"low", r.band_pixels[1]},
-        {"medium", r.band_pixels[2]},
-        {"high", r.band_pixels[3]}}}};
-  return files;
+nlohmann::json ReplayMapInputs(const ReplayRun& run, const FrictionReplayRecorder& recorder) {
+  const Eigen::Vector3d& gains = run.options.pipeline.force.gains;
+  return {{"dataset", run.report.at("dataset")},
+          {"gains", {gains.x(), gains.y(), gains.z()}},
+          {"strokes", recorder.strokes()}};
 }
 
 void RegisterFrictionMap(CLI::App& app) {
@@ -251,11 +155,7 @@ void RegisterFrictionMap(CLI::App& app) {
         recorder.Add(step, frame);
         ++frames;
       });
-      summary["dataset"] = a.dataset;
-      summary["gains"] = {run.options.pipeline.force.gains.x(),
-                          run.options.pipeline.force.gains.y(),
-                          run.options.pipeline.force.gains.z()};
-      summary["strokes"] = recorder.strokes();
+      summary.update(ReplayMapInputs(run, recorder));
     } else {
       const SensorConfig sensor = LoadSensorOrDefault(args->replay.config);
       builder.emplace(args->map.Options(sensor));
@@ -271,10 +171,8 @@ void RegisterFrictionMap(CLI::App& app) {
     bar.Finish();
     summary["frames_in"] = frames;
     summary["input_s"] = input_s;
-    summary["options"] = MapOptionsJson(builder->options());
-    summary["map"] = friction::ToJson(map.summary);
-    summary["files"] = WriteFrictionMapFiles(map, args->out, args->map.View(map));
-    WriteTextFileAtomically(args->out + "/summary.json", summary.dump(2) + "\n");
+    summary = friction::WriteFrictionMapOutputs(map, builder->options(), args->out,
+                                                args->map.View(map), std::move(summary));
     if (args->json) {
       std::printf("%s\n", summary.dump(2).c_str());
       return;

@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   tac3d::cli::RegisterEval(app);
   tac3d::cli::RegisterRecording(app);
   tac3d::cli::RegisterView(app);
+  tac3d::cli::RegisterImportVendor(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
 
@@ -15,6 +16,8 @@
 #include "tac3d/reference_log/reference_log.h"
 #include "tac3d/util/file_io.h"
 #include "tac3d/util/error.h"
+#include "tac3d/vendor/vendor_frames.h"
+#include "tac3d/vendor/vendor_recording.h"
 
 namespace tac3d::cli {
 namespace {
@@ -83,7 +86,43 @@ void Info(const InfoArgs& a) {
   }
 }
 
+// The vendor's layout (docs/real-sensors.md): <out>/<SN>/<field>.npy and overview.csv.
+void ExportVendor(const ExportArgs& a) {
+  CheckOutputFolder(a.out, "--out");
+  RecordingReader reader(a.path);
+  std::vector<TactileFrame> frames;
+  while (std::optional<RecordedFrame> recorded = reader.Next()) frames.push_back(std::move(recorded->frame));
+  const std::string done = fmt::format("the {} frames before it were exported", frames.size());
+  if (reader.status() == RecordingStatus::kCorrupt) ReportEnd(reader.status(), reader.message(), done);
+  const VendorRecording vendor = VendorRecordingOfFrames(frames);
+  const std::string folder = a.out + "/" + vendor.serial_number;
+  if (!a.overwrite && std::filesystem::exists(folder)) {
+    throw Error(fmt::format("'{}' exists: give --overwrite to replace its files", folder));
+  }
+  WriteVendorRecording(vendor, a.out);
+  std::printf("exported %lld frames of %lld markers to %s in the vendor's layout\n",
+              static_cast<long long>(vendor.frames()), static_cast<long long>(vendor.markers()), folder.c_str());
+  ReportEnd(reader.status(), reader.message(), done);
+}
+
+struct ImportArgs {
+  std::string folder;
+  std::string out;
+  bool overwrite = false;
+};
+
+// `tac3d recording import`: a vendor recording as a tac3d recording.
+void Import(const ImportArgs& a) {
+  CheckOutputFile(a.out, "--out");
+  const VendorRecording vendor = ReadVendorRecording(a.folder);
+  RecordingWriter writer(a.out, {.overwrite = a.overwrite});
+  for (const TactileFrame& frame : FramesOfVendorRecording(vendor)) writer.Write(frame);
+  std::printf("imported %lld frames of %lld markers of sensor %s to %s\n", static_cast<long long>(vendor.frames()),
+              static_cast<long long>(vendor.markers()), vendor.serial_number.c_str(), a.out.c_str());
+}
+
 void Export(const ExportArgs& a) {
+  if (a.format == "vendor") return ExportVendor(a);
   const RecordingExportResult result = ExportRecording(
       a.path, a.out, {.format = ParseRecordingExportFormat(a.format), .overwrite = a.overwrite});
   std::printf("exported %lld frames of %d x %d markers to %s:",
@@ -191,14 +230,23 @@ void RegisterRecording(CLI::App& app) {
   auto ex = std::make_shared<ExportArgs>();
   CLI::App* export_cmd = recording->add_subcommand(
       "export",
-      "The good frames as .npy arrays (numpy) or CSV tables, one file per field or table");
+      "The good frames as .npy arrays (numpy) or CSV tables, one file per field or table, or in the vendor's "
+      "recording layout (<out>/<SN>/<field>.npy)");
   export_cmd->add_option("FILE", ex->path, "the recording")->required();
   export_cmd->add_option("--out", ex->out, "output folder (created if missing)")->required();
-  export_cmd->add_option("--format", ex->format, "npy or csv")
-      ->check(CLI::IsMember({"npy", "csv"}))
+  export_cmd->add_option("--format", ex->format, "npy, csv or vendor")
+      ->check(CLI::IsMember({"npy", "csv", "vendor"}))
       ->capture_default_str();
   export_cmd->add_flag("--overwrite", ex->overwrite, "replace files already in the output folder");
   export_cmd->callback([ex] { Export(*ex); });
+
+  auto import = std::make_shared<ImportArgs>();
+  CLI::App* import_cmd = recording->add_subcommand(
+      "import", "A vendor recording (Tac3D-Desktop, PyTac3D: <recording>/<SN>/<field>.npy) as a tac3d recording");
+  import_cmd->add_option("DIR", import->folder, "the vendor's recording folder, or its <SN> folder")->required();
+  import_cmd->add_option("--out", import->out, "the tac3d recording to write")->required();
+  import_cmd->add_flag("--overwrite", import->overwrite, "replace the file if it exists");
+  import_cmd->callback([import] { Import(*import); });
 
   auto pairs = std::make_shared<PairsArgs>();
   CLI::App* pairs_cmd = recording->add_subcommand(

@@ -89,8 +89,8 @@ void RunFile(const RunArgs& a) {
 
 // The one-sensor flags that a run file replaces.
 constexpr std::initializer_list<const char*> kSensorFlags = {
-    "--source", "--config", "--sn", "--udp", "--udp-items", "--udp-progress", "--record",
-    "--record-images", "--overwrite", "--reference-frames", "--weight", "--gains", "--drift", "--drift-time-constant", "--width",
+    "--source", "--config", "--sn", "--udp", "--udp-items", "--udp-progress", "--allow-zero-under-load", "--record",
+    "--record-images", "--overwrite", "--reference-frames", "--weight", "--gains", "--drift", "--drift-time-constant-s", "--width",
     "--height", "--fps", "--exposure", "--speed"};
 
 }  // namespace
@@ -117,6 +117,10 @@ void RegisterRun(CLI::App& app) {
   cmd->add_flag("--udp-progress", sensor.outputs.udp_progress,
                 "with --udp, also send the frames taken while the reference is (re)taken "
                 "(InitializeProgress < 100; PyTac3D 3.3.0-p1 stops at the first)");
+  cmd->add_flag("--allow-zero-under-load", sensor.outputs.allow_zero_under_load,
+                "take a $C (zero) from the client or the viewer while the sensor is loaded (a marker "
+                "displaced > 0.1 mm), with a warning; by default it is refused, as it would offset "
+                "every later reading");
   cmd->add_option("--record", sensor.outputs.record, "record the frames to this file (crash-safe)");
   cmd->add_flag("--record-images", sensor.outputs.record_images, "record the raw camera images too (with --record)");
   cmd->add_flag("--overwrite", sensor.outputs.overwrite, "replace the --record file if it exists");
@@ -128,7 +132,7 @@ void RegisterRun(CLI::App& app) {
   AddDriftOption(cmd, &sensor.drift.mode,
                  "drift at rest: off, flag (the default: drift_at_rest) or rezero (tracked out of "
                  "the reference; docs/pipeline.md)");
-  cmd->add_option("--drift-time-constant", sensor.drift.time_constant_s,
+  cmd->add_option("--drift-time-constant-s", sensor.drift.time_constant_s,
                   "time constant of the drift estimate at rest, s")
       ->capture_default_str();
   cmd->add_option("--max-frames", a->max_frames,
@@ -155,7 +159,7 @@ void RegisterRun(CLI::App& app) {
     if (const std::optional<std::string> path = runtime::RecordingSourcePath(a->sensor.source)) {
       RefuseOptions(*cmd,
                     {"--config", "--cache", "--reference-frames", "--weight", "--gains", "--drift",
-                     "--drift-time-constant", "--width", "--height", "--fps", "--exposure"},
+                     "--drift-time-constant-s", "--width", "--height", "--fps", "--exposure"},
                     "does not apply to a recording: its frames were computed when it was recorded");
       return RunRecording(*a, *path, /*replace_sn=*/cmd->count("--sn") > 0);
     }

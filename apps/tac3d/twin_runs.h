@@ -52,10 +52,14 @@ struct ReplayArgs {
   int max_steps = 0;
   int max_support_markers = 0;  ///< ForceReconstructorOptions::max_support_markers; 0: default
   bool show_progress = true;
+  /// With `calibration`: the gain fit's R^2 floor (--min-r-squared) and what a fit under it
+  /// does: refused (the default: the gains feed the command's product), or flagged by the
+  /// commands that report the fit (eval replay, the demo).
+  ForceGainFitOptions gain_fit;
 };
 
 /// Adds the options every command that replays twin datasets takes, into `replay`: --gains,
-/// --calibration, --config, --cache, --steps (the dataset is each command's own).
+/// --calibration, --min-r-squared, --config, --cache, --steps (the dataset is each command's own).
 void AddReplayOptions(CLI::App* cmd, ReplayArgs& replay);
 
 /// What a replay runs on: the sensor, the nominal compliance, and the options with the gains
@@ -77,7 +81,9 @@ struct ReplayRun {
   ReplayOptions options;  ///< as run, the gains included
   std::optional<ReplayGainCalibration> calibration;
   ReplayResult replay;
-  nlohmann::json report;  ///< the summary (ToJson), the calibration's fit and summary
+  /// The summary (ToJson), the calibration's fit and summary; with a calibration, its check
+  /// gain_fit_r_squared_min (the fit's lowest R^2 against its floor) joins the checks.
+  nlohmann::json report;
 };
 
 /// Loads the sensor and the nominal compliance (from the cache), fits the gains on the

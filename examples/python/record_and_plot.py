@@ -2,13 +2,14 @@
 """Records 10 s of a Tac3D stream to a tac3d recording, then plots the resultant force.
 
     tac3d run --source dataset:DIR --udp 127.0.0.1:9988 &
-    /usr/bin/python3 examples/python/record_and_plot.py [out.tac3drec] [--port 9988]
+    /usr/bin/python3 examples/python/record_and_plot.py [out.tac3drec] [--port 9988] [--seconds 10]
 
 The frames arrive as the vendor client's dicts (tac3d.Sensor); each is written as a
 TactileFrame (tac3d.RecordingWriter), crash-safe frame by frame, then read back whole
 (tac3d.open_recording) for the plot, saved next to the recording as PNG.
 """
 import argparse
+import math
 import time
 
 import matplotlib
@@ -20,9 +21,16 @@ import matplotlib.pyplot as plt  # noqa: E402
 import tac3d  # noqa: E402
 
 
+def grid_shape(n):
+    """rows x cols = n, as square as n allows: the stream does not say the grid's shape, and
+    its markers are row-major, so a square grid (20 x 20 for 400) is read back as it was."""
+    rows = max(r for r in range(1, math.isqrt(n) + 1) if n % r == 0)
+    return rows, n // rows
+
+
 def to_tactile_frame(d):
     n = d["3D_Positions"].shape[0]
-    f = tac3d.TactileFrame(n, 1)  # the stream does not say the grid's shape: N x 1
+    f = tac3d.TactileFrame(*grid_shape(n))
     f.sn, f.index, f.timestamp = d["SN"], d["index"], d["sendTimestamp"]
     f.positions = d["3D_Positions"]
     f.displacements = d["3D_Displacements"]

@@ -7,6 +7,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "arrays.h"
 #include "bindings.h"
@@ -15,6 +16,7 @@
 #include "tac3d/design/light_path_design.h"
 #include "tac3d/fem/body_model.h"
 #include "tac3d/fem/compliance.h"
+#include "tac3d/runtime/sensor_stream.h"
 #include "tac3d/sensor/default_sensor.h"
 #include "tac3d/sensor/sensor_config.h"
 #include "tac3d/source/frame_source.h"
@@ -88,12 +90,16 @@ std::unique_ptr<PyPipeline> MakePipeline(const std::string& config_path,
                                          const std::string& sn,
                                          int reference_frames,
                                          double weight,
-                                         const py::object& gains) {
+                                         const py::object& gains,
+                                         const std::string& drift,
+                                         double drift_time_constant_s) {
   PipelineOptions options;
   options.sn = sn;
   options.reference_frames = reference_frames;
   options.force.weight = weight;
   options.force.gains = ToVector3d(gains, "gains");
+  options.drift.mode = DriftModeArg(drift);
+  options.drift.time_constant_s = drift_time_constant_s;
   options.Validate();
   auto p = std::make_unique<PyPipeline>();
   py::gil_scoped_release release;
@@ -121,6 +127,7 @@ py::object Process(PyPipeline& p, const py::array& image, double timestamp_s) {
 }  // namespace
 
 void RegisterPipeline(py::module_& m) {
+  const PipelineOptions d;  // the defaults, as `tac3d run`'s
   py::class_<Source>(m, "FrameSource", R"doc(
 Camera images from a V4L2 camera, a video file, an image folder or a twin dataset
 (tac3d.open_source). Iterating gives (image uint8 H x W, timestamp_s, index) tuples; bad
@@ -162,12 +169,15 @@ minute for the default sensor), with the GIL released.
       .def(py::init(&MakePipeline),
            py::arg("config") = "",
            py::arg("cache_dir") = "",
-           py::arg("sn") = PipelineOptions{}.sn,
-           py::arg("reference_frames") = PipelineOptions{}.reference_frames,
-           py::arg("weight") = PipelineOptions{}.force.weight,
-           py::arg("gains") = py::make_tuple(1.0, 1.0, 1.0),
+           py::arg("sn") = d.sn,
+           py::arg("reference_frames") = d.reference_frames,
+           py::arg("weight") = d.force.weight,
+           py::arg("gains") = std::vector<double>(d.force.gains.begin(), d.force.gains.end()),
+           py::arg("drift") = runtime::DriftModeName(d.drift.mode),
+           py::arg("drift_time_constant_s") = d.drift.time_constant_s,
            "config: a sensor YAML ('' : the built-in prototype); cache_dir: '' for\n"
-           "$TAC3D_CACHE_DIR, $XDG_CACHE_HOME/tac3d or ~/.cache/tac3d. Raises tac3d.Error.")
+           "$TAC3D_CACHE_DIR, $XDG_CACHE_HOME/tac3d or ~/.cache/tac3d; the rest as SensorSpec's\n"
+           "and `tac3d run`'s (drift: off, flag or rezero). Raises tac3d.Error.")
       .def("process",
            &Process,
            py::arg("image"),

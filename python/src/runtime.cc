@@ -32,7 +32,8 @@ SensorRunSpec MakeSpec(const std::string& sn, const std::string& source, const s
                        const std::string& drift, double drift_time_constant_s,
                        std::optional<double> speed, double fps, double exposure,
                        const std::string& udp, const std::string& udp_items, bool udp_progress,
-                       const std::string& record, bool record_images, bool overwrite) {
+                       bool allow_zero_under_load, const std::string& record, bool record_images,
+                       bool overwrite) {
   SensorRunSpec s;
   s.sn = sn;
   s.source = source;
@@ -40,9 +41,7 @@ SensorRunSpec MakeSpec(const std::string& sn, const std::string& source, const s
   s.reference_frames = reference_frames;
   s.weight = weight;
   s.gains = ToVector3d(gains, "gains");
-  const std::optional<DriftMode> mode = runtime::ParseDriftMode(drift);
-  if (!mode) throw Error(fmt::format("drift '{}': must be off, flag or rezero", drift));
-  s.drift.mode = *mode;
+  s.drift.mode = DriftModeArg(drift);
   s.drift.time_constant_s = drift_time_constant_s;
   s.speed = speed;
   s.camera.fps = fps;
@@ -50,6 +49,7 @@ SensorRunSpec MakeSpec(const std::string& sn, const std::string& source, const s
   s.outputs.udp = udp;
   s.outputs.udp_items = udp_items;
   s.outputs.udp_progress = udp_progress;
+  s.outputs.allow_zero_under_load = allow_zero_under_load;
   s.outputs.record = record;
   s.outputs.record_images = record_images;
   s.outputs.overwrite = overwrite;
@@ -131,21 +131,28 @@ what it reads, how it computes its frames, where they go. Checked when made (tac
 naming the field).
 )doc")
       .def(py::init(&MakeSpec), py::arg("sn"), py::arg("source"), py::kw_only(),
-           py::arg("config") = "", py::arg("reference_frames") = d.reference_frames,
-           py::arg("weight") = d.weight, py::arg("gains") = py::make_tuple(1.0, 1.0, 1.0),
-           py::arg("drift") = "flag", py::arg("drift_time_constant_s") = d.drift.time_constant_s,
-           py::arg("speed") = py::none(), py::arg("fps") = d.camera.fps, py::arg("exposure") = 0.0,
-           py::arg("udp") = "", py::arg("udp_items") = "", py::arg("udp_progress") = false,
-           py::arg("record") = "", py::arg("record_images") = false,
-           py::arg("overwrite") = false,
+           // The defaults are SensorRunSpec's, as `tac3d run`'s and the run file's.
+           py::arg("config") = d.config, py::arg("reference_frames") = d.reference_frames,
+           py::arg("weight") = d.weight,
+           py::arg("gains") = std::vector<double>(d.gains.begin(), d.gains.end()),
+           py::arg("drift") = runtime::DriftModeName(d.drift.mode),
+           py::arg("drift_time_constant_s") = d.drift.time_constant_s,
+           py::arg("speed") = d.speed, py::arg("fps") = d.camera.fps, py::arg("exposure") = d.exposure,
+           py::arg("udp") = d.outputs.udp, py::arg("udp_items") = d.outputs.udp_items,
+           py::arg("udp_progress") = d.outputs.udp_progress,
+           py::arg("allow_zero_under_load") = d.outputs.allow_zero_under_load,
+           py::arg("record") = d.outputs.record,
+           py::arg("record_images") = d.outputs.record_images,
+           py::arg("overwrite") = d.outputs.overwrite,
            "sn: the serial number in the stream, recording and frames; source: camera:N,\n"
            "/dev/videoN, a video file, an image folder, dataset:DIR or recording:FILE; config:\n"
            "a sensor YAML ('' the built-in prototype); speed: pace of dataset:/recording:\n"
            "(None: a recording at its recorded pace, a dataset as fast as possible); udp:\n"
            "HOST:PORT of a Tac3D client; udp_items: tac3d's extra items after the vendor's six\n"
            "('3D_Normals,SlipState', 'all'; tac3d run's --udp-items); udp_progress: also send\n"
-           "the frames taken while the reference is taken (--udp-progress); record: a new\n"
-           "recording file.")
+           "the frames taken while the reference is taken (--udp-progress);\n"
+           "allow_zero_under_load: take a $C while the sensor is loaded, with a warning, instead\n"
+           "of refusing it (--allow-zero-under-load); record: a new recording file.")
       .def_readonly("sn", &SensorRunSpec::sn)
       .def_readonly("source", &SensorRunSpec::source)
       .def_readonly("config", &SensorRunSpec::config)
@@ -160,6 +167,7 @@ naming the field).
       .def_property_readonly("udp", [](const SensorRunSpec& s) { return s.outputs.udp; })
       .def_property_readonly("udp_items", [](const SensorRunSpec& s) { return s.outputs.udp_items; })
       .def_property_readonly("udp_progress", [](const SensorRunSpec& s) { return s.outputs.udp_progress; })
+      .def_property_readonly("allow_zero_under_load", [](const SensorRunSpec& s) { return s.outputs.allow_zero_under_load; })
       .def_property_readonly("record", [](const SensorRunSpec& s) { return s.outputs.record; })
       .def_property_readonly("record_images", [](const SensorRunSpec& s) { return s.outputs.record_images; })
       .def_property_readonly("overwrite", [](const SensorRunSpec& s) { return s.outputs.overwrite; })
@@ -190,6 +198,12 @@ last frame and the longest gap between two frames (NaN, NaN, 0 without frames).
 }
 
 }  // namespace
+
+DriftMode DriftModeArg(const std::string& drift) {
+  const std::optional<DriftMode> mode = runtime::ParseDriftMode(drift);
+  if (!mode) throw Error(fmt::format("drift '{}': must be off, flag or rezero", drift));
+  return *mode;
+}
 
 void RegisterRuntime(py::module_& m) {
   RegisterSensorSpec(m);

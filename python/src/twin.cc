@@ -7,13 +7,17 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <type_traits>
+#include <variant>
 
 #include "arrays.h"
 #include "bindings.h"
 #include "tac3d/dataset/twin_dataset.h"
 #include "tac3d/design/light_path_design.h"
+#include "tac3d/friction/command_options.h"
 #include "tac3d/friction/friction_map.h"
 #include "tac3d/scene/scene.h"
+#include "tac3d/sensor/default_sensor.h"
 #include "tac3d/sensor/sensor_config.h"
 #include "tac3d/simulation/simulation.h"
 #include "tac3d/simulation/twin_body.h"
@@ -312,55 +316,81 @@ py::dict DesignLight(double h, double l, double d, double fov, int starts) {
   return DesignDict(design);
 }
 
-friction::FrictionMapOptions FrictionOptions(const py::dict& d) {
-  friction::FrictionMapOptions o = friction::FrictionMapOptions::FromSensor(DefaultSensorConfig());
+// `tac3d friction-map`'s options (friction::FrictionMapCommandOptions) with its defaults and
+// the sensor's cover thickness, as the CLI builds them.
+friction::FrictionMapOptions FrictionOptions(const py::dict& d, const SensorConfig& sensor) {
+  friction::FrictionMapOptions o = friction::CommandFrictionMapDefaults().WithSensor(sensor);
   for (auto [key, value] : d) {
     const std::string k = py::str(key);
-    if (k == "contact_threshold_n")
-      o.contact_threshold_n = value.cast<double>();
-    else if (k == "cover_thickness_mm")
-      o.cover_thickness_mm = value.cast<double>();
-    else if (k == "slip_contact_threshold_n")
-      o.slip_contact_threshold_n = value.cast<double>();
-    else if (k == "marker_noise_mm")
-      o.marker_noise_mm = value.cast<double>();
-    else if (k == "pose_noise_mm")
-      o.pose_noise_mm = value.cast<double>();
-    else if (k == "slip_sigmas")
-      o.slip_sigmas = value.cast<double>();
-    else if (k == "tangential_motion")
-      o.tangential_motion = value.cast<bool>();
-    else if (k == "voxel_size_mm")
-      o.voxel_size_mm = value.cast<double>();
-    else if (k == "poisson_depth")
-      o.poisson_depth = value.cast<int>();
-    else if (k == "poisson_scale")
-      o.poisson_scale = value.cast<double>();
-    else if (k == "num_threads")
-      o.num_threads = value.cast<int>();
-    else if (k == "trim_distance_mm")
-      o.trim_distance_mm = value.cast<double>();
-    else if (k == "radius_mm")
-      o.radius_mm = value.cast<double>();
-    else if (k == "alpha")
-      o.alpha = value.cast<double>();
-    else if (k == "beta")
-      o.beta = value.cast<double>();
-    else if (k == "normal_force_exponent")
-      o.normal_force_exponent = value.cast<double>();
-    else if (k == "min_slip_points")
-      o.min_slip_points = value.cast<int>();
-    else if (k == "max_support_offset")
-      o.max_support_offset = value.cast<double>();
-    else
-      throw Error(fmt::format("friction_map: unknown option '{}'", k));
+    const friction::FrictionMapCommandOption* option = friction::FindFrictionMapCommandOption(k);
+    if (option == nullptr) {
+      throw Error(fmt::format("friction_map: unknown option '{}' (accepted: {})",
+                              k,
+                              friction::FrictionMapCommandOptionNames()));
+    }
+    std::visit(
+        [&](auto field) {
+          using T = std::decay_t<decltype(o.*field)>;
+          try {
+            o.*field = value.cast<T>();
+          } catch (const py::cast_error&) {
+            const char* type = std::is_same_v<T, bool>  ? "bool"
+                               : std::is_same_v<T, int> ? "int"
+                                                        : "float";
+            throw Error(fmt::format("friction_map: option '{}' takes a {}, not {}",
+                                    k,
+                                    type,
+                                    std::string(py::repr(value))));
+          }
+        },
+        option->field);
   }
-  o.Validate();
+  friction::ValidateCommandOptions(o, friction::OptionNaming::kName);
   return o;
 }
 
-py::dict FrictionMap(const py::iterable& frames, const py::object& poses, const py::dict& options) {
-  friction::FrictionMapBuilder builder(FrictionOptions(options));
+// The options and their defaults, as `tac3d friction-map --help` lists them.
+py::dict FrictionMapDefaults() {
+  const friction::FrictionMapOptions defaults = friction::CommandFrictionMapDefaults();
+  py::dict d;
+  for (const friction::FrictionMapCommandOption& o : friction::FrictionMapCommandOptions()) {
+    std::visit([&](auto field) { d[o.name.c_str()] = defaults.*field; }, o.field);
+  }
+  return d;
+}
+
+// friction_map's docstring: every option with its default and help, from the one list.
+std::string FrictionMapDoc() {
+  const py::dict defaults = FrictionMapDefaults();
+  std::string doc =
+      "The friction map (paper section IV.B) of a fixed object from TactileFrames and the\n"
+      "sensor's poses (T x 4 x 4 world_from_sensor, one per frame), as `tac3d friction-map\n"
+      "--recording FILE --poses CSV --config YAML` builds it: the same options, defaults and\n"
+      "strokes (a frame with no marker over the contact threshold ends one). config: the\n"
+      "sensor YAML ('': the built-in prototype), for the cover thickness. options (dict), the\n"
+      "CLI's flags in snake_case (friction_map_defaults() gives them):\n";
+  for (const friction::FrictionMapCommandOption& o : friction::FrictionMapCommandOptions()) {
+    doc += fmt::format(
+        "  {} = {}: {}\n", o.name, std::string(py::repr(defaults[o.name.c_str()])), o.help);
+  }
+  doc +=
+      "Returns vertices (V x 3, mm, world), triangles (F x 3), vertex_normals, mu (NaN:\n"
+      "unknown), confidence, slip_count, slip_points, slip_mu, slip_normal_force and summary\n"
+      "(status: ok, no_contact...; the figures of `tac3d friction-map`'s summary.json \"map\").\n"
+      "Raises tac3d.Error naming an unknown option (with the accepted ones) or a bad value.";
+  return doc;
+}
+
+py::dict FrictionMap(const py::iterable& frames,
+                     const py::object& poses,
+                     const py::dict& options,
+                     const std::string& config) {
+  SensorConfig sensor;
+  {
+    py::gil_scoped_release release;
+    sensor = LoadSensorOrDefault(config);
+  }
+  friction::FrictionMapBuilder builder(FrictionOptions(options, sensor));
   DoubleArray pose_array = py::cast<DoubleArray>(poses);
   if (pose_array.ndim() != 3 || pose_array.shape(1) != 4 || pose_array.shape(2) != 4) {
     throw Error("friction_map: poses must be T x 4 x 4 (world_from_sensor per frame)");
@@ -370,8 +400,8 @@ py::dict FrictionMap(const py::iterable& frames, const py::object& poses, const 
     if (k >= pose_array.shape(0))
       throw Error(fmt::format("friction_map: more frames than the {} poses", pose_array.shape(0)));
     const TactileFrame& frame = h.cast<const TactileFrame&>();
-    builder.AddFrame(frame,
-                     PoseFromArray(pose_array[py::make_tuple(k, py::ellipsis())], "poses[k]"));
+    builder.AddFrameOfStrokes(
+        frame, PoseFromArray(pose_array[py::make_tuple(k, py::ellipsis())], "poses[k]"));
     ++k;
   }
   if (k != pose_array.shape(0))
@@ -513,11 +543,12 @@ truth one at a time (step) or all at once as arrays (truth), and the rendered im
         py::arg("frames"),
         py::arg("poses"),
         py::arg("options") = py::dict(),
-        "The friction map (paper section IV.B) of a fixed object from TactileFrames and the\n"
-        "sensor's poses (T x 4 x 4 world_from_sensor, one per frame). options: fields of\n"
-        "FrictionMapOptions (docs/friction.md). Returns vertices (V x 3, mm, world), triangles\n"
-        "(F x 3), vertex_normals, mu (NaN: unknown), confidence, slip_count, slip_points,\n"
-        "slip_mu, slip_normal_force and summary (status: ok, no_contact...).");
+        py::kw_only(),
+        py::arg("config") = "",
+        FrictionMapDoc().c_str());
+  m.def("friction_map_defaults",
+        &FrictionMapDefaults,
+        "friction_map's options and their defaults (dict), those of `tac3d friction-map`.");
 }
 
 }  // namespace tac3d::python

@@ -7,7 +7,8 @@
   sensors on their threads with their outputs (UDP, recording, JSON lines) and one clock.
 - ``tac3d.open_recording``, ``RecordingReader``, ``RecordingWriter``: recordings.
 - ``tac3d.load_scene``, ``tac3d.simulate``, ``tac3d.Dataset``: the digital twin.
-- ``tac3d.design_light_path``, ``tac3d.friction_map``: the design solver and friction map.
+- ``tac3d.design_light_path``, ``tac3d.friction_map``: the design solver and friction map
+  (``friction_map_defaults()``: its options, those of ``tac3d friction-map``).
 
 Errors from C++ (bad files, arguments, sockets) are raised as ``tac3d.Error``.
 """
@@ -29,6 +30,7 @@ from ._core import (  # noqa: F401
     default_sensor_yaml,
     design_light_path,
     friction_map,
+    friction_map_defaults,
     load_run_file,
     load_scene,
     open_recording,
@@ -45,6 +47,6 @@ __all__ = [
     "Dataset", "Error", "FrameSource", "Pipeline", "Recording", "RecordingReader",
     "RecordingWriter", "Scene", "Sensor", "SensorReport", "SensorSpec", "TactileFrame",
     "builtin_scenes", "default_sensor_yaml", "design_light_path", "friction_map",
-    "load_run_file", "load_scene", "open_recording", "open_source", "parse_scene", "run",
-    "simulate", "PYTAC3D_VERSION",
+    "friction_map_defaults", "load_run_file", "load_scene", "open_recording", "open_source",
+    "parse_scene", "run", "simulate", "PYTAC3D_VERSION",
 ]

@@ -151,6 +151,8 @@ class Pipeline:
         reference_frames: int = 20,
         weight: float = 0.05,
         gains: ArrayLike = (1.0, 1.0, 1.0),
+        drift: str = "flag",
+        drift_time_constant_s: float = 10.0,
     ) -> None: ...
     def process(self, image: U8, timestamp: float = 0.0) -> TactileFrame: ...
     def zero(self) -> None: ...
@@ -175,6 +177,7 @@ class SensorSpec:
         udp: str = "",
         udp_items: str = "",
         udp_progress: bool = False,
+        allow_zero_under_load: bool = False,
         record: str = "",
         record_images: bool = False,
         overwrite: bool = False,
@@ -193,6 +196,7 @@ class SensorSpec:
     udp: str
     udp_items: str
     udp_progress: bool
+    allow_zero_under_load: bool
     record: str
     record_images: bool
     overwrite: bool
@@ -259,5 +263,10 @@ def design_light_path(
 ) -> dict[str, Any]: ...
 def default_sensor_yaml() -> str: ...
 def friction_map(
-    frames: Iterable[TactileFrame], poses: ArrayLike, options: Mapping[str, Any] = ...
+    frames: Iterable[TactileFrame],
+    poses: ArrayLike,
+    options: Mapping[str, Union[float, int, bool]] = ...,
+    *,
+    config: str = "",
 ) -> dict[str, Any]: ...
+def friction_map_defaults() -> dict[str, Union[float, int, bool]]: ...

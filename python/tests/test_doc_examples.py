@@ -117,3 +117,24 @@ def test_progress_lines_are_left_out():
 def test_malformed_markup_is_refused(tmp_path, text, message):
     with pytest.raises(doc_examples.PageError, match=message):
         doc_examples.parse_blocks("page.md", text.replace("'''", FENCE))
+
+
+def test_realdata_examples_run_only_where_the_real_data_is(tmp_path, monkeypatch, capsys):
+    text = """
+        '''sh example realdata
+        ls "$TAC3D_REALDATA"
+        '''
+        '''text output
+        marker.txt
+        '''
+        """
+    monkeypatch.setattr(doc_examples, "REALDATA", str(tmp_path / "absent"))
+    assert run(page(tmp_path, text)) == []
+    assert "needs the real data, not run" in capsys.readouterr().out
+    data = tmp_path / "realdata"
+    data.mkdir()
+    (data / "marker.txt").write_text("")
+    monkeypatch.setattr(doc_examples, "REALDATA", str(data))
+    assert run(page(tmp_path, text)) == []
+    (data / "marker.txt").rename(data / "other.txt")
+    assert any("output differs" in p for p in run(page(tmp_path, text)))

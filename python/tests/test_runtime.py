@@ -87,6 +87,8 @@ def test_specs_are_checked_when_made():
         tac3d.SensorSpec("", "camera:0")
     extras = tac3d.SensorSpec("S", "camera:0", udp="127.0.0.1:9988", udp_items="all", udp_progress=True)
     assert (extras.udp_items, extras.udp_progress) == ("all", True)
+    assert not extras.allow_zero_under_load
+    assert tac3d.SensorSpec("S", "camera:0", allow_zero_under_load=True).allow_zero_under_load
     with pytest.raises(tac3d.Error, match="unknown item 'Slip'"):
         tac3d.SensorSpec("S", "camera:0", udp="127.0.0.1:9988", udp_items="Slip")
     with pytest.raises(tac3d.Error, match="--udp-items needs --udp HOST:PORT"):

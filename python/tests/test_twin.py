@@ -133,10 +133,10 @@ def test_friction_map_reports_no_contact_and_checks_its_input():
     assert m["vertices"].shape == (0, 3) and m["mu"].shape == (0,)
     with pytest.raises(tac3d.Error, match="more frames than the 2 poses"):
         tac3d.friction_map(frames, poses[:2])
-    with pytest.raises(tac3d.Error, match="unknown option 'radius'"):
-        tac3d.friction_map(frames, poses, {"radius": 1.0})
-    with pytest.raises(tac3d.Error, match="radius_mm"):
-        tac3d.friction_map(frames, poses, {"radius_mm": -1.0})
+    with pytest.raises(tac3d.Error, match="unknown option 'radius_mm'"):
+        tac3d.friction_map(frames, poses, {"radius_mm": 1.0})
+    with pytest.raises(tac3d.Error, match="radius = -1"):
+        tac3d.friction_map(frames, poses, {"radius": -1.0})
 
 
 def test_pipeline_in_process_on_the_twin_images(simulated, small_sensor_yaml, cache_dir):
@@ -198,7 +198,7 @@ def test_friction_map_of_a_flat_slide_recovers_mu():
         f = tac3d.TactileFrame(20, 20)
         f.positions = np.stack([x.ravel(), y.ravel(), np.full(400, 7.5)], axis=1)
         f.normals = np.tile([0.0, 0.0, 1.0], (400, 1))
-        f.forces = np.tile([0.02, 0.0, -0.05], (400, 1))
+        f.forces = np.tile([-0.02, 0.0, -0.05], (400, 1))  # F_t against the slide (+x)
         f.index, f.timestamp = k, 0.1 * k
         frames.append(f)
         pose = np.eye(4)

@@ -176,6 +176,7 @@ ForceMaterialFigures CalibrateMaterialOnPresses(const EvalForceOptions& options,
   MaterialCalibrationOptions material_options = options.material;
   material_options.weight = options.weight;
   material_options.support_refinement = options.support_refinement;
+  material_options.gain_fit.on_poor_fit = PoorGainFit::kFlag;  // as the gains-only fit
   const MaterialCalibration fit = CalibrateMaterial(family, presses, noise, material_options);
   *reconstructor = ForceReconstructor(family.CalcH(fit.material),
                                       family.marker_positions(),
@@ -493,7 +494,10 @@ ForceEvaluation EvaluateOnResponses(const EvalForceOptions& options,
     pairs.push_back({reconstructor.Reconstruct(frames[k]).resultant_force_n,
                      cases.calibration[k][0].force_n});
   }
-  const ForceGainFit gain_fit = FitForceGains(pairs);
+  // An evaluation flags a poor fit (the gains' usable and warning) rather than stop: its
+  // resultant error check measures what such gains cost. A coarse model on 3 presses fits fz
+  // with R^2 0.48 (EvaluateForceOverMaterials' test).
+  const ForceGainFit gain_fit = FitForceGains(pairs, {.on_poor_fit = PoorGainFit::kFlag});
   reconstructor.set_gains(gain_fit.gains);
 
   // Resultants of the test presses, in percent of each axis' full scale.
@@ -588,6 +592,7 @@ std::string ForceEvaluation::GridLine() const {
     line += fmt::format("; {}; gains only {} % FS", material->fit.message,
                         xyz(material->gains_only_max_pct_fs));
   }
+  if (!gains.usable()) line += "; gains UNUSABLE (an R^2 under the floor)";
   return line + fmt::format("; all checks {}", all_pass ? "pass" : "FAIL");
 }
 
@@ -603,8 +608,10 @@ std::string ForceEvaluation::Report() const {
                         material->fit.message, xyz(material->gains_only_max_pct_fs),
                         xyz(material->gains_only_rms_pct_fs));
   }
-  text += fmt::format("gains: {}\nweight: {:.4g} (mm/N)^2 ({})\nall pass: {}\n",
-                      xyz(gains.gains), weight.weight, weight.summary.message, all_pass ? "yes" : "no");
+  text += fmt::format("gains: {}\n", xyz(gains.gains));
+  if (!gains.usable()) text += fmt::format("WARNING: unusable gains: {}\n", gains.PoorFitMessage());
+  text += fmt::format("weight: {:.4g} (mm/N)^2 ({})\nall pass: {}\n", weight.weight,
+                      weight.summary.message, all_pass ? "yes" : "no");
   return text;
 }
 

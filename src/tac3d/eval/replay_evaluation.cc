@@ -15,6 +15,7 @@ namespace tac3d {
 
 void ReplayOptions::Validate() const {
   pipeline.Validate();
+  gain_fit.Validate();
   auto positive = [](double v, const char* field) {
     if (!(v > 0.0 && std::isfinite(v))) {
       throw Error(fmt::format("ReplayOptions.{} must be > 0 and finite, got {}", field, v));
@@ -207,7 +208,7 @@ ReplayGainCalibration CalibrateGainsByReplay(const TwinDatasetReader& calibratio
   ReplayGainCalibration c;
   c.replay = ReplayTwinDataset(calibration, config, h, fem_markers_mm, options, progress);
   c.pairs = ReplayForcePairs(c.replay, options.pipeline.force.gains);
-  c.fit = FitForceGains(c.pairs);
+  c.fit = FitForceGains(c.pairs, options.gain_fit);
   return c;
 }
 

@@ -34,6 +34,9 @@ struct ReplayOptions {
   int max_steps = 0;
   /// The acceptance bound on the per-frame resultant error (% of full scale, each axis).
   double max_force_error_pct_fs = 2.0;
+  /// CalibrateGainsByReplay's fit: its R^2 floor, and whether a fit under it is refused or
+  /// returned flagged (ForceGainFit::usable).
+  ForceGainFitOptions gain_fit;
 
   /// @throws Error naming the field and its bound.
   void Validate() const;
@@ -130,7 +133,7 @@ struct ReplayGainCalibration {
 };
 
 /// Replays `calibration` with options.pipeline's gains set to one and fits the gains
-/// (FitForceGains) to its force pairs.
+/// (FitForceGains, with options.gain_fit) to its force pairs.
 /// @throws Error as ReplayTwinDataset and FitForceGains do.
 ReplayGainCalibration CalibrateGainsByReplay(const TwinDatasetReader& calibration,
                                              const SensorConfig& config, const Eigen::MatrixXd& h,

@@ -96,15 +96,44 @@ std::string ForcePairsToCsv(const std::vector<ForcePair>& pairs) {
   return csv;
 }
 
-nlohmann::json ToJson(const ForceGainFit& fit) {
-  const auto vec = [](const Eigen::Vector3d& v) { return nlohmann::json{v.x(), v.y(), v.z()}; };
-  return {{"gains", vec(fit.gains)},
-          {"r_squared", vec(fit.r_squared)},
-          {"residual_rms_n", vec(fit.residual_rms_n)},
-          {"num_pairs", fit.num_pairs}};
+void ForceGainFitOptions::Validate() const {
+  const OptionCheck require("force gain fit");
+  require(min_r_squared <= 1.0, "min_r_squared", "<= 1 (R^2 never exceeds 1)", min_r_squared);
+  require(on_poor_fit == PoorGainFit::kRefuse || on_poor_fit == PoorGainFit::kFlag, "on_poor_fit",
+          "refuse or flag", static_cast<int>(on_poor_fit));
 }
 
-ForceGainFit FitForceGains(const std::vector<ForcePair>& pairs) {
+std::string ForceGainFit::PoorFitMessage() const {
+  std::string axes;
+  for (int axis = 0; axis < 3; ++axis) {
+    if (usable(axis)) continue;
+    axes += fmt::format("{}the f{} gain's R^2 is {:.3f}", axes.empty() ? "" : ", ", "xyz"[axis],
+                        r_squared(axis));
+  }
+  if (axes.empty()) return "";
+  return fmt::format(
+      "{} (over {} pairs), under the floor {:g}: such a gain fits noise, not the sensor, and "
+      "would scale every force on its axis wrongly. The calibration must load each axis well above "
+      "its noise: add presses with shear (tangential force) in both x and y, and a range of "
+      "normal forces (docs/force.md); a floor can be lowered (--min-r-squared) only for a fit "
+      "known to be good",
+      axes, num_pairs, min_r_squared);
+}
+
+nlohmann::json ToJson(const ForceGainFit& fit) {
+  const auto vec = [](const Eigen::Vector3d& v) { return nlohmann::json{v.x(), v.y(), v.z()}; };
+  nlohmann::json j = {{"gains", vec(fit.gains)},
+                      {"r_squared", vec(fit.r_squared)},
+                      {"residual_rms_n", vec(fit.residual_rms_n)},
+                      {"num_pairs", fit.num_pairs},
+                      {"min_r_squared", fit.min_r_squared},
+                      {"usable", fit.usable()}};
+  if (!fit.usable()) j["warning"] = fit.PoorFitMessage();
+  return j;
+}
+
+ForceGainFit FitForceGains(const std::vector<ForcePair>& pairs, const ForceGainFitOptions& options) {
+  options.Validate();
   if (static_cast<int>(pairs.size()) < kMinForcePairs) {
     throw Error(fmt::format("FitForceGains: {} force pair(s); the fit needs at least {} (with fewer, "
                             "R^2 says nothing about the gains)",
@@ -139,6 +168,10 @@ ForceGainFit FitForceGains(const std::vector<ForcePair>& pairs) {
     fit.gains(axis) = gain;
     fit.residual_rms_n(axis) = std::sqrt(ss_res / count);
     fit.r_squared(axis) = ss_tot > 0.0 ? 1.0 - ss_res / ss_tot : (ss_res == 0.0 ? 1.0 : 0.0);
+  }
+  fit.min_r_squared = options.min_r_squared;
+  if (options.on_poor_fit == PoorGainFit::kRefuse && !fit.usable()) {
+    throw Error("FitForceGains: " + fit.PoorFitMessage());
   }
   return fit;
 }

@@ -77,6 +77,27 @@ std::string CalibrationPressesToCsv(const std::vector<CalibrationPress>& presses
 /// them (almost) exactly whatever the sensor does, so its R^2 would mean nothing.
 inline constexpr int kMinForcePairs = 3;
 
+/// The least R^2 a gain is usable with, by default. Good fits give R^2 near 1: >= 0.9997 on
+/// the twin's calibration (docs/force.md), 0.957 for the normal axis when the model's Poisson's
+/// ratio is 0.05 off (what material calibration then fixes). A calibration without shear fits
+/// the tangential gains to noise: R^2 -0.47 and -0.86 (the demo at 60 steps), -0.08 and -1.00.
+inline constexpr double kDefaultMinGainRSquared = 0.9;
+
+/// What FitForceGains does with an axis whose R^2 is under the floor.
+enum class PoorGainFit {
+  kRefuse,  ///< throw: the gains are the product (`tac3d calibrate-force`)
+  kFlag,    ///< return them marked unusable (ForceGainFit::usable): an evaluation reports them
+};
+
+struct ForceGainFitOptions {
+  /// Each axis' R^2 must reach this for its gain to be usable (<= 1).
+  double min_r_squared = kDefaultMinGainRSquared;
+  PoorGainFit on_poor_fit = PoorGainFit::kRefuse;
+
+  /// @throws Error naming the field unless min_r_squared is <= 1 (and not NaN).
+  void Validate() const;
+};
+
 /// The per-axis gains and how well they fit.
 struct ForceGainFit {
   /// (Cx, Cy, Cz): reference ~ C * measured per axis (dimensionless).
@@ -87,14 +108,29 @@ struct ForceGainFit {
   /// sqrt(SS_res / pairs) per axis (N).
   Eigen::Vector3d residual_rms_n = Eigen::Vector3d::Zero();
   int num_pairs = 0;
+  /// The floor the fit was judged against (ForceGainFitOptions::min_r_squared).
+  double min_r_squared = kDefaultMinGainRSquared;
+
+  /// Whether the axis' (0 x, 1 y, 2 z) R^2 reaches min_r_squared.
+  bool usable(int axis) const { return r_squared(axis) >= min_r_squared; }
+  /// Whether every axis' does.
+  bool usable() const { return (r_squared.array() >= min_r_squared).all(); }
+  /// Why the gains are unusable, naming each axis under the floor with its R^2, and what to
+  /// do; "" when usable.
+  std::string PoorFitMessage() const;
 };
 
+/// gains, r_squared, residual_rms_n, num_pairs, min_r_squared, usable and, when unusable,
+/// "warning" (PoorFitMessage).
 nlohmann::json ToJson(const ForceGainFit& fit);
 
 /// Least squares through the origin per axis (paper section V.A):
 /// C_a = sum(meas_a ref_a) / sum(meas_a^2).
 /// @throws tac3d::Error if there is no pair, or an axis' measured values are all zero (the
-///   calibration did not excite it), or a gain comes out <= 0 (the axis' sign is wrong).
-ForceGainFit FitForceGains(const std::vector<ForcePair>& pairs);
+///   calibration did not excite it), or a gain comes out <= 0 (the axis' sign is wrong), or
+///   the options are invalid, or (PoorGainFit::kRefuse) an axis' R^2 is under
+///   options.min_r_squared (the message is PoorFitMessage's).
+ForceGainFit FitForceGains(const std::vector<ForcePair>& pairs,
+                           const ForceGainFitOptions& options = {});
 
 }  // namespace tac3d

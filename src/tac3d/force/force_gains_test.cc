@@ -1,6 +1,7 @@
 #include "tac3d/force/force_gains.h"
 
 #include <fstream>
+#include <cmath>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -67,6 +68,72 @@ TEST(FitForceGains, TooFewPairsAreRefused) {
   EXPECT_NO_THROW(FitForceGains(pairs));
   EXPECT_THAT([&] { FitForceGains({pairs.front()}); },
               ::testing::ThrowsMessage<Error>(::testing::HasSubstr("1 force pair(s); the fit needs at least 3")));
+}
+
+// Pairs whose x and y references are noise unrelated to the measured forces (a calibration
+// of normal presses only: the tangential forces are noise on both sides), z a good fit. Each
+// noise axis' measured values are turned to agree with the reference in sign on the whole, so
+// the gain is positive and it is R^2 that must refuse it.
+std::vector<ForcePair> NoiseInXAndY(int count) {
+  std::vector<ForcePair> pairs = RandomPairs(Eigen::Vector3d::Ones(), 0.01, count);
+  std::mt19937_64 rng(testing::kRandomSeed + 1);
+  std::normal_distribution<double> noise(0.0, 0.05);
+  for (ForcePair& pair : pairs) {
+    pair.reference_n.head<2>() = Eigen::Vector2d(noise(rng), noise(rng));
+    pair.measured_n.head<2>() = Eigen::Vector2d(noise(rng), noise(rng));
+  }
+  for (int axis = 0; axis < 2; ++axis) {
+    double mr = 0.0;
+    for (const ForcePair& pair : pairs) mr += pair.measured_n(axis) * pair.reference_n(axis);
+    if (mr < 0.0) {
+      for (ForcePair& pair : pairs) pair.measured_n(axis) *= -1.0;
+    }
+  }
+  return pairs;
+}
+
+// Issue 27: R^2 -0.08 and -1.00 were printed as usable gains.
+TEST(FitForceGains, AFitOnNoiseIsRefusedNamingTheAxesAndTheFloor) {
+  const std::vector<ForcePair> pairs = NoiseInXAndY(30);
+  try {
+    FitForceGains(pairs);
+    FAIL() << "no throw";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), ::testing::ContainsRegex("the fx gain's R\\^2 is -?0\\.[0-9]{3}, the fy gain's "
+                                                  "R\\^2 is -?0\\.[0-9]{3} \\(over 30 pairs\\), under "
+                                                  "the floor 0\\.9"));
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("add presses with shear"));
+    EXPECT_THAT(e.what(), ::testing::Not(::testing::HasSubstr("fz")));
+  }
+  // Flagged instead of refused: the same fit, marked unusable on x and y only.
+  const ForceGainFit flagged = FitForceGains(pairs, {.on_poor_fit = PoorGainFit::kFlag});
+  EXPECT_LT(flagged.r_squared.x(), 0.5);
+  EXPECT_LT(flagged.r_squared.y(), 0.5);
+  EXPECT_FALSE(flagged.usable(0));
+  EXPECT_FALSE(flagged.usable(1));
+  EXPECT_TRUE(flagged.usable(2));
+  EXPECT_FALSE(flagged.usable());
+  const nlohmann::json j = ToJson(flagged);
+  EXPECT_EQ(j.at("usable"), false);
+  EXPECT_EQ(j.at("min_r_squared"), kDefaultMinGainRSquared);
+  EXPECT_EQ(j.at("warning"), flagged.PoorFitMessage());
+  // A floor low enough takes it.
+  EXPECT_TRUE(FitForceGains(pairs, {.min_r_squared = -10.0}).usable());
+}
+
+TEST(FitForceGains, AGoodFitPassesTheFloor) {
+  const ForceGainFit fit = FitForceGains(RandomPairs(Eigen::Vector3d(1.1, 0.9, 1.2), 0.05, 30));
+  EXPECT_TRUE(fit.usable());
+  EXPECT_EQ(fit.PoorFitMessage(), "");
+  EXPECT_EQ(ToJson(fit).at("usable"), true);
+  EXPECT_FALSE(ToJson(fit).contains("warning"));
+}
+
+TEST(FitForceGains, AFloorAboveOneIsRefused) {
+  const std::vector<ForcePair> pairs = RandomPairs(Eigen::Vector3d::Ones(), 0.0, 5);
+  EXPECT_THAT([&] { FitForceGains(pairs, {.min_r_squared = 1.5}); },
+              ::testing::ThrowsMessage<Error>(::testing::HasSubstr("min_r_squared")));
+  EXPECT_THROW(FitForceGains(pairs, {.min_r_squared = std::nan("")}), Error);
 }
 
 TEST(ForcePairCsv, RoundTripsExactly) {

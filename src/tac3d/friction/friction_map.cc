@@ -133,8 +133,8 @@ void SummariseFriction(FrictionMapResult& result) {
 
 // ---- Options -----------------------------------------------------------------------------
 
-FrictionMapOptions FrictionMapOptions::FromSensor(const SensorConfig& sensor) {
-  FrictionMapOptions options;
+FrictionMapOptions FrictionMapOptions::WithSensor(const SensorConfig& sensor) const {
+  FrictionMapOptions options = *this;
   options.cover_thickness_mm = sensor.markers.depth_mm;
   return options;
 }
@@ -239,6 +239,29 @@ std::string FrictionMapSummary::BriefReport() const {
       message);
 }
 
+nlohmann::json ToJson(const FrictionMapOptions& o) {
+  return {{"contact_threshold_n", o.contact_threshold_n},
+          {"slip_contact_threshold_n", o.SlipContactThresholdN()},
+          {"cover_thickness_mm", o.cover_thickness_mm},
+          {"marker_noise_mm", o.marker_noise_mm},
+          {"pose_noise_mm", o.pose_noise_mm},
+          {"slip_sigmas", o.slip_sigmas},
+          {"slip_threshold_mm", o.SlipThresholdMm()},
+          {"tangential_motion", o.tangential_motion},
+          {"gross_slip_only", o.gross_slip_only},
+          {"friction_along_slip", o.friction_along_slip},
+          {"gross_slip_margin", o.gross_slip_margin},
+          {"voxel_size_mm", o.voxel_size_mm},
+          {"poisson_depth", o.poisson_depth},
+          {"trim_distance_mm", o.trim_distance_mm},
+          {"radius_mm", o.radius_mm},
+          {"alpha", o.alpha},
+          {"beta", o.beta},
+          {"gamma", o.normal_force_exponent},
+          {"min_slip_points", o.min_slip_points},
+          {"max_support_offset", o.max_support_offset}};
+}
+
 nlohmann::json ToJson(const FrictionMapSummary& s) {
   return {{"status", ToString(s.status)},
           {"message", s.message},
@@ -308,6 +331,16 @@ void FrictionMapBuilder::BreakStroke() {
   previous_world_mm_.clear();
   previous_sensor_mm_.clear();
   previous_contact_.clear();
+}
+
+void FrictionMapBuilder::AddFrameOfStrokes(const TactileFrame& frame,
+                                           const Rigid3& world_from_sensor) {
+  AddFrame(frame, world_from_sensor);
+  for (size_t i = 0; i < frame.forces_n.size(); ++i) {
+    if (frame.valid[i] && -frame.forces_n[i].dot(frame.normals[i]) > options_.contact_threshold_n)
+      return;
+  }
+  BreakStroke();
 }
 
 void FrictionMapBuilder::AddFrame(const TactileFrame& frame, const Rigid3& world_from_sensor) {

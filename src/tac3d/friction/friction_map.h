@@ -16,7 +16,9 @@ namespace tac3d::friction {
 
 /// How the friction map is built from a sensor sliding over a fixed object (the paper's
 /// section IV.B: contact region, surface cloud, resampling and Poisson reconstruction, slip
-/// points and equations 5 and 6). Lengths in mm, forces in N.
+/// points and equations 5 and 6). Lengths in mm, forces in N. The defaults are the paper's
+/// method; the commands (`tac3d friction-map`, Python's tac3d.friction_map) start from
+/// CommandFrictionMapDefaults() (command_options.h), the twin evaluation's choices.
 struct FrictionMapOptions {
   // ---- Contact region ----
   /// A marker is in contact where its normal force -(f . n) exceeds this (N, >= 0, finite).
@@ -24,7 +26,7 @@ struct FrictionMapOptions {
   double contact_threshold_n = 0.02;
   /// Depth of the markers under the outer surface (mm, in [0, 5]): contact markers are moved
   /// this far along their outward normal so the cloud lies on the object's surface.
-  /// SensorConfig::markers.depth_mm; FromSensor sets it.
+  /// SensorConfig::markers.depth_mm; WithSensor sets it.
   double cover_thickness_mm = 0.5;
   /// A marker counts as in contact for slip detection (a pair of adjacent frames, a slip
   /// point) where its normal force exceeds this (N); < 0: contact_threshold_n. Lower than
@@ -130,8 +132,8 @@ struct FrictionMapOptions {
   /// the force inverse biases one way. 1 (the paper): no such test.
   double max_support_offset = 1.0;
 
-  /// The defaults with cover_thickness_mm = sensor.markers.depth_mm.
-  static FrictionMapOptions FromSensor(const SensorConfig& sensor);
+  /// These options with cover_thickness_mm = sensor.markers.depth_mm.
+  FrictionMapOptions WithSensor(const SensorConfig& sensor) const;
 
   /// slip_contact_threshold_n, or contact_threshold_n where that is < 0 (N).
   double SlipContactThresholdN() const {
@@ -210,6 +212,8 @@ struct FrictionMapSummary {
   std::string BriefReport() const;
 };
 nlohmann::json ToJson(const FrictionMapSummary& summary);
+/// The options a map was built with, as used (the slip thresholds derived), for its summary.
+nlohmann::json ToJson(const FrictionMapOptions& options);
 
 /// The friction map: a triangle mesh of the object's surface in the world frame with mu per
 /// vertex (equations 5 and 6), and the slip points it came from.
@@ -253,6 +257,11 @@ class FrictionMapBuilder {
   /// @param world_from_sensor the sensor's pose at frame.timestamp_s.
   /// @throws Error from frame.Validate(), or naming the frame if the pose is not rigid.
   void AddFrame(const TactileFrame& frame, const Rigid3& world_from_sensor);
+
+  /// AddFrame, then BreakStroke if no valid marker of the frame presses over
+  /// contact_threshold_n (the sensor was lifted): how the frames of a recording are added,
+  /// by `tac3d friction-map --recording` and Python's tac3d.friction_map alike.
+  void AddFrameOfStrokes(const TactileFrame& frame, const Rigid3& world_from_sensor);
 
   /// Forgets the previous frame, so the next one starts a new stroke (no slip points
   /// between strokes, e.g. after the sensor was lifted and moved).

@@ -269,11 +269,15 @@ TEST(FrictionMapOptions, SlipThresholdIsKSigmaOfTheDifferenceOfTwoPositions) {
       options.SlipThresholdMm(), 3.0 * std::sqrt(2.0 * (0.002 * 0.002 + 0.003 * 0.003)), 1e-15);
 }
 
-TEST(FrictionMapOptions, FromSensorTakesTheMarkersDepth) {
+TEST(FrictionMapOptions, WithSensorTakesTheMarkersDepthAndKeepsTheRest) {
   SensorConfig sensor;
   sensor.markers.depth_mm = 0.8;
-  EXPECT_DOUBLE_EQ(FrictionMapOptions::FromSensor(sensor).cover_thickness_mm, 0.8);
-  EXPECT_DOUBLE_EQ(FrictionMapOptions::FromSensor(SensorConfig{}).cover_thickness_mm, 0.5);
+  FrictionMapOptions options;
+  options.beta = 3.0;
+  const FrictionMapOptions with = options.WithSensor(sensor);
+  EXPECT_DOUBLE_EQ(with.cover_thickness_mm, 0.8);
+  EXPECT_DOUBLE_EQ(with.beta, 3.0);
+  EXPECT_DOUBLE_EQ(options.WithSensor(SensorConfig{}).cover_thickness_mm, 0.5);
 }
 
 // ---- Equations 5 and 6 -------------------------------------------------------------------
@@ -703,6 +707,31 @@ TEST(FrictionMapBuilder, BreakStrokeStopsSlipAcrossAJump) {
   EXPECT_TRUE(builder.slip_points().empty());
   builder.AddFrame(press.frames[2], press.poses[2]);  // no break: every marker jumps back 5 mm
   EXPECT_FALSE(builder.slip_points().empty());
+}
+
+// A frame with markers pressed between the slip and the contact thresholds, then a 5 mm jump:
+// AddFrameOfStrokes ends the stroke at that frame (no marker over the contact threshold), so the
+// jump makes no slip point; AddFrame alone pairs the two frames.
+TEST(FrictionMapBuilder, AddFrameOfStrokesBreaksWhereNoMarkerPresses) {
+  ScanSpec spec;
+  spec.strokes_y_mm = {};
+  spec.static_press_frames = 2;
+  const Scan press = ScanMaker(spec).Make();
+  TactileFrame light = press.frames[1];
+  for (Eigen::Vector3d& f : light.forces_n) f *= 0.15;  // F_n 0.0045-0.015 N
+  Rigid3 moved = press.poses[2];
+  moved.translation().x() += 5;
+  FrictionMapOptions options;
+  options.slip_contact_threshold_n = 0.004;
+  FrictionMapBuilder strokes{options}, plain{options};
+  strokes.AddFrameOfStrokes(light, press.poses[1]);
+  strokes.AddFrameOfStrokes(press.frames[2], moved);
+  EXPECT_TRUE(strokes.slip_points().empty());
+  plain.AddFrame(light, press.poses[1]);
+  plain.AddFrame(press.frames[2], moved);
+  EXPECT_FALSE(plain.slip_points().empty());
+  strokes.AddFrameOfStrokes(press.frames[2], press.poses[2]);  // pressed: no break
+  EXPECT_FALSE(strokes.slip_points().empty());
 }
 
 TEST(FrictionMapBuilder, RefusesBadFramesAndPoses) {

@@ -6,11 +6,13 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "tac3d/scene/ply.h"
 #include "tac3d/util/error.h"
+#include "tac3d/util/file_io.h"
 
 namespace tac3d::friction {
 namespace {
@@ -214,6 +216,42 @@ RenderSummary WriteFrictionMapPng(const FrictionMapResult& map,
   }
   if (!written) throw Error(fmt::format("friction map PNG '{}' cannot be written", path));
   return summary;
+}
+
+nlohmann::json WriteFrictionMapFiles(const FrictionMapResult& map,
+                                     const std::string& folder,
+                                     const RenderOptions& view) {
+  MakeDirectory(folder);
+  nlohmann::json files = {{"slip_points_csv", folder + "/slip_points.csv"}};
+  WriteSlipPointsCsv(map.slip_points, folder + "/slip_points.csv");
+  if (map.triangles.empty()) return files;
+  WriteFrictionMapPly(map, folder + "/map.ply");
+  const RenderSummary r = WriteFrictionMapPng(map, folder + "/map.png", view);
+  files["ply"] = folder + "/map.ply";
+  files["png"] = folder + "/map.png";
+  files["png_view"] = {
+      {"view_direction",
+       {view.view_direction.x(), view.view_direction.y(), view.view_direction.z()}},
+      {"up", {view.up.x(), view.up.y(), view.up.z()}},
+      {"covered_pixels", r.covered_pixels},
+      {"band_pixels",
+       {{"unknown", r.band_pixels[0]},
+        {"low", r.band_pixels[1]},
+        {"medium", r.band_pixels[2]},
+        {"high", r.band_pixels[3]}}}};
+  return files;
+}
+
+nlohmann::json WriteFrictionMapOutputs(const FrictionMapResult& map,
+                                       const FrictionMapOptions& options,
+                                       const std::string& folder,
+                                       const RenderOptions& view,
+                                       nlohmann::json inputs) {
+  inputs["options"] = ToJson(options);
+  inputs["map"] = ToJson(map.summary);
+  inputs["files"] = WriteFrictionMapFiles(map, folder, view);
+  WriteTextFileAtomically(folder + "/summary.json", inputs.dump(2) + "\n");
+  return inputs;
 }
 
 }  // namespace tac3d::friction

@@ -2,6 +2,7 @@
 
 #include <Eigen/Core>
 #include <array>
+#include <nlohmann/json_fwd.hpp>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -66,5 +67,24 @@ struct RenderSummary {
 RenderSummary WriteFrictionMapPng(const FrictionMapResult& map,
                                   const std::string& path,
                                   const RenderOptions& options = {});
+
+/// Writes slip_points.csv, and when the map has a mesh map.ply and map.png (WriteFrictionMapPng
+/// along `view`), into `folder` (made if missing); returns what was written (the files, the
+/// render's pixels by band) as JSON.
+/// @throws Error if a file cannot be written or the view is invalid.
+nlohmann::json WriteFrictionMapFiles(const FrictionMapResult& map,
+                                     const std::string& folder,
+                                     const RenderOptions& view);
+
+/// The friction map's outputs as `tac3d friction-map` and the demo write them: the files
+/// (WriteFrictionMapFiles) and summary.json, which holds `inputs` (what the map was built
+/// from: dataset or recording, gains, strokes, frames) with "options" (as used), "map" (the
+/// summary) and "files" added. Returns that summary.
+/// @throws Error as WriteFrictionMapFiles, or if summary.json cannot be written.
+nlohmann::json WriteFrictionMapOutputs(const FrictionMapResult& map,
+                                       const FrictionMapOptions& options,
+                                       const std::string& folder,
+                                       const RenderOptions& view,
+                                       nlohmann::json inputs);
 
 }  // namespace tac3d::friction

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <fstream>
 #include <iterator>
+#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
 #include "tac3d/scene/ply.h"
@@ -145,6 +146,46 @@ TEST(WriteFrictionMapPng, BandColoursFromAbove) {
   const bool is_green = std::abs(centre[1] - green[1] * shade) <= 1.0;
   const bool is_red = std::abs(centre[2] - red[0] * shade) <= 1.0;
   EXPECT_TRUE(is_green || is_red) << centre;
+}
+
+nlohmann::json ReadJson(const std::string& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+// Issue 27: the demo wrote no summary.json where `tac3d friction-map` did; both write through
+// this function now.
+TEST(WriteFrictionMapOutputs, WritesTheFilesAndASummaryOfInputsOptionsAndMap) {
+  FrictionMapResult map = BandedSheet();
+  map.summary.status = FrictionMapStatus::kOk;
+  map.summary.slip_points = 2;
+  FrictionMapOptions options;
+  options.radius_mm = 1.75;
+  const std::string folder = tac3d::testing::MakeTempDir("friction_output") + "/friction_map";
+  RenderOptions view;
+  view.width = 64;
+  view.height = 48;
+  const nlohmann::json returned = WriteFrictionMapOutputs(
+      map, options, folder, view, {{"dataset", "slide"}, {"strokes", 3}, {"frames_in", 40}});
+  const nlohmann::json summary = ReadJson(folder + "/summary.json");
+  EXPECT_EQ(summary, returned);
+  EXPECT_EQ(summary.at("dataset"), "slide");
+  EXPECT_EQ(summary.at("strokes"), 3);
+  EXPECT_EQ(summary.at("frames_in"), 40);
+  EXPECT_EQ(summary.at("options").at("radius_mm"), 1.75);
+  EXPECT_EQ(summary.at("map").at("status"), ToJson(map.summary).at("status"));
+  EXPECT_EQ(summary.at("map").at("slip_points"), 2);
+  EXPECT_EQ(summary.at("files").at("png"), folder + "/map.png");
+  EXPECT_GT(summary.at("files").at("png_view").at("covered_pixels").get<int>(), 0);
+  for (const char* file : {"map.ply", "map.png", "slip_points.csv"}) {
+    EXPECT_TRUE(std::ifstream(folder + "/" + file).good()) << file;
+  }
+  // A map without a mesh still gets its slip points and summary.
+  map.triangles.clear();
+  const std::string bare = tac3d::testing::MakeTempDir("friction_output") + "/bare";
+  WriteFrictionMapOutputs(map, options, bare, view, nlohmann::json::object());
+  EXPECT_FALSE(ReadJson(bare + "/summary.json").at("files").contains("png"));
+  EXPECT_TRUE(std::ifstream(bare + "/slip_points.csv").good());
 }
 
 TEST(WriteFrictionMapPng, OptionsAndDegenerateMapsThrow) {

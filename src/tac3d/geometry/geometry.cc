@@ -63,6 +63,11 @@ std::optional<double> Rectangle3::Intersect(const Ray& ray, double min_t) const 
   return t;
 }
 
+double RotationDefect(const Eigen::Matrix3d& r) {
+  return std::max((r * r.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff(),
+                  std::abs(r.determinant() - 1.0));
+}
+
 double RotationAngleDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
   const Eigen::Matrix3d r = a.transpose() * b;
   const double c = std::clamp((r.trace() - 1.0) / 2.0, -1.0, 1.0);

@@ -62,6 +62,9 @@ struct Rectangle3 {
   std::optional<double> Intersect(const Ray& ray, double min_t = 0.0) const;
 };
 
+/// How far a matrix is from a rotation: the larger of max|R R^T - I| and |det R - 1| (0 for one).
+double RotationDefect(const Eigen::Matrix3d& r);
+
 /// Rotation between two orientations in degrees.
 double RotationAngleDeg(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b);
 

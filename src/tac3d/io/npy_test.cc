@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <limits>
 
 #include "tac3d/testing/npy_reader.h"
@@ -130,6 +132,124 @@ TEST(NpyWriter, EmptyArrayAndUnwritablePath) {
   EXPECT_THROW(NpyWriter(dir + "/no/such/folder/x.npy", NpyType::kFloat64, {}), Error);
   EXPECT_THROW(NpyWriter(dir + "/neg.npy", NpyType::kFloat64, {-3}), Error);
   EXPECT_THROW(WriteNpy(dir + "/scalar.npy", NpyType::kFloat64, {}, nullptr), Error);
+}
+
+// Raw bytes of a file.
+std::string NpyTestFileBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+void WriteNpyTestFile(const std::string& path, const std::string& bytes) {
+  std::ofstream(path, std::ios::binary) << bytes;
+}
+
+// An .npy file of the given version around a dict, as NumPy lays it out (header padded to 64).
+std::string NpyFileBytes(int major, const std::string& dict, const std::string& data) {
+  const std::size_t length_bytes = major == 1 ? 2 : 4;
+  std::string header = dict;
+  while ((8 + length_bytes + header.size() + 1) % 64 != 0) header += ' ';
+  header += '\n';
+  std::string bytes = std::string("\x93NUMPY", 6) + static_cast<char>(major) + '\0';
+  for (std::size_t i = 0; i < length_bytes; ++i) bytes += static_cast<char>((header.size() >> (8 * i)) & 0xff);
+  return bytes + header + data;
+}
+
+std::string DoubleBytes(const std::vector<double>& values) {
+  return std::string(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(double));
+}
+
+std::string NpyRefusalOf(const std::string& path) {
+  try {
+    ReadNpy(path);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "accepted";
+}
+
+TEST(ReadNpy, RoundTripsBitForBit) {
+  const std::string dir = testing::MakeTempDir("npy");
+  NpyArray a;
+  a.shape = {2, 3};
+  a.data = DoubleBytes({-0.0, std::numeric_limits<double>::denorm_min(), 1e300, -1.5,
+                        std::numeric_limits<double>::quiet_NaN(), 3.0});
+  WriteNpy(dir + "/a.npy", a);
+  const NpyArray back = ReadNpy(dir + "/a.npy");
+  EXPECT_EQ(back, a);  // the data bytes, NaN's included
+  WriteNpy(dir + "/b.npy", back);
+  EXPECT_EQ(NpyTestFileBytes(dir + "/a.npy"), NpyTestFileBytes(dir + "/b.npy"));
+  // The test program's own independent parser agrees.
+  const auto parsed = LoadNpy(dir + "/a.npy");
+  EXPECT_EQ(parsed.shape, a.shape);
+  EXPECT_EQ(parsed.data, a.data);
+
+  NpyArray ints;
+  ints.type = NpyType::kInt64;
+  ints.shape = {3};
+  const std::vector<std::int64_t> values = {39715, -1, std::numeric_limits<std::int64_t>::max()};
+  ints.data.assign(reinterpret_cast<const char*>(values.data()), 3 * sizeof(std::int64_t));
+  WriteNpy(dir + "/i.npy", ints);
+  EXPECT_EQ(ReadNpy(dir + "/i.npy").Int64Values(), values);
+  NpyArray wrong = ints;
+  wrong.shape = {4};
+  EXPECT_THROW(WriteNpy(dir + "/w.npy", wrong), Error);
+}
+
+TEST(ReadNpy, ReadsVersionsTwoAndThreeAndFortranOrder) {
+  const std::string dir = testing::MakeTempDir("npy");
+  // A 2 x 3 array [[0, 1, 2], [3, 4, 5]] stored column by column.
+  const std::string data = DoubleBytes({0, 3, 1, 4, 2, 5});
+  for (const int version : {1, 2, 3}) {
+    const std::string path = dir + "/v" + std::to_string(version) + ".npy";
+    WriteNpyTestFile(path, NpyFileBytes(version, "{'shape': (2, 3), 'fortran_order': True, 'descr': '<f8'}", data));
+    const NpyArray a = ReadNpy(path);
+    EXPECT_TRUE(a.fortran_order);
+    EXPECT_EQ(a.shape, (std::vector<std::int64_t>{2, 3}));
+    EXPECT_EQ(a.Float64Values(), (std::vector<double>{0, 1, 2, 3, 4, 5})) << "version " << version;
+  }
+  // A Fortran-ordered array keeps its order and bytes through a write.
+  const NpyArray a = ReadNpy(dir + "/v2.npy");
+  WriteNpy(dir + "/again.npy", a);
+  EXPECT_EQ(ReadNpy(dir + "/again.npy"), a);
+}
+
+TEST(ReadNpy, RefusesMalformedFilesNamingThem) {
+  const std::string dir = testing::MakeTempDir("npy");
+  const std::string path = dir + "/x.npy";
+  const std::string good = NpyFileBytes(1, "{'descr': '<f8', 'fortran_order': False, 'shape': (2, 3), }",
+                                        DoubleBytes({0, 1, 2, 3, 4, 5}));
+  WriteNpyTestFile(path, good);
+  ASSERT_EQ(NpyRefusalOf(path), "accepted");
+  const auto refusal = [&](const std::string& bytes) {
+    WriteNpyTestFile(path, bytes);
+    return NpyRefusalOf(path);
+  };
+  const auto with_dict = [&](const std::string& dict, std::size_t data_bytes = 48) {
+    return refusal(NpyFileBytes(1, dict, std::string(data_bytes, '\0')));
+  };
+  EXPECT_THAT(refusal(good.substr(0, good.size() - 1)), HasSubstr("x.npy': 47 data bytes where shape (2, 3) of '<f8' needs 48 (truncated)"));
+  EXPECT_THAT(refusal(good.substr(0, 60)), HasSubstr("x.npy': truncated: the .npy header says 118 bytes"));
+  EXPECT_THAT(refusal(good.substr(0, 9)), HasSubstr("is not an .npy file"));
+  EXPECT_THAT(refusal(good + "x"), HasSubstr("49 data bytes"));
+  EXPECT_THAT(refusal("PK\x03\x04 a zip"), HasSubstr("x.npy' is not an .npy file"));
+  std::string v4 = good;
+  v4[6] = 4;
+  EXPECT_THAT(refusal(v4), HasSubstr("format version 4.0"));
+  EXPECT_THAT(with_dict("{'descr': '>f8', 'fortran_order': False, 'shape': (2, 3), }"),
+              HasSubstr("x.npy': dtype '>f8' is not one tac3d reads"));
+  EXPECT_THAT(with_dict("{'descr': '|O', 'fortran_order': False, 'shape': (2, 3), }"), HasSubstr("dtype '|O'"));
+  EXPECT_THAT(with_dict("{'descr': '<f8', 'fortran_order': False, 'shape': (2, -3), }"),
+              HasSubstr("a dimension must be an integer >= 0"));
+  EXPECT_THAT(with_dict("{'descr': '<f8', 'fortran_order': False, 'shape': (99999999999, 99999999999, 99999999999), }"),
+              HasSubstr("needs more than"));
+  EXPECT_THAT(with_dict("{'descr': '<f8', 'fortran_order': Maybe, 'shape': (2, 3), }"), HasSubstr("True or False"));
+  EXPECT_THAT(with_dict("{'descr': '<f8', 'shape': (2, 3), }"), HasSubstr("lacks descr, fortran_order or shape"));
+  EXPECT_THAT(with_dict("{'descr': '<f8', 'fortran_order': False, 'shape': (2, 3), 'extra': 1}"),
+              HasSubstr("unknown key 'extra'"));
+  EXPECT_THAT(with_dict("{'descr': '<f8', 'fortran_order': False, 'shape': (2, 3"), HasSubstr("')' expected"));
+  EXPECT_THAT(NpyRefusalOf(dir + "/missing.npy"), HasSubstr("missing.npy"));
+  EXPECT_THAT(NpyRefusalOf(dir), HasSubstr(dir));
 }
 
 }  // namespace

@@ -216,6 +216,7 @@ void CheckPresses(const fem::ComplianceFamily& family,
 
 void MaterialCalibrationOptions::Validate() const {
   weight.Validate();
+  gain_fit.Validate();
   if (!(poisson_tolerance > 0.0 && poisson_tolerance <= 0.05)) {
     throw Error(
         fmt::format("MaterialCalibrationOptions.poisson_tolerance must be in (0, 0.05], got {}",
@@ -306,7 +307,7 @@ MaterialCalibration CalibrateMaterial(const fem::ComplianceFamily& family,
     pairs.push_back(
         {reconstructor.Reconstruct(press.displacement_mm).resultant_force_n, press.reference_n});
   }
-  result.gains = FitForceGains(pairs);
+  result.gains = FitForceGains(pairs, options.gain_fit);
   result.time_s = SecondsSince(start);
   result.message = fmt::format(
       "E {:.4g} MPa, nu {:.4f} (+-{:.4f}) from {} presses{} in {} evaluations{}",

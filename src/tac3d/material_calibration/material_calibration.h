@@ -36,8 +36,10 @@ struct MaterialCalibrationOptions {
   /// the inverse finds is the centroid of its compressive normal marker forces; it does not
   /// depend on E. 0 ignores the centres.
   double location_weight_n_per_mm = 0.1;
+  /// The gains' fit on the fitted material (FitForceGains): its R^2 floor, refused below.
+  ForceGainFitOptions gain_fit;
 
-  /// @throws tac3d::Error naming the field: the weight options; poisson_tolerance in
+  /// @throws tac3d::Error naming the field: the weight and gain-fit options; poisson_tolerance in
   ///   (0, 0.05]; model_relative_error >= 0; max_poisson_error > 0; location_weight_n_per_mm
   ///   >= 0 and finite.
   void Validate() const;

@@ -58,6 +58,7 @@ SensorRunSpec ReadSensor(YamlReader r, const std::string& base_dir) {
   s.outputs.udp = r.String("udp", "");
   s.outputs.udp_items = r.String("udp_items", "");
   s.outputs.udp_progress = r.Bool("udp_progress", false);
+  s.outputs.allow_zero_under_load = r.Bool("allow_zero_under_load", false);
   s.outputs.record = FromBase(base_dir, r.String("record", ""));
   s.outputs.record_images = r.Bool("record_images", false);
   s.outputs.overwrite = r.Bool("overwrite", false);

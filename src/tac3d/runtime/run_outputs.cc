@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
@@ -155,6 +156,34 @@ std::optional<SensorCommand> FrameOutputs::PollCommand() {
   return sender_ ? sender_->PollCommand() : std::nullopt;
 }
 
+ZeroLoad MeasureZeroLoad(const TactileFrame& frame) {
+  ZeroLoad load;
+  load.force_n = frame.resultant_force_n.norm();
+  for (int i = 0; i < frame.num_markers(); ++i) {
+    if (frame.valid[i]) load.max_displacement_mm = std::max(load.max_displacement_mm, frame.displacements_mm[i].norm());
+  }
+  load.under_load = load.max_displacement_mm > kMaxZeroDisplacementMm;
+  return load;
+}
+
+bool FrameOutputs::AcceptZero(const TactileFrame& last) const {
+  const ZeroLoad load = MeasureZeroLoad(last);
+  if (!load.under_load) return true;
+  const std::string what = fmt::format(
+      "|F| = {:.2f} N, a marker displaced {:.3f} mm (more than {} mm) at frame {}", load.force_n,
+      load.max_displacement_mm, kMaxZeroDisplacementMm, last.index);
+  const std::string sn = args_.sn.empty() ? "" : args_.sn + ": ";
+  if (args_.allow_zero_under_load) {
+    std::fprintf(stderr, "%swarning: zero taken under load (--allow-zero-under-load): %s; every later "
+                 "reading is offset by this load\n", sn.c_str(), what.c_str());
+    return true;
+  }
+  std::fprintf(stderr, "%srefused $C (zero) under load: %s. Zeroing now would offset every later reading "
+               "by this load: zero at rest (nothing touching the sensor), or run with "
+               "--allow-zero-under-load\n", sn.c_str(), what.c_str());
+  return false;
+}
+
 void FrameOutputs::HoldWeb() { HoldViewer(web_.get(), args_.web_hold_s); }
 
 void HoldViewer(const WebServer* viewer, double hold_s) {
@@ -215,7 +244,9 @@ FrameLoopCounts FrameLoop(FrameOutputs& outputs,
     ++counts.emitted;
     outputs.Emit(*out.frame, out.image != nullptr ? *out.image : cv::Mat(), out.markers);
     while (const std::optional<SensorCommand> command = outputs.PollCommand()) {
-      if (*command == SensorCommand::kZero) on_zero();
+      if (*command == SensorCommand::kZero && (!out.zero_retakes_reference || outputs.AcceptZero(*out.frame))) {
+        on_zero();
+      }
       if (*command == SensorCommand::kStop) counts.quit = true;
     }
   }

@@ -37,6 +37,9 @@ struct FrameOutputArgs {
   /// After the source ends, keep serving the last frames this many seconds (< 0: until
   /// Ctrl-C); with `web` only.
   double web_hold_s = 0.0;
+  /// Take a `$C` (or the viewer's zero) under load too, with a warning, instead of refusing it
+  /// (ZeroLoad).
+  bool allow_zero_under_load = false;
 
   /// Checks what can be checked before any work: HOST:PORT's form, --udp-items' names,
   /// --udp-items and --udp-progress only with --udp, --record-images and --overwrite only
@@ -44,6 +47,21 @@ struct FrameOutputArgs {
   /// @throws Error naming the flag.
   void Validate() const;
 };
+
+/// A frame is under load for a `$C` when a valid marker is displaced more than this from its
+/// reference (mm). Zeroing takes the markers as they are for undeformed, so a load then offsets
+/// every later reading; drift, what `$C` is for, is smaller: the drift monitor's rest band is
+/// 0.05 mm (DriftOptions::rest_band_mm), the creeps docs/pipeline.md re-zeroes 0.02-0.05 mm.
+/// Not the resultant: a uniform creep of 0.04 mm already reads 1.5 N.
+inline constexpr double kMaxZeroDisplacementMm = 0.1;
+
+/// What a frame shows of a load, for a `$C` received after it.
+struct ZeroLoad {
+  double force_n = 0.0;              ///< |resultant force| (N)
+  double max_displacement_mm = 0.0;  ///< the largest valid marker displacement (mm)
+  bool under_load = false;           ///< max_displacement_mm > kMaxZeroDisplacementMm
+};
+ZeroLoad MeasureZeroLoad(const TactileFrame& frame);
 
 /// Starts the viewer `args.web` names (docs/viewer.md), with `api` answering its /api/
 /// requests, and names it on stderr.
@@ -70,6 +88,10 @@ class FrameOutputs {
   /// The next command the UDP client sent (`$C`, `$Q`), or a zero the viewer asked for this
   /// SN (`$C`); nullopt when none.
   std::optional<SensorCommand> PollCommand();
+  /// Whether a `$C` received after `last` (the frame emitted last) is to be taken: at rest it
+  /// is, quietly; under load (MeasureZeroLoad) it is refused with a line on stderr naming the
+  /// load, or with allow_zero_under_load taken with a warning line naming it.
+  bool AcceptZero(const TactileFrame& last) const;
   /// With --web and --web-hold: keeps the viewer up after the source ended, until the hold
   /// is over or Ctrl-C / SIGTERM.
   void HoldWeb();
@@ -113,6 +135,10 @@ struct ProducedFrame {
   const cv::Mat* image = nullptr;  ///< the frame's camera image (possibly empty), or null
   /// The tracker's markers in `image` (a pipeline's stream), or null (a recording's).
   const MarkerObservation* markers = nullptr;
+  /// Whether a `$C` retakes the reference of the frames to come (a pipeline's stream), so one
+  /// under load is refused (FrameOutputs::AcceptZero); a recording's frames were computed when
+  /// it was recorded, and its stream only notes the `$C`.
+  bool zero_retakes_reference = true;
 };
 
 /// Gives the next frame: fills `out`. `stop` is set by Ctrl-C, SIGTERM or the client's `$Q`; a
@@ -126,7 +152,8 @@ struct FrameLoopCounts {
 };
 
 /// One sensor's loop: takes frames from `produce` and emits them until it ends, `max_frames`
-/// (> 0) have been emitted, `stop` is set, or the client's `$Q`; a `$C` calls `on_zero`.
+/// (> 0) have been emitted, `stop` is set, or the client's `$Q`; a `$C` calls `on_zero`, for a
+/// frame whose zero retakes the reference only if outputs.AcceptZero of the frame just emitted.
 /// Thread-safe for distinct outputs (the sensors of a run file each run one).
 FrameLoopCounts FrameLoop(FrameOutputs& outputs,
                           long max_frames,

@@ -349,6 +349,7 @@ TEST(RunFile, ReadsEachSensorWithPathsFromItsFolder) {
       "    udp: 127.0.0.1:9988\n"
       "    udp_items: 3D_Normals,SlipState\n"
       "    udp_progress: true\n"
+      "    allow_zero_under_load: true\n"
       "    record: thumb.rec\n"
       "    record_images: true\n"
       "    overwrite: true\n"
@@ -370,6 +371,8 @@ TEST(RunFile, ReadsEachSensorWithPathsFromItsFolder) {
   EXPECT_TRUE(sensors[0].outputs.udp_progress);
   EXPECT_EQ(sensors[1].outputs.udp_items, "");
   EXPECT_FALSE(sensors[1].outputs.udp_progress);
+  EXPECT_TRUE(sensors[0].outputs.allow_zero_under_load);
+  EXPECT_FALSE(sensors[1].outputs.allow_zero_under_load);
   EXPECT_EQ(sensors[0].outputs.record, "/tmp/thumb.rec");
   EXPECT_TRUE(sensors[0].outputs.record_images);
   EXPECT_TRUE(sensors[0].outputs.overwrite);

@@ -115,6 +115,7 @@ class RecordingStream final : public SensorStream {
     out.frame = &current_->frame;
     out.image = &current_->image;
     out.markers = nullptr;
+    out.zero_retakes_reference = false;
     return Produced::kFrame;
   }
 

@@ -14,6 +14,8 @@
 namespace tac3d {
 namespace {
 
+constexpr const char* kVendorCameraModelType = "vendor_pinhole_refraction";
+
 // ---- Validation -------------------------------------------------------------------------
 
 void Require(bool ok, const std::string& field, const std::string& bound, double value) {
@@ -24,11 +26,9 @@ void Require(bool ok, const std::string& field, const std::string& bound, double
 }
 
 void ValidateRotation(const Eigen::Matrix3d& r, const std::string& field) {
-  const double error = (r * r.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
-  if (!(error < 1e-6) || !(std::abs(r.determinant() - 1.0) < 1e-6)) {
-    throw Error(fmt::format(
-        "sensor config: {} is not a rotation (orthonormality error {:.3g}, det {:.6f})", field,
-        error, r.determinant()));
+  if (!(RotationDefect(r) < kRotationTolerance)) {
+    throw Error(fmt::format("sensor config: {} is not a rotation (max(|R R^T - I|, |det R - 1|) = {:.3g})",
+                            field, RotationDefect(r)));
   }
 }
 
@@ -169,9 +169,179 @@ class Writer {
     Double("half_v_mm", r.half_v);
   }
 
+  void VendorCamera(const VendorCameraModelConfig& v) {
+    Key("camera_model");
+    out_ << YAML::BeginMap;
+    Key("type");
+    out_ << kVendorCameraModelType;
+    Key("serial_number");
+    out_ << YAML::DoubleQuoted << v.serial_number;
+    Key("image_flip_x");
+    out_ << v.image_flip_x;
+    Key("image_flip_y");
+    out_ << v.image_flip_y;
+    Key("views");
+    out_ << YAML::BeginMap;
+    for (const ImageHalf half : kImageHalves) Pose(std::string(ToString(half)), v.sensor_from_view[static_cast<int>(half)]);
+    out_ << YAML::EndMap;
+    Key("refraction");
+    out_ << YAML::BeginMap;
+    Double("plane_height_mm", v.refraction.height_mm);
+    Double("theta_rad", v.refraction.theta_rad);
+    Double("phi_rad", v.refraction.phi_rad);
+    Double("index_ratio", v.refraction.index_ratio);
+    out_ << YAML::EndMap;
+    Key("reference_pixels");
+    out_ << YAML::BeginSeq;
+    for (size_t i = 0; i < v.reference_pixels[0].size(); ++i) {
+      out_ << YAML::Flow << YAML::BeginSeq;
+      for (int half = 0; half < 2; ++half) {
+        out_ << ExactDouble(v.reference_pixels[half][i].x()) << ExactDouble(v.reference_pixels[half][i].y());
+      }
+      out_ << YAML::EndSeq;
+    }
+    out_ << YAML::EndSeq;
+    Key("dome_fit");
+    out_ << YAML::BeginMap;
+    Vector("center_mm", v.dome.center_mm);
+    Double("radius_mm", v.dome.radius_mm);
+    Double("rms_mm", v.dome.rms_mm);
+    Double("max_mm", v.dome.max_mm);
+    Double("pitch_mm", v.dome.pitch_mm);
+    out_ << YAML::EndMap;
+    Key("datasheet");
+    out_ << YAML::BeginMap;
+    Vector("position_noise_mm", v.datasheet.position_noise_mm);
+    Vector("marker_force_noise_n", v.datasheet.marker_force_noise_n);
+    Vector("resultant_force_noise_n", v.datasheet.resultant_force_noise_n);
+    Vector("position_drift_mm_per_min", v.datasheet.position_drift_mm_per_min);
+    Vector("marker_force_drift_n_per_min", v.datasheet.marker_force_drift_n_per_min);
+    Vector("resultant_force_drift_n_per_min", v.datasheet.resultant_force_drift_n_per_min);
+    Vector("resultant_relative_error_pct", v.datasheet.resultant_relative_error_pct);
+    out_ << YAML::EndMap;
+    out_ << YAML::EndMap;
+  }
+
  private:
   YAML::Emitter out_;
 };
+
+void RequireFiniteVector(const Eigen::Vector3d& v, const std::string& field, bool non_negative) {
+  for (int i = 0; i < 3; ++i) {
+    Require(std::isfinite(v(i)) && (!non_negative || v(i) >= 0), fmt::format("{}[{}]", field, i),
+            non_negative ? "finite and >= 0" : "finite", v(i));
+  }
+}
+
+void ValidateVendorCamera(const VendorCameraModelConfig& v, const CameraIntrinsics& camera,
+                          int marker_count) {
+  for (const ImageHalf half : kImageHalves) {
+    const std::string field = fmt::format("camera_model.views.{}", ToString(half));
+    const Rigid3& pose = v.sensor_from_view[static_cast<int>(half)];
+    ValidateRotation(pose.linear(), field + ".rotation");
+    RequirePosition(pose.translation(), field + ".position_mm");
+    const std::vector<Eigen::Vector2d>& pixels = v.reference_pixels[static_cast<int>(half)];
+    if (static_cast<int>(pixels.size()) != marker_count) {
+      throw Error(fmt::format("sensor config: camera_model.reference_pixels: {} {} pixels, must be "
+                              "one a marker (markers.rows * cols = {})",
+                              pixels.size(), ToString(half), marker_count));
+    }
+    for (size_t i = 0; i < pixels.size(); ++i) {
+      for (int k = 0; k < 2; ++k) {
+        const int side = k == 0 ? camera.width : camera.height;
+        Require(pixels[i](k) >= 0 && pixels[i](k) <= side - 1,
+                fmt::format("camera_model.reference_pixels[{}] ({} view, {})", i, ToString(half),
+                            k == 0 ? "u" : "v"),
+                fmt::format("inside the {} x {} image", camera.width, camera.height), pixels[i](k));
+      }
+    }
+  }
+  const RefractionPlaneConfig& r = v.refraction;
+  Require(std::abs(r.height_mm) <= SensorLimits::kMaxLengthMm, "camera_model.refraction.plane_height_mm",
+          fmt::format("finite, |x| <= {} mm", SensorLimits::kMaxLengthMm), r.height_mm);
+  Require(std::abs(r.theta_rad) < 0.5 * kPi, "camera_model.refraction.theta_rad",
+          "in (-pi/2, pi/2)", r.theta_rad);
+  Require(std::isfinite(r.phi_rad), "camera_model.refraction.phi_rad", "finite", r.phi_rad);
+  Require(r.index_ratio >= 1.0 / SensorLimits::kMaxRefractiveIndex &&
+              r.index_ratio <= SensorLimits::kMaxRefractiveIndex,
+          "camera_model.refraction.index_ratio",
+          fmt::format("in [1/{0}, {0}]", SensorLimits::kMaxRefractiveIndex), r.index_ratio);
+  const DomeFitConfig& d = v.dome;
+  RequirePosition(d.center_mm, "camera_model.dome_fit.center_mm");
+  RequireLength(d.radius_mm, "camera_model.dome_fit.radius_mm");
+  RequireLength(d.pitch_mm, "camera_model.dome_fit.pitch_mm");
+  Require(d.rms_mm >= 0 && d.rms_mm <= d.max_mm, "camera_model.dome_fit.rms_mm", ">= 0 and <= max_mm",
+          d.rms_mm);
+  Require(d.max_mm <= SensorLimits::kMaxLengthMm, "camera_model.dome_fit.max_mm",
+          fmt::format("<= {} mm", SensorLimits::kMaxLengthMm), d.max_mm);
+  const VendorDatasheetConfig& s = v.datasheet;
+  RequireFiniteVector(s.position_noise_mm, "camera_model.datasheet.position_noise_mm", true);
+  RequireFiniteVector(s.marker_force_noise_n, "camera_model.datasheet.marker_force_noise_n", true);
+  RequireFiniteVector(s.resultant_force_noise_n, "camera_model.datasheet.resultant_force_noise_n", true);
+  RequireFiniteVector(s.position_drift_mm_per_min, "camera_model.datasheet.position_drift_mm_per_min", false);
+  RequireFiniteVector(s.marker_force_drift_n_per_min, "camera_model.datasheet.marker_force_drift_n_per_min",
+                      false);
+  RequireFiniteVector(s.resultant_force_drift_n_per_min,
+                      "camera_model.datasheet.resultant_force_drift_n_per_min", false);
+  RequireFiniteVector(s.resultant_relative_error_pct, "camera_model.datasheet.resultant_relative_error_pct",
+                      true);
+}
+
+VendorCameraModelConfig ReadVendorCamera(YamlReader r) {
+  VendorCameraModelConfig v;
+  const std::string type = r.String("type");
+  if (type != kVendorCameraModelType) {
+    r.FailAt(r.Required("type"), r.Join("type"),
+             fmt::format("'{}' is not a camera model tac3d knows (only {})", type, kVendorCameraModelType));
+  }
+  v.serial_number = r.String("serial_number");
+  v.image_flip_x = r.Bool("image_flip_x");
+  v.image_flip_y = r.Bool("image_flip_y");
+  {
+    YamlReader views = r.Child("views");
+    for (const ImageHalf half : kImageHalves) {
+      v.sensor_from_view[static_cast<int>(half)] = ReadPose(views.Child(std::string(ToString(half))));
+    }
+  }
+  {
+    YamlReader refraction = r.Child("refraction");
+    v.refraction.height_mm = refraction.Double("plane_height_mm");
+    v.refraction.theta_rad = refraction.Double("theta_rad");
+    v.refraction.phi_rad = refraction.Double("phi_rad");
+    v.refraction.index_ratio = refraction.Double("index_ratio");
+  }
+  {
+    // One row a marker: [u_left, v_left, u_right, v_right].
+    const YAML::Node rows = r.Sequence("reference_pixels");
+    if (rows.size() > static_cast<size_t>(SensorLimits::kMaxMarkersPerSide * SensorLimits::kMaxMarkersPerSide)) {
+      r.FailAt(rows, r.Join("reference_pixels"), fmt::format("{} rows: more than markers can be", rows.size()));
+    }
+    for (size_t i = 0; i < rows.size(); ++i) {
+      const Eigen::Vector4d uv = r.VectorAt<4>(rows[i], fmt::format("{}[{}]", r.Join("reference_pixels"), i));
+      v.reference_pixels[0].push_back(uv.head<2>());
+      v.reference_pixels[1].push_back(uv.tail<2>());
+    }
+  }
+  {
+    YamlReader dome = r.Child("dome_fit");
+    v.dome.center_mm = dome.Vector<3>("center_mm");
+    v.dome.radius_mm = dome.Double("radius_mm");
+    v.dome.rms_mm = dome.Double("rms_mm");
+    v.dome.max_mm = dome.Double("max_mm");
+    v.dome.pitch_mm = dome.Double("pitch_mm");
+  }
+  {
+    YamlReader s = r.Child("datasheet");
+    v.datasheet.position_noise_mm = s.Vector<3>("position_noise_mm");
+    v.datasheet.marker_force_noise_n = s.Vector<3>("marker_force_noise_n");
+    v.datasheet.resultant_force_noise_n = s.Vector<3>("resultant_force_noise_n");
+    v.datasheet.position_drift_mm_per_min = s.Vector<3>("position_drift_mm_per_min");
+    v.datasheet.marker_force_drift_n_per_min = s.Vector<3>("marker_force_drift_n_per_min");
+    v.datasheet.resultant_force_drift_n_per_min = s.Vector<3>("resultant_force_drift_n_per_min");
+    v.datasheet.resultant_relative_error_pct = s.Vector<3>("resultant_relative_error_pct");
+  }
+  return v;
+}
 
 ImageHalf ParseHalf(const std::string& s, const YamlReader& r, const std::string& key) {
   if (s == "left") return ImageHalf::kLeft;
@@ -273,6 +443,12 @@ void SensorConfig::Validate() const {
       SphereCenter().z() + std::sqrt(marker_radius * marker_radius - corner * corner);
   Require(corner_z > 0, "markers.depth_mm",
           "small enough that the corner markers stay inside the elastic body", m.depth_mm);
+  if (vendor_camera) ValidateVendorCamera(*vendor_camera, c, m.rows * m.cols);
+}
+
+Eigen::Vector3d RefractionPlaneConfig::Normal() const {
+  return {std::sin(theta_rad) * std::cos(phi_rad), std::sin(theta_rad) * std::sin(phi_rad),
+          std::cos(theta_rad)};
 }
 
 Eigen::Vector3d SensorConfig::SphereCenter() const {
@@ -376,6 +552,7 @@ SensorConfig ParseSensorConfig(const std::string& yaml_text, const std::string& 
       c.glass.thickness_mm = g.Double("thickness_mm");
       c.glass.refractive_index = g.Double("refractive_index");
     }
+    if (r.Has("camera_model")) c.vendor_camera = ReadVendorCamera(r.Child("camera_model"));
   }
   try {
     c.Validate();
@@ -392,7 +569,7 @@ SensorConfig LoadSensorConfig(const std::string& path) {
 std::string SensorConfigToYaml(const SensorConfig& c) {
   Writer w;
   YAML::Emitter& out = w.out();
-  out << YAML::Comment("tac3d sensor config: mm, MPa, degrees; frames as in docs/frames.md");
+  out << YAML::Comment("tac3d sensor config: mm, MPa, degrees; frames in docs/sensor-config.md");
   out << YAML::BeginMap;
   w.Key("camera");
   out << YAML::BeginMap;
@@ -466,6 +643,7 @@ std::string SensorConfigToYaml(const SensorConfig& c) {
   w.Double("thickness_mm", c.glass.thickness_mm);
   w.Double("refractive_index", c.glass.refractive_index);
   out << YAML::EndMap;
+  if (c.vendor_camera) w.VendorCamera(*c.vendor_camera);
   out << YAML::EndMap;
   return std::string(out.c_str()) + "\n";
 }

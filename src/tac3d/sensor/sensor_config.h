@@ -1,5 +1,7 @@
 #pragma once
 
+#include <array>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -21,6 +23,9 @@ struct SensorLimits {
   static constexpr double kMaxYoungsModulusMpa = 1e3; ///< silicones are 0.05-10 MPa
   static constexpr double kMaxRefractiveIndex = 3.0;
 };
+
+/// How far from a rotation (RotationDefect) a rotation in a sensor's files may be.
+inline constexpr double kRotationTolerance = 1e-6;
 
 /// The real camera (paper: IMX219-77, 48 deg horizontal field of view).
 struct CameraConfig {
@@ -83,6 +88,56 @@ struct GlassConfig {
   double refractive_index = 1.52;
 };
 
+/// The refracting plane of the vendor's camera model: the plane through (0, 0, height_mm) whose
+/// normal is (sin theta cos phi, sin theta sin phi, cos theta), from air (camera side) into the
+/// gel with index ratio n21 = n_gel / n_air.
+struct RefractionPlaneConfig {
+  double height_mm = 0.0;  ///< h0
+  double theta_rad = 0.0;
+  double phi_rad = 0.0;
+  double index_ratio = 1.0;  ///< n21
+
+  Eigen::Vector3d Normal() const;
+};
+
+/// A sphere fitted to the markers' reference positions (least squares on the distances).
+struct DomeFitConfig {
+  Eigen::Vector3d center_mm = Eigen::Vector3d::Zero();
+  double radius_mm = 0.0;
+  double rms_mm = 0.0;    ///< RMS of the markers' distances off the sphere
+  double max_mm = 0.0;    ///< the largest distance off it
+  double pitch_mm = 0.0;  ///< mean distance between grid neighbours
+};
+
+/// The vendor's datasheet figures for one sensor (standard deviations and drifts per axis x, y, z).
+struct VendorDatasheetConfig {
+  Eigen::Vector3d position_noise_mm = Eigen::Vector3d::Zero();
+  Eigen::Vector3d marker_force_noise_n = Eigen::Vector3d::Zero();
+  Eigen::Vector3d resultant_force_noise_n = Eigen::Vector3d::Zero();
+  Eigen::Vector3d position_drift_mm_per_min = Eigen::Vector3d::Zero();
+  Eigen::Vector3d marker_force_drift_n_per_min = Eigen::Vector3d::Zero();
+  Eigen::Vector3d resultant_force_drift_n_per_min = Eigen::Vector3d::Zero();
+  Eigen::Vector3d resultant_relative_error_pct = Eigen::Vector3d::Zero();
+};
+
+/// A real Tac3D's camera model as its vendor calibrates it (docs/real-sensors.md): one physical
+/// camera (SensorConfig::camera.intrinsics, with OpenCV distortion) seen as two pinhole virtual
+/// cameras, whose rays refract once at a plane. Imported by `tac3d import-vendor`; the twin's
+/// mirror model (mirrors, virtual_cameras) stays empty for such a sensor.
+struct VendorCameraModelConfig {
+  std::string serial_number;
+  bool image_flip_x = false;  ///< the vendor mirrors the camera's image before it is processed
+  bool image_flip_y = false;
+  /// Each view's camera-to-sensor pose (centre in mm, rotation), indexed by ImageHalf.
+  std::array<Rigid3, 2> sensor_from_view = {Rigid3::Identity(), Rigid3::Identity()};
+  RefractionPlaneConfig refraction;
+  /// Each marker's pixel in both views of the undeformed gel, row-major marker order
+  /// (rows * cols entries each), indexed by ImageHalf.
+  std::array<std::vector<Eigen::Vector2d>, 2> reference_pixels;
+  DomeFitConfig dome;
+  VendorDatasheetConfig datasheet;
+};
+
 /// One description of a sensor: everything the software needs to know about it. The
 /// defaults are the paper's prototype (DESIGN.md); `mirrors` and `virtual_cameras` are
 /// empty until `tac3d design` (or calibration) fills them.
@@ -94,6 +149,8 @@ struct SensorConfig {
   MarkerConfig markers;
   ElasticBodyConfig elastic_body;
   GlassConfig glass;
+  /// Set for a real sensor imported from its vendor's calibration (YAML key `camera_model`).
+  std::optional<VendorCameraModelConfig> vendor_camera;
 
   /// Checks every value against its physical bound.
   /// @throws Error naming the field and the bound.

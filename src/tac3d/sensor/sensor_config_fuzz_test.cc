@@ -39,5 +39,34 @@ TEST(SensorConfigFuzz, MutatedFilesLoadOrThrowErrorWithinBoundedMemoryAndTime) {
   EXPECT_GT(counts.refused, counts.iterations / 2);
 }
 
+// A real sensor's config (camera_model, as `tac3d import-vendor` writes it) on a 2 x 2 grid, so
+// the vendor camera model's reader is fuzzed too.
+std::string SeedVendorConfigYaml() {
+  SensorConfig c;
+  c.markers.rows = c.markers.cols = 2;
+  VendorCameraModelConfig v;
+  v.serial_number = "HDL1-0001";
+  v.image_flip_x = true;
+  v.sensor_from_view[1].translation() = Eigen::Vector3d(-12, 0, -32);
+  v.refraction.index_ratio = 1.4303;
+  for (int i = 0; i < 4; ++i) {
+    v.reference_pixels[0].emplace_back(100 + i, 200);
+    v.reference_pixels[1].emplace_back(400 + i, 200);
+  }
+  v.dome = {Eigen::Vector3d(0, 0, -23.75), 33.3, 0.038, 0.1, 1.016};
+  v.datasheet.resultant_relative_error_pct = Eigen::Vector3d(2.3, 1.9, 4.9);
+  c.vendor_camera = v;
+  return SensorConfigToYaml(c);
+}
+
+TEST(SensorConfigFuzz, MutatedVendorCameraModelsLoadOrThrowError) {
+  const std::string seed = SeedVendorConfigYaml();
+  ASSERT_TRUE(ParseSensorConfig(seed, "seed.yaml").vendor_camera);
+  const testing::FuzzCounts counts =
+      testing::FuzzYamlReader(seed, [](const std::string& text) { ParseSensorConfig(text, "fuzz.yaml"); }, "configs");
+  EXPECT_GT(counts.iterations, 1000) << "too few iterations in the time bound: a slow path?";
+  EXPECT_GT(counts.refused, counts.iterations / 2);
+}
+
 }  // namespace
 }  // namespace tac3d

@@ -161,7 +161,7 @@ YamlReader::YamlReader(YAML::Node node, std::string path, const std::string* sou
 }
 
 YamlReader::~YamlReader() noexcept(false) {
-  if (std::uncaught_exceptions() > 0) return;
+  if (std::uncaught_exceptions() > 0 || allow_unknown_keys_) return;
   for (const auto& kv : node_) {
     const std::string key = kv.first.as<std::string>();
     if (!used_.count(key)) FailAt(kv.first, Join(key), "unknown key (misspelt?)");
@@ -176,7 +176,9 @@ YAML::Node YamlReader::Required(const std::string& key) {
 }
 
 YamlReader YamlReader::Child(const std::string& key) {
-  return YamlReader(Required(key), Join(key), source_);
+  YamlReader child(Required(key), Join(key), source_);
+  child.allow_unknown_keys_ = allow_unknown_keys_;
+  return child;
 }
 
 YAML::Node YamlReader::Sequence(const std::string& key) {
@@ -186,7 +188,9 @@ YAML::Node YamlReader::Sequence(const std::string& key) {
 }
 
 YamlReader YamlReader::Element(const YAML::Node& sequence, const std::string& key, size_t i) const {
-  return YamlReader(sequence[i], fmt::format("{}[{}]", Join(key), i), source_);
+  YamlReader element(sequence[i], fmt::format("{}[{}]", Join(key), i), source_);
+  element.allow_unknown_keys_ = allow_unknown_keys_;
+  return element;
 }
 
 double YamlReader::Double(const std::string& key) { return AsDouble(Required(key), Join(key)); }

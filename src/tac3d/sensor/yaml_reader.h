@@ -45,6 +45,13 @@ class YamlReader {
   /// @throws Error naming the first key that was never read.
   ~YamlReader() noexcept(false);
 
+  /// For a file tac3d does not own (a vendor's), of which it reads only some keys: the others
+  /// are not errors, here and in the readers Child and Element make from this one.
+  YamlReader& AllowUnknownKeys() {
+    allow_unknown_keys_ = true;
+    return *this;
+  }
+
   YAML::Node Required(const std::string& key);
   bool Has(const std::string& key) const { return static_cast<bool>(node_[key]); }
   YamlReader Child(const std::string& key);
@@ -64,10 +71,14 @@ class YamlReader {
 
   template <int N>
   Eigen::Matrix<double, N, 1> Vector(const std::string& key) {
-    const YAML::Node n = Required(key);
-    if (!n.IsSequence() || n.size() != N) FailAt(n, Join(key), fmt::format("must be a list of {} numbers", N));
+    return VectorAt<N>(Required(key), Join(key));
+  }
+  /// The list of N numbers `n` (e.g. an element of a list read with Sequence), named `where`.
+  template <int N>
+  Eigen::Matrix<double, N, 1> VectorAt(const YAML::Node& n, const std::string& where) const {
+    if (!n.IsSequence() || n.size() != N) FailAt(n, where, fmt::format("must be a list of {} numbers", N));
     Eigen::Matrix<double, N, 1> v;
-    for (int i = 0; i < N; ++i) v(i) = AsDouble(n[i], fmt::format("{}[{}]", Join(key), i));
+    for (int i = 0; i < N; ++i) v(i) = AsDouble(n[i], fmt::format("{}[{}]", where, i));
     return v;
   }
   template <int N>
@@ -93,6 +104,7 @@ class YamlReader {
   std::string path_;
   const std::string* source_;
   std::set<std::string> used_;
+  bool allow_unknown_keys_ = false;
 };
 
 }  // namespace tac3d

@@ -34,8 +34,11 @@ std::optional<Eigen::Vector2d> StereoRig::Project(ImageHalf half,
 
 Triangulation TriangulateMidpoint(const StereoRig& rig, const Eigen::Vector2d& pixel_left,
                                   const Eigen::Vector2d& pixel_right) {
-  const Ray a = rig.PixelRay(ImageHalf::kLeft, pixel_left);
-  const Ray b = rig.PixelRay(ImageHalf::kRight, pixel_right);
+  return TriangulateRays(rig.PixelRay(ImageHalf::kLeft, pixel_left),
+                         rig.PixelRay(ImageHalf::kRight, pixel_right));
+}
+
+Triangulation TriangulateRays(const Ray& a, const Ray& b) {
   // Closest points a.At(s), b.At(t): solve the 2x2 normal equations.
   const Eigen::Vector3d w = a.origin - b.origin;
   const double ab = a.direction.dot(b.direction);

@@ -35,6 +35,10 @@ struct Triangulation {
   bool valid = false;
 };
 
+/// The midpoint of the common perpendicular of two rays, with their gap (mm) as the residual.
+/// Invalid for (nearly) parallel rays or a closest point behind either ray's origin.
+Triangulation TriangulateRays(const Ray& a, const Ray& b);
+
 /// The midpoint of the common perpendicular of the two pixels' straight rays: stereo as if
 /// there were no glass or silicone. Invalid for (nearly) parallel rays or a point behind a
 /// camera.

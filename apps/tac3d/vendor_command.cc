@@ -1,0 +1,80 @@
+// `tac3d import-vendor` and `tac3d eval vendor`: a real Tac3D from its vendor's files
+// (docs/real-sensors.md).
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "commands.h"
+#include "tac3d/vendor/vendor_calibration.h"
+#include "tac3d/vendor/vendor_evaluation.h"
+#include "tac3d/vendor/vendor_recording.h"
+
+namespace tac3d::cli {
+
+void RegisterImportVendor(CLI::App& app) {
+  struct Args {
+    std::string folder;
+    std::string out = "sensor.yaml";
+  };
+  auto args = std::make_shared<Args>();
+  CLI::App* cmd = app.add_subcommand(
+      "import-vendor", "Make a sensor YAML from a Tac3D's vendor calibration folder (its camera model, markers, gel)");
+  cmd->add_option("folder", args->folder,
+                  "the folder holding Reconstruction3D/parameters.yaml, DMP3_by_Zhang/markers.txt, sensor.yaml, "
+                  "datasheet.yaml")
+      ->required();
+  cmd->add_option("--out", args->out, "sensor YAML to write")->capture_default_str();
+  cmd->callback([args] {
+    CheckOutputFile(args->out, "--out", {".yaml", ".yml"});
+    const SensorConfig config = ImportVendorSensor(args->folder);
+    SaveSensorConfig(config, args->out);
+    const DomeFitConfig& dome = config.vendor_camera->dome;
+    std::printf("%s", fmt::format("sensor {}: {} x {} camera, {} x {} markers; dome fitted to the triangulated reference "
+                                  "positions: radius {:.3f} mm, centre ({:.3f}, {:.3f}, {:.3f}) mm, {:.4f} mm RMS "
+                                  "({:.4f} mm max) off it, pitch {:.4f} mm\nwrote {}\n",
+                                  config.vendor_camera->serial_number, config.camera.intrinsics.width,
+                                  config.camera.intrinsics.height, config.markers.rows, config.markers.cols,
+                                  dome.radius_mm, dome.center_mm.x(), dome.center_mm.y(), dome.center_mm.z(),
+                                  dome.rms_mm, dome.max_mm, dome.pitch_mm, args->out)
+                          .c_str());
+  });
+}
+
+void RegisterEvalVendor(CLI::App& eval) {
+  struct Args {
+    std::string config;
+    std::string recording;
+    VendorEvaluationOptions options;
+    bool no_distortion = false;
+    bool no_refraction = false;
+    bool json = false;
+  };
+  auto args = std::make_shared<Args>();
+  CLI::App* cmd = eval.add_subcommand(
+      "vendor", "A real Tac3D's imported calibration against a recording of the vendor's software");
+  cmd->add_option("--config", args->config, "the sensor YAML `tac3d import-vendor` wrote")->required();
+  cmd->add_option("--recording", args->recording, "the vendor's recording folder (or its <SN> folder)")->required();
+  cmd->add_option("--reference-frame", args->options.reference_frame,
+                  "the frame whose 3D_Positions - 3D_Displacements are the reference")
+      ->capture_default_str();
+  cmd->add_flag("--no-distortion", args->no_distortion, "triangulate without the lens distortion (to measure it)");
+  cmd->add_flag("--no-refraction", args->no_refraction, "triangulate without the refraction (to measure it)");
+  cmd->add_flag("--json", args->json, "print JSON");
+  cmd->callback([args] {
+    args->options.stereo.undistort = !args->no_distortion;
+    args->options.stereo.refract = !args->no_refraction;
+    const VendorEvaluation evaluation = EvaluateVendorRecording(
+        LoadSensorConfig(args->config), ReadVendorRecording(args->recording), args->options);
+    if (args->json) {
+      std::printf("%s\n", ToJson(evaluation).dump(2).c_str());
+    } else {
+      std::printf("%s", evaluation.Report().c_str());
+    }
+  });
+}
+
+}  // namespace tac3d::cli
