@@ -93,7 +93,7 @@ DomeMesh BuildDomeMesh(const BodyModelOptions& options);
 
 /// How a BodyModel solves: directly (ElasticSolverMethod::kDirect) up to a size, by two-grid
 /// preconditioned conjugate gradients (kTwoGridPcg; MINRES on the mixed form,
-/// kTwoGridMixedMinres, above PcgOptions::mixed_above_poisson_ratio) on larger meshes, whose
+/// kTwoGridMixedMinres, with PcgOptions::mixed_form) on larger meshes, whose
 /// direct factor does not fit (refinement 2 of the default dome: CHOLMOD's 32-bit indices
 /// overflow, and ~20 GB).
 struct BodySolverOptions {

@@ -3,6 +3,9 @@
 #include <Eigen/CholmodSupport>
 #include <algorithm>
 #include <chrono>
+#include <exception>
+#include <mutex>
+#include <thread>
 
 #include "tac3d/util/error.h"
 #include "tac3d/util/progress.h"
@@ -175,6 +178,7 @@ struct ElasticSolver::Impl {
   std::unique_ptr<Impl> coarse;
   Eigen::SparseMatrix<double> prolongation;
   PcgOptions pcg;
+  mutable std::mutex coarse_solve_mutex;
   // kTwoGridMixedMinres: stiffness_lower and the coarse level hold A_r; B on the free DOFs,
   // M = diag(V_e), K_bulk - r, and the pressure block of the preconditioner as a multiple of M.
   Eigen::SparseMatrix<double, Eigen::RowMajor> volume_change;
@@ -373,13 +377,10 @@ void PcgOptions::Validate() const {
     throw Error(
         fmt::format("PcgOptions.relative_tolerance must be in (0, 1), got {}", relative_tolerance));
   }
-  if (!(mixed_above_poisson_ratio >= -1.0 && mixed_above_poisson_ratio <= 0.5)) {
-    throw Error(fmt::format("PcgOptions.mixed_above_poisson_ratio must be in [-1, 0.5], got {}",
-                            mixed_above_poisson_ratio));
-  }
   if (!(mixed_bulk_split > 0.0)) {
     throw Error(fmt::format("PcgOptions.mixed_bulk_split must be > 0, got {}", mixed_bulk_split));
   }
+  if (threads < 0) throw Error(fmt::format("PcgOptions.threads must be >= 0, got {}", threads));
   for (const auto& [value, field] : {std::pair{max_iterations, "max_iterations"},
                                      std::pair{smoothing_sweeps, "smoothing_sweeps"},
                                      std::pair{block_columns, "block_columns"}}) {
@@ -416,8 +417,11 @@ ElasticSolver::ElasticSolver(const HexMesh& mesh,
   }
   Impl& s = *impl_;
   s.pcg = options;
+  if (s.pcg.threads == 0) {
+    s.pcg.threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  }
   material.Validate();
-  const bool mixed = material.poisson_ratio > options.mixed_above_poisson_ratio;
+  const bool mixed = options.mixed_form;
   const double shear = material.shear_modulus();
   // r, at most half the bulk modulus so that the pressure block keeps K_bulk - r > 0.
   const double split_bulk =
@@ -472,7 +476,12 @@ void ElasticSolver::Impl::Precondition(const Block& r,
   MultiplySymmetric(stiffness_lower, *z, scratch);
   *scratch = r - *scratch;
   const Eigen::MatrixXd coarse_rhs = prolongation.transpose() * *scratch;
-  const Eigen::MatrixXd coarse_correction = coarse->llt.solve(coarse_rhs);
+  Eigen::MatrixXd coarse_correction;
+  {
+    // CHOLMOD's solve writes to the factor's workspace (cholmod_common).
+    const std::lock_guard<std::mutex> lock(coarse_solve_mutex);
+    coarse_correction = coarse->llt.solve(coarse_rhs);
+  }
   z->noalias() += prolongation * coarse_correction;
   for (int sweep = 0; sweep < pcg.smoothing_sweeps; ++sweep) {
     GaussSeidelSweep(stiffness_lower, r, false, z, work);
@@ -680,14 +689,47 @@ Eigen::MatrixXd ElasticSolver::Impl::SolveFree(const Eigen::MatrixXd& rhs,
                                                SolveSummary* out) const {
   if (summary.method == ElasticSolverMethod::kDirect) return llt.solve(rhs);
   const auto start = std::chrono::steady_clock::now();
-  Block x;
-  if (summary.method == ElasticSolverMethod::kTwoGridMixedMinres) {
-    SolveMixedMinres(rhs, &x, out);
-  } else {
-    SolvePcg(rhs, &x, out);
+  // The load cases split into one block a thread, each iterated on its own: each thread
+  // streams K, and only the coarse factor's solves take turns.
+  const int m = static_cast<int>(rhs.cols());
+  const int parts = std::max(1, std::min(pcg.threads, m));
+  std::vector<Block> x(parts);
+  std::vector<SolveSummary> part_summaries(parts);
+  std::vector<std::exception_ptr> errors(parts);
+  const auto solve_part = [&](int t) {
+    try {
+      const int begin = m * t / parts, end = m * (t + 1) / parts;
+      const Block part_rhs = rhs.middleCols(begin, end - begin);
+      if (summary.method == ElasticSolverMethod::kTwoGridMixedMinres) {
+        SolveMixedMinres(part_rhs, &x[t], &part_summaries[t]);
+      } else {
+        SolvePcg(part_rhs, &x[t], &part_summaries[t]);
+      }
+    } catch (...) {
+      errors[t] = std::current_exception();
+    }
+  };
+  std::vector<std::thread> workers;
+  for (int t = 1; t < parts; ++t) workers.emplace_back(solve_part, t);
+  solve_part(0);
+  for (std::thread& worker : workers) worker.join();
+  for (const std::exception_ptr& error : errors) {
+    if (error) std::rethrow_exception(error);
+  }
+  Eigen::MatrixXd solution(rhs.rows(), m);
+  for (int t = 0; t < parts; ++t) {
+    const int begin = m * t / parts;
+    solution.middleCols(begin, x[t].cols()) = x[t];
+    if (out != nullptr) {
+      const SolveSummary& part = part_summaries[t];
+      out->iterations.insert(out->iterations.end(), part.iterations.begin(), part.iterations.end());
+      out->relative_residuals.insert(out->relative_residuals.end(),
+                                     part.relative_residuals.begin(),
+                                     part.relative_residuals.end());
+    }
   }
   if (out != nullptr) out->solve_s += SecondsSince(start);
-  return x;
+  return solution;
 }
 
 ElasticSolver::~ElasticSolver() = default;

@@ -18,8 +18,7 @@ enum class ElasticSolverMethod {
   /// Conjugate gradients on K, preconditioned by a two-grid cycle whose coarse level is a
   /// coarser mesh of the same body, factored directly. K is stored once (lower triangle).
   kTwoGridPcg,
-  /// For nearly incompressible materials, where the two-grid cycle on K loses its grip: the
-  /// equivalent mixed form with one pressure an element, K_bulk split into r + (K_bulk - r),
+  /// PcgOptions::mixed_form, for nearly incompressible materials: the equivalent mixed form with one pressure an element, K_bulk split into r + (K_bulk - r),
   ///   [A_r  B^T; B  -M / (K_bulk - r)] [u; p] = [f; 0],  A_r = G S_dev + r S_vol,
   /// B the elements' volume-change rows (CalcHex8VolumeChange), M = diag(V_e); eliminating p
   /// gives K u = f exactly. MINRES with the block-diagonal preconditioner diag(two-grid cycle on
@@ -39,19 +38,23 @@ struct PcgOptions {
   /// Load cases iterated together (one sparse matrix times a block of vectors serves all of
   /// them); each costs 8 vectors of num_free_dofs doubles.
   int block_columns = 32;
-  /// The iterative constructor uses kTwoGridMixedMinres for a Poisson's ratio above this,
-  /// kTwoGridPcg up to it; -1 = always mixed, 0.5 = never. On the small test dome (6,855 free
-  /// DOFs) the largest iteration counts were PCG 115 / 376 and MINRES 159 / 222 at nu 0.499 /
-  /// 0.4999 (docs/fem.md), so the switch lies between the two.
-  double mixed_above_poisson_ratio = 0.4995;
+  /// Threads a block's load cases are split over, each thread iterating its own share (each
+  /// case's iteration is independent of the others', so only rounding in the coarse factor's
+  /// solve can differ); 0 = one a hardware thread.
+  int threads = 0;
+  /// Solve by MINRES on the mixed form (kTwoGridMixedMinres) instead of conjugate gradients on
+  /// K (kTwoGridPcg). Off by default: on the small test dome (6,855 free DOFs) the largest
+  /// iteration counts were PCG 115 / 376 and MINRES 159 / 222 at nu 0.499 / 0.4999, but on the
+  /// default sensor PCG took fewer iterations and less time at every nu measured (docs/fem.md).
+  bool mixed_form = false;
   /// r / G, the share of the bulk modulus kept in A_r (mixed form; r at most K_bulk / 2): A_r
   /// then behaves as a
   /// material of K_bulk / G = mixed_bulk_split (30: nu 0.483), which the two-grid cycle still
   /// handles in ~25-35 iterations, while a larger r brings the pressure block closer to M / r.
   double mixed_bulk_split = 30.0;
 
-  /// @throws tac3d::Error naming the field: tolerance in (0, 1), every count >= 1,
-  ///   mixed_above_poisson_ratio in [-1, 0.5], mixed_bulk_split > 0.
+  /// @throws tac3d::Error naming the field: tolerance in (0, 1), every count >= 1 (threads
+  ///   >= 0), mixed_bulk_split > 0.
   void Validate() const;
 };
 
@@ -88,7 +91,7 @@ struct SolveSummary {
 /// Linear elastic statics on a hex8 mesh (B-bar elements, CalcHex8Stiffness): assembles the
 /// stiffness of the free DOFs once, then solves any number of load cases, either with a
 /// Cholesky factor (kDirect), by two-grid preconditioned conjugate gradients (kTwoGridPcg) or,
-/// nearly incompressible, by MINRES on the equivalent mixed form (kTwoGridMixedMinres).
+/// if asked, by MINRES on the equivalent mixed form (kTwoGridMixedMinres).
 /// Displacements are mm, forces N, DOFs node-major (HexMesh).
 class ElasticSolver {
  public:
@@ -105,8 +108,8 @@ class ElasticSolver {
                 const ElasticMaterial& material,
                 const std::vector<bool>& fixed,
                 bool show_progress = false);
-  /// The iterative solver: kTwoGridPcg, or kTwoGridMixedMinres above
-  /// options.mixed_above_poisson_ratio (then A_r takes K's place below). K is kept; the coarse
+  /// The iterative solver: kTwoGridPcg, or kTwoGridMixedMinres if options.mixed_form (then A_r
+  /// takes K's place below). K is kept; the coarse
   /// level's operator is the Galerkin P^T K P, factored as by the direct constructor (the coarse
   /// mesh gives its DOFs and P). Each preconditioner application is a
   /// symmetric two-grid cycle, so the preconditioner is symmetric positive definite:
