@@ -44,8 +44,9 @@ struct PcgOptions {
   int threads = 0;
   /// Solve by MINRES on the mixed form (kTwoGridMixedMinres) instead of conjugate gradients on
   /// K (kTwoGridPcg). Off by default: on the small test dome (6,855 free DOFs) the largest
-  /// iteration counts were PCG 115 / 376 and MINRES 159 / 222 at nu 0.499 / 0.4999, but on the
-  /// default sensor PCG took fewer iterations and less time at every nu measured (docs/fem.md).
+  /// iteration counts were PCG 115 / 376 and MINRES 159 / 222 at nu 0.499 / 0.4999, and on the
+  /// default sensor at refinement 2, nu 0.499, MINRES had not converged when stopped after
+  /// about the time PCG took to converge (docs/fem.md).
   bool mixed_form = false;
   /// r / G, the share of the bulk modulus kept in A_r (mixed form; r at most K_bulk / 2): A_r
   /// then behaves as a
