@@ -356,7 +356,6 @@ BodySolverOptions AlwaysMixed() {
   return solver;
 }
 
-
 int MaxIterations(const SolveSummary& summary) {
   return *std::max_element(summary.iterations.begin(), summary.iterations.end());
 }

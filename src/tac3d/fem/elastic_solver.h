@@ -18,7 +18,8 @@ enum class ElasticSolverMethod {
   /// Conjugate gradients on K, preconditioned by a two-grid cycle whose coarse level is a
   /// coarser mesh of the same body, factored directly. K is stored once (lower triangle).
   kTwoGridPcg,
-  /// PcgOptions::mixed_form, for nearly incompressible materials: the equivalent mixed form with one pressure an element, K_bulk split into r + (K_bulk - r),
+  /// PcgOptions::mixed_form, for nearly incompressible materials: the equivalent mixed form with
+  /// one pressure an element, K_bulk split into r + (K_bulk - r),
   ///   [A_r  B^T; B  -M / (K_bulk - r)] [u; p] = [f; 0],  A_r = G S_dev + r S_vol,
   /// B the elements' volume-change rows (CalcHex8VolumeChange), M = diag(V_e); eliminating p
   /// gives K u = f exactly. MINRES with the block-diagonal preconditioner diag(two-grid cycle on
@@ -49,9 +50,9 @@ struct PcgOptions {
   /// about the time PCG took to converge (docs/fem.md).
   bool mixed_form = false;
   /// r / G, the share of the bulk modulus kept in A_r (mixed form; r at most K_bulk / 2): A_r
-  /// then behaves as a
-  /// material of K_bulk / G = mixed_bulk_split (30: nu 0.483), which the two-grid cycle still
-  /// handles in ~25-35 iterations, while a larger r brings the pressure block closer to M / r.
+  /// then behaves as a material of K_bulk / G = mixed_bulk_split (30: nu 0.483), which the
+  /// two-grid cycle still handles in ~25-35 iterations, while a larger r brings the pressure
+  /// block closer to M / r.
   double mixed_bulk_split = 30.0;
 
   /// @throws tac3d::Error naming the field: tolerance in (0, 1), every count >= 1 (threads
