@@ -107,10 +107,12 @@ struct DomeMesh {
 DomeMesh BuildDomeMesh(const BodyModelOptions& options);
 
 /// How a BodyModel solves: directly (ElasticSolverMethod::kDirect) up to a size, by two-grid
-/// preconditioned conjugate gradients (kTwoGridPcg) on larger meshes, whose direct factor does
-/// not fit (refinement 2 of the default dome: CHOLMOD's 32-bit indices overflow, and ~20 GB).
+/// preconditioned conjugate gradients (kTwoGridPcg; MINRES on the mixed form,
+/// kTwoGridMixedMinres, with PcgOptions::mixed_form) on larger meshes, whose
+/// direct factor does not fit (refinement 2 of the default dome: CHOLMOD's 32-bit indices
+/// overflow, and ~20 GB).
 struct BodySolverOptions {
-  /// kDirect up to this many free DOFs, kTwoGridPcg above it: the default dome is direct up to
+  /// kDirect up to this many free DOFs, iterative above it: the default dome is direct up to
   /// refinement 1.5 (559,482 free DOFs, 6.8 GB) and iterative at 2 (1,257,174). 0 = always
   /// iterative.
   int max_direct_free_dofs = 600000;

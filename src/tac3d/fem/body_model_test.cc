@@ -317,6 +317,13 @@ BodySolverOptions AlwaysTwoGrid() {
   return solver;
 }
 
+BodyModelOptions SmallDomeWithPoissonRatio(double nu, double refinement = 1.0) {
+  BodyModelOptions options = SmallDome();
+  options.material.poisson_ratio = nu;
+  options.refinement = refinement;
+  return options;
+}
+
 // The markers' response to every patch load, and what the solve cost.
 Eigen::MatrixXd MarkerResponse(const BodyModel& model, SolveSummary* summary = nullptr) {
   return model.solver().CalcResponse(model.CalcPointInterpolation(model.marker_positions()),
@@ -353,6 +360,22 @@ TEST(TwoGridSolver, MatchesTheDirectSolution) {
   EXPECT_LT((iterative.solver().Solve(forces, prescribed) - u).norm() / u.norm(), 1e-8);
 }
 
+TEST(TwoGridSolver, ThreadsSplitTheLoadCasesWithoutChangingThem) {
+  // Each thread iterates its own cases; only the coarse factor's block solves (BLAS) may round
+  // differently, far below the 1e-8 tolerance. A case lost or swapped would be off by O(1).
+  BodySolverOptions one_thread = AlwaysTwoGrid(), three_threads = AlwaysTwoGrid();
+  one_thread.pcg.threads = 1;
+  three_threads.pcg.threads = 3;
+  for (bool mixed_form : {false, true}) {
+    one_thread.pcg.mixed_form = three_threads.pcg.mixed_form = mixed_form;
+    const BodyModel serial(SmallDomeWithPoissonRatio(0.49, 0.5), false, one_thread);
+    const BodyModel parallel(SmallDomeWithPoissonRatio(0.49, 0.5), false, three_threads);
+    const Eigen::MatrixXd expected = MarkerResponse(serial);
+    EXPECT_LT((MarkerResponse(parallel) - expected).norm() / expected.norm(), 1e-10)
+        << "mixed form " << mixed_form;
+  }
+}
+
 TEST(TwoGridSolver, IterationsStayBoundedUnderRefinement) {
   // Coarse level at half the refinement each time: a two-grid method's iteration count does
   // not grow as the mesh is refined (smoothing alone would need ~2x the iterations per halving).
@@ -378,6 +401,79 @@ TEST(TwoGridSolver, ThrowsWhenItDoesNotConverge) {
   const BodyModel model(SmallDome(), false, solver);
   EXPECT_THAT([&] { MarkerResponse(model); },
               ::testing::ThrowsMessage<Error>(::testing::HasSubstr("did not converge")));
+}
+
+BodySolverOptions AlwaysMixed() {
+  BodySolverOptions solver = AlwaysTwoGrid();
+  solver.pcg.mixed_form = true;
+  return solver;
+}
+
+int MaxIterations(const SolveSummary& summary) {
+  return *std::max_element(summary.iterations.begin(), summary.iterations.end());
+}
+
+TEST(MixedSolver, MatchesTheDirectSolutionUpToNearIncompressibility) {
+  for (double nu : {0.3, 0.49, 0.499, 0.4999}) {
+    const BodyModel direct(SmallDomeWithPoissonRatio(nu, 0.5));
+    const BodyModel mixed(SmallDomeWithPoissonRatio(nu, 0.5), false, AlwaysMixed());
+    ASSERT_EQ(mixed.solver().summary().method, ElasticSolverMethod::kTwoGridMixedMinres);
+    EXPECT_EQ(mixed.solver().summary().num_pressures, mixed.mesh().num_elements());
+    SolveSummary summary;
+    const Eigen::MatrixXd expected = MarkerResponse(direct);
+    const Eigen::MatrixXd actual = MarkerResponse(mixed, &summary);
+    EXPECT_LT((actual - expected).norm() / expected.norm(), 1e-8) << "nu " << nu;
+    ASSERT_EQ(summary.iterations.size(), 36);
+    for (size_t c = 0; c < summary.iterations.size(); ++c) {
+      EXPECT_LE(summary.relative_residuals[c], 1e-8) << "nu " << nu << ", case " << c;
+      EXPECT_GT(summary.iterations[c], 0) << "nu " << nu << ", case " << c;
+    }
+    // Prescribed displacements: K_fp holds the volumetric part that A_r lacks (without it the
+    // error is of order 1). The right-hand side -K_fp u_p is large against the load and K's
+    // condition grows with K_bulk, so the same residual tolerance bounds u less tightly here:
+    // conjugate gradients on K were 2.7e-8 / 2.1e-7 / 2.0e-6 off at nu 0.49 / 0.499 / 0.4999.
+    Eigen::VectorXd prescribed = Eigen::VectorXd::Zero(direct.mesh().num_dofs());
+    for (int n = 0; n < direct.mesh().num_nodes(); ++n) prescribed(3 * n + 2) = 0.01;
+    const Eigen::VectorXd forces = direct.CalcMarkerPatchLoads().col(30);
+    const Eigen::VectorXd u = direct.solver().Solve(forces, prescribed);
+    EXPECT_LT((mixed.solver().Solve(forces, prescribed) - u).norm() / u.norm(), 1e-7)
+        << "nu " << nu;
+  }
+}
+
+TEST(MixedSolver, IterationsStayBoundedAsPoissonsRatioNearsOneHalf) {
+  // Ten times the bulk modulus (0.499 -> 0.4999): MINRES on the mixed form barely notices,
+  // conjugate gradients on K (the same two-grid cycle) need several times the iterations.
+  const auto max_iterations = [](double nu, bool mixed_form) {
+    BodySolverOptions solver = AlwaysTwoGrid();
+    solver.pcg.mixed_form = mixed_form;
+    const BodyModel model(SmallDomeWithPoissonRatio(nu, 0.5), false, solver);
+    SolveSummary summary;
+    MarkerResponse(model, &summary);
+    return MaxIterations(summary);
+  };
+  const int mixed_0499 = max_iterations(0.499, true), mixed_04999 = max_iterations(0.4999, true);
+  const int pcg_0499 = max_iterations(0.499, false), pcg_04999 = max_iterations(0.4999, false);
+  EXPECT_LE(mixed_04999, 1.5 * mixed_0499) << mixed_0499 << " -> " << mixed_04999;
+  EXPECT_GT(pcg_04999, 2.0 * pcg_0499) << pcg_0499 << " -> " << pcg_04999;
+  EXPECT_LT(mixed_04999, pcg_04999);
+}
+
+TEST(MixedSolver, ChosenOnlyWhenAsked) {
+  const BodyModel pcg(SmallDomeWithPoissonRatio(0.4999, 0.5), false, AlwaysTwoGrid());
+  EXPECT_EQ(pcg.solver().summary().method, ElasticSolverMethod::kTwoGridPcg);
+  EXPECT_EQ(pcg.solver().summary().num_pressures, 0);
+  const BodyModel mixed(SmallDomeWithPoissonRatio(0.4999, 0.5), false, AlwaysMixed());
+  EXPECT_EQ(mixed.solver().summary().method, ElasticSolverMethod::kTwoGridMixedMinres);
+}
+
+TEST(MixedSolver, ThrowsWhenItDoesNotConverge) {
+  BodySolverOptions solver = AlwaysMixed();
+  solver.pcg.max_iterations = 3;
+  const BodyModel model(SmallDomeWithPoissonRatio(0.499, 0.5), false, solver);
+  EXPECT_THAT([&] { MarkerResponse(model); },
+              ::testing::ThrowsMessage<Error>(
+                  ::testing::HasSubstr("MINRES on the mixed form did not converge")));
 }
 
 TEST(BodySolverOptions, ValidateNamesTheField) {
@@ -406,6 +502,12 @@ TEST(BodySolverOptions, ValidateNamesTheField) {
   options = {};
   options.pcg.block_columns = 0;
   throws_naming(options, "block_columns");
+  options = {};
+  options.pcg.threads = -1;
+  throws_naming(options, "threads");
+  options = {};
+  options.pcg.mixed_bulk_split = 0.0;
+  throws_naming(options, "mixed_bulk_split");
   // A coarse level below the mesh's smallest refinement.
   options = {};
   options.max_direct_free_dofs = 0;

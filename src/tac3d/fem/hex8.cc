@@ -138,6 +138,12 @@ Hex8Matrix CalcHex8Stiffness(const Hex8Nodes& x, const ElasticMaterial& material
   return k;
 }
 
+Hex8Vector CalcHex8VolumeChange(const Hex8Nodes& x, double* volume_mm3) {
+  const Eigen::Matrix<double, 8, 3> mean = MeanShapeGradient(CalcGaussData(x), volume_mm3);
+  const Eigen::Matrix<double, 3, 8> mean_t = mean.transpose();
+  return *volume_mm3 * mean_t.reshaped();
+}
+
 Eigen::Matrix3d CalcHex8Stress(const Hex8Nodes& x,
                                const Hex8Vector& u,
                                const ElasticMaterial& material,

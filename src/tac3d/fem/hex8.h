@@ -33,6 +33,14 @@ double CalcHex8MinJacobianDeterminant(const Hex8Nodes& x);
 /// @pre positive Jacobian at every Gauss point (TAC3D_DEMAND).
 Hex8Matrix CalcHex8Stiffness(const Hex8Nodes& x, const ElasticMaterial& material);
 
+/// The element's volume-change operator of the B-bar stiffness: the row V b_mean (mm^2, DOF
+/// order 3 a + i), so that its product with the nodal displacements is the volume change
+/// int div u dV (mm^3), and the volumetric part of CalcHex8Stiffness is K_bulk / V times its
+/// outer product with itself. The mixed solver's pressure equation (ElasticSolver).
+/// @param volume_mm3 the element's volume V.
+/// @pre positive Jacobian at every Gauss point (TAC3D_DEMAND).
+Hex8Vector CalcHex8VolumeChange(const Hex8Nodes& x, double* volume_mm3);
+
 /// The Cauchy stress (MPa) at xi for nodal displacements u (mm), consistent with the B-bar
 /// stiffness: deviatoric part from the local strain, pressure from the element's mean
 /// volumetric strain.

@@ -73,6 +73,32 @@ TEST(Hex8, StiffnessIsSymmetricWithExactlySixRigidBodyModes) {
   EXPECT_GT(values(6), 1e-4 * values(23));
 }
 
+TEST(Hex8, VolumeChangeIsTheStiffnesssVolumetricPart) {
+  const Hex8Nodes x = DistortedElement();
+  double volume = 0.0;
+  const Hex8Vector volume_change = CalcHex8VolumeChange(x, &volume);
+  // A uniform dilatation u = e x changes the volume by 3 e V; a rigid motion does not.
+  const double e = 0.01;
+  Hex8Vector dilatation, rotation;
+  for (int a = 0; a < 8; ++a) {
+    dilatation.segment<3>(3 * a) = e * x.row(a).transpose();
+    rotation.segment<3>(3 * a) = Eigen::Vector3d(0.2, -0.1, 0.3).cross(x.row(a).transpose());
+  }
+  EXPECT_NEAR(volume_change.dot(dilatation), 3.0 * e * volume, 1e-14);
+  EXPECT_NEAR(volume_change.dot(rotation), 0.0, 1e-14);
+  EXPECT_GT(volume, 0.5);
+  // K(G, K_bulk) - K(G, K_bulk') = (K_bulk - K_bulk') / V (V b)(V b)^T at the same G.
+  const ElasticMaterial soft{1.0, 0.3};
+  const double g = soft.shear_modulus();
+  const double bulk = 40.0 * g;  // nu = 0.4875
+  const ElasticMaterial stiff{9.0 * bulk * g / (3.0 * bulk + g),
+                              (3.0 * bulk - 2.0 * g) / (2.0 * (3.0 * bulk + g))};
+  const Hex8Matrix difference = CalcHex8Stiffness(x, stiff) - CalcHex8Stiffness(x, soft);
+  const Hex8Matrix expected =
+      (bulk - soft.bulk_modulus()) / volume * volume_change * volume_change.transpose();
+  EXPECT_LT((difference - expected).cwiseAbs().maxCoeff(), 1e-12 * expected.cwiseAbs().maxCoeff());
+}
+
 TEST(Hex8, StiffnessGivesTheUniaxialStressNodalForces) {
   // A box under uniform sigma_xx = s: the face x = dx carries force s * dy * dz, a quarter a
   // node, for the displacement u_x = s / E x, u_y = -nu s / E y, u_z = -nu s / E z.
