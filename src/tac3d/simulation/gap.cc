@@ -124,7 +124,8 @@ void GapCaster::CastMesh(const SceneObject& object, const Rigid3& sensor_from_ob
   const TriangleMesh& mesh = object.mesh->mesh();
   std::vector<Eigen::Vector3d> v(mesh.vertices.size());
   for (size_t k = 0; k < v.size(); ++k) v[k] = sensor_from_object * mesh.vertices[k];
-  const double x0 = grid_.node_position_mm(0).x(), y0 = grid_.node_position_mm(0).y();
+  // The grid's nodes sit under their surface points (the grid is relative to the dome's axis).
+  const double x0 = points_[0].x(), y0 = points_[0].y();
   for (const Eigen::Vector3i& tri : mesh.triangles) {
     const Eigen::Vector3d &a = v[tri[0]], &b = v[tri[1]], &c = v[tri[2]];
     const double area2 = (b.x() - a.x()) * (c.y() - a.y()) - (b.y() - a.y()) * (c.x() - a.x());

@@ -3,10 +3,12 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 
 #include "tac3d/util/cache_file.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/seconds_since.h"
+#include "tac3d/vendor/vendor_gel.h"
 
 namespace tac3d::simulation {
 namespace {
@@ -26,15 +28,15 @@ std::string TwinCodeVersion() {
   return fmt::format("{}, twin body r{}", fem::FemCodeVersion(), kTwinModelRevision);
 }
 
-// Height of the outer sphere above the base at (x, y) (mm).
+// Height of the outer sphere above the base at (x, y) from the axis (mm).
 double SurfaceZ(const fem::BodyModelOptions& body, double x, double y) {
   const double r = body.sphere_radius_mm;
   return body.sphere_center_z_mm() + std::sqrt(r * r - x * x - y * y);
 }
 
-// The surface point at (x, y), `depth` under the sphere along z.
+// The surface point (sensor frame) at (x, y) from the axis, `depth` under the sphere along z.
 Eigen::Vector3d SurfacePoint(const fem::BodyModelOptions& body, double x, double y, double depth) {
-  return {x, y, SurfaceZ(body, x, y) - depth};
+  return body.base_center_mm + Eigen::Vector3d(x, y, SurfaceZ(body, x, y) - depth);
 }
 
 // The cell-averaging operator: rows c * n + i average rows c * (q^2 n) + i q^2 + s, s < q^2,
@@ -173,7 +175,7 @@ nlohmann::json ToJson(const TwinBodyProvenance& p) {
 
 fem::BodyModelOptions TwinBodyModelOptions(const SensorConfig& sensor,
                                            const TwinDeviation& deviation) {
-  fem::BodyModelOptions body = fem::BodyModelOptionsFromSensor(sensor);
+  fem::BodyModelOptions body = SensorBodyModelOptions(sensor);
   body.refinement *= deviation.mesh_refinement;
   body.material.youngs_modulus_mpa *= deviation.youngs_modulus_factor;
   body.material.poisson_ratio *= deviation.poisson_ratio_factor;
@@ -200,8 +202,8 @@ std::vector<Eigen::Vector3d> TwinBodyModel::CalcNodeSurfacePoints() const {
   for (int i = 0; i < grid.num_nodes(); ++i) {
     const Eigen::Vector2d xy = grid.node_position_mm(i);
     // Inactive nodes may lie beyond the sphere's rim; they keep z = 0 and never touch.
-    points[i] =
-        active[i] ? SurfacePoint(body, xy.x(), xy.y(), 0.0) : Eigen::Vector3d(xy.x(), xy.y(), 0.0);
+    points[i] = active[i] ? SurfacePoint(body, xy.x(), xy.y(), 0.0)
+                          : Eigen::Vector3d(body.base_center_mm + Eigen::Vector3d(xy.x(), xy.y(), 0.0));
   }
   return points;
 }
@@ -214,10 +216,26 @@ std::vector<bool> TwinBodyModel::CalcActiveNodes() const {
 }
 
 std::vector<int> TwinBodyModel::CalcNodeMarkers() const {
+  std::vector<int> markers(grid.num_nodes(), -1);
+  if (!body.marker_positions_mm.empty()) {
+    // Markers where they were measured: the nearest one in (x, y), if its patch holds the node.
+    const double half_pitch = 0.5 * body.marker_pitch_mm;
+    for (int i = 0; i < grid.num_nodes(); ++i) {
+      const Eigen::Vector2d xy = grid.node_position_mm(i) + body.base_center_mm.head<2>();
+      double nearest = std::numeric_limits<double>::infinity();
+      for (int m = 0; m < body.num_markers(); ++m) {
+        const Eigen::Vector2d offset = marker_positions[m].head<2>() - xy;
+        if (offset.squaredNorm() < nearest) {
+          nearest = offset.squaredNorm();
+          markers[i] = offset.cwiseAbs().maxCoeff() <= half_pitch ? m : -1;
+        }
+      }
+    }
+    return markers;
+  }
   const int cpp = options.cells_per_pitch;
   const int margin_x = (grid.nx - body.marker_cols * cpp) / 2;
   const int margin_y = (grid.ny - body.marker_rows * cpp) / 2;
-  std::vector<int> markers(grid.num_nodes(), -1);
   for (int j = 0; j < grid.ny; ++j) {
     for (int i = 0; i < grid.nx; ++i) {
       const int a = i - margin_x, b = j - margin_y;

@@ -49,14 +49,15 @@ struct TwinBodyOptions {
 nlohmann::json ToJson(const TwinBodyOptions& options);
 nlohmann::json ToJson(const contact::SurfaceGrid& grid);
 
-/// The twin's elastic body: the scene's sensor (BodyModelOptionsFromSensor) with the
-/// deviation applied (refinement x mesh_refinement, E x youngs_modulus_factor, nu x
+/// The twin's elastic body: the scene's sensor's (SensorBodyModelOptions: an imported sensor's
+/// gel with its markers where its reference pixels triangulate, else the designed sensor's) with
+/// the deviation applied (refinement x mesh_refinement, E x youngs_modulus_factor, nu x
 /// poisson_ratio_factor).
 fem::BodyModelOptions TwinBodyModelOptions(const SensorConfig& sensor,
                                            const TwinDeviation& deviation);
 
-/// The contact grid in the sensor's (x, y) plane: cells of pitch / cells_per_pitch, centred on
-/// the axis, covering the marker square plus the margin (whole cells), so the marker patches'
+/// The contact grid in the sensor's (x, y) plane, its node positions relative to the dome's axis
+/// (body.base_center_mm): cells of pitch / cells_per_pitch, centred on the axis, covering the marker square plus the margin (whole cells), so the marker patches'
 /// edges fall on cell edges. @throws tac3d::Error if either options are invalid.
 contact::SurfaceGrid MakeTwinContactGrid(const fem::BodyModelOptions& body,
                                          const TwinBodyOptions& options);
@@ -103,7 +104,7 @@ struct TwinBodyModel {
   /// c * n + i a unit force along c (sensor frame x, y, z) spread uniformly over cell i
   /// (component-major, as fem::ComplianceModel's H). Zero columns for inactive nodes.
   Eigen::MatrixXd marker_response;
-  /// Marker rest positions (mm, sensor frame), index row * cols + col.
+  /// Marker rest positions (mm, sensor frame), in the body's marker order (fem::CalcMarkerPositions).
   std::vector<Eigen::Vector3d> marker_positions;
   TwinBodyProvenance provenance;
 
@@ -111,7 +112,8 @@ struct TwinBodyModel {
   std::vector<Eigen::Vector3d> CalcNodeSurfacePoints() const;
   /// True where a node can touch (within active_radius_fraction of the base radius).
   std::vector<bool> CalcActiveNodes() const;
-  /// The marker whose pitch x pitch patch holds node i, or -1 (margin).
+  /// The marker whose pitch x pitch patch holds node i, or -1 (margin); for markers given by
+  /// position (body.marker_positions_mm), the nearest in (x, y) if its patch holds the node.
   std::vector<int> CalcNodeMarkers() const;
 };
 

@@ -8,9 +8,11 @@
 #include <fstream>
 #include <memory>
 
+#include "tac3d/pipeline/pipeline.h"
 #include "tac3d/sensor/default_sensor.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
+#include "tac3d/vendor/test_vendor_folder.h"
 
 namespace tac3d::simulation {
 namespace {
@@ -85,6 +87,42 @@ TEST(TwinBodyModelOptions, AppliesTheDeviation) {
   EXPECT_DOUBLE_EQ(body.refinement, 1.5);
   EXPECT_DOUBLE_EQ(body.material.youngs_modulus_mpa, 1.1 * sensor.elastic_body.youngs_modulus_mpa);
   EXPECT_DOUBLE_EQ(body.material.poisson_ratio, 0.99 * sensor.elastic_body.poisson_ratio);
+}
+
+// An imported sensor's twin body is its gel (VendorBodyModelOptions) off nominal, with the
+// markers where the pipeline's rest state puts them, in the vendor's order; each marker's patch
+// holds the grid's nodes around it, whose surface points lie over it.
+TEST(TwinBodyModelOptions, ImportedSensorIsItsGelWithTheMarkersAtRest) {
+  const SensorConfig sensor = testing::FixtureVendorSensor();
+  const TwinDeviation deviation{1.25, 1.1, 0.99};
+  const fem::BodyModelOptions body = TwinBodyModelOptions(sensor, deviation);
+  const std::vector<Eigen::Vector3d> rest = RestMarkerPositions(sensor);
+  const std::vector<Eigen::Vector3d> markers = fem::CalcMarkerPositions(body);
+  ASSERT_EQ(markers.size(), rest.size());
+  for (size_t m = 0; m < rest.size(); ++m) EXPECT_EQ(markers[m], rest[m]) << m;
+  EXPECT_DOUBLE_EQ(body.refinement, 1.25);
+  EXPECT_DOUBLE_EQ(body.material.youngs_modulus_mpa, 1.1 * sensor.elastic_body.youngs_modulus_mpa);
+  EXPECT_DOUBLE_EQ(body.material.poisson_ratio, 0.99 * sensor.elastic_body.poisson_ratio);
+  EXPECT_FALSE(body.base_center_mm.isZero());  // the dome's axis is off the sensor's origin
+
+  TwinBodyModel model;
+  model.body = body;
+  model.grid = MakeTwinContactGrid(body, TwinBodyOptions{});
+  model.marker_positions = markers;
+  const std::vector<int> node_markers = model.CalcNodeMarkers();
+  const std::vector<Eigen::Vector3d> surface = model.CalcNodeSurfacePoints();
+  std::vector<int> cells(markers.size(), 0);
+  for (int i = 0; i < model.grid.num_nodes(); ++i) {
+    const int m = node_markers[i];
+    if (m < 0) continue;
+    ++cells[m];
+    const Eigen::Vector3d above = surface[i] - markers[m];
+    EXPECT_LE(above.head<2>().cwiseAbs().maxCoeff(), 0.5 * body.marker_pitch_mm) << i;
+    // The outer surface is the markers' sphere grown by the marker depth.
+    EXPECT_GT(above.z(), 0.3 * body.marker_depth_mm) << i;
+    EXPECT_LT(above.z(), 2.0 * body.marker_depth_mm) << i;
+  }
+  for (size_t m = 0; m < markers.size(); ++m) EXPECT_GE(cells[m], 4) << m;
 }
 
 TEST(TwinBody, KernelIsReciprocalAndPositiveDefinite) {
