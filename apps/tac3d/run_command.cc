@@ -14,6 +14,7 @@
 #include "tac3d/runtime/run_outputs.h"
 #include "tac3d/runtime/sensor_group.h"
 #include "tac3d/runtime/sensor_stream.h"
+#include "tac3d/sensor/default_sensor.h"
 #include "tac3d/util/error.h"
 
 namespace tac3d::cli {
@@ -44,7 +45,9 @@ FrameOutputArgs OutputArgs(const RunArgs& a) {
   return args;
 }
 
-void Run(const RunArgs& a) {
+// `sn_given`: --sn was on the command line; without it an imported sensor streams under its own SN.
+void Run(RunArgs a, bool sn_given) {
+  if (!sn_given) a.sensor.sn = DefaultSerialNumber(LoadSensorOrDefault(a.sensor.config));
   // Checked before the compliance model is loaded (or built, ~1 min).
   OutputArgs(a).Validate();
   if (a.gains.size() != 3) throw Error("--gains takes three numbers: Cx Cy Cz");
@@ -96,7 +99,7 @@ void RunFile(const RunArgs& a) {
 constexpr std::initializer_list<const char*> kSensorFlags = {
     "--source", "--config", "--sn", "--udp", "--udp-items", "--udp-progress", "--allow-zero-under-load", "--record",
     "--record-images", "--overwrite", "--reference-frames", "--weight", "--gains", "--drift", "--drift-time-constant-s", "--width",
-    "--height", "--fps", "--exposure", "--speed"};
+    "--height", "--fps", "--exposure", "--pixel-format", "--speed"};
 
 }  // namespace
 
@@ -117,7 +120,9 @@ void RegisterRun(CLI::App& app) {
                   "several sensors in one process, each on its thread (YAML; docs/pipeline.md)");
   cmd->add_option("--config", sensor.config, "sensor YAML (default: the built-in prototype)");
   cmd->add_option("--cache", a->cache_dir, "directory of cached compliance models")->capture_default_str();
-  cmd->add_option("--sn", sensor.sn, "the sensor's serial number in the stream")->capture_default_str();
+  cmd->add_option("--sn", sensor.sn,
+                  "the sensor's serial number in the stream (default: an imported sensor's own, from "
+                  "its config; else " + sensor.sn + "; a replay: the recorded one)");
   cmd->add_option("--udp", sensor.outputs.udp, "stream the Tac3D protocol to HOST:PORT");
   cmd->add_option("--udp-items", sensor.outputs.udp_items,
                   "with --udp, tac3d's extra items after the vendor's six: NAME,NAME,... of "
@@ -149,6 +154,9 @@ void RegisterRun(CLI::App& app) {
   cmd->add_option("--height", sensor.camera.height, "camera height (default: the sensor config's)");
   cmd->add_option("--fps", sensor.camera.fps, "camera frame rate")->capture_default_str();
   cmd->add_option("--exposure", sensor.exposure, "camera exposure (driver units; default automatic)");
+  cmd->add_option("--pixel-format", sensor.camera.pixel_format,
+                  "camera pixel format, a V4L2 code such as MJPG or YUYV (default: the driver's choice; "
+                  "a 1920 x 1080 USB camera at 30 fps needs MJPG)");
   cmd->add_option("--speed", a->speed,
                   "recording:FILE and vendor:DIR pace: 1 recorded, 2 twice as fast, 0 as fast as possible; "
                   "with dataset:DIR, paces it by its timestamps (default there: as fast as possible)")
@@ -167,7 +175,7 @@ void RegisterRun(CLI::App& app) {
     if (runtime::RecordingSourcePath(a->sensor.source) || runtime::VendorSourcePath(a->sensor.source)) {
       RefuseOptions(*cmd,
                     {"--config", "--cache", "--reference-frames", "--weight", "--gains", "--drift",
-                     "--drift-time-constant-s", "--width", "--height", "--fps", "--exposure"},
+                     "--drift-time-constant-s", "--width", "--height", "--fps", "--exposure", "--pixel-format"},
                     "does not apply to a recording: its frames were computed when it was recorded");
       return RunReplay(*a, /*replace_sn=*/cmd->count("--sn") > 0);
     }
@@ -176,7 +184,7 @@ void RegisterRun(CLI::App& app) {
     } else {
       RefuseOptions(*cmd, {"--speed"}, "applies to --source recording:FILE, vendor:DIR or dataset:DIR only");
     }
-    Run(*a);
+    Run(*a, /*sn_given=*/cmd->count("--sn") > 0);
   });
 }
 

@@ -88,14 +88,15 @@ struct PyPipeline {
 
 std::unique_ptr<PyPipeline> MakePipeline(const std::string& config_path,
                                          const std::string& cache_dir,
-                                         const std::string& sn,
+                                         const std::optional<std::string>& sn,
                                          int reference_frames,
                                          double weight,
                                          const py::object& gains,
                                          const std::string& drift,
                                          double drift_time_constant_s) {
+  const SensorConfig config = LoadSensorOrDefault(config_path);
   PipelineOptions options;
-  options.sn = sn;
+  options.sn = sn ? *sn : DefaultSerialNumber(config);
   options.reference_frames = reference_frames;
   options.force.weight = weight;
   options.force.gains = ToVector3d(gains, "gains");
@@ -104,7 +105,6 @@ std::unique_ptr<PyPipeline> MakePipeline(const std::string& config_path,
   options.Validate();
   auto p = std::make_unique<PyPipeline>();
   py::gil_scoped_release release;
-  const SensorConfig config = LoadSensorOrDefault(config_path);
   const std::string cache = ResolveCacheDir(cache_dir);
   const fem::ComplianceCacheResult model = fem::LoadOrBuildComplianceModel(
       SensorBodyModelOptions(config), cache, /*show_progress=*/false);
@@ -170,14 +170,15 @@ minute for the default sensor), with the GIL released.
       .def(py::init(&MakePipeline),
            py::arg("config") = "",
            py::arg("cache_dir") = "",
-           py::arg("sn") = d.sn,
+           py::arg("sn") = py::none(),
            py::arg("reference_frames") = d.reference_frames,
            py::arg("weight") = d.force.weight,
            py::arg("gains") = std::vector<double>(d.force.gains.begin(), d.force.gains.end()),
            py::arg("drift") = runtime::DriftModeName(d.drift.mode),
            py::arg("drift_time_constant_s") = d.drift.time_constant_s,
            "config: a sensor YAML ('' : the built-in prototype); cache_dir: '' for\n"
-           "$TAC3D_CACHE_DIR, $XDG_CACHE_HOME/tac3d or ~/.cache/tac3d; the rest as SensorSpec's\n"
+           "$TAC3D_CACHE_DIR, $XDG_CACHE_HOME/tac3d or ~/.cache/tac3d; sn: None for an imported\n"
+           "sensor's own serial number (else 'TAC3D-TWIN'); the rest as SensorSpec's\n"
            "and `tac3d run`'s (drift: off, flag or rezero). Raises tac3d.Error.")
       .def("process",
            &Process,

@@ -31,6 +31,7 @@ SensorRunSpec MakeSpec(const std::string& sn, const std::string& source, const s
                        int reference_frames, double weight, const py::object& gains,
                        const std::string& drift, double drift_time_constant_s,
                        std::optional<double> speed, double fps, double exposure,
+                       const std::string& pixel_format,
                        const std::string& udp, const std::string& udp_items, bool udp_progress,
                        bool allow_zero_under_load, const std::string& record, bool record_images,
                        bool overwrite) {
@@ -46,6 +47,7 @@ SensorRunSpec MakeSpec(const std::string& sn, const std::string& source, const s
   s.speed = speed;
   s.camera.fps = fps;
   s.exposure = exposure;
+  s.camera.pixel_format = pixel_format;
   s.outputs.udp = udp;
   s.outputs.udp_items = udp_items;
   s.outputs.udp_progress = udp_progress;
@@ -138,6 +140,7 @@ naming the field).
            py::arg("drift") = runtime::DriftModeName(d.drift.mode),
            py::arg("drift_time_constant_s") = d.drift.time_constant_s,
            py::arg("speed") = d.speed, py::arg("fps") = d.camera.fps, py::arg("exposure") = d.exposure,
+           py::arg("pixel_format") = d.camera.pixel_format,
            py::arg("udp") = d.outputs.udp, py::arg("udp_items") = d.outputs.udp_items,
            py::arg("udp_progress") = d.outputs.udp_progress,
            py::arg("allow_zero_under_load") = d.outputs.allow_zero_under_load,
@@ -148,7 +151,8 @@ naming the field).
            "/dev/videoN, a video file, an image folder, dataset:DIR, recording:FILE or vendor:DIR\n"
            "(a vendor recording's <SN> folder); config: a sensor YAML ('' the built-in\n"
            "prototype); speed: pace of dataset:/recording:/vendor:\n"
-           "(None: a recording at its recorded pace, a dataset as fast as possible); udp:\n"
+           "(None: a recording at its recorded pace, a dataset as fast as possible); pixel_format:\n"
+           "a camera's V4L2 pixel format, e.g. 'MJPG' ('' the driver's choice); udp:\n"
            "HOST:PORT of a Tac3D client; udp_items: tac3d's extra items after the vendor's six\n"
            "('3D_Normals,SlipState', 'all'; tac3d run's --udp-items); udp_progress: also send\n"
            "the frames taken while the reference is taken (--udp-progress);\n"
@@ -165,6 +169,7 @@ naming the field).
       .def_readonly("speed", &SensorRunSpec::speed)
       .def_property_readonly("fps", [](const SensorRunSpec& s) { return s.camera.fps; })
       .def_readonly("exposure", &SensorRunSpec::exposure)
+      .def_property_readonly("pixel_format", [](const SensorRunSpec& s) { return s.camera.pixel_format; })
       .def_property_readonly("udp", [](const SensorRunSpec& s) { return s.outputs.udp; })
       .def_property_readonly("udp_items", [](const SensorRunSpec& s) { return s.outputs.udp_items; })
       .def_property_readonly("udp_progress", [](const SensorRunSpec& s) { return s.outputs.udp_progress; })

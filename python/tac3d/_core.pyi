@@ -147,7 +147,7 @@ class Pipeline:
         self,
         config: str = "",
         cache_dir: str = "",
-        sn: str = "TAC3D-TWIN",
+        sn: Optional[str] = None,
         reference_frames: int = 20,
         weight: float = 0.05,
         gains: ArrayLike = (1.0, 1.0, 1.0),
@@ -174,6 +174,7 @@ class SensorSpec:
         speed: Optional[float] = None,
         fps: float = 30.0,
         exposure: float = 0.0,
+        pixel_format: str = "",
         udp: str = "",
         udp_items: str = "",
         udp_progress: bool = False,
@@ -193,6 +194,7 @@ class SensorSpec:
     speed: Optional[float]
     fps: float
     exposure: float
+    pixel_format: str
     udp: str
     udp_items: str
     udp_progress: bool

@@ -67,6 +67,11 @@ def test_a_run_file_runs_as_the_cli_runs_it(tmp_path):
     specs = tac3d.load_run_file(str(run_file))
     assert [(s.sn, s.source, s.speed) for s in specs] == [("THUMB", f"recording:{tmp_path}/a.tac3drec", 0.0)]
     assert [r.frames for r in tac3d.run(specs)] == [12]
+    run_file.write_text("sensors:\n  - sn: THUMB\n    source: camera:0\n    pixel_format: MJPG\n")
+    assert tac3d.load_run_file(str(run_file))[0].pixel_format == "MJPG"
+    run_file.write_text("sensors:\n  - sn: THUMB\n    source: camera:0\n    pixel_format: MJPEG\n")
+    with pytest.raises(tac3d.Error, match="pixel format 'MJPEG' is not a V4L2 four-character code"):
+        tac3d.load_run_file(str(run_file))
     run_file.write_text("sensors:\n  - sn: THUMB\n    source: camera:0\n    colour: red\n")
     with pytest.raises(tac3d.Error, match="hand.yaml: line 4: sensors\\[0\\].colour: unknown key"):
         tac3d.load_run_file(str(run_file))
@@ -83,6 +88,9 @@ def test_specs_are_checked_when_made():
         tac3d.SensorSpec("S", "camera:0", weight=-1)
     with pytest.raises(tac3d.Error, match="must be off, flag or rezero"):
         tac3d.SensorSpec("S", "camera:0", drift="sometimes")
+    assert tac3d.SensorSpec("S", "camera:0", pixel_format="YUYV").pixel_format == "YUYV"
+    with pytest.raises(tac3d.Error, match="pixel format 'yuv' is not"):
+        tac3d.SensorSpec("S", "camera:0", pixel_format="yuv")
     with pytest.raises(tac3d.Error, match="sn must not be empty"):
         tac3d.SensorSpec("", "camera:0")
     extras = tac3d.SensorSpec("S", "camera:0", udp="127.0.0.1:9988", udp_items="all", udp_progress=True)

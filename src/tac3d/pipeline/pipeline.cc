@@ -25,6 +25,11 @@ std::unique_ptr<StereoTriangulator> MakeTriangulator(const SensorConfig& config,
 
 }  // namespace
 
+std::string DefaultSerialNumber(const SensorConfig& config) {
+  if (config.vendor_camera && !config.vendor_camera->serial_number.empty()) return config.vendor_camera->serial_number;
+  return PipelineOptions{}.sn;
+}
+
 std::vector<Eigen::Vector3d> RestMarkerPositions(const SensorConfig& config) {
   if (!config.vendor_camera) return config.MarkerPositions();
   std::vector<Eigen::Vector3d> points;

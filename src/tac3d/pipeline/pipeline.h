@@ -56,6 +56,10 @@ struct PipelineOptions {
 /// column 0 at +x for HDL1-0001).
 std::vector<Eigen::Vector3d> RestMarkerPositions(const SensorConfig& config);
 
+/// The serial number a sensor's frames carry when none is given: an imported sensor's own
+/// (camera_model.serial_number), else PipelineOptions' default.
+std::string DefaultSerialNumber(const SensorConfig& config);
+
 /// The per-frame chain of the paper (section IV): tracking -> 3D markers -> displacement ->
 /// forces (F = K D) -> normals -> contact -> resultants, as one TactileFrame per image, and
 /// beyond the paper the contact's slip state and friction coefficient (SlipEstimator).

@@ -153,5 +153,15 @@ TEST(VendorPipeline, RecoversAKnownPressOnTheImportedSensor) {
   for (int a = 0; a < 3; ++a) EXPECT_LT(std::abs(out.resultant_force_n[a] - total[a]), 0.02 * full_scale_n[a]) << a;
 }
 
+// An imported sensor's frames carry its own serial number unless one is given (`tac3d run`
+// without --sn, Python's Pipeline without sn); the built-in sensor's the twin's.
+TEST(VendorPipeline, FramesCarryTheImportedSensorsSerialNumber) {
+  EXPECT_EQ(DefaultSerialNumber(Hdl1()), "HDL1-0001");
+  EXPECT_EQ(DefaultSerialNumber(testing::DefaultSensor()), PipelineOptions{}.sn);
+  SensorConfig unnamed = Hdl1();
+  unnamed.vendor_camera->serial_number.clear();
+  EXPECT_EQ(DefaultSerialNumber(unnamed), PipelineOptions{}.sn);
+}
+
 }  // namespace
 }  // namespace tac3d

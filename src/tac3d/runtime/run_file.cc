@@ -55,6 +55,12 @@ SensorRunSpec ReadSensor(YamlReader r, const std::string& base_dir) {
   }
   s.camera.fps = r.Double("fps", s.camera.fps);
   s.exposure = r.Double("exposure", s.exposure);
+  s.camera.pixel_format = r.String("pixel_format", s.camera.pixel_format);
+  try {
+    ValidatePixelFormat(s.camera.pixel_format);
+  } catch (const Error& e) {
+    r.FailAt(r.Required("pixel_format"), r.Join("pixel_format"), e.what());
+  }
   s.outputs.udp = r.String("udp", "");
   s.outputs.udp_items = r.String("udp_items", "");
   s.outputs.udp_progress = r.Bool("udp_progress", false);

@@ -244,6 +244,7 @@ void SensorRunSpec::Validate() const {
   }
   if (speed && !(*speed >= 0)) throw Error(fmt::format("sensor {}: speed must be >= 0", sn));
   try {
+    ValidatePixelFormat(camera.pixel_format);
     ToPipelineOptions().Validate();
     outputs.Validate();
   } catch (const Error& e) {

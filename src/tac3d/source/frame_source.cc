@@ -37,6 +37,50 @@ bool IsImageFile(const fs::path& path) {
                      [&](const char* e) { return ext == e; });
 }
 
+int FourCc(const std::string& code) { return cv::VideoWriter::fourcc(code[0], code[1], code[2], code[3]); }
+
+std::string FourCcName(int code) {
+  std::string name(4, ' ');
+  for (int i = 0; i < 4; ++i) name[i] = static_cast<char>((code >> (8 * i)) & 0xff);
+  return name;
+}
+
+// A camera streaming MJPEG: each frame's JPEG, as the driver delivered it, decoded to grey. A
+// frame that does not decode (a USB transfer cut short) is skipped; so many in a row that the
+// stream is not MJPEG fails the source.
+class MjpegGrab {
+ public:
+  MjpegGrab(std::shared_ptr<cv::VideoCapture> capture, std::string path, int width, int height)
+      : capture_(std::move(capture)), path_(std::move(path)), width_(width), height_(height) {}
+
+  bool operator()(cv::Mat& image, std::string& error) {
+    constexpr int kMaxUndecodable = 30;
+    for (int undecodable = 0; undecodable < kMaxUndecodable; ++undecodable) {
+      if (!capture_->read(raw_)) {
+        error = fs::exists(path_) ? "the driver stopped delivering frames" : "the device is gone (unplugged)";
+        return false;
+      }
+      bytes_.assign(raw_.datastart, raw_.dataend);
+      DecodedImage decoded = DecodeGrayImage(bytes_, width_, height_);
+      if (!decoded.image.empty()) {
+        image = std::move(decoded.image);
+        return true;
+      }
+      error = decoded.refusal;
+    }
+    error = fmt::format("{} MJPEG frames in a row did not decode (last: {})", kMaxUndecodable, error);
+    return false;
+  }
+
+ private:
+  std::shared_ptr<cv::VideoCapture> capture_;
+  std::string path_;
+  int width_;
+  int height_;
+  cv::Mat raw_;
+  std::vector<std::uint8_t> bytes_;
+};
+
 // "0" -> "/dev/video0"; a path stays as it is.
 std::string DevicePath(const std::string& device) {
   const bool number = !device.empty() && std::all_of(device.begin(), device.end(), ::isdigit);
@@ -144,6 +188,15 @@ void CameraSourceOptions::Validate() const {
   if (exposure && !(*exposure > 0)) {
     throw Error(fmt::format("camera: exposure = {} must be > 0 (omit it for automatic)", *exposure));
   }
+  ValidatePixelFormat(pixel_format);
+}
+
+void ValidatePixelFormat(const std::string& code) {
+  if (!code.empty() && (code.size() != 4 || !std::all_of(code.begin(), code.end(), ::isalnum))) {
+    throw Error(fmt::format("camera: pixel format '{}' is not a V4L2 four-character code such as MJPG or YUYV "
+                            "(`v4l2-ctl --list-formats-ext` lists a camera's)",
+                            code));
+  }
 }
 
 std::unique_ptr<FrameSource> OpenCamera(const CameraSourceOptions& options) {
@@ -158,6 +211,7 @@ std::unique_ptr<FrameSource> OpenCamera(const CameraSourceOptions& options) {
     throw Error(fmt::format("camera {}: the V4L2 driver refused to open it (in use by another "
                             "program, or no permission: is the user in group 'video'?)", path));
   }
+  if (!options.pixel_format.empty()) capture->set(cv::CAP_PROP_FOURCC, FourCc(options.pixel_format));
   capture->set(cv::CAP_PROP_FRAME_WIDTH, options.width);
   capture->set(cv::CAP_PROP_FRAME_HEIGHT, options.height);
   capture->set(cv::CAP_PROP_FPS, options.fps);
@@ -171,14 +225,22 @@ std::unique_ptr<FrameSource> OpenCamera(const CameraSourceOptions& options) {
     throw Error(fmt::format("camera {}: asked for {} x {}, the driver gives {} x {}", path,
                             options.width, options.height, width, height));
   }
+  const std::string format = FourCcName(static_cast<int>(capture->get(cv::CAP_PROP_FOURCC)));
+  if (!options.pixel_format.empty() && format != options.pixel_format) {
+    throw Error(fmt::format("camera {}: asked for pixel format {}, the driver gives {}", path,
+                            options.pixel_format, format));
+  }
+  const std::string description =
+      fmt::format("camera {} {}x{} {} @ {} fps", path, width, height, format, capture->get(cv::CAP_PROP_FPS));
+  if (format == "MJPG" && capture->set(cv::CAP_PROP_CONVERT_RGB, 0)) {
+    return std::make_unique<ThreadedCapture>(description, MjpegGrab(capture, path, width, height), kCameraTimeoutS);
+  }
   auto grab = [capture, path](cv::Mat& image, std::string& error) {
     if (capture->read(image)) return true;
     error = fs::exists(path) ? "the driver stopped delivering frames" : "the device is gone (unplugged)";
     return false;
   };
-  return std::make_unique<ThreadedCapture>(
-      fmt::format("camera {} {}x{} @ {} fps", path, width, height, capture->get(cv::CAP_PROP_FPS)),
-      grab, kCameraTimeoutS);
+  return std::make_unique<ThreadedCapture>(description, grab, kCameraTimeoutS);
 }
 
 std::unique_ptr<FrameSource> OpenVideoFile(const std::string& path) {

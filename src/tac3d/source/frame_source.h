@@ -51,10 +51,18 @@ struct CameraSourceOptions {
   double fps = 30.0;
   /// Manual exposure in the driver's units (V4L2: 100 us steps); empty = automatic.
   std::optional<double> exposure;
+  /// The V4L2 pixel format asked of the driver, as its four-character code ("MJPG", "YUYV");
+  /// empty: the driver's choice. A USB 2 camera gives 1920 x 1080 at 30 fps only as MJPEG.
+  /// MJPEG frames are decoded straight to grey, the luma alone (at 1920 x 1080 about half the
+  /// time of decoding to colour and converting: docs/real-sensors.md).
+  std::string pixel_format;
 
   /// @throws Error naming the field and its bound.
   void Validate() const;
 };
+
+/// @throws Error unless `code` is empty or a V4L2 four-character code (four letters or digits).
+void ValidatePixelFormat(const std::string& code);
 
 /// @throws Error (naming the device and what went wrong) if the camera cannot be opened
 ///   or does not deliver the requested resolution.

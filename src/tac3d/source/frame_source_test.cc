@@ -6,6 +6,7 @@
 #include <memory>
 #include <thread>
 
+#include <fmt/format.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
@@ -19,6 +20,7 @@ namespace tac3d {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::ThrowsMessage;
 
 cv::Mat Pattern(int value) {
   cv::Mat image(48, 64, CV_8UC1, cv::Scalar(value));
@@ -218,6 +220,14 @@ TEST(CameraSourceOptions, ValidateNamesTheField) {
   options = {};
   options.exposure = -1.0;
   EXPECT_THROW(options.Validate(), Error);
+  options = {};
+  options.pixel_format = "MJPG";
+  EXPECT_NO_THROW(options.Validate());
+  for (const char* bad : {"MJPEG", "YUY", "MJ G"}) {
+    options.pixel_format = bad;
+    EXPECT_THAT([&] { options.Validate(); },
+                ThrowsMessage<Error>(HasSubstr(fmt::format("pixel format '{}' is not a V4L2 four-character code", bad))));
+  }
 }
 
 // Issue 22, defect 11: `run --fps 1e300` was accepted for an image folder (every timestamp 0).
