@@ -22,6 +22,7 @@ struct RenderArgs {
   std::string out = "frame.png";
   RenderOptions options;
   bool no_noise = false;
+  bool real_image_nuisances = false;
   std::uint64_t frame = 0;
   // markers
   std::string positions;
@@ -73,8 +74,9 @@ void RunMarkers(RenderArgs a) {
   const SensorConfig config = LoadSensorOrDefault(a.config);
   const auto markers = a.positions.empty() ? config.MarkerPositions()
                                            : ReadMarkerPositionsCsv(a.positions);
+  if (a.real_image_nuisances) a.options = a.options.WithRealImageNuisances();
   const MarkerImageRenderer renderer(config, a.options);
-  Write(renderer.Render(markers, a.frame), a.out);
+  Write(renderer.RenderCamera(markers, a.frame), a.out);
 }
 
 void RunBoard(RenderArgs a) {
@@ -103,6 +105,12 @@ void RegisterRender(CLI::App& app) {
   AddCommon(m, *markers);
   m->add_option("--positions", markers->positions,
                 "CSV of marker positions (x_mm,y_mm,z_mm, row-major), sensor frame");
+  m->add_option("--jpeg-quality", markers->options.jpeg_quality,
+                "JPEG-compress the frame at this quality, 1-100 (0: none)")
+      ->capture_default_str();
+  m->add_flag("--real-image-nuisances", markers->real_image_nuisances,
+              "coloured uneven LEDs, blur 1.0 px and JPEG quality 85, as measured on a real "
+              "camera's video (docs/render.md); the PNG is then the camera's colour frame");
   m->callback([markers] { RunMarkers(*markers); });
 
   auto board = std::make_shared<RenderArgs>();
