@@ -22,7 +22,7 @@ struct RenderArgs {
   std::string out = "frame.png";
   RenderOptions options;
   bool no_noise = false;
-  bool real_image_nuisances = false;
+  bool real_image_nuisances = false;  // markers only
   std::uint64_t frame = 0;
   // markers
   std::string positions;
@@ -74,7 +74,6 @@ void RunMarkers(RenderArgs a) {
   const SensorConfig config = LoadSensorOrDefault(a.config);
   const auto markers = a.positions.empty() ? config.MarkerPositions()
                                            : ReadMarkerPositionsCsv(a.positions);
-  if (a.real_image_nuisances) a.options = a.options.WithRealImageNuisances();
   const MarkerImageRenderer renderer(config, a.options);
   Write(renderer.RenderCamera(markers, a.frame), a.out);
 }
@@ -111,7 +110,16 @@ void RegisterRender(CLI::App& app) {
   m->add_flag("--real-image-nuisances", markers->real_image_nuisances,
               "coloured uneven LEDs, blur 1.0 px and JPEG quality 85, as measured on a real "
               "camera's video (docs/render.md); the PNG is then the camera's colour frame");
-  m->callback([markers] { RunMarkers(*markers); });
+  m->callback([markers, m] {
+    if (markers->real_image_nuisances) {
+      // The measured levels, except where --blur or --jpeg-quality asks for another.
+      RenderOptions real = markers->options.WithRealImageNuisances();
+      if (m->count("--blur") > 0) real.blur_sigma_px = markers->options.blur_sigma_px;
+      if (m->count("--jpeg-quality") > 0) real.jpeg_quality = markers->options.jpeg_quality;
+      markers->options = real;
+    }
+    RunMarkers(*markers);
+  });
 
   auto board = std::make_shared<RenderArgs>();
   CLI::App* b = render->add_subcommand(

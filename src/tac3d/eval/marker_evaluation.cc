@@ -160,7 +160,7 @@ std::string MarkerEvaluation::Report() const {
   text += fmt::format("valid markers: at least {} of {} in every motion\n", min_valid_markers, markers);
   if (real_image_nuisances) {
     const RenderOptions real = RenderOptions{}.WithRealImageNuisances();
-    text += fmt::format("real-image nuisances: coloured uneven LEDs, blur {} px, JPEG quality {}\n",
+    text += fmt::format("real-image nuisances: coloured uneven LEDs, blur {:.1f} px, JPEG quality {}\n",
                         real.blur_sigma_px, real.jpeg_quality);
   }
   if (calibration) {
