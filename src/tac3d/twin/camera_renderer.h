@@ -47,7 +47,8 @@ struct RenderOptions {
   double shot_noise_gain = 0.04;      ///< shot-noise variance per DN of signal (DN), in [0, 255]
   double read_noise_dn = 0.8;         ///< read noise, DN (1 sigma), in [0, 255]
   /// Coloured light (not white): the camera delivers BGR frames, each channel with its own
-  /// noise, converted to grey as a frame source converts colour (ConvertToGrey).
+  /// noise, converted to grey as a frame source converts colour (ConvertToGrey). This and
+  /// jpeg_quality are the marker renderer's; the board renderer (room light) ignores them.
   LedColour led_colour;
   /// 0: none; 1-100: every frame JPEG-compressed at this quality (libjpeg, colour at 4:2:0)
   /// before the grey conversion, as a camera streaming MJPEG or MPEG-4 delivers it.
