@@ -336,6 +336,12 @@ TEST(Cli, MessagesNameTheFlagAndTheBoundShortly) {
   o = RunCliBounded(fmt::format("render markers --read-noise 1e300 --out {}/f.png", dir));
   EXPECT_EQ(o.exit_code, 1);
   EXPECT_THAT(o.output, HasSubstr("read_noise_dn = 1e+300 must be in [0, 255] DN"));
+  // Issue 24: a JPEG quality outside libjpeg's range, with the real-image nuisances too.
+  o = RunCliBounded(
+      fmt::format("render markers --real-image-nuisances --jpeg-quality 101 --out {}/f.png", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("render options: jpeg_quality = 101 must be in [0, 100] (0: none)"));
+  EXPECT_FALSE(fs::exists(dir + "/f.png"));
   o = RunCliBounded(fmt::format("run --source {0}/r.t3r --web 127.0.0.1:0 --web-hold nan", dir));
   EXPECT_EQ(o.exit_code, 1);
   EXPECT_THAT(o.output, HasSubstr("--web-hold nan must be a number of seconds"));

@@ -75,10 +75,14 @@ void RegisterEvalCalibration(CLI::App& eval) {
   AddCommon(m, *markers);
   m->add_flag("--known-sensor", *known_sensor,
               "render the designed sensor and measure with it exactly (no calibration)");
-  m->callback([markers, known_sensor] {
+  auto real_image = std::make_shared<bool>(false);
+  m->add_flag("--real-image-nuisances", *real_image,
+              "render with a real camera's nuisances: coloured uneven LEDs, blur, JPEG (docs/render.md)");
+  m->callback([markers, known_sensor, real_image] {
     MarkerEvaluationOptions options;
     options.calibration = Prepare(*markers);
     options.calibrate = !*known_sensor;
+    options.real_image_nuisances = *real_image;
     Print(EvaluateMarkers(options), markers->json);
   });
 }

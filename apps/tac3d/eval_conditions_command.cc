@@ -19,6 +19,7 @@ void RegisterEvalConditions(CLI::App& eval) {
     DriftMode drift = DriftMode::kRezero;
     ConditionsEvaluationOptions options;
     bool no_spread = false;
+    bool no_real_image = false;
     bool json = false;
   };
   auto args = std::make_shared<Args>();
@@ -41,6 +42,9 @@ void RegisterEvalConditions(CLI::App& eval) {
   cmd->add_flag("--no-spread",
                 args->no_spread,
                 "leave out the sensor built at tolerance (and its calibration)");
+  cmd->add_flag("--no-real-image",
+                args->no_real_image,
+                "leave out the real-image nuisances' cases (led_colour, blur, compression, real_image)");
   cmd->add_flag("--json", args->json, "print JSON");
   cmd->callback([args] {
     ReplayArgs a = args->replay;
@@ -51,6 +55,7 @@ void RegisterEvalConditions(CLI::App& eval) {
     options.replay = setup.options;
     options.replay.pipeline.drift.mode = args->drift;
     options.spread = !args->no_spread;
+    options.real_image = !args->no_real_image;
     std::unique_ptr<ProgressBar> bar;
     const ConditionsEvaluation e = EvaluateConditions(
         dataset, setup.config, setup.h, setup.fem_markers_mm, options, [&](int done, int all) {

@@ -22,6 +22,7 @@ struct RenderArgs {
   std::string out = "frame.png";
   RenderOptions options;
   bool no_noise = false;
+  bool real_image_nuisances = false;  // markers only
   std::uint64_t frame = 0;
   // markers
   std::string positions;
@@ -74,7 +75,7 @@ void RunMarkers(RenderArgs a) {
   const auto markers = a.positions.empty() ? config.MarkerPositions()
                                            : ReadMarkerPositionsCsv(a.positions);
   const MarkerImageRenderer renderer(config, a.options);
-  Write(renderer.Render(markers, a.frame), a.out);
+  Write(renderer.RenderCamera(markers, a.frame), a.out);
 }
 
 void RunBoard(RenderArgs a) {
@@ -103,7 +104,22 @@ void RegisterRender(CLI::App& app) {
   AddCommon(m, *markers);
   m->add_option("--positions", markers->positions,
                 "CSV of marker positions (x_mm,y_mm,z_mm, row-major), sensor frame");
-  m->callback([markers] { RunMarkers(*markers); });
+  m->add_option("--jpeg-quality", markers->options.jpeg_quality,
+                "JPEG-compress the frame at this quality, 1-100 (0: none)")
+      ->capture_default_str();
+  m->add_flag("--real-image-nuisances", markers->real_image_nuisances,
+              "coloured uneven LEDs, blur 1.0 px and JPEG quality 85, as measured on a real "
+              "camera's video (docs/render.md); the PNG is then the camera's colour frame");
+  m->callback([markers, m] {
+    if (markers->real_image_nuisances) {
+      // The measured levels, except where --blur or --jpeg-quality asks for another.
+      RenderOptions real = markers->options.WithRealImageNuisances();
+      if (m->count("--blur") > 0) real.blur_sigma_px = markers->options.blur_sigma_px;
+      if (m->count("--jpeg-quality") > 0) real.jpeg_quality = markers->options.jpeg_quality;
+      markers->options = real;
+    }
+    RunMarkers(*markers);
+  });
 
   auto board = std::make_shared<RenderArgs>();
   CLI::App* b = render->add_subcommand(

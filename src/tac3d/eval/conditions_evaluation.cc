@@ -16,12 +16,24 @@ std::vector<ConditionsCase> Cases(const ConditionsEvaluationOptions& options) {
   std::vector<ConditionsCase> cases;
   SessionConditions nominal;
   nominal.session_s = options.levels.session_s;
-  cases.push_back({"nominal", nominal, false, {}});
+  const RenderOptions& camera = options.render;
+  cases.push_back({"nominal", nominal, camera, false, {}});
   for (const Nuisance n : kAllNuisances) {
-    cases.push_back({std::string(ToString(n)), options.levels.Only(n), false, {}});
+    cases.push_back({std::string(ToString(n)), options.levels.Only(n), camera, false, {}});
   }
-  cases.push_back({"all", options.levels, false, {}});
-  if (options.spread) cases.push_back({"spread", options.levels, true, {}});
+  cases.push_back({"all", options.levels, camera, false, {}});
+  if (options.real_image) {
+    const RenderOptions real = camera.WithRealImageNuisances();
+    RenderOptions led_colour = camera, blur = camera, compression = camera;
+    led_colour.led_colour = real.led_colour;
+    blur.blur_sigma_px = real.blur_sigma_px;
+    compression.jpeg_quality = real.jpeg_quality;
+    cases.push_back({"led_colour", nominal, led_colour, false, {}});
+    cases.push_back({"blur", nominal, blur, false, {}});
+    cases.push_back({"compression", nominal, compression, false, {}});
+    cases.push_back({"real_image", nominal, real, false, {}});
+  }
+  if (options.spread) cases.push_back({"spread", options.levels, camera, true, {}});
   return cases;
 }
 
@@ -52,8 +64,9 @@ ReplaySummary ReplayCase(const TwinDatasetReader& dataset,
                          const Eigen::MatrixXd& h,
                          const std::vector<Eigen::Vector3d>& fem_markers_mm,
                          const SessionConditions& session,
+                         const RenderOptions& camera,
                          const ConditionsEvaluationOptions& options) {
-  const MarkerImageRenderer renderer(truth, options.render);
+  const MarkerImageRenderer renderer(truth, camera);
   const FrameConditions end = session.At(session.session_s);
   ReplayAlterations alter;
   alter.step = [&](TwinStep& step, bool reference) {
@@ -107,10 +120,11 @@ ConditionsEvaluation EvaluateConditions(const TwinDatasetReader& dataset,
     ConditionsCase& one = evaluation.cases[c];
     if (one.spread) {
       const SpreadSensor spread = CalibrateSpread(config, options);
-      one.summary = ReplayCase(
-          dataset, spread.truth, spread.calibrated, h, fem_markers_mm, one.conditions, options);
+      one.summary = ReplayCase(dataset, spread.truth, spread.calibrated, h, fem_markers_mm,
+                               one.conditions, one.render, options);
     } else {
-      one.summary = ReplayCase(dataset, config, config, h, fem_markers_mm, one.conditions, options);
+      one.summary = ReplayCase(
+          dataset, config, config, h, fem_markers_mm, one.conditions, one.render, options);
     }
     if (progress) progress(c + 1, count);
   }
@@ -130,7 +144,12 @@ nlohmann::json ToJson(const ConditionsEvaluation& evaluation,
     summary["checks"].push_back(ToJson(displacement));
     summary["all_pass"] = summary["all_pass"].get<bool>() && displacement_pass;
     all_pass = all_pass && summary["all_pass"].get<bool>();
-    cases.push_back({{"name", c.name}, {"spread", c.spread}, {"replay", summary}});
+    cases.push_back({{"name", c.name},
+                     {"spread", c.spread},
+                     {"led_colour", c.render.led_colour.IsWhite() ? "white" : "coloured"},
+                     {"blur_sigma_px", c.render.blur_sigma_px},
+                     {"jpeg_quality", c.render.jpeg_quality},
+                     {"replay", summary}});
   }
   return {{"levels",
            {{"session_s", l.session_s},

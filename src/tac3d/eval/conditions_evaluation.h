@@ -25,6 +25,9 @@ struct ConditionsEvaluationOptions {
   double rest_frame_s = 1.0;
   /// The twin's camera (as the simulation renders: RenderOptions' defaults).
   RenderOptions render;
+  /// Also the real-image nuisances (RenderOptions::WithRealImageNuisances of `render`), each
+  /// alone and together, with the session's nuisances at nothing.
+  bool real_image = true;
   /// Also a sensor built at the manufacturing tolerances (ManufacturingSpread(spread_seed)),
   /// calibrated from `calibration_views` rendered board views.
   bool spread = true;
@@ -39,8 +42,11 @@ struct ConditionsEvaluationOptions {
 
 /// One case's replay: the conditions seen, and the replay's figures.
 struct ConditionsCase {
-  std::string name;  ///< "nominal", a Nuisance's name, "all", "spread"
+  /// "nominal", a Nuisance's name, "all", "led_colour", "blur", "compression", "real_image",
+  /// "spread"
+  std::string name;
   SessionConditions conditions;
+  RenderOptions render;  ///< the twin's camera in this case
   bool spread = false;
   ReplaySummary summary;
 };
@@ -55,8 +61,10 @@ struct ConditionsEvaluation {
 /// session's end (its conditions at their levels, its time moved by session_s). Each image
 /// is rendered again from the step's true marker positions (the creep moves the rendered
 /// markers, not the truth: the displacement judged is the load's). The cases: nominal,
-/// each Nuisance alone, all together, and (options.spread) all together on a sensor built
-/// at tolerance, seen through its calibration.
+/// each Nuisance alone, all together, (options.real_image) each real-image nuisance of the
+/// camera alone (led_colour, blur, compression) and the three together (real_image), and
+/// (options.spread) the session's nuisances together on a sensor built at tolerance, seen
+/// through its calibration.
 /// @param progress called with (cases done, cases in all), may be empty.
 /// @throws Error as ReplayTwinDataset does, if the options are invalid or the calibration fails.
 ConditionsEvaluation EvaluateConditions(const TwinDatasetReader& dataset,

@@ -158,6 +158,11 @@ std::string MarkerEvaluation::Report() const {
                         Of(undeformed_position_rmse_mm, m));
   }
   text += fmt::format("valid markers: at least {} of {} in every motion\n", min_valid_markers, markers);
+  if (real_image_nuisances) {
+    const RenderOptions real = RenderOptions{}.WithRealImageNuisances();
+    text += fmt::format("real-image nuisances: coloured uneven LEDs, blur {:.1f} px, JPEG quality {}\n",
+                        real.blur_sigma_px, real.jpeg_quality);
+  }
   if (calibration) {
     text += fmt::format("calibrated rig: seed {}, reprojection RMS {:.4g} px\n", calibration_seed,
                         calibration->rms_px);
@@ -189,6 +194,7 @@ nlohmann::json ToJson(const MarkerEvaluation& e) {
           {"markers", e.markers},
           {"min_valid_markers", e.min_valid_markers},
           {"reference_frames", e.reference_frames},
+          {"real_image_nuisances", e.real_image_nuisances},
           {"calibrated", e.calibration.has_value()},
           {"calibration", calibration},
           {"acceptance", acceptance},
@@ -209,6 +215,7 @@ MarkerEvaluation EvaluateMarkers(const MarkerEvaluationOptions& options) {
     truth = measured = DefaultSensorConfig();
   }
   RenderOptions render;
+  if (options.real_image_nuisances) render = render.WithRealImageNuisances();
   render.seed = options.render_seed;
   const MarkerImageRenderer renderer(truth, render);
   Measurement measurement(measured);
@@ -265,6 +272,7 @@ MarkerEvaluation EvaluateMarkers(const MarkerEvaluationOptions& options) {
   e.markers = static_cast<int>(rest.size());
   e.min_valid_markers = min_valid;
   e.reference_frames = options.reference_frames;
+  e.real_image_nuisances = options.real_image_nuisances;
   e.checks = {EvalCheck::AtMost("position_rmse_mm", e.by_model.polynomial.position_rmse_mm,
                                 kMarkerPositionAcceptanceMm, "mm"),
               EvalCheck::AtMost("displacement_rmse_mm", e.by_model.polynomial.displacement_rmse_mm,

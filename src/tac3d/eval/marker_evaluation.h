@@ -25,6 +25,9 @@ struct MarkerEvaluationOptions {
   int reference_frames = 5;
   /// Camera noise seed of the rendered marker frames.
   std::uint64_t render_seed = 7;
+  /// Render the marker frames with the nuisances of a real camera's images
+  /// (RenderOptions::WithRealImageNuisances: coloured uneven LEDs, blur, JPEG compression).
+  bool real_image_nuisances = false;
 
   /// @throws Error naming the field and the bound.
   void Validate() const;
@@ -72,6 +75,8 @@ struct MarkerEvaluation {
   int markers = 0;
   int min_valid_markers = 0;
   int reference_frames = 0;
+  /// The marker frames were rendered with MarkerEvaluationOptions::real_image_nuisances.
+  bool real_image_nuisances = false;
   /// With MarkerEvaluationOptions::calibrate: the twin's seed and the calibration's summary;
   /// empty when the designed sensor was measured as known.
   std::uint64_t calibration_seed = 0;
@@ -85,7 +90,7 @@ struct MarkerEvaluation {
 ///  model's), "by_model": {model: {"position_rmse_mm", "displacement_rmse_mm",
 ///  "position_max_mm", "displacement_max_mm"}}, "undeformed_position_rmse_mm": {model: ...},
 ///  "motions": [{"name", "valid_markers", "by_model"}], "markers", "min_valid_markers",
-///  "reference_frames", "calibrated", "calibration" ({"seed", "reprojection_rms_px"} or null),
+///  "reference_frames", "real_image_nuisances", "calibrated", "calibration" ({"seed", "reprojection_rms_px"} or null),
 ///  "acceptance" ({check name: tolerance}), "pass" (= all_pass)}; models "none",
 ///  "polynomial", "exact".
 nlohmann::json ToJson(const MarkerEvaluation& evaluation);

@@ -120,6 +120,24 @@ TEST(MarkerMeasurementRobustness, DeformedFrameEveryMarkerMeasured) {
   std::printf("deformed: rms %.4f mm, max %.4f mm\n", e.rms_mm, e.max_mm);
 }
 
+// Issue 24: the nuisances of a real camera's images (RenderOptions::WithRealImageNuisances:
+// the GelSight Mini video's coloured uneven LEDs, blur and compression), at the measured
+// levels and at the video's worst frames' (JPEG quality 50: its blockiest frames): every
+// marker measured within the same bound.
+TEST(MarkerMeasurementRobustness, RealImageNuisancesEveryMarkerMeasured) {
+  for (const int jpeg_quality : {85, 50}) {
+    RenderOptions options = RenderOptions{}.WithRealImageNuisances();
+    options.jpeg_quality = jpeg_quality;
+    const MarkerImageRenderer renderer(DefaultSensor(), options);
+    Measurement m;
+    const PositionErrors e = Compare(m.Measure(renderer.Render(Deformed(), 1)), Deformed());
+    EXPECT_EQ(e.valid, 400) << "JPEG quality " << jpeg_quality;
+    EXPECT_LT(e.max_mm, kPositionToleranceMm) << "JPEG quality " << jpeg_quality;
+    std::printf("real-image nuisances, JPEG quality %d: rms %.4f mm, max %.4f mm\n", jpeg_quality,
+                e.rms_mm, e.max_mm);
+  }
+}
+
 // 10% of the markers (40) hidden in both halves, and another 40 in one half only (a marker
 // seen by one virtual camera cannot be triangulated): all 80 invalid, the other 320 measured.
 TEST(MarkerMeasurementRobustness, TenPercentOfMarkersHiddenAreInvalidAndTheRestMeasured) {

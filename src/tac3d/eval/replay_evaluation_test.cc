@@ -159,7 +159,13 @@ TEST(ConditionsEvaluation, EachNuisanceAndAllTogetherHoldTheBoundsOnlyWithTheDri
   options.rest_frame_s = 2.0;
   options.calibration_views = 8;
   const ConditionsEvaluation e = EvaluateConditions(dataset, DefaultSensor(), DefaultSyntheticCompliance(), DefaultSensor().MarkerPositions(), options);
-  ASSERT_EQ(e.cases.size(), 9u);  // nominal, six nuisances, all, spread
+  // nominal, six nuisances, all, the three real-image nuisances, real_image, spread
+  ASSERT_EQ(e.cases.size(), 13u);
+  EXPECT_EQ(e.cases[7].name, "all");
+  EXPECT_EQ(e.cases[10].name, "compression");
+  EXPECT_EQ(e.cases[10].render.jpeg_quality, 85);
+  EXPECT_EQ(e.cases[11].name, "real_image");
+  EXPECT_FALSE(e.cases[11].render.led_colour.IsWhite());
   for (const ConditionsCase& c : e.cases) {
     const ReplaySummary& s = c.summary;
     std::printf("%-22s resultant error max %% FS %.3f %.3f %.3f, displacement RMSE %.4f mm, lost %ld, flagged %d\n",
@@ -176,6 +182,7 @@ TEST(ConditionsEvaluation, EachNuisanceAndAllTogetherHoldTheBoundsOnlyWithTheDri
   ConditionsEvaluationOptions untracked = options;
   untracked.replay.pipeline.drift.mode = DriftMode::kFlag;
   untracked.spread = false;
+  untracked.real_image = false;
   const ConditionsEvaluation raw = EvaluateConditions(dataset, DefaultSensor(), DefaultSyntheticCompliance(), DefaultSensor().MarkerPositions(), untracked);
   const ConditionsCase& creep = raw.cases[6];
   ASSERT_EQ(creep.name, "creep");

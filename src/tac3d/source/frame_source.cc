@@ -7,9 +7,9 @@
 #include <iterator>
 
 #include <fmt/format.h>
-#include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "tac3d/imagefile/grey_image.h"
 #include "tac3d/imagefile/image_decode.h"
 #include "tac3d/source/threaded_capture.h"
 #include "tac3d/util/error.h"
@@ -103,11 +103,7 @@ class VideoFileSource : public FrameSource {
       last_error_ = fmt::format("{}: end of the video after {} frames", path_, next_index_);
       return ReadStatus::kEnd;
     }
-    if (bgr_.channels() == 3) {
-      cv::cvtColor(bgr_, frame.image, cv::COLOR_BGR2GRAY);
-    } else {
-      bgr_.copyTo(frame.image);
-    }
+    ConvertToGrey(bgr_, frame.image);
     frame.timestamp_s = capture_.get(cv::CAP_PROP_POS_MSEC) / 1000.0;
     frame.index = next_index_++;
     last_error_.clear();

@@ -6,8 +6,8 @@
 #include <thread>
 
 #include <fmt/format.h>
-#include <opencv2/imgproc.hpp>
 
+#include "tac3d/imagefile/grey_image.h"
 #include "tac3d/util/seconds_since.h"
 
 namespace tac3d {
@@ -24,20 +24,6 @@ struct ThreadedCapture::Shared {
   std::string error;
   std::thread thread;
 };
-
-namespace {
-
-void ToGrey(const cv::Mat& image, cv::Mat& grey) {
-  if (image.channels() == 3) {
-    cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
-  } else if (image.channels() == 4) {
-    cv::cvtColor(image, grey, cv::COLOR_BGRA2GRAY);
-  } else {
-    image.copyTo(grey);
-  }
-}
-
-}  // namespace
 
 ThreadedCapture::ThreadedCapture(std::string description, Grab grab, double timeout_s)
     : description_(std::move(description)), timeout_s_(timeout_s), shared_(std::make_shared<Shared>()) {
@@ -57,7 +43,7 @@ ThreadedCapture::ThreadedCapture(std::string description, Grab grab, double time
         shared->error = ok ? "the camera delivered an empty or non-8-bit image" : error;
         break;
       }
-      ToGrey(image, shared->latest);
+      ConvertToGrey(image, shared->latest);
       shared->latest_s = t;
       shared->has_new = true;
       shared->changed.notify_all();

@@ -4,8 +4,10 @@
 #include <cmath>
 
 #include <Eigen/LU>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "tac3d/imagefile/grey_image.h"
 #include "tac3d/util/error.h"
 
 namespace tac3d {
@@ -33,6 +35,24 @@ cv::Mat MakeVignette(const CameraIntrinsics& c, const RenderOptions& o) {
     }
   }
   return v;
+}
+
+// Each channel's light relative to the grey render (LedColour), CV_32FC3.
+cv::Mat MakeLedColour(const CameraIntrinsics& c, const LedColour& led) {
+  cv::Mat field(c.height, c.width, CV_32FC3);
+  const double r2_corner = c.cx * c.cx + c.cy * c.cy;
+  for (int y = 0; y < c.height; ++y) {
+    cv::Vec3f* row = field.ptr<cv::Vec3f>(y);
+    for (int x = 0; x < c.width; ++x) {
+      const double xn = (x - c.cx) / (c.width - 1), yn = (y - c.cy) / (c.height - 1);
+      const double r2 = ((x - c.cx) * (x - c.cx) + (y - c.cy) * (y - c.cy)) / r2_corner;
+      for (int ch = 0; ch < 3; ++ch) {
+        row[x][ch] = static_cast<float>(
+            led.gain[ch] * std::exp(led.x_slope[ch] * xn + led.y_slope[ch] * yn - led.falloff[ch] * r2));
+      }
+    }
+  }
+  return field;
 }
 
 // Fraction of a unit pixel on the inner side of a straight edge: the pixel centre is at
@@ -130,25 +150,36 @@ void ApplyLighting(const FrameConditions& c, double cx, cv::Mat& image) {
   }
 }
 
-// Blur, noise and 8-bit quantisation of linear light (1: full scale).
+// Blur, noise and 8-bit quantisation of linear light (1: full scale), grey or BGR (each
+// channel its own noise).
 cv::Mat Expose(cv::Mat irradiance, const RenderOptions& o, std::uint64_t frame_index) {
   if (o.blur_sigma_px > 0) cv::GaussianBlur(irradiance, irradiance, cv::Size(0, 0), o.blur_sigma_px);
   cv::Mat dn = irradiance * 255.0;
   if (o.noise) {
-    cv::Mat gaussian(dn.size(), CV_32FC1);
+    cv::Mat gaussian(dn.size(), dn.type());
     cv::RNG rng(o.seed * 0x9E3779B97F4A7C15ULL + frame_index + 1);
     rng.fill(gaussian, cv::RNG::NORMAL, 0.0, 1.0);
     const float gain = static_cast<float>(o.shot_noise_gain);
     const float read2 = static_cast<float>(o.read_noise_dn * o.read_noise_dn);
+    const int values = dn.cols * dn.channels();
     for (int y = 0; y < dn.rows; ++y) {
       float* p = dn.ptr<float>(y);
       const float* g = gaussian.ptr<float>(y);
-      for (int x = 0; x < dn.cols; ++x) p[x] += std::sqrt(gain * std::max(p[x], 0.0f) + read2) * g[x];
+      for (int x = 0; x < values; ++x) p[x] += std::sqrt(gain * std::max(p[x], 0.0f) + read2) * g[x];
     }
   }
   cv::Mat out;
-  dn.convertTo(out, CV_8UC1);  // rounds and saturates
+  dn.convertTo(out, CV_8U);  // rounds and saturates
   return out;
+}
+
+// A JPEG round trip at `quality` (libjpeg's default 4:2:0 chroma for colour).
+cv::Mat CompressJpeg(const cv::Mat& image, int quality) {
+  std::vector<std::uint8_t> bytes;
+  TAC3D_DEMAND(cv::imencode(".jpg", image, bytes, {cv::IMWRITE_JPEG_QUALITY, quality}));
+  cv::Mat decoded = cv::imdecode(bytes, cv::IMREAD_UNCHANGED);
+  TAC3D_DEMAND(decoded.size() == image.size() && decoded.type() == image.type());
+  return decoded;
 }
 
 // Unit normals of a deformed grid of markers, from its neighbours (central differences
@@ -172,8 +203,44 @@ std::vector<Eigen::Vector3d> GridNormals(const std::vector<Eigen::Vector3d>& p, 
 
 }  // namespace
 
+bool LedColour::IsWhite() const {
+  return gain.isOnes() && x_slope.isZero(0) && y_slope.isZero(0) && falloff.isZero(0);
+}
+
+LedColour LedColour::GelSightMini() {
+  // Fitted to the film of mini_example.avi (B, G, R; docs/render.md, "Real-image nuisances"),
+  // over the twin's own vignetting; the gains' luma is 1, so the grey level stays the twin's.
+  LedColour led;
+  led.gain = {1.265, 0.992, 0.915};
+  led.x_slope = {0.007, -0.027, -0.070};
+  led.y_slope = {-0.344, 0.052, 1.399};
+  led.falloff = {0.621, 0.399, 1.501};
+  return led;
+}
+
+RenderOptions RenderOptions::WithRealImageNuisances() const {
+  // The levels measured on the GelSight Mini video: docs/render.md, "Real-image nuisances".
+  RenderOptions o = *this;
+  o.led_colour = LedColour::GelSightMini();
+  o.blur_sigma_px = 1.0;
+  o.jpeg_quality = 85;
+  return o;
+}
+
 void RenderOptions::Validate() const {
   const OptionCheck require("render options");
+  const LedColour& led = led_colour;
+  require(led.gain.allFinite() && led.gain.minCoeff() > 0 && led.gain.maxCoeff() <= 4,
+          "led_colour.gain", "each in (0, 4]", led.gain.allFinite() ? led.gain.minCoeff() : NAN);
+  require(led.x_slope.allFinite() && led.x_slope.cwiseAbs().maxCoeff() <= 5, "led_colour.x_slope",
+          "each in [-5, 5]", led.x_slope.cwiseAbs().maxCoeff());
+  require(led.y_slope.allFinite() && led.y_slope.cwiseAbs().maxCoeff() <= 5, "led_colour.y_slope",
+          "each in [-5, 5]", led.y_slope.cwiseAbs().maxCoeff());
+  require(led.falloff.allFinite() && led.falloff.minCoeff() >= 0 && led.falloff.maxCoeff() <= 5,
+          "led_colour.falloff", "each in [0, 5]",
+          led.falloff.minCoeff() < 0 ? led.falloff.minCoeff() : led.falloff.maxCoeff());
+  require(jpeg_quality >= 0 && jpeg_quality <= 100, "jpeg_quality", "in [0, 100] (0: none)",
+          jpeg_quality);
   require(film_level > 0 && film_level <= 1, "film_level", "in (0, 1]", film_level);
   require(dot_reflectance >= 0 && dot_reflectance < 1, "dot_reflectance", "in [0, 1)", dot_reflectance);
   require(board_level > 0 && board_level <= 1, "board_level", "in (0, 1]", board_level);
@@ -241,6 +308,7 @@ MarkerImageRenderer::MarkerImageRenderer(const SensorConfig& config, const Rende
       base_.at<float>(v, u) = level;
     }
   }
+  if (!options.led_colour.IsWhite()) led_colour_ = MakeLedColour(config.camera.intrinsics, options.led_colour);
 }
 
 MarkerImageRenderer::~MarkerImageRenderer() = default;
@@ -265,10 +333,25 @@ cv::Mat MarkerImageRenderer::RenderIrradiance(const std::vector<Eigen::Vector3d>
   return image;
 }
 
+cv::Mat MarkerImageRenderer::RenderCamera(const std::vector<Eigen::Vector3d>& markers,
+                                          std::uint64_t frame_index,
+                                          const FrameConditions& conditions) const {
+  cv::Mat irradiance = RenderIrradiance(markers, conditions);
+  if (!led_colour_.empty()) {
+    cv::Mat grey3;
+    cv::merge(std::vector<cv::Mat>(3, irradiance), grey3);
+    irradiance = grey3.mul(led_colour_);
+  }
+  cv::Mat image = Expose(irradiance, options_, frame_index);
+  return options_.jpeg_quality > 0 ? CompressJpeg(image, options_.jpeg_quality) : image;
+}
+
 cv::Mat MarkerImageRenderer::Render(const std::vector<Eigen::Vector3d>& markers,
                                     std::uint64_t frame_index,
                                     const FrameConditions& conditions) const {
-  return Expose(RenderIrradiance(markers, conditions), options_, frame_index);
+  cv::Mat grey;
+  ConvertToGrey(RenderCamera(markers, frame_index, conditions), grey);
+  return grey;
 }
 
 BoardImageRenderer::BoardImageRenderer(const SensorConfig& config, const RenderOptions& options)

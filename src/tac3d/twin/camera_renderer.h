@@ -14,9 +14,26 @@
 
 namespace tac3d {
 
+/// The colour of the LEDs' light across the image, one channel at a time (B, G, R): channel
+/// c's light is the grey render's times gain[c] * exp(x_slope[c] * (x - cx) / (width - 1) +
+/// y_slope[c] * (y - cy) / (height - 1) - falloff[c] * r^2), r^2 the squared distance from the
+/// principal point over the corner's. Log-linear, so every channel stays positive whatever
+/// the slopes. The default, white (gain 1, no slope, no falloff), is a grey camera.
+struct LedColour {
+  Eigen::Vector3d gain = Eigen::Vector3d::Ones();       ///< at the principal point, in (0, 4]
+  Eigen::Vector3d x_slope = Eigen::Vector3d::Zero();    ///< log light change, left to right, [-5, 5]
+  Eigen::Vector3d y_slope = Eigen::Vector3d::Zero();    ///< log light change, top to bottom, [-5, 5]
+  Eigen::Vector3d falloff = Eigen::Vector3d::Zero();    ///< log light loss at the corners, [0, 5]
+
+  bool IsWhite() const;
+  /// A GelSight Mini's LEDs, fitted to the film of its video (docs/render.md, "Real-image
+  /// nuisances"): blue above, red below, magenta at the centre, the corners dark in red.
+  static LedColour GelSightMini();
+};
+
 /// How the twin's camera forms an image: scene levels (as fractions of the 8-bit full
-/// scale), lens blur, vignetting and sensor noise. Every random draw comes
-/// from `seed` and the frame index, so a render is reproducible.
+/// scale), lens blur, vignetting, the LEDs' colour, sensor noise and compression. Every
+/// random draw comes from `seed` and the frame index, so a render is reproducible.
 struct RenderOptions {
   double film_level = 0.80;           ///< the bright reflective film behind the markers
   double dot_reflectance = 0.2;       ///< a marker relative to the film
@@ -29,8 +46,19 @@ struct RenderOptions {
   bool noise = true;
   double shot_noise_gain = 0.04;      ///< shot-noise variance per DN of signal (DN), in [0, 255]
   double read_noise_dn = 0.8;         ///< read noise, DN (1 sigma), in [0, 255]
+  /// Coloured light (not white): the camera delivers BGR frames, each channel with its own
+  /// noise, converted to grey as a frame source converts colour (ConvertToGrey). This and
+  /// jpeg_quality are the marker renderer's; the board renderer (room light) ignores them.
+  LedColour led_colour;
+  /// 0: none; 1-100: every frame JPEG-compressed at this quality (libjpeg, colour at 4:2:0)
+  /// before the grey conversion, as a camera streaming MJPEG or MPEG-4 delivers it.
+  int jpeg_quality = 0;
   std::uint64_t seed = 1;
 
+  /// These options with the nuisances a real camera's images show and the nominal twin's
+  /// lack, at the levels measured on the GelSight Mini video (docs/render.md, "Real-image
+  /// nuisances"): LedColour::GelSightMini(), blur_sigma_px 1.0, jpeg_quality 85.
+  RenderOptions WithRealImageNuisances() const;
   /// @throws Error naming the field and the bound.
   void Validate() const;
 };
@@ -70,10 +98,15 @@ class MarkerImageRenderer {
   /// (row-major over the grid, as SensorConfig::MarkerPositions), under a session's
   /// `conditions` (SessionConditions::At): the markers moved by its creep, their darkening
   /// scaled by its dot_contrast, the light by its illumination gain and gradient, its stray
-  /// light added and the whole scaled by its exposure.
+  /// light added and the whole scaled by its exposure. It is what the pipeline receives: the
+  /// camera's frame (RenderCamera) converted to grey as a frame source converts it.
   /// @throws Error if the number of positions is not rows * cols.
   cv::Mat Render(const std::vector<Eigen::Vector3d>& markers_in_sensor,
                  std::uint64_t frame_index = 0, const FrameConditions& conditions = {}) const;
+  /// The camera's own frame: CV_8UC3 (BGR) under coloured LEDs, else CV_8UC1; JPEG-compressed
+  /// when the options ask.
+  cv::Mat RenderCamera(const std::vector<Eigen::Vector3d>& markers_in_sensor,
+                       std::uint64_t frame_index = 0, const FrameConditions& conditions = {}) const;
   /// The same before blur, noise and quantisation: linear light (CV_32FC1; in [0, 1] under
   /// nominal conditions).
   cv::Mat RenderIrradiance(const std::vector<Eigen::Vector3d>& markers_in_sensor,
@@ -85,7 +118,8 @@ class MarkerImageRenderer {
   SensorConfig config_;
   RenderOptions options_;
   RayField rays_;
-  cv::Mat base_;  // film and vignetting, CV_32FC1
+  cv::Mat base_;        // film and vignetting, CV_32FC1
+  cv::Mat led_colour_;  // each channel's light relative to the grey, CV_32FC3; empty if white
 };
 
 /// The twin's camera looking at a dot board through the mirrors only (the elastic body
