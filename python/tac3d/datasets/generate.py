@@ -94,7 +94,7 @@ def generate(spec, out, episodes, workers=1, scheduler=None, cache_dir="", strea
         raise _core.Error(f"--episodes must be >= 1, got {episodes}")
     if not scheduler and workers < 1:
         raise _core.Error(f"--workers must be >= 1, got {workers}")
-    _core.load_dataset_spec(spec_path)  # a bad spec is refused here, naming its line
+    _core.load_dataset_spec(str(spec))  # a bad spec is refused here, named as the user gave it
     prepare_folder(spec_path, out)
     records = store.complete_episodes(out)  # any id: a run of fewer episodes keeps the others
     todo = [i for i in range(episodes) if i not in records]
