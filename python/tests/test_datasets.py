@@ -3,12 +3,14 @@
 import json
 import os
 import re
+import shutil
 import signal
 import subprocess
 import time
 
 import numpy as np
 import pytest
+import zarr
 
 import tac3d
 import tac3d.datasets
@@ -170,3 +172,23 @@ def test_a_worker_killed_mid_run_leaves_the_dataset_complete(two_workers, tmp_pa
     reference = {k: v for k, v in checksums(out).items() if k < EPISODES}
     assert checksums(killed_out) == reference
     assert not [p for p in (killed_out / "episodes").iterdir() if p.name.startswith(".")]
+
+
+def test_verify_finds_altered_arrays_and_repeated_lines(two_workers, tmp_path, tac3d_cli):
+    out, _ = two_workers
+    copy = tmp_path / "copy"
+    shutil.copytree(out, copy)
+    forces = zarr.open_group(str(copy / "episodes" / "episode_000001.zarr"), mode="r+")["marker_forces"]
+    forces[5, 0, 2] += 1e-9
+    manifest = copy / "manifest.jsonl"
+    lines = manifest.read_text().splitlines()
+    manifest.write_text("\n".join(lines + lines[:1]) + "\n")
+    result = tac3d.datasets.verify(copy)
+    assert result["problems"] == ["episode 1: the arrays do not match the manifest's checksum",
+                                  "episode 0 is in the manifest twice"]
+    run = subprocess.run([tac3d_cli, "dataset", "verify", str(copy)], capture_output=True, text=True)
+    assert run.returncode == 1 and "problem: episode 0 is in the manifest twice" in run.stdout
+    with pytest.raises(tac3d.Error, match="not a tac3d dataset folder"):
+        tac3d.datasets.verify(tmp_path / "nothing")
+    with pytest.raises(tac3d.Error, match="not a tac3d dataset folder"):
+        tac3d.datasets.open(tmp_path / "nothing")

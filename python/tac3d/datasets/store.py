@@ -14,6 +14,8 @@ import pathlib
 import numpy as np
 import zarr
 
+from .. import _core
+
 FORMAT = "tac3d-zarr-episodes"
 VERSION = 1
 EPISODES = "episodes"
@@ -99,6 +101,12 @@ def read_manifest(out):
         return [json.loads(line) for line in f if line.strip()]
 
 
+def require_dataset(folder):
+    """@raises tac3d.Error if `folder` has no episodes/ folder."""
+    if not (pathlib.Path(folder) / EPISODES).is_dir():
+        raise _core.Error(f"'{folder}' is not a tac3d dataset folder: it has no {EPISODES}/ folder")
+
+
 class Episode:
     """One episode: its drawn parameters and arrays, read from the zarr group on demand."""
 
@@ -148,8 +156,7 @@ class Dataset:
 
     def __init__(self, folder):
         self.folder = pathlib.Path(folder)
-        if not (self.folder / EPISODES).is_dir():
-            raise FileNotFoundError(f"{self.folder}: no {EPISODES}/ folder: not a tac3d dataset")
+        require_dataset(self.folder)
         self.ids = sorted(complete_episodes(self.folder))
 
     def __len__(self):
@@ -173,7 +180,9 @@ class Dataset:
 
 def verify(folder):
     """Checks a dataset folder: every manifest line's episode present, no id twice, every
-    checksum recomputed from the stored arrays. Returns {episodes, verified, problems}."""
+    checksum recomputed from the stored arrays. Returns {episodes, verified, problems}.
+    Raises tac3d.Error if `folder` is not a dataset folder."""
+    require_dataset(folder)
     records = read_manifest(folder)
     problems = []
     seen = set()
@@ -182,6 +191,7 @@ def verify(folder):
         episode = r["episode"]
         if episode in seen:
             problems.append(f"episode {episode} is in the manifest twice")
+            continue
         seen.add(episode)
         path = episode_path(folder, episode)
         if not path.is_dir():
