@@ -369,8 +369,6 @@ double Distribution::Draw(EpisodeRandom& random) const {
   TAC3D_DEMAND(false);
 }
 
-double Distribution::min() const { return *std::min_element(values.begin(), values.end()); }
-double Distribution::max() const { return *std::max_element(values.begin(), values.end()); }
 
 DatasetSpec ParseDatasetSpec(const std::string& yaml_text,
                              const std::string& source,

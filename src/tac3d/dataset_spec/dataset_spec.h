@@ -1,6 +1,5 @@
 #pragma once
 
-#include <array>
 #include <cstdint>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -37,8 +36,6 @@ struct Distribution {
 
   static Distribution Constant(double value) { return {Kind::kConstant, {value}}; }
   double Draw(EpisodeRandom& random) const;
-  double min() const;
-  double max() const;
 };
 
 /// One family of objects a spec draws from: a scene shape (docs/scenes.md) with its sizes as
