@@ -16,6 +16,7 @@ packages=(
   python3-numpy  # io/recording_export_test loads the exported .npy files with numpy
   python3-dev pybind11-dev python3-pybind11  # the Python module (python/)
   python3-pytest python3-yaml python3-matplotlib  # its tests (python/tests), examples/python
+  python3-distributed python3-zarr  # tac3d.datasets: episodes on Dask, stored as zarr
 )
 missing=()
 for p in "${packages[@]}"; do

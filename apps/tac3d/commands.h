@@ -34,6 +34,7 @@ void RegisterFrictionMap(CLI::App& app);
 void RegisterView(CLI::App& app);  // view_command.cc: `tac3d view`
 void RegisterImportVendor(CLI::App& app);  // vendor_command.cc: `tac3d import-vendor`
 void RegisterTrack(CLI::App& app);  // track_command.cc: `tac3d track`
+void RegisterDataset(CLI::App& app);  // dataset_command.cc: `tac3d dataset` (Python, Dask)
 
 /// `tac3d eval <what>`: accuracy evaluations against the twin's truth or analytic oracles,
 /// each printing its figures (JSON with --json). Each adds itself to the `eval` group.

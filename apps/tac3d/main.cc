@@ -23,6 +23,7 @@ int main(int argc, char** argv) {
   tac3d::cli::RegisterView(app);
   tac3d::cli::RegisterImportVendor(app);
   tac3d::cli::RegisterTrack(app);
+  tac3d::cli::RegisterDataset(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -17,4 +17,5 @@ PYBIND11_MODULE(_core, m) {
   tac3d::python::RegisterPipeline(m);
   tac3d::python::RegisterTwin(m);
   tac3d::python::RegisterRuntime(m);
+  tac3d::python::RegisterDatasetSpec(m);
 }

@@ -7,6 +7,8 @@
   sensors on their threads with their outputs (UDP, recording, JSON lines) and one clock.
 - ``tac3d.open_recording``, ``RecordingReader``, ``RecordingWriter``: recordings.
 - ``tac3d.load_scene``, ``tac3d.simulate``, ``tac3d.Dataset``: the digital twin.
+- ``tac3d.datasets``: randomized twin datasets generated on Dask and stored as zarr
+  (``tac3d.datasets.open(DIR)``; imported on first use, so ``import tac3d`` needs neither).
 - ``tac3d.design_light_path``, ``tac3d.friction_map``: the design solver and friction map
   (``friction_map_defaults()``: its options, those of ``tac3d friction-map``).
 
@@ -39,6 +41,17 @@ from ._core import (  # noqa: F401
     run,
     simulate,
 )
+
+
+
+def __getattr__(name):
+    # tac3d.datasets on first use: zarr and dask stay out of a plain `import tac3d`.
+    if name == "datasets":
+        import importlib
+
+        return importlib.import_module(".datasets", __name__)
+    raise AttributeError(f"module 'tac3d' has no attribute '{name}'")
+
 
 # The vendor module's version constant, for scripts that print it.
 PYTAC3D_VERSION = "3.3.0 (tac3d)"

@@ -1,0 +1,194 @@
+"""Randomized twin datasets (tac3d.datasets, `tac3d dataset`): examples/datasets/small.yaml (a
+3 x 3 marker sensor, 10-step episodes) generated on local Dask clusters, read back, verified."""
+import json
+import os
+import re
+import shutil
+import signal
+import subprocess
+import time
+
+import numpy as np
+import pytest
+import zarr
+
+import tac3d
+import tac3d.datasets
+from conftest import REPO
+
+SMALL = REPO / "examples" / "datasets" / "small.yaml"
+EPISODES = 4
+
+
+def generate(cli, cache_dir, out, workers, episodes=EPISODES, spec=SMALL, wait=True):
+    cmd = [cli, "dataset", "generate", "--spec", str(spec), "--out", str(out),
+           "--episodes", str(episodes), "--workers", str(workers), "--json"]
+    env = dict(os.environ, TAC3D_CACHE_DIR=cache_dir)
+    if not wait:
+        return subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    run = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, run.stderr
+    return json.loads(run.stdout.strip().splitlines()[-1])
+
+
+def checksums(out):
+    return {r["episode"]: r["checksum"] for r in tac3d.datasets.Dataset(out).manifest()}
+
+
+@pytest.fixture(scope="module")
+def two_workers(tmp_path_factory, tac3d_cli, cache_dir):
+    """small.yaml's first 4 episodes on a local cluster of 2 workers."""
+    out = tmp_path_factory.mktemp("datasets") / "small2"
+    result = generate(tac3d_cli, cache_dir, out, workers=2)
+    return out, result
+
+
+def test_episode_draws_depend_only_on_the_spec_seed_and_the_index(tmp_path):
+    spec = tac3d.datasets.load_spec(str(SMALL))
+    assert (spec.name, spec.steps, spec.images) == ("small", 10, True)
+    draws = [spec.draw(i) for i in range(6)]
+    assert [d["episode"] for d in draws] == list(range(6))
+    assert spec.draw(3) == draws[3]  # nothing carried from one draw to the next
+    assert len({d["seed"] for d in draws}) == 6
+    assert len({json.dumps(d["parameters"], sort_keys=True) for d in draws}) == 6
+    # A copy of the spec with another seed draws other episodes.
+    reseeded = tmp_path / "small.yaml"
+    reseeded.write_text(SMALL.read_text().replace("seed: 2026", "seed: 2027"))
+    (tmp_path / "small_sensor.yaml").write_text((SMALL.parent / "small_sensor.yaml").read_text())
+    assert tac3d.datasets.load_spec(str(reseeded)).draw(3)["seed"] != draws[3]["seed"]
+    scene = tac3d.parse_scene(draws[0]["scene_yaml"])
+    assert scene.steps == 10 and scene.info()["marker_rows"] == 3
+
+
+def test_a_malformed_spec_is_refused_naming_the_line(tmp_path, tac3d_cli, cache_dir):
+    (tmp_path / "small_sensor.yaml").write_text((SMALL.parent / "small_sensor.yaml").read_text())
+    text = SMALL.read_text()
+    cases = {
+        "dup.yaml": (text.replace("steps: 10 ", "steps: 10\nsteps: 12 "),
+                     r"dup.yaml: line 7: duplicated key 'steps' \(first at line 6\)"),
+        "typo.yaml": (text.replace("images: true", "imagez: true"),
+                      r"typo.yaml: line 7: imagez: unknown key \(misspelt\?\)"),
+        "range.yaml": (text.replace("mu: {uniform: [0.3, 1.0]}", "mu: {uniform: [0.3, 9]}"),
+                       r"range.yaml: line 22: friction.mu.uniform\[1\]: 9 is out of range: must be in \[0, 5\]"),
+    }
+    for name, (bad, message) in cases.items():
+        assert bad != text
+        path = tmp_path / name
+        path.write_text(bad)
+        with pytest.raises(tac3d.Error, match=message):
+            tac3d.datasets.load_spec(str(path))
+        run = subprocess.run([tac3d_cli, "dataset", "generate", "--spec", str(path), "--out",
+                              str(tmp_path / "never"), "--episodes", "2"],
+                             capture_output=True, text=True, timeout=120)
+        assert run.returncode == 1 and re.search(message, run.stderr), run.stderr
+    assert not (tmp_path / "never").exists()  # refused before anything is written
+
+
+def test_two_workers_write_every_episode_with_its_truth(two_workers):
+    out, result = two_workers
+    assert result["episodes"] == result["generated"] == EPISODES and result["workers"] == 2
+    ds = tac3d.datasets.open(out)
+    assert len(ds) == EPISODES and ds.ids == list(range(EPISODES))
+    manifest = ds.manifest()
+    assert [r["episode"] for r in manifest] == list(range(EPISODES))
+    assert tac3d.datasets.verify(out) == {"episodes": EPISODES, "verified": EPISODES, "problems": []}
+    spec = tac3d.datasets.load_spec(str(SMALL))
+    for episode, record in zip(ds, manifest):
+        draw = spec.draw(episode.id)
+        assert episode.parameters == draw["parameters"] == record["parameters"]
+        assert episode.seed == draw["seed"] == record["seed"]
+        assert len(episode) == 10 and record["steps"] == 10
+        frames = list(episode.frames(surface=True))
+        assert len(frames) == 10
+        f = frames[-1]
+        assert f["image"].dtype == np.uint8 and f["image"].ndim == 2
+        assert f["marker_positions"].shape == f["marker_forces"].shape == (9, 3)
+        assert f["sensor_pose"].shape == (4, 4) and f["marker_contact"].dtype == np.bool_
+        assert f["surface_tractions"].shape[1] == 3
+        # Truth that holds whatever was drawn: the first frame is clear of the object and
+        # unloaded; the marker forces sum to the total; displacements start at zero.
+        np.testing.assert_array_equal(frames[0]["total_force"], 0)
+        np.testing.assert_array_equal(frames[0]["marker_displacements"], 0)
+        for g in frames:
+            np.testing.assert_allclose(g["marker_forces"].sum(axis=0), g["total_force"], atol=1e-3)
+        # A press or slide ends pressed: the object pushes the fingertip down (-z).
+        if draw["parameters"]["trajectory"]["kind"] != "lift":
+            assert f["total_force"][2] < 0 and f["marker_contact"].any()
+        forces = episode.array("marker_forces")
+        np.testing.assert_array_equal(forces[-1], f["marker_forces"])
+    assert not [p for p in (out / "episodes").iterdir() if p.name.startswith(".")]
+
+
+def test_a_rerun_skips_finished_episodes(two_workers, tac3d_cli, cache_dir):
+    out, _ = two_workers
+    group = out / "episodes" / "episode_000002.zarr" / ".zattrs"
+    before = group.stat().st_mtime_ns
+    result = generate(tac3d_cli, cache_dir, out, workers=2)
+    assert (result["generated"], result["skipped"], result["episodes"]) == (0, EPISODES, EPISODES)
+    assert group.stat().st_mtime_ns == before
+    # One more episode runs only that one.
+    more = generate(tac3d_cli, cache_dir, out, workers=2, episodes=EPISODES + 1)
+    assert (more["generated"], more["skipped"]) == (1, EPISODES)
+    assert tac3d.datasets.verify(out)["verified"] == EPISODES + 1
+
+
+def test_one_and_two_workers_give_identical_checksums(two_workers, tmp_path, tac3d_cli, cache_dir):
+    out, _ = two_workers
+    one = tmp_path / "small1"
+    generate(tac3d_cli, cache_dir, one, workers=1)
+    reference = {k: v for k, v in checksums(out).items() if k < EPISODES}
+    assert checksums(one) == reference
+    assert len(set(reference.values())) == EPISODES
+
+
+IN_FLIGHT = re.compile(r"^\.episode_(\d+)\..*-(\d+)-[0-9a-f]{8}\.(tmp|twin)$")
+
+
+def test_a_worker_killed_mid_run_leaves_the_dataset_complete(two_workers, tmp_path, tac3d_cli, cache_dir):
+    out, _ = two_workers
+    killed_out = tmp_path / "killed"
+    run = generate(tac3d_cli, cache_dir, killed_out, workers=2, wait=False)
+    killed = None
+    deadline = time.monotonic() + 300
+    while killed is None and run.poll() is None and time.monotonic() < deadline:
+        folder = killed_out / "episodes"
+        for name in (os.listdir(folder) if folder.is_dir() else []):
+            m = IN_FLIGHT.match(name)
+            if m:
+                try:
+                    os.kill(int(m.group(2)), signal.SIGKILL)
+                    killed = (int(m.group(1)), int(m.group(2)))
+                except ProcessLookupError:
+                    continue
+                break
+        time.sleep(0.01)
+    stdout, stderr = run.communicate(timeout=600)
+    assert killed is not None, "no episode was seen in flight"
+    assert run.returncode == 0, stderr
+    assert json.loads(stdout.strip().splitlines()[-1])["episodes"] == EPISODES
+    result = tac3d.datasets.verify(killed_out)
+    assert result == {"episodes": EPISODES, "verified": EPISODES, "problems": []}
+    # The episode in flight was run again, to the same arrays.
+    reference = {k: v for k, v in checksums(out).items() if k < EPISODES}
+    assert checksums(killed_out) == reference
+    assert not [p for p in (killed_out / "episodes").iterdir() if p.name.startswith(".")]
+
+
+def test_verify_finds_altered_arrays_and_repeated_lines(two_workers, tmp_path, tac3d_cli):
+    out, _ = two_workers
+    copy = tmp_path / "copy"
+    shutil.copytree(out, copy)
+    forces = zarr.open_group(str(copy / "episodes" / "episode_000001.zarr"), mode="r+")["marker_forces"]
+    forces[5, 0, 2] += 1e-9
+    manifest = copy / "manifest.jsonl"
+    lines = manifest.read_text().splitlines()
+    manifest.write_text("\n".join(lines + lines[:1]) + "\n")
+    result = tac3d.datasets.verify(copy)
+    assert result["problems"] == ["episode 1: the arrays do not match the manifest's checksum",
+                                  "episode 0 is in the manifest twice"]
+    run = subprocess.run([tac3d_cli, "dataset", "verify", str(copy)], capture_output=True, text=True)
+    assert run.returncode == 1 and "problem: episode 0 is in the manifest twice" in run.stdout
+    with pytest.raises(tac3d.Error, match="not a tac3d dataset folder"):
+        tac3d.datasets.verify(tmp_path / "nothing")
+    with pytest.raises(tac3d.Error, match="not a tac3d dataset folder"):
+        tac3d.datasets.open(tmp_path / "nothing")
