@@ -379,6 +379,17 @@ void BlobOptions::Validate() const {
   require(max_area_px > min_area_px, "max_area_px", "> min_area_px", max_area_px);
 }
 
+BlobOptions ScaleBlobOptions(const BlobOptions& options, double scale) {
+  if (!(scale > 1)) return options;
+  BlobOptions scaled = options;
+  scaled.min_spread_px *= scale;
+  scaled.max_spread_px *= scale;
+  scaled.background_kernel_px = 2 * static_cast<int>(std::lround(0.5 * (options.background_kernel_px - 1) * scale)) + 1;
+  scaled.min_area_px = static_cast<int>(std::lround(options.min_area_px * scale * scale));
+  scaled.max_area_px = static_cast<int>(std::lround(options.max_area_px * scale * scale));
+  return scaled;
+}
+
 std::string_view ToString(BlobStatus status) {
   switch (status) {
     case BlobStatus::kFound: return "found";

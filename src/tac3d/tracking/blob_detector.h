@@ -41,6 +41,11 @@ struct BlobOptions {
   void Validate() const;
 };
 
+/// The options' pixel sizes for dots `scale` times as large as the ones they are meant for:
+/// the RMS radius bounds and the background closing's half side scaled linearly, the area
+/// bounds squared. A scale of 1 or less (or NaN) leaves them as they are.
+BlobOptions ScaleBlobOptions(const BlobOptions& options, double scale);
+
 enum class BlobStatus : std::uint8_t {
   kFound,
   kNoBlob,    ///< nothing dark enough in the search disk (or the disk is out of the image)
