@@ -79,6 +79,12 @@ BlobStatus MeasureBlob(const cv::Mat& image,
                        const BlobOptions& options,
                        Blob& blob);
 
+/// Asks the processor to fetch the image's pixels in the square about `center` of half side
+/// `radius_px` (inside `roi`) into its cache, so a MeasureBlob there that comes after other
+/// work does not wait on memory (a camera frame is new to the cache). Reads nothing itself.
+/// @pre image is CV_8UC1, roi lies in it.
+void PrefetchDisk(const cv::Mat& image, const cv::Rect& roi, const Eigen::Vector2d& center, double radius_px);
+
 /// Whether a measured blob's dot reaches the border of `roi`: a pixel of the roi's outermost
 /// rows or columns within `blob_radius_px` of its centre is darker than halfway from its
 /// background to its darkest pixel (the dot's edge; its blurred rim and the vignetting at an

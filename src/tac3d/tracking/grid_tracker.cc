@@ -165,6 +165,12 @@ void GridTracker::Grow(const cv::Mat& image, int head, int tail) {
       const int i = queue_[head++];
       queued_[i] = 0;
       if (accepted_[i]) continue;
+      // The next marker's pixels come from memory while this one is measured (near its
+      // last position: its prediction is not known yet).
+      if (head < tail) {
+        const int next = queue_[head];
+        PrefetchDisk(image, roi_, base_[next], (options_.search_radius + options_.blob_radius) * pitch_[next]);
+      }
       const Eigen::Vector2d prediction = Predict(i);
       ++tries_[i];
       const double pitch = pitch_[i];
