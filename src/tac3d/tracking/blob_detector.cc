@@ -8,6 +8,9 @@
 #include <limits>
 
 #include <opencv2/imgproc.hpp>
+#if defined(__AVX2__)
+#include <immintrin.h>
+#endif
 
 #include "tac3d/util/error.h"
 
@@ -32,10 +35,8 @@ const RingDirections kRingDirections = [] {
 // AVX2 on x86-64, NEON on ARM), so a dot's row costs a few instructions, not a loop.
 constexpr int kLanes = 16;
 using U8x16 = std::uint8_t __attribute__((vector_size(kLanes)));
-using U16x16 = std::uint16_t __attribute__((vector_size(2 * kLanes)));
 using I32x8 = std::int32_t __attribute__((vector_size(2 * kLanes)));
 constexpr U8x16 kLane = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
-constexpr U16x16 kLane16 = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
 static_assert(kRingSamples == kLanes, "the background ring is one vector");
 static_assert(std::endian::native == std::endian::little, "FirstLaneEqual reads lane 0 as the lowest byte");
 
@@ -65,6 +66,13 @@ int HorizontalMin(U8x16 v) {
   return v[0];
 }
 
+bool AnyLaneEqual(U8x16 v, std::uint8_t value) {
+  const auto equal = v == value;
+  std::uint64_t half[2];
+  std::memcpy(half, &equal, sizeof(half));
+  return (half[0] | half[1]) != 0;
+}
+
 // The lowest lane holding `value` (at least one does).
 int FirstLaneEqual(U8x16 v, std::uint8_t value) {
   const auto equal = v == value;
@@ -88,26 +96,22 @@ std::int64_t Sum(I32x8 v) {
   return v[0];
 }
 
-// The lanes' sums of `a` and of `b` together (each must fit 16 bits).
-std::pair<int, int> Sums(U16x16 a, U16x16 b) {
-  U16x16 v = __builtin_shufflevector(a, b, 0, 1, 2, 3, 4, 5, 6, 7, 16, 17, 18, 19, 20, 21, 22, 23) +
-             __builtin_shufflevector(a, b, 8, 9, 10, 11, 12, 13, 14, 15, 24, 25, 26, 27, 28, 29, 30, 31);
-  v += __builtin_shufflevector(v, v, 4, 5, 6, 7, 0, 1, 2, 3, 12, 13, 14, 15, 8, 9, 10, 11);
-  v += __builtin_shufflevector(v, v, 2, 3, 0, 1, 2, 3, 0, 1, 10, 11, 8, 9, 10, 11, 8, 9);
-  v += __builtin_shufflevector(v, v, 1, 0, 1, 0, 1, 0, 1, 0, 9, 8, 9, 8, 9, 8, 9, 8);
-  return {v[0], v[8]};
+// A vector's 16 lanes as two halves of 32-bit integers.
+struct I32x16 {
+  I32x8 lo{}, hi{};
+};
+I32x16 Widen(U8x16 v) {
+#if defined(__AVX2__)
+  // GCC lowers the generic conversion below lane by lane; AVX2 widens 8 bytes in one instruction.
+  const __m128i bytes = reinterpret_cast<__m128i>(v);
+  return {reinterpret_cast<I32x8>(_mm256_cvtepu8_epi32(bytes)),
+          reinterpret_cast<I32x8>(_mm256_cvtepu8_epi32(_mm_unpackhi_epi64(bytes, bytes)))};
+#else
+  return {__builtin_convertvector(__builtin_shufflevector(v, v, 0, 1, 2, 3, 4, 5, 6, 7), I32x8),
+          __builtin_convertvector(__builtin_shufflevector(v, v, 8, 9, 10, 11, 12, 13, 14, 15), I32x8)};
+#endif
 }
-
-// How many lanes are not zero.
-int CountNonZero(U8x16 v) {
-  const auto nonzero = v != 0;
-  std::uint64_t half[2];
-  std::memcpy(half, &nonzero, sizeof(half));
-  return (std::popcount(half[0]) + std::popcount(half[1])) / 8;
-}
-
-// Rows of 2 * 255 * 15^2 each fit an int32 lane.
-constexpr int kRowsPerSum = std::numeric_limits<std::int32_t>::max() / (2 * 255 * 15 * 15);
+constexpr I32x8 kLaneLo = {0, 1, 2, 3, 4, 5, 6, 7}, kLaneHi = {8, 9, 10, 11, 12, 13, 14, 15};
 
 // A centroid this far (squared, px^2) from the disk's centre is measured again about it.
 constexpr double kRecentreDistance2 = 0.75 * 0.75;
@@ -126,6 +130,30 @@ struct Seed {
   int darkest = 255, x = -1, y = -1;
 };
 
+// The search disk's rows are scanned a block of them at a time.
+constexpr int kBlockRows = 16;
+
+// Calls f(y, first, pixels) on the vectors covering rows [block, block + rows) from span_x0 to
+// span_x1 (pixels outside the span white), in row-major order, until f returns true.
+template <typename F>
+void ForEachSpanVector(const cv::Mat& image,
+                       int block,
+                       int rows,
+                       const std::array<int, kBlockRows>& span_x0,
+                       const std::array<int, kBlockRows>& span_x1,
+                       F&& f) {
+  for (int k = 0; k < rows; ++k) {
+    const int y = block + k, x0 = span_x0[k], x1 = span_x1[k];
+    const std::uint8_t* row = image.ptr<std::uint8_t>(y);
+    for (int a = x0; a <= x1; a += kLanes) {
+      U8x16 pixels;
+      const int first = VectorStart(image.cols, a);
+      LoadSpan(row, image.cols, first, a, std::min(x1, a + kLanes - 1), pixels);
+      if (f(y, first, pixels)) return;
+    }
+  }
+}
+
 // The darkest pixel in the disk of radius `s` about `predicted`, inside `roi`: the first, in
 // row-major order, of the disk's minimum.
 Seed FindDarkestPixel(const cv::Mat& image,
@@ -139,7 +167,6 @@ Seed FindDarkestPixel(const cv::Mat& image,
   const int y1 = std::min(roi_y1, static_cast<int>(std::floor(qy + s)));
   // The rows' spans come first, a block at a time, so their square roots do not sit in the
   // scanning loop (a separate loop also vectorises).
-  constexpr int kBlockRows = 16;
   std::array<int, kBlockRows> span_x0, span_x1;
   for (int block = y0; block <= y1; block += kBlockRows) {
     const int rows = std::min(kBlockRows, y1 - block + 1);
@@ -149,20 +176,22 @@ Seed FindDarkestPixel(const cv::Mat& image,
       span_x0[k] = std::max(roi.x, static_cast<int>(std::ceil(qx - half_width)));
       span_x1[k] = std::min(roi_x1, static_cast<int>(std::floor(qx + half_width)));
     }
-    for (int k = 0; k < rows; ++k) {
-      const int y = block + k, x0 = span_x0[k], x1 = span_x1[k];
-      const std::uint8_t* row = image.ptr<std::uint8_t>(y);
-      for (int a = x0; a <= x1; a += kLanes) {
-        U8x16 pixels;
-        const int first = VectorStart(image.cols, a);
-        LoadSpan(row, image.cols, first, a, std::min(x1, a + kLanes - 1), pixels);
-        const int span_min = HorizontalMin(pixels);
-        if (span_min >= seed.darkest) continue;
-        seed.darkest = span_min;
-        seed.x = first + FirstLaneEqual(pixels, static_cast<std::uint8_t>(span_min));
-        seed.y = y;
-      }
-    }
+    // The block's minimum (lane by lane, one reduction), then where it first is, if it is
+    // darker than the blocks before.
+    U8x16 lanes_min = U8x16{} + 255;
+    ForEachSpanVector(image, block, rows, span_x0, span_x1, [&](int, int, U8x16 pixels) {
+      lanes_min = Min(lanes_min, pixels);
+      return false;
+    });
+    const int block_min = HorizontalMin(lanes_min);
+    if (block_min >= seed.darkest) continue;
+    seed.darkest = block_min;
+    ForEachSpanVector(image, block, rows, span_x0, span_x1, [&](int y, int first, U8x16 pixels) {
+      if (!AnyLaneEqual(pixels, static_cast<std::uint8_t>(block_min))) return false;
+      seed.x = first + FirstLaneEqual(pixels, static_cast<std::uint8_t>(block_min));
+      seed.y = y;
+      return true;
+    });
   }
   return seed;
 }
@@ -235,52 +264,69 @@ void SumDiskMoments(const cv::Mat& image,
   const int roi_x1 = roi.x + roi.width - 1, roi_y1 = roi.y + roi.height - 1;
   const int r = half_width_at.r(), cx = m.cx, cy = m.cy;
   // Exact integer moments about (cx, cy). The disk's vectors start at the same columns in
-  // every row, so a pixel's dx is its lane plus the vector's offset: lanes accumulate the
-  // 16-bit products w * lane and w * lane^2 (always exact), the offset enters once per
-  // vector and dy once per row. The same integers as summing w * dx * dy pixel by pixel.
+  // every row, so a pixel's dx is its lane plus the vector's offset: down a vector's rows each
+  // lane sums w, w * dy and w * dy^2 (no reduction across lanes in the row loop), and the
+  // lane index and the offset enter once per vector. The same integers as summing
+  // w * dx^i * dy^j pixel by pixel.
+  // Rows summed before the lanes are emptied into 64 bits: a lane's count is 8-bit, and
+  // 16 lanes of w * dy^2 (or of w * |dy| * 15) must fit an int32.
+  const std::int64_t row_bound = 255 * 16 * std::int64_t{std::max({1, 15 * r, r * r})};
+  const int rows_per_flush = static_cast<int>(std::clamp<std::int64_t>(
+      std::numeric_limits<std::int32_t>::max() / row_bound, 1, 255));
   std::int64_t mw = 0, mwx = 0, mwy = 0, mwxx = 0, mwxy = 0, mwyy = 0;
   std::int64_t count = 0;
   const int x_begin = std::max(cx - r, roi.x), x_end = std::min(cx + r, roi_x1);
+  const int y_begin = std::max(cy - r, roi.y), y_end = std::min(cy + r, roi_y1);
   for (int a = x_begin; a <= x_end; a += kLanes) {
     const int first = VectorStart(image.cols, a), last = std::min(x_end, a + kLanes - 1);
     const std::int64_t offset = first - cx;
-    // Sums over the vector's rows: of w, w * lane, w * lane^2, and of those times dy.
-    std::int64_t w = 0, wl = 0, wll = 0, wy = 0, wly = 0, wyy = 0;
-    I32x8 lanes_wll{};
-    for (int dy = -r, rows = 0; dy <= r; ++dy) {
-      const int y = cy + dy;
-      if (y < roi.y || y > roi_y1) continue;
-      const int half_width = half_width_at(dy);
+    I32x16 w, wy, wyy;  // per lane, down the rows
+    U8x16 nonzero{};
+    // Lane sums into the vector's moments: sum_l s(l) * l^power.
+    auto lane_sum = [](const I32x16& s, int power) {
+      I32x8 v = s.lo, u = s.hi;
+      for (int p = 0; p < power; ++p) {
+        v *= kLaneLo;
+        u *= kLaneHi;
+      }
+      return Sum(v + u);
+    };
+    auto flush = [&] {
+      const std::int64_t sw = lane_sum(w, 0), swl = lane_sum(w, 1), swll = lane_sum(w, 2);
+      const std::int64_t swy = lane_sum(wy, 0), swly = lane_sum(wy, 1);
+      // dx = lane + offset.
+      mw += sw;
+      mwx += swl + offset * sw;
+      mwxx += swll + 2 * offset * swl + offset * offset * sw;
+      mwy += swy;
+      mwxy += swly + offset * swy;
+      mwyy += lane_sum(wyy, 0);
+      for (int k = 0; k < kLanes; ++k) count += nonzero[k];
+      w = wy = wyy = I32x16{};
+      nonzero = U8x16{};
+    };
+    for (int y = y_begin, rows = 0; y <= y_end; ++y) {
+      const int dy = y - cy, half_width = half_width_at(dy);
       const int x0 = std::max(a, cx - half_width), x1 = std::min(last, cx + half_width);
       if (x0 > x1) continue;
       U8x16 pixels;
       LoadSpan(image.ptr<std::uint8_t>(y), image.cols, first, x0, x1, pixels);
       const U8x16 weight = pixels < level ? level - pixels : U8x16{};  // white padding: 0
-      count += CountNonZero(weight);
-      const U16x16 w16 = __builtin_convertvector(weight, U16x16);
-      const U16x16 wl16 = w16 * kLane16, wll16 = wl16 * kLane16;  // <= 255 * 15^2 < 2^16
-      const auto [row_w, row_wl] = Sums(w16, wl16);                 // <= 16 * 255 * 15 < 2^16
-      w += row_w;
-      wl += row_wl;
-      wy += std::int64_t{row_w} * dy;
-      wly += std::int64_t{row_wl} * dy;
-      wyy += std::int64_t{row_w} * dy * dy;
-      lanes_wll += __builtin_convertvector(__builtin_shufflevector(wll16, wll16, 0, 1, 2, 3, 4, 5, 6, 7), I32x8) +
-                   __builtin_convertvector(__builtin_shufflevector(wll16, wll16, 8, 9, 10, 11, 12, 13, 14, 15), I32x8);
-      if (++rows == kRowsPerSum) {  // before a lane of int32 could overflow
-        wll += Sum(lanes_wll);
-        lanes_wll = I32x8{};
+      nonzero -= reinterpret_cast<U8x16>(weight != 0);
+      const I32x16 row = Widen(weight);
+      const I32x16 row_y = {row.lo * dy, row.hi * dy};
+      w.lo += row.lo;
+      w.hi += row.hi;
+      wy.lo += row_y.lo;
+      wy.hi += row_y.hi;
+      wyy.lo += row_y.lo * dy;
+      wyy.hi += row_y.hi * dy;
+      if (++rows == rows_per_flush) {
+        flush();
         rows = 0;
       }
     }
-    wll += Sum(lanes_wll);
-    // dx = lane + offset.
-    mw += w;
-    mwx += wl + offset * w;
-    mwxx += wll + 2 * offset * wl + offset * offset * w;
-    mwy += wy;
-    mwxy += wly + offset * wy;
-    mwyy += wyy;
+    flush();
   }
   m.count = count;
   m.sw = static_cast<double>(mw);
@@ -379,6 +425,17 @@ void BlobOptions::Validate() const {
   require(max_area_px > min_area_px, "max_area_px", "> min_area_px", max_area_px);
 }
 
+BlobOptions ScaleBlobOptions(const BlobOptions& options, double scale) {
+  if (!(scale > 1)) return options;
+  BlobOptions scaled = options;
+  scaled.min_spread_px *= scale;
+  scaled.max_spread_px *= scale;
+  scaled.background_kernel_px = 2 * static_cast<int>(std::lround(0.5 * (options.background_kernel_px - 1) * scale)) + 1;
+  scaled.min_area_px = static_cast<int>(std::lround(options.min_area_px * scale * scale));
+  scaled.max_area_px = static_cast<int>(std::lround(options.max_area_px * scale * scale));
+  return scaled;
+}
+
 std::string_view ToString(BlobStatus status) {
   switch (status) {
     case BlobStatus::kFound: return "found";
@@ -437,6 +494,20 @@ BlobStatus MeasureBlob(const cv::Mat& image,
   return BlobStatus::kFound;
 }
 
+void PrefetchDisk(const cv::Mat& image, const cv::Rect& roi, const Eigen::Vector2d& center, double radius_px) {
+  if (!center.allFinite()) return;
+  const cv::Rect box = cv::Rect(static_cast<int>(std::floor(center.x() - radius_px)),
+                                static_cast<int>(std::floor(center.y() - radius_px)),
+                                static_cast<int>(2 * radius_px) + 2, static_cast<int>(2 * radius_px) + 2) &
+                       roi;
+  constexpr int kCacheLine = 64;
+  for (int y = box.y; y < box.y + box.height; ++y) {
+    const std::uint8_t* row = image.ptr<std::uint8_t>(y);
+    for (int x = box.x; x < box.x + box.width; x += kCacheLine) __builtin_prefetch(row + x);
+    __builtin_prefetch(row + box.x + box.width - 1);
+  }
+}
+
 bool BlobReachesBorder(const cv::Mat& image,
                        const cv::Rect& roi,
                        const Blob& blob,
@@ -445,6 +516,11 @@ bool BlobReachesBorder(const cv::Mat& image,
   const double level = blob.background_dn - 0.5 * blob.contrast_dn;
   const double cx = blob.center.x(), cy = blob.center.y(), r2 = blob_radius_px * blob_radius_px;
   const int x0 = roi.x, x1 = roi.x + roi.width - 1, y0 = roi.y, y1 = roi.y + roi.height - 1;
+  // Most dots' disks reach no border: nothing to read.
+  if (cx - blob_radius_px > x0 && cx + blob_radius_px < x1 && cy - blob_radius_px > y0 &&
+      cy + blob_radius_px < y1) {
+    return false;
+  }
   auto weighted = [&](int x, int y) {
     return (x - cx) * (x - cx) + (y - cy) * (y - cy) <= r2 && image.at<std::uint8_t>(y, x) < level;
   };

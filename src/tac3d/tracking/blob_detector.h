@@ -41,6 +41,11 @@ struct BlobOptions {
   void Validate() const;
 };
 
+/// The options' pixel sizes for dots `scale` times as large as the ones they are meant for:
+/// the RMS radius bounds and the background closing's half side scaled linearly, the area
+/// bounds squared. A scale of 1 or less (or NaN) leaves them as they are.
+BlobOptions ScaleBlobOptions(const BlobOptions& options, double scale);
+
 enum class BlobStatus : std::uint8_t {
   kFound,
   kNoBlob,    ///< nothing dark enough in the search disk (or the disk is out of the image)
@@ -73,6 +78,12 @@ BlobStatus MeasureBlob(const cv::Mat& image,
                        double blob_radius_px,
                        const BlobOptions& options,
                        Blob& blob);
+
+/// Asks the processor to fetch the image's pixels in the square about `center` of half side
+/// `radius_px` (inside `roi`) into its cache, so a MeasureBlob there that comes after other
+/// work does not wait on memory (a camera frame is new to the cache). Reads nothing itself.
+/// @pre image is CV_8UC1, roi lies in it.
+void PrefetchDisk(const cv::Mat& image, const cv::Rect& roi, const Eigen::Vector2d& center, double radius_px);
 
 /// Whether a measured blob's dot reaches the border of `roi`: a pixel of the roi's outermost
 /// rows or columns within `blob_radius_px` of its centre is darker than halfway from its

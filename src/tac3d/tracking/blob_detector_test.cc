@@ -141,5 +141,25 @@ TEST(BlobOptions, ValidateNamesTheField) {
   EXPECT_THROW(options.Validate(), Error);
 }
 
+TEST(ScaleBlobOptions, ScalesPixelSizesForLargerDotsOnly) {
+  const BlobOptions options;
+  // Dots twice as large: radii and the closing's half side doubled, areas four times.
+  const BlobOptions twice = ScaleBlobOptions(options, 2.0);
+  EXPECT_EQ(twice.min_spread_px, 2 * options.min_spread_px);
+  EXPECT_EQ(twice.max_spread_px, 2 * options.max_spread_px);
+  EXPECT_EQ(twice.background_kernel_px, 2 * (options.background_kernel_px - 1) + 1);
+  EXPECT_EQ(twice.min_area_px, 4 * options.min_area_px);
+  EXPECT_EQ(twice.max_area_px, 4 * options.max_area_px);
+  EXPECT_EQ(twice.min_contrast_dn, options.min_contrast_dn);  // not a size
+  EXPECT_NO_THROW(twice.Validate());
+  // Not larger: as given.
+  for (double scale : {1.0, 0.5, std::nan("")}) {
+    const BlobOptions same = ScaleBlobOptions(options, scale);
+    EXPECT_EQ(same.max_spread_px, options.max_spread_px) << scale;
+    EXPECT_EQ(same.max_area_px, options.max_area_px) << scale;
+    EXPECT_EQ(same.background_kernel_px, options.background_kernel_px) << scale;
+  }
+}
+
 }  // namespace
 }  // namespace tac3d

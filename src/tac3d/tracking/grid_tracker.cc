@@ -42,6 +42,19 @@ std::string_view ToString(MarkerState state) {
   return "?";
 }
 
+std::vector<double> CalcGridPitchPx(int rows, int cols, const std::vector<Eigen::Vector2d>& nominal) {
+  TAC3D_DEMAND(static_cast<int>(nominal.size()) == rows * cols);
+  std::vector<double> pitch(nominal.size(), std::numeric_limits<double>::infinity());
+  for (int i = 0; i < rows * cols; ++i) {
+    const int r = i / cols, c = i % cols;
+    if (c + 1 < cols) pitch[i] = std::min(pitch[i], (nominal[i + 1] - nominal[i]).norm());
+    if (c > 0) pitch[i] = std::min(pitch[i], (nominal[i - 1] - nominal[i]).norm());
+    if (r + 1 < rows) pitch[i] = std::min(pitch[i], (nominal[i + cols] - nominal[i]).norm());
+    if (r > 0) pitch[i] = std::min(pitch[i], (nominal[i - cols] - nominal[i]).norm());
+  }
+  return pitch;
+}
+
 void CheckTrackerImage(const cv::Mat& image, int width, int height) {
   if (image.empty()) {
     throw Error("marker tracker: empty image (an unreadable or corrupt file, or no camera frame)");
@@ -90,13 +103,8 @@ GridTracker::GridTracker(int rows, int cols, const cv::Rect& roi, std::vector<Ei
     }
   }
   neighbour_begin_.push_back(static_cast<int>(neighbours_.size()));
-  pitch_.assign(n, std::numeric_limits<double>::infinity());
+  pitch_ = CalcGridPitchPx(rows_, cols_, nominal_);
   for (int i = 0; i < n; ++i) {
-    const int r = i / cols_, c = i % cols_;
-    if (c + 1 < cols_) pitch_[i] = std::min(pitch_[i], (nominal_[i + 1] - nominal_[i]).norm());
-    if (c > 0) pitch_[i] = std::min(pitch_[i], (nominal_[i - 1] - nominal_[i]).norm());
-    if (r + 1 < rows_) pitch_[i] = std::min(pitch_[i], (nominal_[i + cols_] - nominal_[i]).norm());
-    if (r > 0) pitch_[i] = std::min(pitch_[i], (nominal_[i - cols_] - nominal_[i]).norm());
     if (!std::isfinite(pitch_[i]) || pitch_[i] < 2.0) {
       throw Error(fmt::format("marker tracker: markers too close in {} ({} px at marker {})", what, pitch_[i], i));
     }
@@ -157,6 +165,12 @@ void GridTracker::Grow(const cv::Mat& image, int head, int tail) {
       const int i = queue_[head++];
       queued_[i] = 0;
       if (accepted_[i]) continue;
+      // The next marker's pixels come from memory while this one is measured (near its
+      // last position: its prediction is not known yet).
+      if (head < tail) {
+        const int next = queue_[head];
+        PrefetchDisk(image, roi_, base_[next], (options_.search_radius + options_.blob_radius) * pitch_[next]);
+      }
       const Eigen::Vector2d prediction = Predict(i);
       ++tries_[i];
       const double pitch = pitch_[i];

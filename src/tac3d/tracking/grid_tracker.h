@@ -90,6 +90,11 @@ struct GridObservation {
 /// @throws Error if the image is empty, not CV_8UC1, or not width x height px.
 void CheckTrackerImage(const cv::Mat& image, int width, int height);
 
+/// Per marker of a rows x cols grid (row-major `nominal` pixels), the distance to its nearest
+/// grid neighbour (left, right, up or down), px; infinite for a marker with none.
+/// @pre nominal holds rows * cols points.
+std::vector<double> CalcGridPitchPx(int rows, int cols, const std::vector<Eigen::Vector2d>& nominal);
+
 /// Finds a rows x cols marker grid in a region of the image and follows it from frame to
 /// frame (paper section IV.A: the displacement field comes from tracking the markers). The
 /// building block of MarkerTracker (one per image half) and SingleViewTracker (one image).

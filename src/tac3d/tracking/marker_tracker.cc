@@ -86,25 +86,14 @@ std::array<HalfSeed, 2> SeedHalves(const SensorConfig& config) {
 }
 
 // The largest nominal pitch of both halves over the one MarkerTrackerOptions::blob is meant for.
-double BlobScale(const std::vector<GridTracker>& halves) {
+double BlobScale(const std::array<HalfSeed, 2>& seeds, int rows, int cols) {
   double largest_pitch_px = 0;
-  for (const GridTracker& half : halves) {
-    for (double pitch : half.pitch_px()) {
+  for (const HalfSeed& seed : seeds) {
+    for (double pitch : CalcGridPitchPx(rows, cols, seed.nominal)) {
       if (std::isfinite(pitch)) largest_pitch_px = std::max(largest_pitch_px, pitch);
     }
   }
   return largest_pitch_px / kBlobOptionsPitchPx;
-}
-
-// The blob options' pixel sizes scaled up (radii and kernel linearly, areas squared).
-BlobOptions ScaleBlobOptions(const BlobOptions& options, double scale) {
-  BlobOptions scaled = options;
-  scaled.min_spread_px *= scale;
-  scaled.max_spread_px *= scale;
-  scaled.background_kernel_px = 2 * static_cast<int>(std::lround(0.5 * (options.background_kernel_px - 1) * scale)) + 1;
-  scaled.min_area_px = static_cast<int>(std::lround(options.min_area_px * scale * scale));
-  scaled.max_area_px = static_cast<int>(std::lround(options.max_area_px * scale * scale));
-  return scaled;
 }
 
 }  // namespace
@@ -114,21 +103,12 @@ MarkerTracker::MarkerTracker(const SensorConfig& config, const MarkerTrackerOpti
   options_.Validate();
   const int rows = config.markers.rows, cols = config.markers.cols;
   const std::array<HalfSeed, 2> seeds = SeedHalves(config);
-  const auto make_halves = [&](const MarkerTrackerOptions& half_options) {
-    halves_.clear();
-    for (ImageHalf which : kImageHalves) {
-      const HalfSeed& seed = seeds[static_cast<int>(which)];
-      halves_.emplace_back(rows, cols, seed.roi, seed.nominal, half_options,
-                           fmt::format("the {} half", ToString(which)));
-    }
-  };
-  make_halves(options_);
-  // The blob sizes follow the pitch the grid trackers measured on the seeds.
-  blob_ = options_.blob;
-  if (const double scale = BlobScale(halves_); scale > 1) {
-    MarkerTrackerOptions scaled = options_;
-    scaled.blob = blob_ = ScaleBlobOptions(options_.blob, scale);
-    make_halves(scaled);
+  // The blob sizes follow the nominal pitch (the grid trackers' own measure of it).
+  MarkerTrackerOptions scaled = options_;
+  scaled.blob = blob_ = ScaleBlobOptions(options_.blob, BlobScale(seeds, rows, cols));
+  for (ImageHalf which : kImageHalves) {
+    const HalfSeed& seed = seeds[static_cast<int>(which)];
+    halves_.emplace_back(rows, cols, seed.roi, seed.nominal, scaled, fmt::format("the {} half", ToString(which)));
   }
 }
 

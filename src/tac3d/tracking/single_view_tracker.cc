@@ -114,15 +114,12 @@ MarkerTrackerOptions NarrowedToDots(MarkerTrackerOptions options, const MarkerGr
 
 }  // namespace
 
-BlobOptions SizeBlobOptionsToDots(BlobOptions options, double spread_px) {
+BlobOptions SizeBlobOptionsToDots(const BlobOptions& options, double spread_px) {
   // The defaults' largest RMS radius is twice a Tac3D dot's.
   const double scale = spread_px / (options.max_spread_px / 2);
-  if (!(scale > 1)) return options;
-  options.max_spread_px *= scale;
-  options.max_area_px = static_cast<int>(std::lround(options.max_area_px * scale * scale));
-  options.background_kernel_px = 2 * static_cast<int>(std::lround(options.background_kernel_px * scale / 2)) + 1;
-  options.max_elongation = std::max(options.max_elongation, 4.0);
-  return options;
+  BlobOptions sized = ScaleBlobOptions(options, scale);
+  if (scale > 1) sized.max_elongation = std::max(options.max_elongation, 4.0);
+  return sized;
 }
 
 MarkerGrid FindMarkerGrid(const cv::Mat& image, int rows, int cols, const BlobOptions& blob_options) {

@@ -29,11 +29,11 @@ struct MarkerGrid {
 };
 
 /// Blob options for dots of RMS radius `spread_px`. The defaults suit Tac3D's dots (RMS radius
-/// up to 1.5 px); larger dots scale the size limits (`max_spread_px`, `max_area_px`) and the
-/// background closing (`background_kernel_px`) with them, and allow an axis ratio of 4: a dot
+/// up to 1.5 px); larger dots scale the pixel sizes with them (ScaleBlobOptions: the spread and
+/// area bounds, the background closing), and allow an axis ratio of 4: a dot
 /// many pixels across squashed at a contact's edge reaches 3-4 (a GelSight Mini's at its
 /// deepest press), and the centroid's disk, narrowed to the dot, cannot hold a neighbour's.
-BlobOptions SizeBlobOptionsToDots(BlobOptions options, double spread_px);
+BlobOptions SizeBlobOptionsToDots(const BlobOptions& options, double spread_px);
 
 /// Finds the grid of dark markers in an image: every dark blob (DetectBlobs, first with room
 /// for dots up to a sixteenth of the image's side to measure their size, then again with
