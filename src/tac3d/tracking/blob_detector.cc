@@ -115,6 +115,16 @@ constexpr I32x8 kLaneLo = {0, 1, 2, 3, 4, 5, 6, 7}, kLaneHi = {8, 9, 10, 11, 12,
 
 // A centroid this far (squared, px^2) from the disk's centre is measured again about it.
 constexpr double kRecentreDistance2 = 0.75 * 0.75;
+// Large dots (a measuring disk of at least kLargeDiskPx): their darkest pixel, found in every
+// kSearchRowStep-th row of the search disk, may lie anywhere in a flat dark core, so their
+// moments start at the predicted centre; a small dot's at its darkest pixel.
+constexpr double kLargeDiskPx = 8.0;
+constexpr int kSearchRowStep = 3;
+// How far (px) a dot's blurred rim reaches beyond twice its RMS radius.
+constexpr double kDotBlurPx = 2.5;
+// A prediction off by more than the disk's margin needs a pass to find the dot and one to
+// centre on it.
+constexpr int kMaxMomentPasses = 3;
 
 int Round(double v) { return static_cast<int>(std::floor(v + 0.5)); }
 
@@ -133,17 +143,19 @@ struct Seed {
 // The search disk's rows are scanned a block of them at a time.
 constexpr int kBlockRows = 16;
 
-// Calls f(y, first, pixels) on the vectors covering rows [block, block + rows) from span_x0 to
-// span_x1 (pixels outside the span white), in row-major order, until f returns true.
+// Calls f(y, first, pixels) on the vectors covering rows block + k * row_step (k < rows) from
+// span_x0[k] to span_x1[k] (pixels outside the span white), in row-major order, until f returns
+// true.
 template <typename F>
 void ForEachSpanVector(const cv::Mat& image,
                        int block,
                        int rows,
+                       int row_step,
                        const std::array<int, kBlockRows>& span_x0,
                        const std::array<int, kBlockRows>& span_x1,
                        F&& f) {
   for (int k = 0; k < rows; ++k) {
-    const int y = block + k, x0 = span_x0[k], x1 = span_x1[k];
+    const int y = block + k * row_step, x0 = span_x0[k], x1 = span_x1[k];
     const std::uint8_t* row = image.ptr<std::uint8_t>(y);
     for (int a = x0; a <= x1; a += kLanes) {
       U8x16 pixels;
@@ -155,7 +167,8 @@ void ForEachSpanVector(const cv::Mat& image,
 }
 
 // The darkest pixel in the disk of radius `s` about `predicted`, inside `roi`: the first, in
-// row-major order, of the disk's minimum.
+// row-major order, of the disk's minimum; in every kSearchRowStep-th row for a disk of at
+// least kLargeDiskPx, whose dots are many rows tall (the seed need only lie in the dot).
 Seed FindDarkestPixel(const cv::Mat& image,
                       const cv::Rect& roi,
                       const Eigen::Vector2d& predicted,
@@ -165,13 +178,14 @@ Seed FindDarkestPixel(const cv::Mat& image,
   Seed seed;
   const int y0 = std::max(roi.y, static_cast<int>(std::ceil(qy - s)));
   const int y1 = std::min(roi_y1, static_cast<int>(std::floor(qy + s)));
+  const int row_step = s >= kLargeDiskPx ? kSearchRowStep : 1;
   // The rows' spans come first, a block at a time, so their square roots do not sit in the
   // scanning loop (a separate loop also vectorises).
   std::array<int, kBlockRows> span_x0, span_x1;
-  for (int block = y0; block <= y1; block += kBlockRows) {
-    const int rows = std::min(kBlockRows, y1 - block + 1);
+  for (int block = y0; block <= y1; block += kBlockRows * row_step) {
+    const int rows = std::min(kBlockRows, (y1 - block) / row_step + 1);
     for (int k = 0; k < rows; ++k) {
-      const double dy = block + k - qy;
+      const double dy = block + k * row_step - qy;
       const double half_width = std::sqrt(std::max(0.0, s * s - dy * dy));
       span_x0[k] = std::max(roi.x, static_cast<int>(std::ceil(qx - half_width)));
       span_x1[k] = std::min(roi_x1, static_cast<int>(std::floor(qx + half_width)));
@@ -179,14 +193,14 @@ Seed FindDarkestPixel(const cv::Mat& image,
     // The block's minimum (lane by lane, one reduction), then where it first is, if it is
     // darker than the blocks before.
     U8x16 lanes_min = U8x16{} + 255;
-    ForEachSpanVector(image, block, rows, span_x0, span_x1, [&](int, int, U8x16 pixels) {
+    ForEachSpanVector(image, block, rows, row_step, span_x0, span_x1, [&](int, int, U8x16 pixels) {
       lanes_min = Min(lanes_min, pixels);
       return false;
     });
     const int block_min = HorizontalMin(lanes_min);
     if (block_min >= seed.darkest) continue;
     seed.darkest = block_min;
-    ForEachSpanVector(image, block, rows, span_x0, span_x1, [&](int y, int first, U8x16 pixels) {
+    ForEachSpanVector(image, block, rows, row_step, span_x0, span_x1, [&](int y, int first, U8x16 pixels) {
       if (!AnyLaneEqual(pixels, static_cast<std::uint8_t>(block_min))) return false;
       seed.x = first + FirstLaneEqual(pixels, static_cast<std::uint8_t>(block_min));
       seed.y = y;
@@ -337,31 +351,6 @@ void SumDiskMoments(const cv::Mat& image,
   m.syy = static_cast<double>(mwyy);
 }
 
-// Darkness-weighted moments over the blob's disk about the darkest pixel; again about the
-// pixel nearest the centroid if that is far off, so that a darkest pixel at the rim of a
-// flat dark core does not cut the disk off-centre. False if a pass has no weight.
-bool CalcCentredMoments(const cv::Mat& image,
-                        const cv::Rect& roi,
-                        const Seed& seed,
-                        std::uint8_t level,
-                        double blob_radius_px,
-                        Moments& m) {
-  const DiskHalfWidths half_width_at(blob_radius_px);
-  m.cx = seed.x;
-  m.cy = seed.y;
-  for (int pass = 0; pass < 2; ++pass) {
-    if (pass == 1) {
-      const double ox = m.sx / m.sw, oy = m.sy / m.sw;
-      if (ox * ox + oy * oy <= kRecentreDistance2) break;
-      m.cx += Round(ox);
-      m.cy += Round(oy);
-    }
-    SumDiskMoments(image, roi, level, half_width_at, m);
-    if (m.sw <= 0) return false;
-  }
-  return true;
-}
-
 // The blob's centroid and shape from its moments: RMS radius along the long axis,
 // elongation, and fill (pixels with weight over the covariance ellipse's area).
 struct Shape {
@@ -381,6 +370,35 @@ Shape CalcShape(const Moments& m) {
           std::sqrt(major),
           std::sqrt(major / minor),
           m.count / (4.0 * M_PI * std::sqrt(major * minor))};
+}
+
+// Darkness-weighted moments over the blob's disk about `start`; again about the pixel nearest
+// the centroid while the disk may have cut the dot off-centre: the centroid more than
+// kRecentreDistance2 off and the dot's extent (twice its RMS radius, a flat dot's radius, plus
+// kDotBlurPx) from it reaching past the disk's rim. At most kMaxMomentPasses passes. False if a
+// pass has no weight.
+bool CalcCentredMoments(const cv::Mat& image,
+                        const cv::Rect& roi,
+                        int start_x,
+                        int start_y,
+                        std::uint8_t level,
+                        double blob_radius_px,
+                        Moments& m) {
+  const DiskHalfWidths half_width_at(blob_radius_px);
+  m.cx = start_x;
+  m.cy = start_y;
+  for (int pass = 0; pass < kMaxMomentPasses; ++pass) {
+    if (pass > 0) {
+      const double ox = m.sx / m.sw, oy = m.sy / m.sw, offset2 = ox * ox + oy * oy;
+      const double margin = blob_radius_px - 2 * CalcShape(m).spread - kDotBlurPx;
+      if (offset2 <= std::max(kRecentreDistance2, margin * std::abs(margin))) break;
+      m.cx += Round(ox);
+      m.cy += Round(oy);
+    }
+    SumDiskMoments(image, roi, level, half_width_at, m);
+    if (m.sw <= 0) return false;
+  }
+  return true;
 }
 
 // Darkness of the 3 x 3 core at `center` (the part inside the roi, `core_count` pixels):
@@ -477,7 +495,11 @@ BlobStatus MeasureBlob(const cv::Mat& image,
   // level <= background <= 255 and level >= darkest >= 0 (weight_threshold < 1): a byte.
   const auto level = static_cast<std::uint8_t>(Round(background - options.weight_threshold * contrast));
   Moments m;
-  if (!CalcCentredMoments(image, roi, seed, level, blob_radius_px, m)) return BlobStatus::kNoBlob;
+  const bool large = blob_radius_px >= kLargeDiskPx;
+  if (!CalcCentredMoments(image, roi, large ? Round(qx) : seed.x, large ? Round(qy) : seed.y, level,
+                          blob_radius_px, m)) {
+    return BlobStatus::kNoBlob;
+  }
   const Shape shape = CalcShape(m);
   int core_count = 0;
   const double core = CoreDarkness(image, roi, shape.center, background, core_count);
