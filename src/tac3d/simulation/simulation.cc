@@ -14,6 +14,12 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// Validated before the members built from them (the scaled compliance).
+SimulationOptions Validated(const SimulationOptions& options) {
+  options.Validate();
+  return options;
+}
+
 contact::SampledKernel ScaledKernel(contact::SampledKernel kernel, double factor) {
   for (auto& row : kernel.k) {
     for (Eigen::MatrixXd& k : row) k *= factor;
@@ -122,7 +128,7 @@ TwinSimulation::TwinSimulation(const Scene& scene,
                                const SimulationOptions& options)
     : scene_(scene),
       model_(std::move(model)),
-      options_(options),
+      options_(Validated(options)),
       compliance_(model_ ? std::make_shared<contact::ConvolutionCompliance>(
                                model_->grid,
                                ScaledKernel(model_->kernel, 1.0 / options.youngs_modulus_scale),
@@ -130,7 +136,6 @@ TwinSimulation::TwinSimulation(const Scene& scene,
                          : nullptr),
       solver_(compliance_, options.contact) {
   scene_.Validate();
-  options_.Validate();
   TAC3D_DEMAND(model_ != nullptr);
   if (model_->body.marker_rows != scene_.sensor.markers.rows ||
       model_->body.marker_cols != scene_.sensor.markers.cols) {
