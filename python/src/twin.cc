@@ -3,7 +3,10 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <cstring>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -21,6 +24,7 @@
 #include "tac3d/sensor/sensor_config.h"
 #include "tac3d/simulation/simulation.h"
 #include "tac3d/simulation/twin_body.h"
+#include "tac3d/util/cache_file.h"
 #include "tac3d/util/file_io.h"
 #include "twin_common.h"
 
@@ -208,13 +212,8 @@ py::dict StepDict(TwinStep&& s, bool with_image) {
   return d;
 }
 
-py::dict Truth(const Dataset& ds) {
-  const std::vector<int>& steps = ds.reader->steps();
-  std::vector<TwinStep> read(steps.size());
-  {
-    py::gil_scoped_release release;
-    for (size_t k = 0; k < steps.size(); ++k) read[k] = ds.reader->Read(steps[k]);
-  }
+// Every step's truth as arrays (Dataset.truth's keys).
+py::dict TruthArrays(const std::vector<TwinStep>& read) {
   const auto t = static_cast<py::ssize_t>(read.size());
   const py::ssize_t n =
       read.empty() ? 0 : static_cast<py::ssize_t>(read.front().marker_positions_mm.size());
@@ -265,6 +264,166 @@ py::dict Truth(const Dataset& ds) {
   d["marker_slip"] = slip;
   d["total_force"] = total_force;
   d["total_moment"] = total_moment;
+  return d;
+}
+
+py::dict Truth(const Dataset& ds) {
+  const std::vector<int>& steps = ds.reader->steps();
+  std::vector<TwinStep> read(steps.size());
+  {
+    py::gil_scoped_release release;
+    for (size_t k = 0; k < steps.size(); ++k) read[k] = ds.reader->Read(steps[k]);
+  }
+  return TruthArrays(read);
+}
+
+// The twin body models this process has loaded, by cache file: a Dask worker runs many
+// episodes and loads each model it needs once, shared read-only by its simulations.
+std::shared_ptr<const simulation::TwinBodyModel> SharedTwinBodyModel(
+    const fem::BodyModelOptions& body,
+    const simulation::TwinBodyOptions& twin,
+    const std::string& cache_dir,
+    nlohmann::json* model_json) {
+  struct Loaded {
+    std::shared_ptr<const simulation::TwinBodyModel> model;
+    std::string path;
+  };
+  static std::mutex mutex;
+  static std::map<std::string, Loaded> loaded;
+  const std::string dir = ResolveCacheDir(cache_dir);
+  const std::string key =
+      fmt::format("{}/{:016x}", dir, simulation::CalcTwinBodyCacheKey(body, twin));
+  const std::lock_guard<std::mutex> lock(mutex);
+  auto it = loaded.find(key);
+  if (it == loaded.end()) {
+    simulation::TwinBodyCacheResult cached =
+        simulation::LoadOrBuildTwinBodyModel(body, twin, dir, /*show_progress=*/false);
+    *model_json = {{"cache_file", cached.path},
+                   {"cache_status", Describe(cached.status)},
+                   {"load_or_build_s", cached.elapsed_s}};
+    Loaded entry{std::make_shared<const simulation::TwinBodyModel>(std::move(cached.model)),
+                 cached.path};
+    it = loaded.emplace(key, std::move(entry)).first;
+  } else {
+    *model_json = {
+        {"cache_file", it->second.path}, {"cache_status", "in memory"}, {"load_or_build_s", 0.0}};
+  }
+  return it->second.model;
+}
+
+// The body a simulation of `scene` needs, and the E scale it runs at: with scaling, the model
+// at the scene's nu and E x 1 (one model for every E), scaled to the scene's E.
+fem::BodyModelOptions SimulatedBody(const Scene& scene, bool scale_youngs_modulus, double* scale) {
+  TwinDeviation deviation = scene.deviation;
+  *scale = 1.0;
+  if (scale_youngs_modulus) {
+    *scale = deviation.youngs_modulus_factor;
+    deviation.youngs_modulus_factor = 1.0;
+  }
+  return simulation::TwinBodyModelOptions(scene.sensor, deviation);
+}
+
+py::dict PrepareTwinBody(const py::object& scene_arg,
+                         const std::string& cache_dir,
+                         const py::dict& twin_options,
+                         bool scale_youngs_modulus) {
+  const Scene scene = SceneArg(scene_arg);
+  const simulation::TwinBodyOptions twin = TwinOptions(twin_options);
+  nlohmann::json model_json;
+  {
+    py::gil_scoped_release release;
+    double scale = 1.0;
+    const simulation::TwinBodyCacheResult cached = simulation::LoadOrBuildTwinBodyModel(
+        SimulatedBody(scene, scale_youngs_modulus, &scale), twin, ResolveCacheDir(cache_dir),
+        /*show_progress=*/false);
+    model_json = {{"cache_file", cached.path},
+                  {"cache_status", Describe(cached.status)},
+                  {"load_or_build_s", cached.elapsed_s}};
+  }
+  return JsonToPython(model_json);
+}
+
+// T x rest, stacked from each step's vector (T x S x 3 for Vector3d, T x S otherwise).
+template <typename T, typename Get>
+py::array StackSteps(const std::vector<TwinStep>& steps, Get get) {
+  using Element = std::decay_t<decltype(get(steps.front()).front())>;
+  const auto t = static_cast<py::ssize_t>(steps.size());
+  const auto s = static_cast<py::ssize_t>(get(steps.front()).size());
+  constexpr bool kVector3 = std::is_same_v<Element, Eigen::Vector3d>;
+  std::vector<py::ssize_t> shape = {t, s};
+  if constexpr (kVector3) shape.push_back(3);
+  py::array_t<T> out(shape);
+  T* data = out.mutable_data();
+  for (const TwinStep& step : steps) {
+    const auto& v = get(step);
+    if (static_cast<py::ssize_t>(v.size()) != s) {
+      throw Error(fmt::format("step {} has {} surface nodes, step 0 has {}", step.index, v.size(), s));
+    }
+    for (const Element& e : v) {
+      if constexpr (kVector3) {
+        for (int c = 0; c < 3; ++c) *data++ = e[c];
+      } else {
+        *data++ = static_cast<T>(e);
+      }
+    }
+  }
+  return out;
+}
+
+py::dict SimulateArrays(const py::object& scene_arg,
+                        const std::string& cache_dir,
+                        int steps,
+                        bool images,
+                        const py::dict& twin_options,
+                        bool scale_youngs_modulus) {
+  if (steps < 0) throw Error(fmt::format("steps must be >= 0, got {}", steps));
+  const Scene scene = SceneArg(scene_arg);
+  const simulation::TwinBodyOptions twin = TwinOptions(twin_options);
+  nlohmann::json model_json;
+  simulation::SimulationSummary summary;
+  std::vector<TwinStep> run;
+  {
+    py::gil_scoped_release release;
+    simulation::SimulationOptions options;
+    options.render_images = images;
+    options.max_steps = steps;
+    const fem::BodyModelOptions body =
+        SimulatedBody(scene, scale_youngs_modulus, &options.youngs_modulus_scale);
+    simulation::TwinSimulation sim(
+        scene, SharedTwinBodyModel(body, twin, cache_dir, &model_json), options);
+    run.reserve(sim.num_steps());
+    summary = sim.Run([&](const TwinStep& step) { run.push_back(step); });
+  }
+  if (run.empty()) throw Error(fmt::format("scene '{}' has no steps to simulate", scene.name));
+  py::dict d = TruthArrays(run);
+  d.attr("pop")("index");
+  if (images) {
+    const cv::Mat& first = run.front().image;
+    py::array_t<std::uint8_t> stack({static_cast<py::ssize_t>(run.size()),
+                                     static_cast<py::ssize_t>(first.rows),
+                                     static_cast<py::ssize_t>(first.cols)});
+    std::uint8_t* data = stack.mutable_data();
+    for (const TwinStep& step : run) {
+      const cv::Mat& image = step.image;
+      TAC3D_DEMAND(image.type() == CV_8UC1 && image.size == first.size);
+      for (int r = 0; r < image.rows; ++r, data += image.cols) {
+        std::memcpy(data, image.ptr<std::uint8_t>(r), image.cols);
+      }
+    }
+    d["images"] = stack;
+  }
+  const SurfaceTractions& surface = run.front().surface;
+  d["surface_positions"] = Vector3Owned(std::vector<Eigen::Vector3d>(surface.positions_mm));
+  d["surface_tractions"] =
+      StackSteps<double>(run, [](const TwinStep& s) -> const auto& { return s.surface.tractions_mpa; });
+  d["surface_states"] =
+      StackSteps<std::uint8_t>(run, [](const TwinStep& s) -> const auto& { return s.surface.states; });
+  d["surface_friction"] =
+      StackSteps<double>(run, [](const TwinStep& s) -> const auto& { return s.surface.friction; });
+  nlohmann::json result = simulation::ToJson(summary);
+  result["twin_body"] = model_json;
+  result["youngs_modulus_scale"] = scale_youngs_modulus ? scene.deviation.youngs_modulus_factor : 1.0;
+  d["summary"] = JsonToPython(result);
   return d;
 }
 
@@ -486,6 +645,36 @@ void RegisterTwin(py::module_& m) {
         "step; an exception it raises stops the simulation and is re-raised. steps > 0:\n"
         "only the first steps. twin_options: cells_per_pitch, margin_mm,\n"
         "quadrature_points_per_side. Returns the summary (dict). Raises tac3d.Error.");
+
+  m.def("simulate_arrays",
+        &SimulateArrays,
+        py::arg("scene"),
+        py::kw_only(),
+        py::arg("cache_dir") = "",
+        py::arg("steps") = 0,
+        py::arg("images") = true,
+        py::arg("twin_options") = py::dict(),
+        py::arg("scale_youngs_modulus") = true,
+        "Simulates a scene (a Scene, a built-in name or a YAML path) in memory (GIL released)\n"
+        "and returns every step's truth as arrays, time first: t, world_from_sensor (T x 4 x 4),\n"
+        "marker_positions, marker_forces (T x N x 3), marker_contact, marker_slip (T x N),\n"
+        "total_force, total_moment (T x 3), images (T x H x W uint8, with images),\n"
+        "surface_positions (S x 3), surface_tractions (T x S x 3, MPa), surface_states (T x S:\n"
+        "0 separated, 1 stick, 2 slip), surface_friction (T x S: the object's mu where a node\n"
+        "touches, NaN elsewhere) and summary (dict). The body model is loaded (or built) once a\n"
+        "process and kept. scale_youngs_modulus: the model at the scene's nu and E x 1, its\n"
+        "compliance scaled to the scene's youngs_modulus_factor (one model for every E); else\n"
+        "the model at the scene's E, as tac3d.simulate. Raises tac3d.Error.");
+  m.def("prepare_twin_body",
+        &PrepareTwinBody,
+        py::arg("scene"),
+        py::kw_only(),
+        py::arg("cache_dir") = "",
+        py::arg("twin_options") = py::dict(),
+        py::arg("scale_youngs_modulus") = true,
+        "Loads, or builds and saves in cache_dir, the body model simulate_arrays would use for\n"
+        "the scene (not kept: a client makes sure the model is cached before its workers load\n"
+        "it). Returns {cache_file, cache_status, load_or_build_s}.");
 
   py::class_<Dataset>(m, "Dataset", R"doc(
 A twin dataset folder (written by tac3d.simulate or `tac3d simulate`): its header, its steps'

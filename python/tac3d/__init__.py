@@ -40,6 +40,7 @@ from ._core import (  # noqa: F401
     parse_scene,
     run,
     simulate,
+    simulate_arrays,
 )
 
 
@@ -61,5 +62,5 @@ __all__ = [
     "RecordingWriter", "Scene", "Sensor", "SensorReport", "SensorSpec", "TactileFrame",
     "builtin_scenes", "default_sensor_yaml", "design_light_path", "friction_map",
     "friction_map_defaults", "load_run_file", "load_scene", "open_recording", "open_source",
-    "parse_scene", "run", "simulate", "PYTAC3D_VERSION",
+    "parse_scene", "run", "simulate", "simulate_arrays", "PYTAC3D_VERSION",
 ]

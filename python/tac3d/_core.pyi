@@ -246,6 +246,23 @@ def simulate(
     twin_options: Mapping[str, float] = ...,
 ) -> dict[str, Any]: ...
 
+def simulate_arrays(
+    scene: Union[Scene, str],
+    *,
+    cache_dir: str = "",
+    steps: int = 0,
+    images: bool = True,
+    twin_options: Mapping[str, float] = ...,
+    scale_youngs_modulus: bool = True,
+) -> dict[str, Any]: ...
+def prepare_twin_body(
+    scene: Union[Scene, str],
+    *,
+    cache_dir: str = "",
+    twin_options: Mapping[str, float] = ...,
+    scale_youngs_modulus: bool = True,
+) -> dict[str, Any]: ...
+
 class Dataset:
     def __init__(self, folder: str) -> None: ...
     @property

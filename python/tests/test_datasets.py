@@ -116,7 +116,50 @@ def test_two_workers_write_every_episode_with_its_truth(two_workers):
             assert f["total_force"][2] < 0 and f["marker_contact"].any()
         forces = episode.array("marker_forces")
         np.testing.assert_array_equal(forces[-1], f["marker_forces"])
+        # The friction truth: the drawn mu (the object's or a region's) where a node touches.
+        states, mu = episode.array("surface_states"), episode.array("surface_friction")
+        assert mu.shape == states.shape and (states > 0).any()
+        assert np.isnan(mu[states == 0]).all()
+        drawn = draw["parameters"]["friction"]
+        assert set(np.unique(mu[states > 0])) <= {drawn["mu"]} | {r["mu"] for r in drawn["regions"]}
     assert not [p for p in (out / "episodes").iterdir() if p.name.startswith(".")]
+
+
+def test_frames_read_in_blocks_are_the_stored_arrays(two_workers, monkeypatch):
+    out, _ = two_workers
+    monkeypatch.setattr(tac3d.datasets.store, "READ_BLOCK_FRAMES", 3)  # 10 frames: 4 blocks
+    episode = tac3d.datasets.open(out)[1]
+    frames = list(episode.frames(surface=True))
+    for name, key in (("images", "image"), ("surface_tractions", "surface_tractions"),
+                      ("surface_friction", "surface_friction"), ("t", "t")):
+        np.testing.assert_array_equal(np.stack([f[key] for f in frames]), episode.array(name))
+
+
+def scene_with_youngs_modulus(draw, factor):
+    scene = json.loads(draw["scene_yaml"])
+    scene["deviation"]["youngs_modulus_factor"] = factor
+    return tac3d.parse_scene(json.dumps(scene))
+
+
+def test_youngs_modulus_scales_one_body_model(cache_dir):
+    spec = tac3d.datasets.load_spec(str(SMALL))
+    draw = next(d for d in map(spec.draw, range(20)) if d["parameters"]["trajectory"]["kind"] == "press")
+
+    def simulate(factor, **options):
+        return tac3d.simulate_arrays(scene_with_youngs_modulus(draw, factor), cache_dir=cache_dir,
+                                     images=False, twin_options=spec.twin_options, **options)
+
+    at_e, at_2e = simulate(1.0), simulate(2.0)
+    assert at_2e["summary"]["youngs_modulus_scale"] == 2.0
+    assert at_e["total_force"][-1, 2] < -0.01
+    # The contact is displacement-driven: at 2E the same indentation takes twice the forces
+    # and moves the markers as much.
+    np.testing.assert_allclose(at_2e["total_force"], 2 * at_e["total_force"], rtol=1e-4, atol=1e-7)
+    np.testing.assert_allclose(at_2e["marker_positions"], at_e["marker_positions"], atol=1e-7)
+    # The body model built at 2E (what `tac3d simulate` uses) gives the same truth.
+    built = simulate(2.0, scale_youngs_modulus=False)
+    assert built["summary"]["twin_body"]["cache_file"] != at_e["summary"]["twin_body"]["cache_file"]
+    np.testing.assert_allclose(at_2e["total_force"], built["total_force"], rtol=1e-4, atol=1e-7)
 
 
 def test_a_rerun_skips_finished_episodes(two_workers, tac3d_cli, cache_dir):
@@ -141,7 +184,7 @@ def test_one_and_two_workers_give_identical_checksums(two_workers, tmp_path, tac
     assert len(set(reference.values())) == EPISODES
 
 
-IN_FLIGHT = re.compile(r"^\.episode_(\d+)\..*-(\d+)-[0-9a-f]{8}\.(tmp|twin)$")
+IN_FLIGHT = re.compile(r"^\.episode_(\d+)\..*-(\d+)-[0-9a-f]{8}\.tmp$")
 
 
 def test_a_worker_killed_mid_run_leaves_the_dataset_complete(two_workers, tmp_path, tac3d_cli, cache_dir):

@@ -1,5 +1,5 @@
-"""One episode: drawn from the spec, simulated by the twin (tac3d.simulate), stored as a zarr
-group under a temporary name and renamed into place when complete."""
+"""One episode: drawn from the spec, simulated by the twin in memory (tac3d.simulate_arrays),
+written as a zarr group under a temporary name and renamed into place when complete."""
 import functools
 import os
 import pathlib
@@ -7,8 +7,6 @@ import shutil
 import socket
 import time
 import uuid
-
-import numpy as np
 
 from .. import _core
 from . import store
@@ -20,37 +18,14 @@ def load_spec(path):
     return _core.load_dataset_spec(str(path))
 
 
-def twin_arrays(folder):
-    """The episode's arrays from the twin's dataset folder (docs/datasets.md's twin layout)."""
-    ds = _core.Dataset(str(folder))
-    truth = ds.truth()
-    arrays = {
-        "t": truth["t"],
-        "sensor_pose": truth["world_from_sensor"],
-        "marker_positions": truth["marker_positions"],
-        # The true marker displacement since the episode's first (unloaded) frame.
-        "marker_displacements": truth["marker_positions"] - truth["marker_positions"][:1],
-        "marker_forces": truth["marker_forces"],
-        "marker_contact": truth["marker_contact"],
-        "marker_slip": truth["marker_slip"],
-        "total_force": truth["total_force"],
-        "total_moment": truth["total_moment"],
-    }
-    images, tractions, states = [], [], []
-    for k in ds.steps:
-        step = ds.step(k, surface=True, image=True)
-        if step["image"] is not None:
-            images.append(step["image"])
-        if "surface_tractions" in step:
-            if "surface_positions" not in arrays:
-                arrays["surface_positions"] = step["surface_positions"]
-            tractions.append(step["surface_tractions"])
-            states.append(step["surface_states"])
-    if images:
-        arrays["images"] = np.stack(images)
-    if tractions:
-        arrays["surface_tractions"] = np.stack(tractions)
-        arrays["surface_states"] = np.stack(states)
+def episode_arrays(simulated):
+    """The episode's arrays (docs/datasets.md, "Storage") from tac3d.simulate_arrays' result."""
+    arrays = dict(simulated)
+    del arrays["summary"]
+    arrays["sensor_pose"] = arrays.pop("world_from_sensor")
+    # The true marker displacement since the episode's first (unloaded) frame.
+    positions = arrays["marker_positions"]
+    arrays["marker_displacements"] = positions - positions[:1]
     return arrays
 
 
@@ -70,12 +45,14 @@ def run_episode(spec_path, out, episode, cache_dir=""):
     folder.mkdir(exist_ok=True)
     tag = f"{socket.gethostname()}-{os.getpid()}-{uuid.uuid4().hex[:8]}"
     tmp = folder / f".episode_{episode:06d}.{tag}.tmp"
-    twin = folder / f".episode_{episode:06d}.{tag}.twin"
     try:
+        # Made first: while the episode runs, its temporary names the worker running it.
+        tmp.mkdir()
         scene = _core.parse_scene(draw["scene_yaml"], ".")
-        summary = _core.simulate(scene, str(twin), cache_dir=cache_dir, images=spec.images,
-                                 twin_options=spec.twin_options)
-        arrays = twin_arrays(twin)
+        simulated = _core.simulate_arrays(scene, cache_dir=cache_dir, images=spec.images,
+                                          twin_options=spec.twin_options)
+        summary = simulated["summary"]
+        arrays = episode_arrays(simulated)
         digest = store.checksum(arrays, draw["parameters"])
         record = {
             "episode": episode,
@@ -94,7 +71,8 @@ def run_episode(spec_path, out, episode, cache_dir=""):
             "seed": draw["seed"],
             "parameters": draw["parameters"],
             "scene": draw["scene_yaml"],
-            "simulation": {k: summary[k] for k in ("steps", "contact_steps", "non_converged_steps")},
+            "simulation": {k: summary[k] for k in ("steps", "contact_steps", "non_converged_steps",
+                                                   "youngs_modulus_scale")},
             "record": record,
         }
         store.write_group(tmp, arrays, attrs)
@@ -109,4 +87,3 @@ def run_episode(spec_path, out, episode, cache_dir=""):
         return record
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
-        shutil.rmtree(twin, ignore_errors=True)

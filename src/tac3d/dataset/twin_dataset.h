@@ -24,6 +24,9 @@ struct SurfaceTractions {
   std::vector<Eigen::Vector3d> positions_mm;
   std::vector<Eigen::Vector3d> tractions_mpa;
   std::vector<ContactState> states;
+  /// The object's mu (its FrictionAt) where a node touches it, NaN where separated. Kept in
+  /// memory only (tac3d.simulate_arrays); the dataset folder's surface files do not hold it.
+  std::vector<double> friction;
 };
 
 /// One step of a twin simulation with its ground truth.

@@ -209,6 +209,12 @@ void ReadSensorConditions(YamlReader r, double poisson_ratio, DatasetSpec* spec)
   // The twin's nu = nu x factor must stay < 0.5 (an incompressible body has no FEM model here).
   spec->poisson_ratio_factor =
       ReadDistribution(r, "poisson_ratio_factor", Bound{0, 0.4999 / poisson_ratio, true}, 1.0);
+  // E is scaled from one model; each nu is a body model of its own, built once and cached.
+  if (spec->poisson_ratio_factor.kind == Distribution::Kind::kUniform) {
+    r.FailAt(r.Required("poisson_ratio_factor"),
+             r.Join("poisson_ratio_factor"),
+             "each value is a body model: draw it with choice, not uniform");
+  }
   for (const auto& [key, bound] : ConditionBounds()) {
     if (r.Has(key)) spec->conditions[key] = ReadDistribution(r, key, bound);
   }

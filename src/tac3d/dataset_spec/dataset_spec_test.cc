@@ -194,6 +194,11 @@ TEST(DatasetSpec, RefusesBadInputNamingTheLine) {
       DatasetSpecErrorOf(
           ReplacedInSpec(kMixedSpec, "poisson_ratio_factor: 1.0", "poisson_ratio_factor: 1.1")),
       HasSubstr("spec.yaml: line 9: sensor_conditions.poisson_ratio_factor: 1.1 is out of range"));
+  EXPECT_EQ(DatasetSpecErrorOf(ReplacedInSpec(kMixedSpec,
+                                              "poisson_ratio_factor: 1.0",
+                                              "poisson_ratio_factor: {uniform: [0.9, 1.0]}")),
+            "spec.yaml: line 9: sensor_conditions.poisson_ratio_factor: each value is a body "
+            "model: draw it with choice, not uniform");
   EXPECT_THAT(DatasetSpecErrorOf(ReplacedInSpec(kMixedSpec, "seed: 11", "seed: -1")),
               HasSubstr("line 2: seed: must be >= 0"));
   EXPECT_THAT(DatasetSpecErrorOf(ReplacedInSpec(

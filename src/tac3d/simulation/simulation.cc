@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 #include "tac3d/twin/camera_renderer.h"
 #include "tac3d/util/error.h"
@@ -12,6 +13,19 @@ namespace tac3d::simulation {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+// Validated before the members built from them (the scaled compliance).
+SimulationOptions Validated(const SimulationOptions& options) {
+  options.Validate();
+  return options;
+}
+
+contact::SampledKernel ScaledKernel(contact::SampledKernel kernel, double factor) {
+  for (auto& row : kernel.k) {
+    for (Eigen::MatrixXd& k : row) k *= factor;
+  }
+  return kernel;
+}
 
 tac3d::ContactState ToDatasetState(contact::NodeState state) {
   switch (state) {
@@ -74,6 +88,10 @@ void SimulationOptions::Validate() const {
   if (max_steps < 0) {
     throw Error(fmt::format("SimulationOptions.max_steps must be >= 0, got {}", max_steps));
   }
+  if (!(youngs_modulus_scale > 0.0 && youngs_modulus_scale <= 10.0)) {
+    throw Error(fmt::format("SimulationOptions.youngs_modulus_scale must be in (0, 10], got {}",
+                            youngs_modulus_scale));
+  }
   contact.Validate();
 }
 
@@ -110,13 +128,14 @@ TwinSimulation::TwinSimulation(const Scene& scene,
                                const SimulationOptions& options)
     : scene_(scene),
       model_(std::move(model)),
-      options_(options),
+      options_(Validated(options)),
       compliance_(model_ ? std::make_shared<contact::ConvolutionCompliance>(
-                               model_->grid, model_->kernel, model_->options.clamp_floor)
+                               model_->grid,
+                               ScaledKernel(model_->kernel, 1.0 / options.youngs_modulus_scale),
+                               model_->options.clamp_floor)
                          : nullptr),
       solver_(compliance_, options.contact) {
   scene_.Validate();
-  options_.Validate();
   TAC3D_DEMAND(model_ != nullptr);
   if (model_->body.marker_rows != scene_.sensor.markers.rows ||
       model_->body.marker_cols != scene_.sensor.markers.cols) {
@@ -167,7 +186,7 @@ TwinStep TwinSimulation::Step() {
   timings.contact_s += SecondsSince(start);
 
   start = Clock::now();
-  WriteContactTruth(node_state, &out);
+  WriteContactTruth(node_state, gaps, &out);
   timings.response_s += SecondsSince(start);
 
   const FrameConditions conditions =
@@ -227,11 +246,13 @@ std::vector<contact::NodeState> TwinSimulation::SolveContact(const GapField& gap
 }
 
 void TwinSimulation::WriteContactTruth(const std::vector<contact::NodeState>& node_state,
+                                       const GapField& gaps,
                                        TwinStep* out) {
   const TwinBodyModel& model = *model_;
   const int n = model.grid.num_nodes();
   const int num_markers = static_cast<int>(model.marker_positions.size());
   const double area = model.grid.cell_area_mm2();
+  const Eigen::Map<const Eigen::MatrixXd> response = model.marker_response.view();
   Eigen::VectorXd displacement = Eigen::VectorXd::Zero(3 * num_markers);
   out->marker_forces_n.assign(num_markers, Eigen::Vector3d::Zero());
   out->marker_contact.assign(num_markers, 0);
@@ -240,6 +261,7 @@ void TwinSimulation::WriteContactTruth(const std::vector<contact::NodeState>& no
     out->surface.positions_mm = surface_points_;
     out->surface.tractions_mpa.assign(n, Eigen::Vector3d::Zero());
     out->surface.states.assign(n, tac3d::ContactState::kSeparated);
+    out->surface.friction.assign(n, std::numeric_limits<double>::quiet_NaN());
   }
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
   double weight = 0.0;
@@ -248,7 +270,7 @@ void TwinSimulation::WriteContactTruth(const std::vector<contact::NodeState>& no
     const double p = state_.pressure_mpa[i];
     const Eigen::Vector3d traction(state_.traction_mpa(i, 0), state_.traction_mpa(i, 1), -p);
     const Eigen::Vector3d force = area * traction;
-    for (int c = 0; c < 3; ++c) displacement += model.marker_response.col(c * n + i) * force[c];
+    for (int c = 0; c < 3; ++c) displacement += response.col(c * n + i) * force[c];
     out->total_force_n += force;
     out->total_moment_nmm += surface_points_[i].cross(force);
     centroid += p * surface_points_[i];
@@ -261,10 +283,12 @@ void TwinSimulation::WriteContactTruth(const std::vector<contact::NodeState>& no
     if (options_.keep_surface) {
       out->surface.tractions_mpa[i] = traction;
       out->surface.states[i] = ToDatasetState(node_state[i]);
+      out->surface.friction[i] = gaps.friction_coefficient[i];
     }
   }
   previous_contact_ = weight > 0.0;
   if (previous_contact_) previous_centroid_ = centroid / weight;
+  displacement /= options_.youngs_modulus_scale;
   out->marker_positions_mm.resize(num_markers);
   for (int m = 0; m < num_markers; ++m) {
     out->marker_positions_mm[m] =

@@ -33,8 +33,14 @@ struct SimulationOptions {
   int max_steps = 0;
   /// A tac3d::ProgressBar on stderr over the steps.
   bool show_progress = false;
+  /// The body's Young's modulus relative to the model's. The body is linear elastic, so at a
+  /// fixed nu its surface compliance and marker response scale exactly with 1/E: one model
+  /// serves a range of E (docs/datasets.md). The contact is displacement-driven, so at scale s
+  /// the tractions and forces are s times the model's and the marker displacements the same.
+  double youngs_modulus_scale = 1.0;
 
-  /// @throws tac3d::Error naming the field: max_steps >= 0, the contact options' bounds.
+  /// @throws tac3d::Error naming the field: max_steps >= 0, youngs_modulus_scale in (0, 10],
+  ///   the contact options' bounds.
   void Validate() const;
 };
 
@@ -117,9 +123,12 @@ class TwinSimulation {
                                                const Eigen::Vector2d& increment,
                                                nlohmann::json* solver_json);
   // The truth from state_: nodal forces, their total and moment, marker forces, contact and
-  // slip flags, the surface (keep_surface) and the marker positions (rest + M f, not crept);
-  // sets the pressure centroid for the next step's increment.
-  void WriteContactTruth(const std::vector<contact::NodeState>& node_state, TwinStep* out);
+  // slip flags, the surface (keep_surface, with each contact node's mu from `gaps`) and the
+  // marker positions (rest + M f / youngs_modulus_scale, not crept); sets the pressure
+  // centroid for the next step's increment.
+  void WriteContactTruth(const std::vector<contact::NodeState>& node_state,
+                         const GapField& gaps,
+                         TwinStep* out);
 
   Scene scene_;
   std::shared_ptr<const TwinBodyModel> model_;

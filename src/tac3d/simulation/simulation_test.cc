@@ -3,8 +3,10 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
+#include <vector>
 
 #include "tac3d/sensor/default_sensor.h"
 #include "tac3d/sensor/test_sensor.h"
@@ -16,15 +18,17 @@ namespace {
 
 using ::testing::HasSubstr;
 
+std::shared_ptr<const TwinBodyModel> SmallModelAt(double youngs_modulus_factor) {
+  TwinBodyOptions options;
+  options.margin_mm = 0.8;
+  options.quadrature_points_per_side = 2;
+  const TwinDeviation deviation{1.0, youngs_modulus_factor, 1.0};
+  return std::make_shared<const TwinBodyModel>(
+      CalcTwinBodyModel(TwinBodyModelOptions(testing::SmallSensor(), deviation), options));
+}
+
 std::shared_ptr<const TwinBodyModel> SmallModel() {
-  static const auto model = [] {
-    TwinBodyOptions options;
-    options.margin_mm = 0.8;
-    options.quadrature_points_per_side = 2;
-    TwinDeviation nominal{1.0, 1.0, 1.0};
-    return std::make_shared<const TwinBodyModel>(
-        CalcTwinBodyModel(TwinBodyModelOptions(testing::SmallSensor(), nominal), options));
-  }();
+  static const auto model = SmallModelAt(1.0);
   return model;
 }
 
@@ -113,6 +117,56 @@ TEST(TwinSimulation, PressThenSlideObeysContactAndFriction) {
   }
   EXPECT_GT(slipping, 0);
   EXPECT_EQ(slid.marker_slip[4], 1);
+  // The friction truth: the sphere's mu at every node that touches it, NaN elsewhere.
+  ASSERT_EQ(slid.surface.friction.size(), slid.surface.states.size());
+  for (size_t i = 0; i < slid.surface.states.size(); ++i) {
+    if (slid.surface.states[i] == tac3d::ContactState::kSeparated) {
+      EXPECT_TRUE(std::isnan(slid.surface.friction[i])) << i;
+    } else {
+      EXPECT_EQ(slid.surface.friction[i], 0.3) << i;
+    }
+  }
+}
+
+std::vector<TwinStep> RunAll(const Scene& scene,
+                             std::shared_ptr<const TwinBodyModel> model,
+                             const SimulationOptions& options) {
+  std::vector<TwinStep> steps;
+  TwinSimulation(scene, std::move(model), options).Run([&](const TwinStep& s) {
+    steps.push_back(s);
+  });
+  return steps;
+}
+
+double MaxMarkerDifference(const TwinStep& a, const TwinStep& b) {
+  double d = 0.0;
+  for (size_t m = 0; m < a.marker_positions_mm.size(); ++m) {
+    d = std::max(d, (a.marker_positions_mm[m] - b.marker_positions_mm[m]).norm());
+  }
+  return d;
+}
+
+TEST(TwinSimulation, YoungsModulusScaleIsTheModelBuiltAtThatModulus) {
+  // Pressed 0.1 mm, then slid into gross slip. The contact is displacement-driven: at 2E the
+  // same indentation takes twice the tractions and forces, and moves the markers as much.
+  const Scene scene =
+      SphereScene({{0.0, {0, 0, -0.05}}, {1.0, {0, 0, 0.1}}, {2.0, {0.5, 0, 0.1}}}, 11);
+  SimulationOptions doubled = NoImages();
+  doubled.youngs_modulus_scale = 2.0;
+  const std::vector<TwinStep> at_e = RunAll(scene, SmallModel(), NoImages());
+  const std::vector<TwinStep> scaled = RunAll(scene, SmallModel(), doubled);
+  const std::vector<TwinStep> built = RunAll(scene, SmallModelAt(2.0), NoImages());
+  ASSERT_EQ(scaled.size(), at_e.size());
+  ASSERT_EQ(built.size(), at_e.size());
+  for (size_t k = 5; k < at_e.size(); ++k) {
+    const double f = at_e[k].total_force_n.norm();
+    ASSERT_GT(f, 0.01) << "step " << k << " is not in contact";
+    EXPECT_LT((scaled[k].total_force_n - 2.0 * at_e[k].total_force_n).norm(), 1e-4 * f) << k;
+    EXPECT_LT((scaled[k].total_force_n - built[k].total_force_n).norm(), 1e-4 * f) << k;
+    EXPECT_LT(MaxMarkerDifference(scaled[k], at_e[k]), 1e-6) << k;
+    EXPECT_LT(MaxMarkerDifference(scaled[k], built[k]), 1e-6) << k;
+    EXPECT_EQ(scaled[k].surface.states, at_e[k].surface.states) << k;
+  }
 }
 
 TEST(TwinSimulation, HistoryCarriesTheShiftFromStepToStep) {
@@ -198,6 +252,18 @@ TEST(TwinSimulation, ConditionsGiveEachStepItsTruth) {
 
 TEST(TwinSimulation, BadInputsThrowWithClearMessages) {
   const Scene scene = SphereScene({{0.0, {0, 0, 0}}, {1.0, {0, 0, 0.1}}}, 2);
+  SimulationOptions stiffness = NoImages();
+  stiffness.youngs_modulus_scale = 0.0;
+  EXPECT_THROW(
+      {
+        try {
+          TwinSimulation(scene, SmallModel(), stiffness);
+        } catch (const Error& e) {
+          EXPECT_THAT(e.what(), HasSubstr("youngs_modulus_scale must be in (0, 10], got 0"));
+          throw;
+        }
+      },
+      Error);
   SimulationOptions bad = NoImages();
   bad.max_steps = -1;
   EXPECT_THROW(

@@ -428,7 +428,7 @@ TwinBodyModel CalcTwinBodyModel(const fem::BodyModelOptions& body,
   p.kernel_s = SecondsSince(kernel_start);
 
   const auto response_start = Clock::now();
-  model.marker_response = CalcMarkerResponse(model, fem_model, show_progress);
+  model.marker_response = SharedMatrix(CalcMarkerResponse(model, fem_model, show_progress));
   p.response_s = SecondsSince(response_start);
   p.build_s = SecondsSince(start);
   p.built_utc = UtcNow();
@@ -444,6 +444,21 @@ std::uint64_t CalcTwinBodyCacheKey(const fem::BodyModelOptions& body,
   return Fnv1a(text.data(), text.size());
 }
 
+SharedMatrix::SharedMatrix(Eigen::MatrixXd owned) {
+  auto storage = std::make_shared<const Eigen::MatrixXd>(std::move(owned));
+  data_ = storage->data();
+  rows_ = storage->rows();
+  cols_ = storage->cols();
+  storage_ = std::move(storage);
+}
+
+SharedMatrix::SharedMatrix(const MappedMatrix& mapped, std::shared_ptr<const void> mapping)
+    : storage_(std::move(mapping)),
+      data_(mapped.data),
+      rows_(mapped.rows),
+      cols_(mapped.cols),
+      mapped_(true) {}
+
 void SaveTwinBodyModel(const TwinBodyModel& model, const std::string& path) {
   CacheRecord record;
   record.key = CalcTwinBodyCacheKey(model.body, model.options);
@@ -454,7 +469,7 @@ void SaveTwinBodyModel(const TwinBodyModel& model, const std::string& path) {
   for (const auto& row : model.kernel.k) {
     for (const Eigen::MatrixXd& k : row) record.matrices.push_back(k);
   }
-  record.matrices.push_back(model.marker_response);
+  record.matrices.push_back(model.marker_response.view());
   WriteCacheRecord(path, kMagic, kFormatVersion, record);
 }
 
@@ -465,9 +480,9 @@ struct CachedModel {
   TwinBodyModel model;
 };
 
-// Reads and checks a file's structure; the key is returned, not judged.
+// Maps and checks a file's structure; the key is returned, not judged.
 CachedModel ReadTwinBodyFile(const std::string& path) {
-  CacheRecord record = ReadCacheRecord(path, kMagic, kFormatVersion);
+  MappedCacheRecord record = MapCacheRecord(path, kMagic, kFormatVersion);
   CachedModel cached;
   cached.key = record.key;
   TwinBodyModel& model = cached.model;
@@ -485,13 +500,14 @@ CachedModel ReadTwinBodyFile(const std::string& path) {
     throw Error(fmt::format("{}: {} matrices, expected 10", path, record.matrices.size()));
   }
   for (int k = 0; k < 9; ++k) {
-    Eigen::MatrixXd& m = record.matrices[k];
-    if (m.rows() != zero.k[0][0].rows() || m.cols() != zero.k[0][0].cols()) {
+    const MappedMatrix& m = record.matrices[k];
+    if (m.rows != zero.k[0][0].rows() || m.cols != zero.k[0][0].cols()) {
       throw Error(fmt::format("{}: kernel {} has the wrong size", path, k));
     }
-    model.kernel.k[k / 3][k % 3] = std::move(m);
+    // Small (the grid's size): copied, so the FFTs read aligned memory.
+    model.kernel.k[k / 3][k % 3] = Eigen::Map<const Eigen::MatrixXd>(m.data, m.rows, m.cols);
   }
-  model.marker_response = std::move(record.matrices[9]);
+  model.marker_response = SharedMatrix(record.matrices[9], record.mapping);
   if (model.marker_response.rows() != 3 * num_markers ||
       model.marker_response.cols() != 3 * model.grid.num_nodes()) {
     throw Error(fmt::format("{}: the marker response has the wrong size", path));

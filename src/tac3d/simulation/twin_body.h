@@ -2,6 +2,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <memory>
 #include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
@@ -10,6 +11,7 @@
 #include "tac3d/fem/body_model.h"
 #include "tac3d/fem/compliance.h"
 #include "tac3d/scene/scene.h"
+#include "tac3d/util/cache_file.h"
 
 namespace tac3d::simulation {
 
@@ -84,6 +86,29 @@ struct TwinBodyProvenance {
 
 nlohmann::json ToJson(const TwinBodyProvenance& provenance);
 
+/// A read-only matrix whose storage is shared: its own (a model just built) or the pages of a
+/// mapped cache file (a model loaded: MapCacheRecord), which every process mapping the file
+/// shares, so the Dask workers of one machine hold one copy of a body model between them.
+class SharedMatrix {
+ public:
+  SharedMatrix() = default;
+  explicit SharedMatrix(Eigen::MatrixXd owned);
+  SharedMatrix(const MappedMatrix& mapped, std::shared_ptr<const void> mapping);
+
+  Eigen::Map<const Eigen::MatrixXd> view() const { return {data_, rows_, cols_}; }
+  Eigen::Index rows() const { return rows_; }
+  Eigen::Index cols() const { return cols_; }
+  /// True if the storage is a mapped file's.
+  bool mapped() const { return mapped_; }
+
+ private:
+  std::shared_ptr<const void> storage_;
+  const double* data_ = nullptr;
+  Eigen::Index rows_ = 0;
+  Eigen::Index cols_ = 0;
+  bool mapped_ = false;
+};
+
 /// The twin body's precomputed model: its contact grid, surface compliance kernel and marker
 /// response matrix.
 /// Model assumption: the dome is shallow (R = 45 mm, markers within 18 mm of the axis), so the
@@ -102,8 +127,10 @@ struct TwinBodyModel {
   contact::SampledKernel kernel;
   /// Marker response (3N x 3n, mm/N): row c * N + k is marker k's displacement along c, column
   /// c * n + i a unit force along c (sensor frame x, y, z) spread uniformly over cell i
-  /// (component-major, as fem::ComplianceModel's H). Zero columns for inactive nodes.
-  Eigen::MatrixXd marker_response;
+  /// (component-major, as fem::ComplianceModel's H). Zero columns for inactive nodes. The
+  /// model's bulk (141 MB for the prototype's 20 x 20 markers): mapped from the cache file when
+  /// loaded.
+  SharedMatrix marker_response;
   /// Marker rest positions (mm, sensor frame), in the body's marker order (fem::CalcMarkerPositions).
   std::vector<Eigen::Vector3d> marker_positions;
   TwinBodyProvenance provenance;
@@ -130,6 +157,7 @@ std::uint64_t CalcTwinBodyCacheKey(const fem::BodyModelOptions& body,
 
 /// Writes the model (tac3d::WriteCacheRecord, magic "TAC3DTWN"): atomic, checksummed.
 void SaveTwinBodyModel(const TwinBodyModel& model, const std::string& path);
+/// Maps the file (MapCacheRecord): the marker response stays in its pages.
 /// @throws tac3d::Error if the file is unreadable, corrupt, or its key is not that of its
 ///   inputs and this code.
 TwinBodyModel LoadTwinBodyModel(const std::string& path);

@@ -6,6 +6,12 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <string_view>
+
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include "tac3d/util/error.h"
 #include "tac3d/util/file_io.h"
@@ -24,7 +30,7 @@ void Put(std::string* out, const T& value) {
 // Reads sequentially from a byte buffer, throwing on truncation.
 class Reader {
  public:
-  Reader(const std::string& bytes, const std::string& path) : bytes_(bytes), path_(path) {}
+  Reader(std::string_view bytes, const std::string& path) : bytes_(bytes), path_(path) {}
 
   template <typename T>
   T Get(const char* what) {
@@ -49,10 +55,70 @@ class Reader {
   size_t remaining() const { return bytes_.size() - offset_; }
 
  private:
-  const std::string& bytes_;
+  std::string_view bytes_;
   const std::string& path_;
   size_t offset_ = 0;
 };
+
+// A cache file's content, its matrices left where they are in `bytes`.
+struct ParsedRecord {
+  std::uint64_t key = 0;
+  nlohmann::json header;
+  struct Matrix {
+    Eigen::Index rows = 0;
+    Eigen::Index cols = 0;
+    const char* data = nullptr;  ///< rows * cols f64, column-major, maybe unaligned
+  };
+  std::vector<Matrix> matrices;
+};
+
+// Checks and parses a cache file's bytes (WriteCacheRecord's format).
+ParsedRecord ParseCacheRecord(std::string_view bytes,
+                              const std::string& path,
+                              const std::string& magic,
+                              std::uint32_t format_version) {
+  TAC3D_DEMAND(magic.size() == 8);
+  Reader reader(bytes, path);
+  if (std::memcmp(reader.Take(8, "the magic"), magic.data(), 8) != 0) {
+    throw Error(fmt::format("{}: not a {} file (wrong magic)", path, magic));
+  }
+  const size_t body_begin = reader.offset();
+  const auto version = reader.Get<std::uint32_t>("the format version");
+  if (version != format_version) {
+    throw Error(fmt::format("{}: format version {}, expected {}", path, version, format_version));
+  }
+  ParsedRecord record;
+  record.key = reader.Get<std::uint64_t>("the key");
+  const auto json_size = reader.Get<std::uint64_t>("the JSON length");
+  const char* json_text = reader.Take(json_size, "the JSON header");
+  // Matrices until only the checksum is left.
+  while (reader.remaining() > sizeof(std::uint64_t)) {
+    const auto rows = reader.Get<std::uint64_t>("a row count");
+    const auto cols = reader.Get<std::uint64_t>("a column count");
+    if (rows > (1u << 24) || cols > (1u << 24) ||
+        rows * cols > reader.remaining() / sizeof(double)) {
+      throw Error(fmt::format("{}: implausible matrix size {} x {}", path, rows, cols));
+    }
+    record.matrices.push_back({static_cast<Eigen::Index>(rows),
+                               static_cast<Eigen::Index>(cols),
+                               reader.Take(rows * cols * sizeof(double), "a matrix")});
+  }
+  const size_t body_end = reader.offset();
+  const auto checksum = reader.Get<std::uint64_t>("the checksum");
+  if (reader.offset() != bytes.size()) {
+    throw Error(
+        fmt::format("{}: {} bytes after the checksum", path, bytes.size() - reader.offset()));
+  }
+  if (Fnv1a(bytes.data() + body_begin, body_end - body_begin) != checksum) {
+    throw Error(fmt::format("{}: checksum mismatch (the file is corrupt)", path));
+  }
+  try {
+    record.header = nlohmann::json::parse(json_text, json_text + json_size);
+  } catch (const nlohmann::json::exception& e) {
+    throw Error(fmt::format("{}: invalid JSON header: {}", path, e.what()));
+  }
+  return record;
+}
 
 }  // namespace
 
@@ -105,48 +171,45 @@ void WriteCacheRecord(const std::string& path,
 CacheRecord ReadCacheRecord(const std::string& path,
                             const std::string& magic,
                             std::uint32_t format_version) {
-  TAC3D_DEMAND(magic.size() == 8);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(fmt::format("{}: cannot open", path));
   const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  Reader reader(bytes, path);
-  if (std::memcmp(reader.Take(8, "the magic"), magic.data(), 8) != 0) {
-    throw Error(fmt::format("{}: not a {} file (wrong magic)", path, magic));
-  }
-  const size_t body_begin = reader.offset();
-  const auto version = reader.Get<std::uint32_t>("the format version");
-  if (version != format_version) {
-    throw Error(fmt::format("{}: format version {}, expected {}", path, version, format_version));
-  }
+  ParsedRecord parsed = ParseCacheRecord(bytes, path, magic, format_version);
   CacheRecord record;
-  record.key = reader.Get<std::uint64_t>("the key");
-  const auto json_size = reader.Get<std::uint64_t>("the JSON length");
-  const char* json_text = reader.Take(json_size, "the JSON header");
-  // Matrices until only the checksum is left.
-  while (reader.remaining() > sizeof(std::uint64_t)) {
-    const auto rows = reader.Get<std::uint64_t>("a row count");
-    const auto cols = reader.Get<std::uint64_t>("a column count");
-    if (rows > (1u << 24) || cols > (1u << 24) ||
-        rows * cols > reader.remaining() / sizeof(double)) {
-      throw Error(fmt::format("{}: implausible matrix size {} x {}", path, rows, cols));
-    }
-    const char* data = reader.Take(rows * cols * sizeof(double), "a matrix");
-    Eigen::MatrixXd& m = record.matrices.emplace_back(rows, cols);
-    std::memcpy(m.data(), data, rows * cols * sizeof(double));
+  record.key = parsed.key;
+  record.header = std::move(parsed.header);
+  for (const ParsedRecord::Matrix& m : parsed.matrices) {
+    Eigen::MatrixXd& copy = record.matrices.emplace_back(m.rows, m.cols);
+    std::memcpy(copy.data(), m.data, copy.size() * sizeof(double));
   }
-  const size_t body_end = reader.offset();
-  const auto checksum = reader.Get<std::uint64_t>("the checksum");
-  if (reader.offset() != bytes.size()) {
-    throw Error(
-        fmt::format("{}: {} bytes after the checksum", path, bytes.size() - reader.offset()));
+  return record;
+}
+
+MappedCacheRecord MapCacheRecord(const std::string& path,
+                                 const std::string& magic,
+                                 std::uint32_t format_version) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw Error(fmt::format("{}: cannot open", path));
+  struct stat info {};
+  if (::fstat(fd, &info) != 0 || info.st_size == 0) {
+    ::close(fd);
+    throw Error(fmt::format("{}: cannot read its size, or it is empty", path));
   }
-  if (Fnv1a(bytes.data() + body_begin, body_end - body_begin) != checksum) {
-    throw Error(fmt::format("{}: checksum mismatch (the file is corrupt)", path));
-  }
-  try {
-    record.header = nlohmann::json::parse(json_text, json_text + json_size);
-  } catch (const nlohmann::json::exception& e) {
-    throw Error(fmt::format("{}: invalid JSON header: {}", path, e.what()));
+  const auto size = static_cast<size_t>(info.st_size);
+  void* address = ::mmap(nullptr, size, PROT_READ, MAP_SHARED, fd, 0);
+  ::close(fd);  // the mapping keeps the file
+  if (address == MAP_FAILED) throw Error(fmt::format("{}: cannot map it", path));
+  std::shared_ptr<const void> mapping(address, [size](const void* p) {
+    ::munmap(const_cast<void*>(p), size);
+  });
+  ParsedRecord parsed = ParseCacheRecord(
+      std::string_view(static_cast<const char*>(address), size), path, magic, format_version);
+  MappedCacheRecord record;
+  record.key = parsed.key;
+  record.header = std::move(parsed.header);
+  record.mapping = std::move(mapping);
+  for (const ParsedRecord::Matrix& m : parsed.matrices) {
+    record.matrices.push_back({reinterpret_cast<const double*>(m.data), m.rows, m.cols});
   }
   return record;
 }

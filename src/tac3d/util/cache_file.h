@@ -3,6 +3,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <system_error>
@@ -45,6 +46,32 @@ void WriteCacheRecord(const std::string& path,
 CacheRecord ReadCacheRecord(const std::string& path,
                             const std::string& magic,
                             std::uint32_t format_version);
+
+/// A matrix of a mapped cache file: its f64 where they are in the file (column-major, maybe
+/// unaligned), valid while the mapping lives.
+struct MappedMatrix {
+  const double* data = nullptr;
+  Eigen::Index rows = 0;
+  Eigen::Index cols = 0;
+};
+
+/// A cache file mapped read-only (mmap, MAP_SHARED): its matrices are the file's pages, which
+/// every process mapping the same file shares (the page cache) instead of each holding a copy.
+struct MappedCacheRecord {
+  std::uint64_t key = 0;
+  nlohmann::json header;
+  std::vector<MappedMatrix> matrices;
+  /// Unmaps the file when the last copy goes.
+  std::shared_ptr<const void> mapping;
+};
+
+/// ReadCacheRecord's checks (every page is read once, for the checksum), the matrices left
+/// mapped. A cache file is replaced by renaming a new one over it, never written in place, so
+/// a mapping keeps the file it mapped. @throws tac3d::Error as ReadCacheRecord, or if the file
+/// cannot be mapped.
+MappedCacheRecord MapCacheRecord(const std::string& path,
+                                 const std::string& magic,
+                                 std::uint32_t format_version);
 
 /// What a load-or-build did with its cache file.
 enum class CacheStatus {
