@@ -382,6 +382,22 @@ double IncipientSceneSpec::depth_mm() const { return load == Load::kLight ? 0.25
 
 double IncipientSceneSpec::ramp_s() const { return ramp == Ramp::kSlow ? 2.0 : 0.5; }
 
+int IncipientSceneSpec::press_frames() const {
+  return std::max(1, static_cast<int>(std::lround(kIncipientPressS * frame_rate_hz)));
+}
+
+int IncipientSceneSpec::hold_frames() const {
+  return std::max(1, static_cast<int>(std::lround(kIncipientHoldS * frame_rate_hz)));
+}
+
+int IncipientSceneSpec::ramp_frames() const {
+  return std::max(1, static_cast<int>(std::lround(ramp_s() * frame_rate_hz)));
+}
+
+double IncipientSceneSpec::ramp_start_s() const {
+  return (kLeadInSteps + press_frames() + hold_frames()) / frame_rate_hz;
+}
+
 double IncipientSceneSpec::slide_mm() const { return 3.0 * mu * depth_mm() + 0.1; }
 
 void IncipientSceneSpec::Validate() const {
@@ -445,10 +461,13 @@ std::optional<IncipientSceneSpec> ParseIncipientSceneName(const std::string& nam
   return spec;
 }
 
-Scene IncipientScene(const IncipientSceneSpec& spec) {
+Scene IncipientScene(const IncipientSceneSpec& spec) { return IncipientScene(spec, DefaultSensorConfig()); }
+
+Scene IncipientScene(const IncipientSceneSpec& spec, const SensorConfig& sensor) {
   using Spec = IncipientSceneSpec;
   spec.Validate();
   Scene s = Base(spec.Name());
+  s.sensor = sensor;
   const double top = s.sensor.elastic_body.thickness_mm;
   SceneObject indenter;
   switch (spec.indenter) {
@@ -470,8 +489,7 @@ Scene IncipientScene(const IncipientSceneSpec& spec) {
   s.objects.push_back(indenter);
   // Keyframes on whole frames, so the press, the hold and the slide start on a step.
   const double dt = 1.0 / spec.frame_rate_hz;
-  const auto frames = [dt](double seconds) { return std::max(1, static_cast<int>(std::lround(seconds / dt))); };
-  const int press = frames(kIncipientPressS), hold = frames(kIncipientHoldS), ramp = frames(spec.ramp_s());
+  const int press = spec.press_frames(), hold = spec.hold_frames(), ramp = spec.ramp_frames();
   const Eigen::Vector3d pressed(0, 0, kClearanceMm + spec.depth_mm());
   Add(s.trajectory, 0.0, {0, 0, 0});
   Add(s.trajectory, press * dt, pressed);

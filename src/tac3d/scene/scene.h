@@ -186,6 +186,13 @@ struct IncipientSceneSpec {
   std::string Name() const;
   double depth_mm() const;
   double ramp_s() const;
+  /// The phases in whole frames (at least one each): press 0.25 s, hold 0.1 s, ramp ramp_s().
+  int press_frames() const;
+  int hold_frames() const;
+  int ramp_frames() const;
+  /// When the slide starts, on the scene's clock (after the 25 lead-in frames, the press and
+  /// the hold).
+  double ramp_start_s() const;
   /// The slide: 3 mu depth + 0.1 mm, past the tangential displacement at which a Hertzian
   /// contact slips as a whole (about 1.5 mu depth for an incompressible half-space).
   double slide_mm() const;
@@ -208,6 +215,8 @@ std::optional<IncipientSceneSpec> ParseIncipientSceneName(const std::string& nam
 /// over 0.25 s, a 0.1 s hold, then the slide over ramp_s(); a frame every 1 / frame_rate_hz s.
 /// @throws Error if the spec is invalid.
 Scene IncipientScene(const IncipientSceneSpec& spec);
+/// The same on another fingertip (the tests' small sensor), placed on its top.
+Scene IncipientScene(const IncipientSceneSpec& spec, const SensorConfig& sensor);
 
 /// A scene file or a built-in name.
 Scene LoadSceneOrBuiltIn(const std::string& path_or_name);

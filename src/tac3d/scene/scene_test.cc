@@ -306,6 +306,7 @@ TEST(IncipientScenes, FamilyNamesRoundTripAndTheRampSlides) {
     const double ramp_start = t.StepTime(25 + 15 + 6), ramp_end = t.StepTime(t.steps - 1);
     EXPECT_NEAR(t.PoseAt(0.5 * (ramp_start + ramp_end)).translation().x(), 0.5 * end.x(), 1e-9);
     EXPECT_NEAR(t.PoseAt(ramp_start).translation().x(), 0.0, 1e-12);
+    EXPECT_NEAR(ramp_start, spec.ramp_start_s(), 1e-9);
   }
   EXPECT_EQ(names.size(), 36u);
   const Scene punch = BuiltInScene("incipient_punch_mu0.3_heavy_fast_15hz");
