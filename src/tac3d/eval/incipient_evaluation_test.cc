@@ -14,30 +14,30 @@ namespace {
 
 using ::testing::HasSubstr;
 
-constexpr double kMu = 0.6;
-constexpr double kNaN = IncipientTruth::kNaN;
+constexpr double kRampMu = 0.6;
+
 
 // A hand-built scene at 100 frames a second: no contact for t < 0.1 s, pressed (load ratio 0)
 // until the ramp starts at 0.2 s, then the load ratio rises by 0.01 a frame and the contact
 // slips as a whole from 1.2 s (ratio 1) on. The estimate: mu + `bias` from t >= estimate_from_s,
 // the margin 1 - ratio + 0.02, sigma 0.05.
-std::vector<IncipientFrame> Ramp(double bias, double estimate_from_s) {
+std::vector<IncipientFrame> IncipientRamp(double bias, double estimate_from_s) {
   std::vector<IncipientFrame> frames;
   for (int k = 0; k < 140; ++k) {
     IncipientFrame f;
     IncipientTruth& t = f.truth;
     t.t_s = k / 100.0;
-    t.mu = kMu;
+    t.mu = kRampMu;
     if (k >= 10) {
       const double ratio = std::min(1.0, std::max(0.0, (k - 20) / 100.0));
       t.contact_nodes = 100;
       t.stick_nodes = ratio >= 1.0 ? 0 : static_cast<int>(100 * (1.0 - ratio));
       t.normal_force_n = 2.0;
-      t.tangential_force_n = ratio * kMu * 2.0;
+      t.tangential_force_n = ratio * kRampMu * 2.0;
       t.load_ratio = ratio;
       f.estimate.margin = 1.0 - ratio + 0.02;
       if (t.t_s >= estimate_from_s - 1e-9) {
-        f.estimate.friction = kMu + bias;
+        f.estimate.friction = kRampMu + bias;
         f.estimate.friction_sigma = 0.05;
       }
     }
@@ -47,7 +47,7 @@ std::vector<IncipientFrame> Ramp(double bias, double estimate_from_s) {
 }
 
 TEST(EvaluateIncipient, MeasuresTheErrorsTheLeadAndTheCoverage) {
-  const IncipientEvaluation e = EvaluateIncipient("ramp", Ramp(0.08, 0.6), 0.2, true);
+  const IncipientEvaluation e = EvaluateIncipient("ramp", IncipientRamp(0.08, 0.6), 0.2, true);
   EXPECT_EQ(e.frames, 140);
   EXPECT_EQ(e.contact_frames, 130);
   EXPECT_NEAR(e.gross_slip_s, 1.2, 1e-12);
@@ -72,7 +72,7 @@ TEST(EvaluateIncipient, MeasuresTheErrorsTheLeadAndTheCoverage) {
   EXPECT_DOUBLE_EQ(e.ramp_normal_force_n, 2.0);
 
   // Off by 0.12: never within; outside 2 sigma; the lead is 0.
-  const IncipientEvaluation off = EvaluateIncipient("ramp", Ramp(0.12, 0.6), 0.2, true);
+  const IncipientEvaluation off = EvaluateIncipient("ramp", IncipientRamp(0.12, 0.6), 0.2, true);
   EXPECT_TRUE(std::isnan(off.within_since_s));
   EXPECT_DOUBLE_EQ(off.lead_s, 0.0);
   EXPECT_DOUBLE_EQ(off.coverage, 0.0);
@@ -80,7 +80,7 @@ TEST(EvaluateIncipient, MeasuresTheErrorsTheLeadAndTheCoverage) {
 
 TEST(EvaluateIncipient, NoEstimateIsNotMeasuredAndAlarmsCount) {
   // No mu estimate at all (today's estimator before gross slip): nothing to judge mu on.
-  std::vector<IncipientFrame> frames = Ramp(0.0, 99.0);
+  std::vector<IncipientFrame> frames = IncipientRamp(0.0, 99.0);
   for (IncipientFrame& f : frames) {
     if (f.truth.load_ratio < 0.1) f.estimate.margin = 0.4;  // alarms in the first 10 stick frames
   }
@@ -100,16 +100,16 @@ TEST(EvaluateIncipient, NoEstimateIsNotMeasuredAndAlarmsCount) {
 }
 
 TEST(EvaluateIncipient, GrossSlipAtTouchDownIsNotTheRamps) {
-  std::vector<IncipientFrame> frames = Ramp(0.0, 0.0);
+  std::vector<IncipientFrame> frames = IncipientRamp(0.0, 0.0);
   frames[10].truth.stick_nodes = 0;  // the first contact frame slips as a whole
   const IncipientEvaluation e = EvaluateIncipient("touch", frames, 0.2, false);
   EXPECT_NEAR(e.gross_slip_s, 1.2, 1e-12);
 }
 
 TEST(PoolIncipientEvaluations, PoolsFramesAndTakesTheLeastSlowLead) {
-  const IncipientEvaluation slow = EvaluateIncipient("slow", Ramp(0.03, 0.6), 0.2, true);
-  const IncipientEvaluation slower = EvaluateIncipient("slower", Ramp(0.03, 0.85), 0.2, true);
-  const IncipientEvaluation fast = EvaluateIncipient("fast", Ramp(0.03, 1.15), 0.2, false);
+  const IncipientEvaluation slow = EvaluateIncipient("slow", IncipientRamp(0.03, 0.6), 0.2, true);
+  const IncipientEvaluation slower = EvaluateIncipient("slower", IncipientRamp(0.03, 0.85), 0.2, true);
+  const IncipientEvaluation fast = EvaluateIncipient("fast", IncipientRamp(0.03, 1.15), 0.2, false);
   const IncipientEvaluation p = PoolIncipientEvaluations({slow, slower, fast});
   EXPECT_EQ(p.scene, "overall");
   EXPECT_EQ(p.slow_ramps, 2);
@@ -125,7 +125,7 @@ TEST(PoolIncipientEvaluations, PoolsFramesAndTakesTheLeastSlowLead) {
   EXPECT_EQ(j.at("checks").size(), 4u);
   EXPECT_NEAR(j.at("lead_ms").get<double>(), 350.0, 1e-9);
   // A slow ramp without gross slip has no lead: the check fails.
-  std::vector<IncipientFrame> stuck = Ramp(0.03, 0.6);
+  std::vector<IncipientFrame> stuck = IncipientRamp(0.03, 0.6);
   stuck.resize(100);
   const IncipientEvaluation none = EvaluateIncipient("stuck", stuck, 0.2, true);
   EXPECT_TRUE(std::isnan(none.lead_s));
@@ -163,7 +163,7 @@ TEST(IncipientTruthOf, BadInputsThrow) {
   step.surface.states = {ContactState::kStick};
   EXPECT_THAT([&] { IncipientTruthOf(step, 0.0, 0.25); },
               ::testing::ThrowsMessage<Error>(HasSubstr("mu must be > 0, got 0")));
-  EXPECT_THAT([&] { IncipientTruthOf(step, 0.5, kNaN); },
+  EXPECT_THAT([&] { IncipientTruthOf(step, 0.5, IncipientTruth::kNaN); },
               ::testing::ThrowsMessage<Error>(HasSubstr("cell_area_mm2 must be > 0")));
 }
 

@@ -16,7 +16,7 @@ namespace {
 
 // The small fingertip's twin at the pipeline's refinement, with cells of pitch / 6 (0.21 mm)
 // so a 1.3 mm contact holds ~120 nodes.
-std::shared_ptr<const simulation::TwinBodyModel> SmallModel() {
+std::shared_ptr<const simulation::TwinBodyModel> SmallIncipientTwin() {
   static const auto model = [] {
     simulation::TwinBodyOptions options;
     options.margin_mm = 0.8;
@@ -30,22 +30,22 @@ std::shared_ptr<const simulation::TwinBodyModel> SmallModel() {
 }
 
 // Every step's truth of a family scene on the small fingertip at 10 frames a second.
-std::vector<IncipientTruth> Simulate(const IncipientSceneSpec& spec) {
+std::vector<IncipientTruth> SimulateOnSmallTwin(const IncipientSceneSpec& spec) {
   Scene scene = IncipientScene(spec, testing::SmallSensor());
   scene.deviation = {1.0, 1.0, 1.0};
   simulation::SimulationOptions options;
   options.render_images = false;
-  simulation::TwinSimulation sim(scene, SmallModel(), options);
+  simulation::TwinSimulation sim(scene, SmallIncipientTwin(), options);
   std::vector<IncipientTruth> truth;
   const simulation::SimulationSummary summary = sim.Run([&](const TwinStep& step) {
-    truth.push_back(IncipientTruthOf(step, spec.mu, SmallModel()->grid.cell_area_mm2()));
+    truth.push_back(IncipientTruthOf(step, spec.mu, SmallIncipientTwin()->grid.cell_area_mm2()));
   });
   EXPECT_EQ(summary.non_converged_steps, 0);
   EXPECT_EQ(summary.contact_at_grid_edge_steps, 0);
   return truth;
 }
 
-double EquivalentRadius(int nodes, double cell_area_mm2) { return std::sqrt(nodes * cell_area_mm2 / M_PI); }
+double DiscRadiusOf(int nodes, double cell_area_mm2) { return std::sqrt(nodes * cell_area_mm2 / M_PI); }
 
 TEST(IncipientScenes, SphereRampsThroughPartialSlipIntoGrossSlipAsCattaneoMindlin) {
   IncipientSceneSpec spec;
@@ -54,7 +54,7 @@ TEST(IncipientScenes, SphereRampsThroughPartialSlipIntoGrossSlipAsCattaneoMindli
   spec.load = IncipientSceneSpec::Load::kLight;
   spec.ramp = IncipientSceneSpec::Ramp::kSlow;
   spec.frame_rate_hz = 10.0;
-  const std::vector<IncipientTruth> truth = Simulate(spec);
+  const std::vector<IncipientTruth> truth = SimulateOnSmallTwin(spec);
   // 25 lead-in, 3 pressing, 1 holding, 20 sliding frames.
   ASSERT_EQ(truth.size(), 25u + 3 + 1 + 20 + 1);
   const int ramp_start = 25 + 3 + 1;
@@ -62,7 +62,7 @@ TEST(IncipientScenes, SphereRampsThroughPartialSlipIntoGrossSlipAsCattaneoMindli
   ASSERT_TRUE(held.in_contact());
   EXPECT_LT(held.load_ratio, 0.05);
   EXPECT_GT(held.stick_fraction(), 0.9);
-  const double cell = SmallModel()->grid.cell_area_mm2(), dx = SmallModel()->grid.dx_mm;
+  const double cell = SmallIncipientTwin()->grid.cell_area_mm2(), dx = SmallIncipientTwin()->grid.dx_mm;
   int gross = -1, compared = 0;
   for (int k = ramp_start + 1; k < static_cast<int>(truth.size()); ++k) {
     SCOPED_TRACE(k);
@@ -76,8 +76,8 @@ TEST(IncipientScenes, SphereRampsThroughPartialSlipIntoGrossSlipAsCattaneoMindli
     if (t.load_ratio < 0.2 || t.load_ratio > 0.9) continue;
     // The stick radius against c = a (1 - Q / (mu P))^(1/3), both as the radius of a disc of
     // the nodes' area: within one cell width (the grid's resolution) and 10 % of a.
-    const double a = EquivalentRadius(t.contact_nodes, cell);
-    const double c = EquivalentRadius(t.stick_nodes, cell);
+    const double a = DiscRadiusOf(t.contact_nodes, cell);
+    const double c = DiscRadiusOf(t.stick_nodes, cell);
     EXPECT_NEAR(c, a * std::cbrt(1.0 - t.load_ratio), dx + 0.1 * a)
         << "Q/(mu P) " << t.load_ratio << ", a " << a << " mm";
     ++compared;
