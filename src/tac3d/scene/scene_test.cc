@@ -277,7 +277,7 @@ TEST(Scene, FlatPunchEdgeRadiusIsOptionalAndBounded) {
   const std::string rounded = Replace(punch, "radius_mm: 2", "radius_mm: 2\n    edge_radius_mm: 0.5");
   EXPECT_DOUBLE_EQ(ParseScene(rounded, "test.yaml", "").objects[0].edge_radius_mm, 0.5);
   EXPECT_THAT(SceneErrorOf(Replace(punch, "radius_mm: 2", "radius_mm: 2\n    edge_radius_mm: 2.5")),
-              HasSubstr("edge_radius_mm must be in [0, radius_mm]"));
+              HasSubstr("edge_radius_mm = 2.5 is out of range: must be in [0, radius_mm]"));
 }
 
 // The incipient-slip family: 36 distinct scenes, each named as it is built and parsed back;

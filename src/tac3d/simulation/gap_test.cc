@@ -97,7 +97,9 @@ TEST(IntersectAnalyticObject, FlatPunchWithARoundedEdge) {
     }
     const auto hit = IntersectAnalyticObject(punch, origin, direction);
     ASSERT_EQ(hit.has_value(), first >= 0.0);
-    if (hit) EXPECT_NEAR(hit->t_mm, first, 2e-5);
+    if (hit) {
+      EXPECT_NEAR(hit->t_mm, first, 2e-5);
+    }
   }
   // A sharp punch of the same radius is entered lower in the rim.
   punch.edge_radius_mm = 0.0;
