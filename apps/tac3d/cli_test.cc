@@ -152,6 +152,23 @@ TEST(Cli, TwinRunsRefuseTooFewStepsAndABadRefinementBeforeAnyWork) {
   EXPECT_EQ(CountFiles(dir), 0) << "a refused run left a file behind";
 }
 
+TEST(Cli, EvalIncipientRefusesBadOptionsBeforeAnyWork) {
+  const std::string dir = testing::MakeTempDir("eval_incipient");
+  // Exit code 1 for tac3d::Error, 105 for CLI11's validation errors (a name not in a list).
+  const auto refused = [&](const std::string& options, const std::string& message, int exit_code = 1) {
+    const Outcome o = RunCli(fmt::format("eval incipient --out {}/out {}", dir, options));
+    EXPECT_EQ(o.exit_code, exit_code) << options;
+    EXPECT_THAT(o.output, HasSubstr(message)) << options;
+  };
+  refused("--mu 0.3 2.5", "--mu must be in (0, 2], got 2.5");
+  refused("--frame-rate 2", "--frame-rate must be in [5, 1000], got 2");
+  refused("--steps 10", "--steps: the evaluation needs every step of a scene");
+  refused("--twin-refinement 0.5", "--twin-refinement must be in [1, 4], got 0.5");
+  refused("--indenters cone", "--indenters: cone not in {sphere,cylinder,punch}", 105);
+  refused("--ramps medium", "medium", 105);
+  EXPECT_EQ(CountFiles(dir), 0) << "a refused run left a file behind";
+}
+
 TEST(Cli, DriftModesAreNamedInHelpAndErrors) {
   for (const char* command : {"run --help", "eval conditions --help"}) {
     const Outcome o = RunCli(command);

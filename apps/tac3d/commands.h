@@ -47,6 +47,7 @@ void RegisterEvalForce(CLI::App& eval);
 void RegisterEvalReplay(CLI::App& eval);
 void RegisterEvalConditions(CLI::App& eval);
 void RegisterEvalFriction(CLI::App& eval);
+void RegisterEvalIncipient(CLI::App& eval);  // eval_incipient_command.cc
 void RegisterEvalVendor(CLI::App& eval);  // vendor_command.cc
 
 /// @throws Error naming the first of `names` given on `cmd`'s command line, with `why`.

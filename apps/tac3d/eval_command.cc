@@ -16,6 +16,7 @@ void RegisterEval(CLI::App& app) {
   RegisterEvalReplay(*eval);
   RegisterEvalConditions(*eval);
   RegisterEvalFriction(*eval);
+  RegisterEvalIncipient(*eval);
   RegisterEvalVendor(*eval);
 }
 

@@ -18,36 +18,6 @@
 #include "tac3d/util/progress.h"
 
 namespace tac3d::cli {
-namespace {
-
-// The dataset of a scene in `folder`: reused if it is complete, else simulated there. Returns
-// the simulation's time (the header's, when reused).
-double EnsureDataset(const std::string& scene,
-                     const std::string& folder,
-                     const std::string& cache_dir) {
-  if (std::filesystem::exists(folder + "/dataset.json")) {
-    const TwinDatasetReader reader(folder);
-    const nlohmann::json& h = reader.header();
-    if (!h.contains("summary")) {
-      throw Error(
-          fmt::format("{}: the simulation did not finish (no summary in dataset.json); remove the "
-                      "folder to simulate it again",
-                      folder));
-    }
-    std::fprintf(stderr, "reusing %s\n", folder.c_str());
-    return h.at("summary").at("timings_s").value("total", 0.0);
-  }
-  SimulateArgs args;
-  args.scene = scene;
-  args.out = folder;
-  args.cache_dir = cache_dir;
-  const auto start = std::chrono::steady_clock::now();
-  SimulateToDataset(args);
-  return SecondsSince(start);
-}
-
-}  // namespace
-
 void RegisterEvalFriction(CLI::App& eval) {
   struct Args {
     std::vector<std::string> scenes = {"friction_block", "friction_bottle", "friction_paint_can",
@@ -94,13 +64,13 @@ void RegisterEvalFriction(CLI::App& eval) {
     nlohmann::json report = {{"datasets", datasets}};
     if (replay.gains.empty() && replay.calibration.empty()) {
       replay.calibration = datasets + "/force_calibration";
-      EnsureDataset("force_calibration", replay.calibration, replay.cache_dir);
+      EnsureTwinDataset({.scene = "force_calibration", .out = replay.calibration, .cache_dir = replay.cache_dir});
     }
     std::vector<FrictionEvaluation> results;
     nlohmann::json scenes = nlohmann::json::array();
     for (const std::string& name : args->scenes) {
       const std::string folder = datasets + "/" + std::filesystem::path(name).stem().string();
-      const double simulate_s = EnsureDataset(name, folder, replay.cache_dir);
+      const double simulate_s = EnsureTwinDataset({.scene = name, .out = folder, .cache_dir = replay.cache_dir});
       const TwinDatasetReader reader(folder);
       const Scene scene = LoadSceneOrBuiltIn(reader.header().at("scene").get<std::string>());
       friction::FrictionMapBuilder builder(args->map.Options(scene.sensor));

@@ -1,4 +1,6 @@
+#include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
 
@@ -9,6 +11,7 @@
 #include "tac3d/dataset/twin_dataset.h"
 #include "tac3d/simulation/simulation.h"
 #include "tac3d/util/error.h"
+#include "tac3d/util/seconds_since.h"
 
 namespace tac3d::cli {
 namespace {
@@ -91,6 +94,29 @@ SimulateRun SimulateToDataset(const SimulateArgs& args) {
   run.summary = sim.Run([&writer](const TwinStep& step) { writer.Write(step); });
   writer.UpdateHeader({{"summary", simulation::ToJson(run.summary)}});
   return run;
+}
+
+double EnsureTwinDataset(const SimulateArgs& args) {
+  if (std::filesystem::exists(args.out + "/dataset.json")) {
+    const TwinDatasetReader reader(args.out);
+    const nlohmann::json& h = reader.header();
+    if (!h.contains("summary")) {
+      throw Error(fmt::format("{}: the simulation did not finish (no summary in dataset.json); remove the "
+                              "folder to simulate it again",
+                              args.out));
+    }
+    const double refinement = h.at("deviation").at("mesh_refinement").get<double>();
+    if (args.twin_refinement && refinement != *args.twin_refinement) {
+      throw Error(fmt::format("{}: simulated at twin refinement {}, not {}; remove the folder or give "
+                              "another datasets folder",
+                              args.out, refinement, *args.twin_refinement));
+    }
+    std::fprintf(stderr, "reusing %s\n", args.out.c_str());
+    return h.at("summary").at("timings_s").value("total", 0.0);
+  }
+  const auto start = std::chrono::steady_clock::now();
+  SimulateToDataset(args);
+  return SecondsSince(start);
 }
 
 void RequireTwinRefinement(double refinement) {

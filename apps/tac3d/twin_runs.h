@@ -31,6 +31,13 @@ struct SimulateRun {
   nlohmann::json model;  ///< the twin body: cache file and status, body, grid, symbol
 };
 
+/// The dataset args.out of args.scene: reused if it is complete (its dataset.json has the
+/// run's summary; "reusing FOLDER" on stderr), else simulated there. Returns the simulation's
+/// time (the header's, when reused).
+/// @throws Error if the folder holds an unfinished simulation, or one at another refinement
+///   than args.twin_refinement, and as SimulateToDataset does.
+double EnsureTwinDataset(const SimulateArgs& args);
+
 /// @throws Error unless `refinement` is in [1, 4] (the scenes' deviation.mesh_refinement).
 void RequireTwinRefinement(double refinement);
 

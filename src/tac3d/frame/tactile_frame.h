@@ -54,6 +54,9 @@ struct FrameSlip {
   double fraction = kNaN;        ///< slipping / contact markers, NaN without contact
   double friction = kNaN;        ///< friction coefficient, NaN unless kGrossSlip
   double friction_sigma = kNaN;  ///< its 1-sigma uncertainty, NaN unless kGrossSlip
+  double margin = kNaN;          ///< margin to gross slip, 1 - |Q| / (mu P); NaN without an estimate
+  double margin_sigma = kNaN;    ///< its 1-sigma uncertainty
+  double least_normal_force_n = kNaN;  ///< the least normal force that holds the tangential load
 
   /// Bitwise equal values (NaN equals NaN), so a frame equals its round trip.
   bool operator==(const FrameSlip& other) const;

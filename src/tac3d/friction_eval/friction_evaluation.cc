@@ -17,6 +17,7 @@
 #include "tac3d/util/error.h"
 #include "tac3d/util/eval_check.h"
 #include "tac3d/util/json_number.h"
+#include "tac3d/util/percentile.h"
 #include "tac3d/util/seconds_since.h"
 
 namespace tac3d {
@@ -109,12 +110,6 @@ class PointGrid {
   double cell_;
   std::unordered_map<std::int64_t, std::vector<int>> cells_;
 };
-
-double Percentile(std::vector<double> v, double q) {
-  if (v.empty()) return kNaN;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5))];
-}
 
 // The figures from the sums and counts.
 void Finish(FrictionEvaluation& e) {

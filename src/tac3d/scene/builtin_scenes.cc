@@ -1,7 +1,11 @@
 // The experiments (paper Fig. 5, 7, 8, 9) as scenes. Distances follow the world
 // convention of Scene: the fingertip faces +z at the identity pose, objects sit above it
 // with a small clearance, and the sensor moves up into them.
+#include <algorithm>
 #include <cmath>
+#include <exception>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include <fmt/format.h>
@@ -343,7 +347,159 @@ void AddLeadIn(Trajectory& t) {
   t.steps += kLeadInSteps;
 }
 
+constexpr double kIncipientPressS = 0.25;
+constexpr double kIncipientHoldS = 0.1;
+
+std::string FormatNumber(double value) { return fmt::format("{:g}", value); }
+
 }  // namespace
+
+std::string_view ToString(IncipientSceneSpec::Indenter indenter) {
+  switch (indenter) {
+    case IncipientSceneSpec::Indenter::kSphere: return "sphere";
+    case IncipientSceneSpec::Indenter::kCylinder: return "cylinder";
+    case IncipientSceneSpec::Indenter::kPunch: return "punch";
+  }
+  return "?";
+}
+
+std::string_view ToString(IncipientSceneSpec::Load load) {
+  return load == IncipientSceneSpec::Load::kLight ? "light" : "heavy";
+}
+
+std::string_view ToString(IncipientSceneSpec::Ramp ramp) {
+  return ramp == IncipientSceneSpec::Ramp::kSlow ? "slow" : "fast";
+}
+
+std::string IncipientSceneSpec::Name() const {
+  std::string name = fmt::format("incipient_{}_mu{}_{}_{}", ToString(indenter), FormatNumber(mu),
+                                 ToString(load), ToString(ramp));
+  if (frame_rate_hz != IncipientSceneSpec{}.frame_rate_hz) name += fmt::format("_{}hz", FormatNumber(frame_rate_hz));
+  return name;
+}
+
+double IncipientSceneSpec::depth_mm() const { return load == Load::kLight ? 0.25 : 0.5; }
+
+double IncipientSceneSpec::ramp_s() const { return ramp == Ramp::kSlow ? 2.0 : 0.5; }
+
+int IncipientSceneSpec::press_frames() const {
+  return std::max(1, static_cast<int>(std::lround(kIncipientPressS * frame_rate_hz)));
+}
+
+int IncipientSceneSpec::hold_frames() const {
+  return std::max(1, static_cast<int>(std::lround(kIncipientHoldS * frame_rate_hz)));
+}
+
+int IncipientSceneSpec::ramp_frames() const {
+  return std::max(1, static_cast<int>(std::lround(ramp_s() * frame_rate_hz)));
+}
+
+double IncipientSceneSpec::ramp_start_s() const {
+  return (kLeadInSteps + press_frames() + hold_frames()) / frame_rate_hz;
+}
+
+double IncipientSceneSpec::slide_mm() const { return 3.0 * mu * depth_mm() + 0.1; }
+
+void IncipientSceneSpec::Validate() const {
+  if (!(mu > 0.0 && mu <= 2.0)) throw Error(fmt::format("incipient scene: mu must be in (0, 2], got {}", mu));
+  if (!(frame_rate_hz >= 5.0 && frame_rate_hz <= 1000.0)) {
+    throw Error(fmt::format("incipient scene: frame_rate_hz must be in [5, 1000], got {}", frame_rate_hz));
+  }
+}
+
+std::vector<IncipientSceneSpec> IncipientSceneFamily(double frame_rate_hz) {
+  using Spec = IncipientSceneSpec;
+  std::vector<Spec> family;
+  for (const Spec::Indenter indenter : {Spec::Indenter::kSphere, Spec::Indenter::kCylinder, Spec::Indenter::kPunch}) {
+    for (const double mu : {0.3, 0.6, 1.0}) {
+      for (const Spec::Load load : {Spec::Load::kLight, Spec::Load::kHeavy}) {
+        for (const Spec::Ramp ramp : {Spec::Ramp::kSlow, Spec::Ramp::kFast}) {
+          family.push_back({indenter, mu, load, ramp, frame_rate_hz});
+        }
+      }
+    }
+  }
+  return family;
+}
+
+std::optional<IncipientSceneSpec> ParseIncipientSceneName(const std::string& name) {
+  using Spec = IncipientSceneSpec;
+  const std::string prefix = "incipient_";
+  if (name.rfind(prefix, 0) != 0) return std::nullopt;
+  std::vector<std::string> parts;
+  for (size_t from = prefix.size(); from <= name.size();) {
+    const size_t to = std::min(name.find('_', from), name.size());
+    parts.push_back(name.substr(from, to - from));
+    from = to + 1;
+  }
+  if (parts.size() != 4 && parts.size() != 5) return std::nullopt;
+  Spec spec;
+  const auto number = [](const std::string& text, double* value) {
+    try {
+      size_t used = 0;
+      *value = std::stod(text, &used);
+      return used == text.size() && !text.empty();
+    } catch (const std::exception&) {
+      return false;
+    }
+  };
+  bool ok = parts[1].rfind("mu", 0) == 0 && number(parts[1].substr(2), &spec.mu);
+  if (parts[0] == "sphere") spec.indenter = Spec::Indenter::kSphere;
+  else if (parts[0] == "cylinder") spec.indenter = Spec::Indenter::kCylinder;
+  else if (parts[0] == "punch") spec.indenter = Spec::Indenter::kPunch;
+  else ok = false;
+  if (parts[2] == "light" || parts[2] == "heavy") spec.load = parts[2] == "light" ? Spec::Load::kLight : Spec::Load::kHeavy;
+  else ok = false;
+  if (parts[3] == "slow" || parts[3] == "fast") spec.ramp = parts[3] == "slow" ? Spec::Ramp::kSlow : Spec::Ramp::kFast;
+  else ok = false;
+  if (parts.size() == 5) {
+    const std::string& rate = parts[4];
+    ok = ok && rate.size() > 2 && rate.substr(rate.size() - 2) == "hz" &&
+         number(rate.substr(0, rate.size() - 2), &spec.frame_rate_hz);
+  }
+  if (!ok) return std::nullopt;
+  return spec;
+}
+
+Scene IncipientScene(const IncipientSceneSpec& spec) { return IncipientScene(spec, DefaultSensorConfig()); }
+
+Scene IncipientScene(const IncipientSceneSpec& spec, const SensorConfig& sensor) {
+  using Spec = IncipientSceneSpec;
+  spec.Validate();
+  Scene s = Base(spec.Name());
+  s.sensor = sensor;
+  const double top = s.sensor.elastic_body.thickness_mm;
+  SceneObject indenter;
+  switch (spec.indenter) {
+    case Spec::Indenter::kSphere:
+      indenter = Object("sphere", SceneObject::Shape::kSphere, {0, 0, top + kClearanceMm + 10.0}, spec.mu);
+      indenter.radius_mm = 10.0;
+      break;
+    case Spec::Indenter::kCylinder:
+      indenter = Object("cylinder", SceneObject::Shape::kCylinder, {0, 0, top + kClearanceMm + 10.0}, spec.mu);
+      indenter.radius_mm = 10.0;
+      indenter.length_mm = 40.0;
+      break;
+    case Spec::Indenter::kPunch:
+      indenter = Object("punch", SceneObject::Shape::kFlatPunch, {0, 0, top + kClearanceMm}, spec.mu);
+      indenter.radius_mm = 2.5;
+      indenter.edge_radius_mm = 0.75;
+      break;
+  }
+  s.objects.push_back(indenter);
+  // Keyframes on whole frames, so the press, the hold and the slide start on a step.
+  const double dt = 1.0 / spec.frame_rate_hz;
+  const int press = spec.press_frames(), hold = spec.hold_frames(), ramp = spec.ramp_frames();
+  const Eigen::Vector3d pressed(0, 0, kClearanceMm + spec.depth_mm());
+  Add(s.trajectory, 0.0, {0, 0, 0});
+  Add(s.trajectory, press * dt, pressed);
+  Add(s.trajectory, (press + hold) * dt, pressed);
+  Add(s.trajectory, (press + hold + ramp) * dt, pressed + Eigen::Vector3d(spec.slide_mm(), 0, 0));
+  s.trajectory.steps = press + hold + ramp + 1;
+  AddLeadIn(s.trajectory);
+  s.Validate();
+  return s;
+}
 
 std::vector<std::string> BuiltInSceneNames() {
   return {"force_calibration", "probe", "pins", "two_material_slide", "bottle",
@@ -361,7 +517,10 @@ Scene BuiltInScene(const std::string& name) {
   else if (name == "friction_bottle") scene = FrictionBottle();
   else if (name == "friction_paint_can") scene = FrictionPaintCan();
   else if (name == "friction_tool_handle") scene = FrictionToolHandle();
-  else throw Error(fmt::format("no built-in scene '{}' (there are: {})", name, fmt::join(BuiltInSceneNames(), ", ")));
+  else if (const auto spec = ParseIncipientSceneName(name)) return IncipientScene(*spec);
+  else throw Error(fmt::format("no built-in scene '{}' (there are: {}, and the incipient-slip family "
+                               "incipient_<sphere|cylinder|punch>_mu<mu>_<light|heavy>_<slow|fast>[_<rate>hz])",
+                               name, fmt::join(BuiltInSceneNames(), ", ")));
   AddLeadIn(scene.trajectory);
   scene.Validate();
   return scene;

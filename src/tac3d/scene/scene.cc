@@ -74,6 +74,7 @@ SceneObject ReadObject(YamlReader r, const std::string& base_dir) {
   } else if (shape == "flat_punch") {
     o.shape = SceneObject::Shape::kFlatPunch;
     o.radius_mm = r.Double("radius_mm");
+    if (r.Has("edge_radius_mm")) o.edge_radius_mm = r.Double("edge_radius_mm");
   } else if (shape == "pins") {
     o.shape = SceneObject::Shape::kPins;
     o.radius_mm = r.Double("radius_mm");
@@ -292,8 +293,12 @@ void Scene::Validate() const {
         Require(o.length_mm > 0, f + ".length_mm", "> 0", o.length_mm);
         [[fallthrough]];
       case SceneObject::Shape::kSphere:
+        Require(o.radius_mm > 0, f + ".radius_mm", "> 0", o.radius_mm);
+        break;
       case SceneObject::Shape::kFlatPunch:
         Require(o.radius_mm > 0, f + ".radius_mm", "> 0", o.radius_mm);
+        Require(o.edge_radius_mm >= 0 && o.edge_radius_mm <= o.radius_mm, f + ".edge_radius_mm",
+                "in [0, radius_mm]", o.edge_radius_mm);
         break;
       case SceneObject::Shape::kPins:
         Require(o.radius_mm > 0, f + ".radius_mm", "> 0", o.radius_mm);
@@ -407,6 +412,7 @@ Scene LoadScene(const std::string& path) {
 Scene LoadSceneOrBuiltIn(const std::string& path_or_name) {
   const auto names = BuiltInSceneNames();
   if (std::find(names.begin(), names.end(), path_or_name) != names.end()) return BuiltInScene(path_or_name);
+  if (!fs::exists(path_or_name) && ParseIncipientSceneName(path_or_name)) return BuiltInScene(path_or_name);
   if (!fs::exists(path_or_name)) {
     throw Error(fmt::format("scene '{}': no such file, and not a built-in scene ({})", path_or_name,
                             fmt::join(names, ", ")));

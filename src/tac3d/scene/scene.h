@@ -61,7 +61,8 @@ struct FrictionMap {
 /// A rigid object of a scene. Shapes, in the object's own frame:
 /// - sphere: centre at the origin;
 /// - cylinder: axis along y through the origin, length `length_mm` centred on it;
-/// - flat_punch: a cylinder along z, its flat end the disc of `radius_mm` at z = 0, body z > 0;
+/// - flat_punch: a cylinder along z, its flat end the disc of `radius_mm` at z = 0, body z > 0,
+///   its edge rounded with `edge_radius_mm` (0: sharp);
 /// - pins: flat punches of `radius_mm` on a `rows` x `cols` grid of `pitch_mm` in z = 0;
 /// - box: `size_mm` centred on the origin;
 /// - mesh: a PLY triangle mesh, in mm.
@@ -70,6 +71,7 @@ struct SceneObject {
   std::string name;
   Shape shape = Shape::kSphere;
   double radius_mm = 5.0;
+  double edge_radius_mm = 0.0;  ///< flat_punch: in [0, radius_mm]
   double length_mm = 40.0;
   int rows = 1;
   int cols = 2;
@@ -157,8 +159,64 @@ Rigid3 PoseFromRpy(const Eigen::Vector3d& position_mm, const Eigen::Vector3d& rp
 /// and the friction-map scenes "friction_block", "friction_bottle", "friction_paint_can",
 /// "friction_tool_handle".
 std::vector<std::string> BuiltInSceneNames();
+/// Also the incipient-slip family's names (IncipientSceneSpec).
 /// @throws Error listing the names if `name` is not one.
 Scene BuiltInScene(const std::string& name);
+
+/// One scene of the incipient-slip family (issue 26; docs/slip.md, "Friction before it
+/// slips"): an indenter on the fingertip's top, pressed to a depth, held, then slid along +x at
+/// constant speed far enough that the tangential load ramps through partial slip into gross
+/// slip (the twin is displacement-driven), and held sliding. Built-in name:
+/// `incipient_<indenter>_mu<mu>_<load>_<ramp>`, with `_<rate>hz` when the frame rate is not
+/// the default, e.g. `incipient_punch_mu0.3_heavy_fast_15hz`.
+struct IncipientSceneSpec {
+  /// sphere of radius 10 mm; cylinder of radius 10 mm, axis along y (slid across it); punch: a
+  /// flat punch of radius 2.5 mm with a 0.75 mm edge radius.
+  enum class Indenter { kSphere, kCylinder, kPunch };
+  enum class Load { kLight, kHeavy };  ///< pressed 0.25 mm or 0.5 mm
+  enum class Ramp { kSlow, kFast };    ///< the slide lasts 2 s or 0.5 s
+  Indenter indenter = Indenter::kSphere;
+  double mu = 0.6;  ///< the indenter's friction coefficient, in (0, 2]
+  Load load = Load::kLight;
+  Ramp ramp = Ramp::kSlow;
+  /// Camera frames (twin steps) a second, in [5, 1000]: the times are fixed, so a lower rate
+  /// is a shorter simulation of the same motion.
+  double frame_rate_hz = 60.0;
+
+  std::string Name() const;
+  double depth_mm() const;
+  double ramp_s() const;
+  /// The phases in whole frames (at least one each): press 0.25 s, hold 0.1 s, ramp ramp_s().
+  int press_frames() const;
+  int hold_frames() const;
+  int ramp_frames() const;
+  /// When the slide starts, on the scene's clock (after the 25 lead-in frames, the press and
+  /// the hold).
+  double ramp_start_s() const;
+  /// The slide: 3 mu depth + 0.1 mm, past the tangential displacement at which a Hertzian
+  /// contact slips as a whole (about 1.5 mu depth for an incompressible half-space).
+  double slide_mm() const;
+  /// @throws Error naming the field and its bound.
+  void Validate() const;
+};
+
+std::string_view ToString(IncipientSceneSpec::Indenter indenter);
+std::string_view ToString(IncipientSceneSpec::Load load);
+std::string_view ToString(IncipientSceneSpec::Ramp ramp);
+
+/// The family: sphere, cylinder and punch x mu 0.3, 0.6, 1.0 x light, heavy x slow, fast (36
+/// scenes) at `frame_rate_hz`.
+std::vector<IncipientSceneSpec> IncipientSceneFamily(double frame_rate_hz = 60.0);
+
+/// The spec of an `incipient_...` name, or nullopt if `name` is not of that form.
+std::optional<IncipientSceneSpec> ParseIncipientSceneName(const std::string& name);
+
+/// The scene: 25 lead-in frames clear of the indenter (as every built-in scene), the press
+/// over 0.25 s, a 0.1 s hold, then the slide over ramp_s(); a frame every 1 / frame_rate_hz s.
+/// @throws Error if the spec is invalid.
+Scene IncipientScene(const IncipientSceneSpec& spec);
+/// The same on another fingertip (the tests' small sensor), placed on its top.
+Scene IncipientScene(const IncipientSceneSpec& spec, const SensorConfig& sensor);
 
 /// A scene file or a built-in name.
 Scene LoadSceneOrBuiltIn(const std::string& path_or_name);

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <fstream>
 #include <random>
+#include <set>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -268,6 +269,64 @@ TEST(BuiltInScenes, FrictionScenesStrokeInThreeLiftedPasses) {
   const SceneObject block = BuiltInScene("friction_block").objects[0];
   EXPECT_DOUBLE_EQ(block.FrictionAt({-5, 3, -5}), 1.0);
   EXPECT_DOUBLE_EQ(block.FrictionAt({5, 3, -5}), 0.4);
+}
+
+TEST(Scene, FlatPunchEdgeRadiusIsOptionalAndBounded) {
+  const std::string punch = Replace(kSlide, "shape: box\n    size_mm: [60, 40, 10]", "shape: flat_punch\n    radius_mm: 2");
+  EXPECT_DOUBLE_EQ(ParseScene(punch, "test.yaml", "").objects[0].edge_radius_mm, 0.0);
+  const std::string rounded = Replace(punch, "radius_mm: 2", "radius_mm: 2\n    edge_radius_mm: 0.5");
+  EXPECT_DOUBLE_EQ(ParseScene(rounded, "test.yaml", "").objects[0].edge_radius_mm, 0.5);
+  EXPECT_THAT(SceneErrorOf(Replace(punch, "radius_mm: 2", "radius_mm: 2\n    edge_radius_mm: 2.5")),
+              HasSubstr("edge_radius_mm = 2.5 is out of range: must be in [0, radius_mm]"));
+}
+
+// The incipient-slip family: 36 distinct scenes, each named as it is built and parsed back;
+// pressed, held, then slid along +x by 3 mu depth + 0.1 mm at constant speed.
+TEST(IncipientScenes, FamilyNamesRoundTripAndTheRampSlides) {
+  const std::vector<IncipientSceneSpec> family = IncipientSceneFamily();
+  ASSERT_EQ(family.size(), 36u);
+  std::set<std::string> names;
+  for (const IncipientSceneSpec& spec : family) {
+    SCOPED_TRACE(spec.Name());
+    names.insert(spec.Name());
+    const std::optional<IncipientSceneSpec> parsed = ParseIncipientSceneName(spec.Name());
+    ASSERT_TRUE(parsed);
+    EXPECT_EQ(parsed->Name(), spec.Name());
+    const Scene scene = LoadSceneOrBuiltIn(spec.Name());
+    EXPECT_EQ(scene.name, spec.Name());
+    EXPECT_DOUBLE_EQ(scene.objects[0].friction.default_mu, spec.mu);
+    const Trajectory& t = scene.trajectory;
+    // 25 lead-in frames, 15 pressing, 6 holding, the ramp's frames at 60 Hz.
+    EXPECT_EQ(t.steps, 25 + 15 + 6 + (spec.ramp == IncipientSceneSpec::Ramp::kSlow ? 120 : 30) + 1);
+    EXPECT_NEAR(t.StepTime(1) - t.StepTime(0), 1.0 / 60.0, 1e-12);
+    const Eigen::Vector3d end = t.PoseAt(t.StepTime(t.steps - 1)).translation();
+    EXPECT_NEAR(end.x(), 3.0 * spec.mu * spec.depth_mm() + 0.1, 1e-12);
+    EXPECT_NEAR(end.z(), 0.5 + spec.depth_mm(), 1e-12);
+    // Constant speed over the ramp: halfway through it, half the slide.
+    const double ramp_start = t.StepTime(25 + 15 + 6), ramp_end = t.StepTime(t.steps - 1);
+    EXPECT_NEAR(t.PoseAt(0.5 * (ramp_start + ramp_end)).translation().x(), 0.5 * end.x(), 1e-9);
+    EXPECT_NEAR(t.PoseAt(ramp_start).translation().x(), 0.0, 1e-12);
+    EXPECT_NEAR(ramp_start, spec.ramp_start_s(), 1e-9);
+  }
+  EXPECT_EQ(names.size(), 36u);
+  const Scene punch = BuiltInScene("incipient_punch_mu0.3_heavy_fast_15hz");
+  EXPECT_EQ(punch.objects[0].shape, SceneObject::Shape::kFlatPunch);
+  EXPECT_DOUBLE_EQ(punch.objects[0].edge_radius_mm, 0.75);
+  EXPECT_EQ(punch.trajectory.steps, 25 + 4 + 2 + 8 + 1);  // 0.25 s, 0.1 s, 0.5 s at 15 Hz
+}
+
+TEST(IncipientScenes, BadNamesAndSpecsAreRefused) {
+  for (const std::string name : {"incipient_cone_mu0.3_light_slow", "incipient_sphere_mux_light_slow",
+                                 "incipient_sphere_mu0.3_medium_slow", "incipient_sphere_mu0.3_light_slow_15",
+                                 "incipient_sphere_mu0.3_light", "sphere_mu0.3_light_slow"}) {
+    EXPECT_FALSE(ParseIncipientSceneName(name)) << name;
+  }
+  EXPECT_THAT([] { BuiltInScene("incipient_cone_mu0.3_light_slow"); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("incipient_<sphere|cylinder|punch>")));
+  EXPECT_THAT([] { BuiltInScene("incipient_sphere_mu2.5_light_slow"); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("mu must be in (0, 2], got 2.5")));
+  EXPECT_THAT([] { BuiltInScene("incipient_sphere_mu0.3_light_slow_2hz"); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("frame_rate_hz must be in [5, 1000], got 2")));
 }
 
 }  // namespace

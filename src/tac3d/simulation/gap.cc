@@ -51,6 +51,41 @@ Interval FlatPunch(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double r)
   return i;
 }
 
+// Signed distance from p to a flat punch of radius r whose edge is rounded with e: the points
+// within e of the cylinder {rho <= r - e, z >= e} (exact, so a march by it never overshoots).
+double RoundedPunchDistance(const Eigen::Vector3d& p, double r, double e) {
+  const double qx = p.head<2>().norm() - (r - e), qz = e - p.z();
+  return std::hypot(std::max(qx, 0.0), std::max(qz, 0.0)) + std::min(std::max(qx, qz), 0.0) - e;
+}
+
+// A flat punch of radius r with its edge rounded with e (0 < e <= r). Along the axis the face
+// is z_b(rho) = e - sqrt(e^2 - (rho - r + e)^2) in the rim, 0 inside it (closed form); any
+// other line is marched by the distance (convex body) from both ends of the sharp punch's
+// interval, which holds the rounded one.
+Interval RoundedPunch(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double r, double e) {
+  if (d.head<2>().norm() < 1e-12) {
+    const double rim = o.head<2>().norm() - (r - e);
+    const double face_z = rim > 0.0 && rim <= e ? e - std::sqrt(e * e - rim * rim) : 0.0;
+    Interval i = InfiniteCylinder(o, d, Eigen::Vector3d::UnitZ(), r);
+    i.Intersect(Slab(o, d, 2, face_z, kInf));
+    return i;
+  }
+  const Interval sharp = FlatPunch(o, d, r);
+  if (sharp.empty() || !std::isfinite(sharp.lo) || !std::isfinite(sharp.hi)) return sharp;
+  constexpr double kOnSurfaceMm = 1e-10;
+  const auto march = [&](double t, double direction) -> std::optional<double> {
+    for (int k = 0; k < 500 && t >= sharp.lo && t <= sharp.hi; ++k) {
+      const double distance = RoundedPunchDistance(o + t * d, r, e);
+      if (distance <= kOnSurfaceMm) return t;
+      t += direction * distance;
+    }
+    return std::nullopt;  // past the other end: the line misses the rounded edge
+  };
+  const std::optional<double> entry = march(sharp.lo, 1.0), exit = march(sharp.hi, -1.0);
+  if (!entry || !exit) return kEmpty;
+  return {*entry, *exit};
+}
+
 Interval AnalyticInterval(const SceneObject& s,
                           const Eigen::Vector3d& o,
                           const Eigen::Vector3d& d) {
@@ -68,7 +103,8 @@ Interval AnalyticInterval(const SceneObject& s,
       return i;
     }
     case SceneObject::Shape::kFlatPunch:
-      return FlatPunch(o, d, s.radius_mm);
+      return s.edge_radius_mm > 0.0 ? RoundedPunch(o, d, s.radius_mm, s.edge_radius_mm)
+                                    : FlatPunch(o, d, s.radius_mm);
     case SceneObject::Shape::kPins: {
       Interval best = kEmpty;
       for (int r = 0; r < s.rows; ++r) {

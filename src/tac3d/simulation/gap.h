@@ -19,7 +19,8 @@ struct LineEntry {
 
 /// The entry of the line origin + t direction (object frame, direction unit length) into an
 /// analytic object (every shape but kMesh), closed forms: sphere (quadratic), cylinder
-/// (infinite cylinder about y within |y| <= length / 2), flat punch (cylinder about z, z >= 0),
+/// (infinite cylinder about y within |y| <= length / 2), flat punch (cylinder about z, z >= 0;
+/// a rounded edge in closed form along the axis, else marched by its signed distance),
 /// pins (flat punches at ((c - (cols - 1) / 2) pitch, (r - (rows - 1) / 2) pitch, 0), the first
 /// entered), box (slabs). Of the intervals where the line is inside, the first that ends ahead
 /// of the origin (exit t > 0) counts; nullopt if there is none or it has no finite entry.

@@ -67,6 +67,45 @@ TEST(IntersectAnalyticObject, FlatPunchPinsAndBox) {
   EXPECT_FALSE(IntersectAnalyticObject(box, {2.1, 0, -3}, kUp));
 }
 
+TEST(IntersectAnalyticObject, FlatPunchWithARoundedEdge) {
+  SceneObject punch = Shape(SceneObject::Shape::kFlatPunch);
+  punch.radius_mm = 3.0;
+  punch.edge_radius_mm = 1.0;
+  // Along the axis: the flat face inside rho = 2, the quarter circle about (rho, z) = (2, 1) in
+  // the rim: at rho = 2.6 it is at z = 1 - sqrt(1 - 0.36) = 0.2.
+  EXPECT_NEAR(IntersectAnalyticObject(punch, {1.9, 0, -3}, kUp)->t_mm, 3.0, 1e-12);
+  EXPECT_NEAR(IntersectAnalyticObject(punch, {0, 2.6, -3}, kUp)->t_mm, 3.2, 1e-12);
+  EXPECT_NEAR(IntersectAnalyticObject(punch, {2.9, 0, -3}, kUp)->p_object.z(), 1.0 - std::sqrt(1.0 - 0.81),
+              1e-12);
+  EXPECT_FALSE(IntersectAnalyticObject(punch, {3.05, 0, -3}, kUp));
+  // A tilted line: the march agrees with the first sample inside the body (points within
+  // 1 mm of the cylinder rho <= 2, z >= 1), found by stepping 1e-5 mm along the line.
+  const auto inside = [](const Eigen::Vector3d& p) {
+    const double rho = p.head<2>().norm();
+    return p.z() >= 0.0 && rho <= 3.0 &&
+           (rho <= 2.0 || p.z() >= 1.0 || std::hypot(rho - 2.0, p.z() - 1.0) <= 1.0);
+  };
+  for (const double x : {1.0, 2.5, 2.8, 3.3}) {
+    SCOPED_TRACE(x);
+    const Eigen::Vector3d origin(x, 0.2, -1.0), direction = Eigen::Vector3d(0.3, 0.1, 1).normalized();
+    double first = -1.0;
+    for (double t = 0.0; t < 4.0; t += 1e-5) {
+      if (inside(origin + t * direction)) {
+        first = t;
+        break;
+      }
+    }
+    const auto hit = IntersectAnalyticObject(punch, origin, direction);
+    ASSERT_EQ(hit.has_value(), first >= 0.0);
+    if (hit) {
+      EXPECT_NEAR(hit->t_mm, first, 2e-5);
+    }
+  }
+  // A sharp punch of the same radius is entered lower in the rim.
+  punch.edge_radius_mm = 0.0;
+  EXPECT_NEAR(IntersectAnalyticObject(punch, {0, 2.6, -3}, kUp)->t_mm, 3.0, 1e-12);
+}
+
 // A closed octahedron mesh against the same solid's closed form: |x| + |y| + |z| <= 1.
 TEST(GapCaster, MeshZBufferMatchesTheSolid) {
   TriangleMesh octahedron;
