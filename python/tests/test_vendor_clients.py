@@ -93,7 +93,8 @@ def test_the_extra_items_arrive_when_asked(tac3d_cli, twin, cache_dir):
         assert f["3D_Normals"].shape == (9, 3)
         np.testing.assert_allclose(np.linalg.norm(f["3D_Normals"], axis=1), 1.0, rtol=1e-9)
         assert states[f["SlipState"]] == by_index[f["index"]]["slip_state"]
-        for name in ("SlipFraction", "Friction", "FrictionSigma"):
+        for name in ("SlipFraction", "Friction", "FrictionSigma", "SlipMargin",
+                     "SlipMarginSigma", "LeastNormalForce"):
             assert isinstance(f[name], float)
 
 

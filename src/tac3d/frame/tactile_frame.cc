@@ -50,7 +50,9 @@ const char* SlipStateName(SlipState state) {
 bool FrameSlip::operator==(const FrameSlip& other) const {
   const auto same = [](double a, double b) { return std::memcmp(&a, &b, sizeof(double)) == 0; };
   return state == other.state && same(fraction, other.fraction) &&
-         same(friction, other.friction) && same(friction_sigma, other.friction_sigma);
+         same(friction, other.friction) && same(friction_sigma, other.friction_sigma) &&
+         same(margin, other.margin) && same(margin_sigma, other.margin_sigma) &&
+         same(least_normal_force_n, other.least_normal_force_n);
 }
 
 std::string FrameFlagNames(std::uint32_t flags) {

@@ -172,7 +172,10 @@ FrameSlip DecodeSlip(const DecodedFrame& frame) {
   }
   for (const auto& [name, value] : {std::pair{kFieldSlipFraction, &slip.fraction},
                                     std::pair{kFieldFriction, &slip.friction},
-                                    std::pair{kFieldFrictionSigma, &slip.friction_sigma}}) {
+                                    std::pair{kFieldFrictionSigma, &slip.friction_sigma},
+                                    std::pair{kFieldSlipMargin, &slip.margin},
+                                    std::pair{kFieldSlipMarginSigma, &slip.margin_sigma},
+                                    std::pair{kFieldLeastNormalForce, &slip.least_normal_force_n}}) {
     const DecodedField* field = frame.Find(name);
     if (field == nullptr) continue;
     if (field->type != FieldType::kF64) fail(fmt::format("item '{}' must be f64", name));
@@ -265,7 +268,10 @@ void AppendExtraItems(const TactileFrame& frame, ExtraItems extras, EncodedFrame
   for (const auto& [item, value] :
        {std::pair{ExtraItem::kSlipFraction, frame.slip.fraction},
         std::pair{ExtraItem::kFriction, frame.slip.friction},
-        std::pair{ExtraItem::kFrictionSigma, frame.slip.friction_sigma}}) {
+        std::pair{ExtraItem::kFrictionSigma, frame.slip.friction_sigma},
+        std::pair{ExtraItem::kSlipMargin, frame.slip.margin},
+        std::pair{ExtraItem::kSlipMarginSigma, frame.slip.margin_sigma},
+        std::pair{ExtraItem::kLeastNormalForce, frame.slip.least_normal_force_n}}) {
     if (has(item)) AppendScalar(ExtraItemName(item), "f64", value, out);
   }
 }
@@ -328,6 +334,12 @@ const char* ExtraItemName(ExtraItem item) {
       return kFieldFriction;
     case ExtraItem::kFrictionSigma:
       return kFieldFrictionSigma;
+    case ExtraItem::kSlipMargin:
+      return kFieldSlipMargin;
+    case ExtraItem::kSlipMarginSigma:
+      return kFieldSlipMarginSigma;
+    case ExtraItem::kLeastNormalForce:
+      return kFieldLeastNormalForce;
   }
   TAC3D_DEMAND(false);
 }

@@ -38,8 +38,12 @@ inline constexpr const char* kFieldImage = "img";
 /// per-frame dictionary by name and never read them (its C++ client complains: ExtraItem).
 inline constexpr const char* kFieldSlipState = "SlipState";          ///< i32, SlipState's value
 inline constexpr const char* kFieldSlipFraction = "SlipFraction";    ///< f64, NaN without contact
-inline constexpr const char* kFieldFriction = "Friction";            ///< f64, NaN unless gross slip
+inline constexpr const char* kFieldFriction = "Friction";  ///< f64, NaN in stick or no contact
 inline constexpr const char* kFieldFrictionSigma = "FrictionSigma";  ///< f64, 1-sigma of Friction
+inline constexpr const char* kFieldSlipMargin = "SlipMargin";  ///< f64, 1 - |Q| / (mu P), NaN
+inline constexpr const char* kFieldSlipMarginSigma = "SlipMarginSigma";  ///< f64, its 1-sigma
+/// f64, the least normal force (N) holding the tangential load (FrameSlip::least_normal_force_n).
+inline constexpr const char* kFieldLeastNormalForce = "LeastNormalForce";
 
 /// The items the vendor's processing program sends by default, in its order (its per-sensor
 /// sensor.yaml): what every frame of ours carries first.
@@ -52,8 +56,17 @@ inline constexpr std::array<const char*, 6> kVendorItems = {kFieldDisplacements,
 
 /// tac3d's items beyond the vendor's six, each sent only when asked (StreamOptions::items),
 /// after the six, in this order. The vendor's C++ client complains of each in every frame.
-enum class ExtraItem { kNormals, kSlipState, kSlipFraction, kFriction, kFrictionSigma };
-inline constexpr int kNumExtraItems = static_cast<int>(ExtraItem::kFrictionSigma) + 1;
+enum class ExtraItem {
+  kNormals,
+  kSlipState,
+  kSlipFraction,
+  kFriction,
+  kFrictionSigma,
+  kSlipMargin,
+  kSlipMarginSigma,
+  kLeastNormalForce,
+};
+inline constexpr int kNumExtraItems = static_cast<int>(ExtraItem::kLeastNormalForce) + 1;
 /// A set of extra items, bit ExtraItem.
 using ExtraItems = std::bitset<kNumExtraItems>;
 /// The item's name on the wire: kFieldNormals, kFieldSlipState, ...
@@ -97,8 +110,8 @@ struct EncodedFrame {
 /// Encodes a frame as the vendor's processing program does (docs/protocol.md): its six items
 /// in its order (kVendorItems: per-marker fields rows*cols x 3 float64 row-major; resultant
 /// force N and moment N mm as 1 x 3; InitializeProgress as f64), then the extra items in
-/// `extras` (3D_Normals as the per-marker fields, SlipState i32, SlipFraction, Friction and
-/// FrictionSigma f64), then `img` as PNG when `image` is not empty. The header's msg holds
+/// `extras` (3D_Normals as the per-marker fields, SlipState i32, SlipFraction, Friction,
+/// FrictionSigma, SlipMargin, SlipMarginSigma and LeastNormalForce f64), then `img` as PNG when `image` is not empty. The header's msg holds
 /// FrameFlagNames(frame.flags).
 /// @param image 8-bit, 1 or 3 channels, or empty for none.
 /// @throws Error if the frame does not Validate(), its SN is not printable ASCII without

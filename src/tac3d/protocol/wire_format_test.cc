@@ -40,6 +40,9 @@ const std::vector<ExpectedItem> kExtraTable = {
     {"SlipFraction", "f64", 0, 0, 8},
     {"Friction", "f64", 0, 0, 8},
     {"FrictionSigma", "f64", 0, 0, 8},
+    {"SlipMargin", "f64", 0, 0, 8},
+    {"SlipMarginSigma", "f64", 0, 0, 8},
+    {"LeastNormalForce", "f64", 0, 0, 8},
 };
 
 std::vector<ExpectedItem> FullTable() {
@@ -153,8 +156,8 @@ TEST(WireFormat, DatagramsFollowTheProtocolByteForByte) {
 TEST(WireFormat, ExtraItemsFollowTheVendorsSixWhenAsked) {
   const TactileFrame frame = MakeSyntheticTactileFrame("AD2-0065L", 42);
   const EncodedFrame all = Encode(frame);
-  // + 9600 of normals, 4 of slip state, 24 of slip figures = 38484: 28 chunks.
-  EXPECT_EQ(all.body.size(), 38484u);
+  // + 9600 of normals, 4 of slip state, 48 of slip figures = 38508: 28 chunks.
+  EXPECT_EQ(all.body.size(), 38508u);
   EXPECT_EQ(all.packet_count(), 28);
   const YAML::Node data = YAML::Load(all.header)["data"];
   ExpectItems(data, FullTable());
@@ -172,7 +175,9 @@ TEST(WireFormat, ExtraItemsFollowTheVendorsSixWhenAsked) {
 TEST(WireFormat, ExtraItemsAreParsedByNameOrAll) {
   EXPECT_EQ(ParseExtraItems("", "--udp-items"), ExtraItems());
   EXPECT_EQ(ParseExtraItems("all", "--udp-items"), kAllExtras);
-  EXPECT_EQ(ParseExtraItems("3D_Normals,SlipState,SlipFraction,Friction,FrictionSigma", "x"),
+  EXPECT_EQ(ParseExtraItems("3D_Normals,SlipState,SlipFraction,Friction,FrictionSigma,SlipMargin,"
+                            "SlipMarginSigma,LeastNormalForce",
+                            "x"),
             kAllExtras);
   EXPECT_EQ(ParseExtraItems("SlipState", "x"),
             ExtraItems().set(static_cast<int>(ExtraItem::kSlipState)));
@@ -183,8 +188,8 @@ TEST(WireFormat, ExtraItemsAreParsedByNameOrAll) {
   EXPECT_THAT([] { ParseExtraItems("3D_Normals,Slip", "--udp-items"); },
               ::testing::ThrowsMessage<Error>(::testing::StrEq(
                   "--udp-items '3D_Normals,Slip': unknown item 'Slip'; the items to add to the "
-                  "vendor's six are 3D_Normals, SlipState, SlipFraction, Friction, FrictionSigma "
-                  "(or all)")));
+                  "vendor's six are 3D_Normals, SlipState, SlipFraction, Friction, FrictionSigma, "
+                  "SlipMargin, SlipMarginSigma, LeastNormalForce (or all)")));
   EXPECT_THAT([] { ParseExtraItems("3D_Forces", "--udp-items"); },
               ::testing::ThrowsMessage<Error>(HasSubstr(
                   "--udp-items '3D_Forces': '3D_Forces' is one of the vendor's six, always sent")));
@@ -256,6 +261,15 @@ TEST(WireFormat, SlipExtraItemsRoundTripInEveryState) {
   ASSERT_TRUE(received);
   EXPECT_EQ(received->frame.Find("Friction")->matrix(0, 0), gross.slip.friction);
   EXPECT_EQ(received->frame.slip.friction_sigma, gross.slip.friction_sigma);
+  EXPECT_EQ(received->frame.Find("LeastNormalForce")->matrix(0, 0), gross.slip.least_normal_force_n);
+  // Partial slip carries them too, with its margin to gross slip.
+  const TactileFrame partial = MakeSyntheticTactileFrame("AD2-0065L", 103);
+  ASSERT_EQ(partial.slip.state, SlipState::kPartialSlip);
+  const auto received_partial = Reassemble(Encode(partial).Datagrams(), &assembler);
+  ASSERT_TRUE(received_partial);
+  EXPECT_EQ(received_partial->frame.Find("SlipMargin")->matrix(0, 0), partial.slip.margin);
+  EXPECT_EQ(received_partial->frame.slip.margin_sigma, partial.slip.margin_sigma);
+  EXPECT_GT(partial.slip.margin, 0.0);
 }
 
 TEST(WireFormat, HeaderWithTheExtraItemsStillFitsWithEveryFlagAndALongSn) {

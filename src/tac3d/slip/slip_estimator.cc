@@ -37,6 +37,7 @@ void SlipOptions::Validate() const {
           "saturation_tolerance",
           "in [0, 1)",
           saturation_tolerance);
+  Require(safety_factor >= 1, "safety_factor", ">= 1", safety_factor);
 }
 
 SlipEstimator::SlipEstimator(int num_markers, const SlipOptions& options)
@@ -106,15 +107,16 @@ FrameSlip SlipEstimator::Estimate(const TactileFrame& frame) {
   } else {
     FindPlateau();
     ApplyMotion(frame);
-    double sigma = 0.0;
-    CalcContactRatio(frame, &ratio, &sigma);
-    out.state = Classify(frame, ratio, sigma);
+    const LoadRatio contact = CalcLoadRatio(frame, false);
+    ratio = contact.ratio;
+    out.state = Classify(frame, ratio, contact.sigma());
     if (out.state == SlipState::kGrossSlip) {
       // The whole contact slips.
       for (int c = 0; c < num_contact_; ++c) slipping_[contact_index_[c]] = true;
       num_slipping_ = num_contact_;
-      out.friction = ratio;
-      out.friction_sigma = sigma;
+      EstimateFriction(frame, contact, &out);
+    } else if (out.state == SlipState::kPartialSlip) {
+      EstimateFriction(frame, contact, &out);
     } else if (out.state == SlipState::kStick) {
       std::fill(slipping_.begin(), slipping_.end(), false);
       num_slipping_ = 0;
@@ -250,30 +252,65 @@ bool SlipEstimator::IsDragged(const TactileFrame& frame, bool* seen) {
   return *mid > options_.noise_sigmas * std::sqrt(2.0) * displacement_sigma_mm_;
 }
 
-void SlipEstimator::CalcContactRatio(const TactileFrame& frame,
-                                     double* ratio,
-                                     double* sigma) const {
+SlipEstimator::LoadRatio SlipEstimator::CalcLoadRatio(const TactileFrame& frame,
+                                                      bool plateau_only) const {
+  LoadRatio out;
   Eigen::Vector3d sum_ft = Eigen::Vector3d::Zero();
   double sum_fn = 0.0, sum_var = 0.0;
   for (int c = 0; c < num_contact_; ++c) {
+    if (plateau_only && !on_plateau_[c]) continue;
     const int i = contact_index_[c];
     sum_ft += frame.forces_n[i] + normal_n_[c] * frame.normals[i];
     sum_fn += normal_n_[c];
     sum_var += sigma_n_[i] * sigma_n_[i];
+    ++out.count;
   }
-  const double mu = sum_ft.norm() / sum_fn;
+  if (out.count == 0) return out;
+  out.tangential_n = sum_ft.norm();
+  const double mu = out.tangential_n / sum_fn;
   // The force noise of the sums, propagated to the quotient.
   const double noise_var = sum_var * (1.0 + mu * mu) / (sum_fn * sum_fn);
   // The spread of the load-weighted per-marker ratios: the standard error of their mean,
   // sum w^2 * sum w (r - mu)^2 with weights w = F_n / sum F_n.
   double spread = 0.0, weight2 = 0.0;
   for (int c = 0; c < num_contact_; ++c) {
+    if (plateau_only && !on_plateau_[c]) continue;
     const double w = normal_n_[c] / sum_fn;
     spread += w * (ratio_[c] - mu) * (ratio_[c] - mu);
     weight2 += w * w;
   }
-  *ratio = mu;
-  *sigma = std::sqrt(noise_var + spread * weight2);
+  out.ratio = mu;
+  out.noise_sigma = std::sqrt(noise_var);
+  out.spread_sigma = std::sqrt(spread * weight2);
+  return out;
+}
+
+void SlipEstimator::EstimateFriction(const TactileFrame& frame,
+                                     const LoadRatio& contact,
+                                     FrameSlip* out) const {
+  double mu = contact.ratio, mu_sigma = contact.sigma();
+  if (out->state == SlipState::kPartialSlip) {
+    // The slipping annulus sits on the friction cone: its markers' load-weighted ratio is mu.
+    const LoadRatio annulus = CalcLoadRatio(frame, true);
+    if (annulus.count < options_.min_contact_markers) return;
+    // Coulomb bounds the whole contact's load by mu P: mu below R is noise or scatter.
+    mu = std::max(annulus.ratio, contact.ratio);
+    mu_sigma = annulus.sigma();
+  }
+  if (!(mu > 0.0)) return;
+  out->friction = mu;
+  out->friction_sigma = mu_sigma;
+  out->least_normal_force_n = options_.safety_factor * contact.tangential_n / mu;
+  if (out->state == SlipState::kGrossSlip) {
+    out->margin = 0.0;  // sliding: no margin left
+    out->margin_sigma = 0.0;
+    return;
+  }
+  // 1 - R / mu; R's own uncertainty is the force noise only (the ratios' spread is mu's, not
+  // R's), and the two are taken independent, which overstates sigma (they share markers).
+  const double load = contact.ratio / mu;
+  out->margin = 1.0 - load;
+  out->margin_sigma = std::hypot(contact.noise_sigma, load * mu_sigma) / mu;
 }
 
 }  // namespace tac3d

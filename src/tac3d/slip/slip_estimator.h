@@ -1,6 +1,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cmath>
 #include <vector>
 
 #include "tac3d/frame/tactile_frame.h"
@@ -49,6 +50,11 @@ struct SlipOptions {
   /// markers slip (on the plateau and lagging), else stick. 0.1: well beyond the noise's 0.3 %
   /// false calls per marker.
   double stick_below = 0.1;
+  /// FrameSlip::least_normal_force_n holds the present tangential load |Q| at mu / safety_factor:
+  /// safety_factor * |Q| / mu. 1.5: covers mu read 2 sigma high on the twin's worst contacts
+  /// (about 0.05 of 0.3, 17 %) and a tangential load that grows by a quarter before the next
+  /// frame's update (docs/slip.md). >= 1.
+  double safety_factor = 1.5;
 
   /// @throws tac3d::Error naming the field and the broken bound.
   void Validate() const;
@@ -74,6 +80,11 @@ struct SlipOptions {
 /// is on the contact's plateau (the plateau_quantile of its ratios, within plateau_tolerance
 /// and noise_sigmas of its ratio noise) and, when the contact moves, it lags the contact's
 /// rigid motion; 1 in gross slip, 0 in stick.
+/// Friction in partial slip (docs/slip.md, "Friction before it slips"): the slipping annulus of a
+/// Cattaneo-Mindlin contact sits on the friction cone, so mu is the load-weighted ratio
+/// |sum F_t| / sum F_n of the plateau markers, at least the contact's R (Coulomb bounds the whole
+/// load by mu P); the margin to gross slip 1 - R / mu and the least normal force
+/// safety_factor * |Q| / mu follow.
 /// Allocates only in the constructor; not thread-safe.
 class SlipEstimator {
  public:
@@ -115,8 +126,20 @@ class SlipEstimator {
   void CollectRatios(const TactileFrame& frame);
   void FindPlateau();
   void ApplyMotion(const TactileFrame& frame);
-  // R = |sum F_t| / sum F_n over the contact and its 1-sigma (force noise and ratios' spread).
-  void CalcContactRatio(const TactileFrame& frame, double* ratio, double* sigma) const;
+  // R = |sum F_t| / sum F_n over the contact markers (or its plateau markers only), the sums and
+  // R's 1-sigma parts: the force noise's and the standard error from the ratios' spread.
+  struct LoadRatio {
+    double ratio = 0.0;
+    double noise_sigma = 0.0;
+    double spread_sigma = 0.0;
+    double tangential_n = 0.0;  // |sum F_t|
+    int count = 0;
+    double sigma() const { return std::hypot(noise_sigma, spread_sigma); }
+  };
+  LoadRatio CalcLoadRatio(const TactileFrame& frame, bool plateau_only) const;
+  // mu, the margin and the least normal force of a contact in partial or gross slip (NaN in
+  // partial slip with fewer than min_contact_markers on the plateau).
+  void EstimateFriction(const TactileFrame& frame, const LoadRatio& contact, FrameSlip* out) const;
   // Whether the plateau_quantile of the contact markers' tangential increments since the
   // previous frame is above noise (a stuck core moves); *seen is false when too few contact
   // markers have an increment.

@@ -47,8 +47,9 @@ Contact MakeContact(Load load,
                     const Eigen::Vector3d& step_mm,
                     double lag,
                     std::mt19937_64& rng,
-                    double mu = kMu) {
-  std::normal_distribution<double> noise(0.0, kSigmaN);
+                    double mu = kMu,
+                    double sigma_n = kSigmaN) {
+  std::normal_distribution<double> noise(0.0, sigma_n);
   Contact c{TactileFrame::Sized(kSide, kSide), std::vector<bool>(kSide * kSide, false)};
   for (int i = 0; i < kSide * kSide; ++i) {
     const double rho = Rho(i);
@@ -102,6 +103,8 @@ TEST(SlipEstimator, NoContactIsNoneWithNaN) {
   EXPECT_TRUE(std::isnan(slip.fraction));
   EXPECT_TRUE(std::isnan(slip.friction));
   EXPECT_TRUE(std::isnan(slip.friction_sigma));
+  EXPECT_TRUE(std::isnan(slip.margin));
+  EXPECT_TRUE(std::isnan(slip.least_normal_force_n));
 }
 
 TEST(SlipEstimator, RigidShiftOfTheContactIsStick) {
@@ -165,7 +168,7 @@ TEST(SlipEstimator, PartialSlipFindsTheAnnulus) {
     EXPECT_EQ(slip.state, SlipState::kPartialSlip) << c_over_a << " " << slip.fraction;
     EXPECT_NEAR(slip.fraction, true_fraction, 0.1) << c_over_a;
     EXPECT_GE(Agreement(c, estimator.slipping()), 0.9) << c_over_a;
-    EXPECT_TRUE(std::isnan(slip.friction));
+    EXPECT_NEAR(slip.friction, kMu, 0.02) << c_over_a;
   }
 }
 
@@ -195,7 +198,8 @@ TEST(SlipEstimator, SaturatedButDraggedIsPartialSlip) {
   const FrameSlip slip =
       estimator.Estimate(MakeContact(Load::kGross, 0, kBase, kStep, 1, rng).frame);
   EXPECT_EQ(slip.state, SlipState::kPartialSlip);
-  EXPECT_TRUE(std::isnan(slip.friction));
+  EXPECT_NEAR(slip.friction, kMu, 0.02);  // the whole contact on the friction cone
+  EXPECT_NEAR(slip.margin, 0.0, 0.05);
 }
 
 // Once seen still, gross slip persists while its friction level holds (sliding onto a lower
@@ -286,6 +290,133 @@ TEST(SlipEstimator, AccuracyOverLoads) {
   }
 }
 
+// Cattaneo-Mindlin's stick radius at a tangential load Q = load * mu P: c / a = (1 - load)^(1/3).
+double StickRadius(double load) { return std::cbrt(1.0 - load); }
+
+// The true |sum F_t| / sum F_n of a Cattaneo-Mindlin contact over its contact markers: the
+// noiseless tractions of MakeContact at the same loads.
+struct TrueLoad {
+  double tangential_n = 0, normal_n = 0;
+};
+TrueLoad TrueLoadOf(const Contact& noisy, double c_over_a, double mu) {
+  std::mt19937_64 unused(0);
+  const Contact exact = MakeContact(
+      Load::kPartial, c_over_a, kBase, Eigen::Vector3d::Zero(), 0.3, unused, mu, 0.0);
+  TrueLoad t;
+  Eigen::Vector3d ft = Eigen::Vector3d::Zero();
+  for (int i = 0; i < kSide * kSide; ++i) {
+    if (!noisy.frame.contact[i]) continue;
+    ft += exact.frame.forces_n[i] - exact.frame.forces_n[i].dot(Eigen::Vector3d::UnitZ()) *
+                                        Eigen::Vector3d::UnitZ();
+    t.normal_n -= exact.frame.forces_n[i].z();
+  }
+  t.tangential_n = ft.norm();
+  return t;
+}
+
+// A Cattaneo-Mindlin contact loaded to `load` = Q / (mu P), seen over two frames (the annulus
+// lags 0.3 of the object's step): the estimate of the second.
+FrameSlip EstimateMindlin(double load, double mu, std::mt19937_64& rng, Contact* seen = nullptr) {
+  const double c_over_a = StickRadius(load);
+  SlipEstimator estimator(kSide * kSide);
+  estimator.Estimate(
+      MakeContact(Load::kPartial, c_over_a, kBase, Eigen::Vector3d::Zero(), 0.3, rng, mu).frame);
+  Contact c = MakeContact(Load::kPartial, c_over_a, kBase, kStep, 0.3, rng, mu);
+  const FrameSlip slip = estimator.Estimate(c.frame);
+  if (seen) *seen = std::move(c);
+  return slip;
+}
+
+// Issue 26's acceptance on synthetic contacts: mu within 0.02 at Q / (mu P) = 0.5, 0.7, 0.9,
+// its 1-sigma covering the truth (|error| <= 2 sigma) in >= 90 % of the draws, the margin
+// within 0.05 and the least normal force within 5 % of their truths.
+TEST(SlipEstimator, PartialSlipRecoversMuAndTheMargin) {
+  std::mt19937_64 rng(testing::kRandomSeed);
+  constexpr int kDraws = 50;
+  constexpr double kSafety = SlipOptions{}.safety_factor;
+  int covered = 0, total = 0;
+  for (const double mu : {0.3, 0.6, 1.0}) {
+    for (const double load : {0.5, 0.7, 0.9}) {
+      double max_mu_error = 0, max_margin_error = 0, max_force_error = 0, sum_sigma = 0;
+      int wrong_state = 0, case_covered = 0;
+      for (int k = 0; k < kDraws; ++k) {
+        Contact c;
+        const FrameSlip slip = EstimateMindlin(load, mu, rng, &c);
+        const TrueLoad truth = TrueLoadOf(c, StickRadius(load), mu);
+        wrong_state += slip.state != SlipState::kPartialSlip;
+        const double mu_error = std::abs(slip.friction - mu);
+        max_mu_error = std::max(max_mu_error, std::isnan(mu_error) ? 1.0 : mu_error);
+        case_covered += mu_error <= 2 * slip.friction_sigma;
+        sum_sigma += slip.friction_sigma;
+        const double true_margin = 1 - truth.tangential_n / (mu * truth.normal_n);
+        const double margin_error = std::abs(slip.margin - true_margin);
+        max_margin_error = std::max(max_margin_error, std::isnan(margin_error) ? 1.0 : margin_error);
+        const double true_force = kSafety * truth.tangential_n / mu;
+        const double force_error = std::abs(slip.least_normal_force_n / true_force - 1);
+        max_force_error = std::max(max_force_error, std::isnan(force_error) ? 1.0 : force_error);
+        EXPECT_LE(slip.margin_sigma, 0.05) << mu << " " << load;
+      }
+      std::printf(
+          "partial slip mu %.1f Q/(mu P) %.1f: max |mu error| %.4f, mean sigma %.4f, "
+          "covered %d/%d, max |margin error| %.4f, max least-force error %.1f %%, "
+          "wrong state %d/%d\n",
+          mu,
+          load,
+          max_mu_error,
+          sum_sigma / kDraws,
+          case_covered,
+          kDraws,
+          max_margin_error,
+          100 * max_force_error,
+          wrong_state,
+          kDraws);
+      EXPECT_EQ(wrong_state, 0) << mu << " " << load;
+      EXPECT_LE(max_mu_error, 0.02) << mu << " " << load;
+      EXPECT_LE(max_margin_error, 0.05) << mu << " " << load;
+      EXPECT_LE(max_force_error, 0.05) << mu << " " << load;
+      covered += case_covered;
+      total += kDraws;
+    }
+  }
+  EXPECT_GE(covered, 0.9 * total);
+}
+
+// Pure stick (Q / (mu P) <= 0.1: a Cattaneo-Mindlin annulus thinner than the outer ring of
+// markers) reports no friction: false alarms over many noisy draws.
+TEST(SlipEstimator, PureStickReportsNoFriction) {
+  std::mt19937_64 rng(testing::kRandomSeed);
+  constexpr int kDraws = 100;
+  int alarms = 0, total = 0;
+  for (const double mu : {0.3, 0.6, 1.0}) {
+    for (const double load : {0.02, 0.05, 0.1}) {
+      for (int k = 0; k < kDraws; ++k) {
+        const FrameSlip slip = EstimateMindlin(load, mu, rng);
+        EXPECT_NE(slip.state, SlipState::kGrossSlip);
+        alarms += !std::isnan(slip.friction) || !std::isnan(slip.margin) ||
+                  !std::isnan(slip.least_normal_force_n);
+        ++total;
+      }
+    }
+  }
+  std::printf("pure stick: friction reported in %d of %d draws\n", alarms, total);
+  EXPECT_LE(alarms, 0.01 * total);
+}
+
+// Gross slip: no margin left, and the least normal force is safety_factor times the load's.
+TEST(SlipEstimator, GrossSlipHasNoMargin) {
+  std::mt19937_64 rng(testing::kRandomSeed);
+  SlipEstimator estimator(kSide * kSide, {.safety_factor = 2.0});
+  estimator.Estimate(MakeContact(Load::kGross, 0, kBase, Eigen::Vector3d::Zero(), 0, rng).frame);
+  const Contact c = MakeContact(Load::kGross, 0, kBase, Eigen::Vector3d::Zero(), 0, rng);
+  const FrameSlip slip = estimator.Estimate(c.frame);
+  ASSERT_EQ(slip.state, SlipState::kGrossSlip);
+  EXPECT_EQ(slip.margin, 0.0);
+  EXPECT_EQ(slip.margin_sigma, 0.0);
+  double normal_n = 0;
+  for (int i = 0; i < kSide * kSide; ++i) normal_n -= c.frame.contact[i] ? c.frame.forces_n[i].z() : 0;
+  EXPECT_NEAR(slip.least_normal_force_n, 2.0 * normal_n, 1e-9 * normal_n);
+}
+
 TEST(SlipEstimator, FewContactMarkersIsNone) {
   SlipEstimator estimator(kSide * kSide, {.min_contact_markers = 4});
   TactileFrame frame = TactileFrame::Sized(kSide, kSide);
@@ -327,6 +458,8 @@ TEST(SlipEstimator, RefusesBadOptionsAndSizes) {
   throws({.stick_below = 1.5}, "stick_below");
   throws({.saturation_tolerance = 1}, "saturation_tolerance");
   throws({.saturation_tolerance = -0.1}, "saturation_tolerance");
+  throws({.safety_factor = 0.9}, "safety_factor");
+  throws({.safety_factor = NAN}, "safety_factor");
   EXPECT_THROW(SlipEstimator(0), Error);
   SlipEstimator estimator(4);
   EXPECT_THROW(estimator.Estimate(TactileFrame::Sized(3, 3)), Error);
