@@ -172,14 +172,20 @@ FrameSlip DecodeSlip(const DecodedFrame& frame) {
   }
   for (const auto& [name, value] : {std::pair{kFieldSlipFraction, &slip.fraction},
                                     std::pair{kFieldFriction, &slip.friction},
-                                    std::pair{kFieldFrictionSigma, &slip.friction_sigma},
-                                    std::pair{kFieldSlipMargin, &slip.margin},
-                                    std::pair{kFieldSlipMarginSigma, &slip.margin_sigma},
-                                    std::pair{kFieldLeastNormalForce, &slip.least_normal_force_n}}) {
+                                    std::pair{kFieldFrictionSigma, &slip.friction_sigma}}) {
     const DecodedField* field = frame.Find(name);
     if (field == nullptr) continue;
     if (field->type != FieldType::kF64) fail(fmt::format("item '{}' must be f64", name));
     *value = field->matrix(0, 0);
+  }
+  if (const DecodedField* margin = frame.Find(kFieldSlipMargin)) {
+    if (margin->type != FieldType::kMat || margin->matrix.rows() != 1 ||
+        margin->matrix.cols() != 3) {
+      fail(fmt::format("item '{}' must be a 1 x 3 mat", kFieldSlipMargin));
+    }
+    slip.margin = margin->matrix(0, 0);
+    slip.margin_sigma = margin->matrix(0, 1);
+    slip.least_normal_force_n = margin->matrix(0, 2);
   }
   return slip;
 }
@@ -268,11 +274,13 @@ void AppendExtraItems(const TactileFrame& frame, ExtraItems extras, EncodedFrame
   for (const auto& [item, value] :
        {std::pair{ExtraItem::kSlipFraction, frame.slip.fraction},
         std::pair{ExtraItem::kFriction, frame.slip.friction},
-        std::pair{ExtraItem::kFrictionSigma, frame.slip.friction_sigma},
-        std::pair{ExtraItem::kSlipMargin, frame.slip.margin},
-        std::pair{ExtraItem::kSlipMarginSigma, frame.slip.margin_sigma},
-        std::pair{ExtraItem::kLeastNormalForce, frame.slip.least_normal_force_n}}) {
+        std::pair{ExtraItem::kFrictionSigma, frame.slip.friction_sigma}}) {
     if (has(item)) AppendScalar(ExtraItemName(item), "f64", value, out);
+  }
+  if (has(ExtraItem::kSlipMargin)) {
+    const double margin[3] = {
+        frame.slip.margin, frame.slip.margin_sigma, frame.slip.least_normal_force_n};
+    AppendMat(kFieldSlipMargin, margin, 1, out);
   }
 }
 
@@ -336,10 +344,6 @@ const char* ExtraItemName(ExtraItem item) {
       return kFieldFrictionSigma;
     case ExtraItem::kSlipMargin:
       return kFieldSlipMargin;
-    case ExtraItem::kSlipMarginSigma:
-      return kFieldSlipMarginSigma;
-    case ExtraItem::kLeastNormalForce:
-      return kFieldLeastNormalForce;
   }
   TAC3D_DEMAND(false);
 }

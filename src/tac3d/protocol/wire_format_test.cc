@@ -40,9 +40,7 @@ const std::vector<ExpectedItem> kExtraTable = {
     {"SlipFraction", "f64", 0, 0, 8},
     {"Friction", "f64", 0, 0, 8},
     {"FrictionSigma", "f64", 0, 0, 8},
-    {"SlipMargin", "f64", 0, 0, 8},
-    {"SlipMarginSigma", "f64", 0, 0, 8},
-    {"LeastNormalForce", "f64", 0, 0, 8},
+    {"SlipMargin", "mat", 1, 3, 24},
 };
 
 std::vector<ExpectedItem> FullTable() {
@@ -175,8 +173,7 @@ TEST(WireFormat, ExtraItemsFollowTheVendorsSixWhenAsked) {
 TEST(WireFormat, ExtraItemsAreParsedByNameOrAll) {
   EXPECT_EQ(ParseExtraItems("", "--udp-items"), ExtraItems());
   EXPECT_EQ(ParseExtraItems("all", "--udp-items"), kAllExtras);
-  EXPECT_EQ(ParseExtraItems("3D_Normals,SlipState,SlipFraction,Friction,FrictionSigma,SlipMargin,"
-                            "SlipMarginSigma,LeastNormalForce",
+  EXPECT_EQ(ParseExtraItems("3D_Normals,SlipState,SlipFraction,Friction,FrictionSigma,SlipMargin",
                             "x"),
             kAllExtras);
   EXPECT_EQ(ParseExtraItems("SlipState", "x"),
@@ -189,7 +186,7 @@ TEST(WireFormat, ExtraItemsAreParsedByNameOrAll) {
               ::testing::ThrowsMessage<Error>(::testing::StrEq(
                   "--udp-items '3D_Normals,Slip': unknown item 'Slip'; the items to add to the "
                   "vendor's six are 3D_Normals, SlipState, SlipFraction, Friction, FrictionSigma, "
-                  "SlipMargin, SlipMarginSigma, LeastNormalForce (or all)")));
+                  "SlipMargin (or all)")));
   EXPECT_THAT([] { ParseExtraItems("3D_Forces", "--udp-items"); },
               ::testing::ThrowsMessage<Error>(HasSubstr(
                   "--udp-items '3D_Forces': '3D_Forces' is one of the vendor's six, always sent")));
@@ -261,7 +258,7 @@ TEST(WireFormat, SlipExtraItemsRoundTripInEveryState) {
   ASSERT_TRUE(received);
   EXPECT_EQ(received->frame.Find("Friction")->matrix(0, 0), gross.slip.friction);
   EXPECT_EQ(received->frame.slip.friction_sigma, gross.slip.friction_sigma);
-  EXPECT_EQ(received->frame.Find("LeastNormalForce")->matrix(0, 0), gross.slip.least_normal_force_n);
+  EXPECT_EQ(received->frame.Find("SlipMargin")->matrix(0, 2), gross.slip.least_normal_force_n);
   // Partial slip carries them too, with its margin to gross slip.
   const TactileFrame partial = MakeSyntheticTactileFrame("AD2-0065L", 103);
   ASSERT_EQ(partial.slip.state, SlipState::kPartialSlip);
@@ -269,6 +266,7 @@ TEST(WireFormat, SlipExtraItemsRoundTripInEveryState) {
   ASSERT_TRUE(received_partial);
   EXPECT_EQ(received_partial->frame.Find("SlipMargin")->matrix(0, 0), partial.slip.margin);
   EXPECT_EQ(received_partial->frame.slip.margin_sigma, partial.slip.margin_sigma);
+  EXPECT_EQ(received_partial->frame.slip.least_normal_force_n, partial.slip.least_normal_force_n);
   EXPECT_GT(partial.slip.margin, 0.0);
 }
 

@@ -38,6 +38,7 @@ void SlipOptions::Validate() const {
           "in [0, 1)",
           saturation_tolerance);
   Require(safety_factor >= 1, "safety_factor", ">= 1", safety_factor);
+  Require(cone_sigmas > 0, "cone_sigmas", "> 0", cone_sigmas);
 }
 
 SlipEstimator::SlipEstimator(int num_markers, const SlipOptions& options)
@@ -55,6 +56,7 @@ SlipEstimator::SlipEstimator(int num_markers, const SlipOptions& options)
   normal_n_.resize(n);
   slipping_.assign(n, false);
   on_plateau_.assign(n, false);
+  on_cone_.assign(n, false);
   previous_mm_.assign(n, Eigen::Vector3d::Zero());
   previous_valid_.assign(n, false);
   for (auto& a : axis_) a.resize(n);
@@ -107,7 +109,7 @@ FrameSlip SlipEstimator::Estimate(const TactileFrame& frame) {
   } else {
     FindPlateau();
     ApplyMotion(frame);
-    const LoadRatio contact = CalcLoadRatio(frame, false);
+    const LoadRatio contact = CalcLoadRatio(frame, nullptr);
     ratio = contact.ratio;
     out.state = Classify(frame, ratio, contact.sigma());
     if (out.state == SlipState::kGrossSlip) {
@@ -253,12 +255,12 @@ bool SlipEstimator::IsDragged(const TactileFrame& frame, bool* seen) {
 }
 
 SlipEstimator::LoadRatio SlipEstimator::CalcLoadRatio(const TactileFrame& frame,
-                                                      bool plateau_only) const {
+                                                      const std::vector<bool>* selected) const {
   LoadRatio out;
   Eigen::Vector3d sum_ft = Eigen::Vector3d::Zero();
   double sum_fn = 0.0, sum_var = 0.0;
   for (int c = 0; c < num_contact_; ++c) {
-    if (plateau_only && !on_plateau_[c]) continue;
+    if (selected && !(*selected)[c]) continue;
     const int i = contact_index_[c];
     sum_ft += frame.forces_n[i] + normal_n_[c] * frame.normals[i];
     sum_fn += normal_n_[c];
@@ -274,7 +276,7 @@ SlipEstimator::LoadRatio SlipEstimator::CalcLoadRatio(const TactileFrame& frame,
   // sum w^2 * sum w (r - mu)^2 with weights w = F_n / sum F_n.
   double spread = 0.0, weight2 = 0.0;
   for (int c = 0; c < num_contact_; ++c) {
-    if (plateau_only && !on_plateau_[c]) continue;
+    if (selected && !(*selected)[c]) continue;
     const double w = normal_n_[c] / sum_fn;
     spread += w * (ratio_[c] - mu) * (ratio_[c] - mu);
     weight2 += w * w;
@@ -287,11 +289,24 @@ SlipEstimator::LoadRatio SlipEstimator::CalcLoadRatio(const TactileFrame& frame,
 
 void SlipEstimator::EstimateFriction(const TactileFrame& frame,
                                      const LoadRatio& contact,
-                                     FrameSlip* out) const {
+                                     FrameSlip* out) {
   double mu = contact.ratio, mu_sigma = contact.sigma();
   if (out->state == SlipState::kPartialSlip) {
     // The slipping annulus sits on the friction cone: its markers' load-weighted ratio is mu.
-    const LoadRatio annulus = CalcLoadRatio(frame, true);
+    // From the plateau, a sigma-clipped mean: the stuck markers just inside the stick boundary
+    // (a ratio a little below mu) leave, the annulus' noise is cut on both sides alike.
+    constexpr int kClippings = 3;  // the selection settles in 2 on the synthetic contacts
+    std::copy(on_plateau_.begin(), on_plateau_.begin() + num_contact_, on_cone_.begin());
+    LoadRatio annulus = CalcLoadRatio(frame, &on_cone_);
+    for (int k = 0; k < kClippings && annulus.count >= options_.min_contact_markers; ++k) {
+      int kept = 0;
+      for (int c = 0; c < num_contact_; ++c) {
+        on_cone_[c] = std::abs(ratio_[c] - annulus.ratio) <= options_.cone_sigmas * ratio_sigma_[c];
+        kept += on_cone_[c];
+      }
+      if (kept < options_.min_contact_markers) break;
+      annulus = CalcLoadRatio(frame, &on_cone_);
+    }
     if (annulus.count < options_.min_contact_markers) return;
     // Coulomb bounds the whole contact's load by mu P: mu below R is noise or scatter.
     mu = std::max(annulus.ratio, contact.ratio);
