@@ -270,18 +270,38 @@ TEST(WireFormat, SlipExtraItemsRoundTripInEveryState) {
   EXPECT_GT(partial.slip.margin, 0.0);
 }
 
+// The header must fit in one datagram. With every extra item: `tac3d run`'s stream (no image)
+// with every flag and a 48-character SN; a stream with images, a 16-character SN and the four
+// per-frame measurement flags. Every flag, an image and every extra item do not fit together
+// (the encoder throws, naming the header's size).
 TEST(WireFormat, HeaderWithTheExtraItemsStillFitsWithEveryFlagAndALongSn) {
-  TactileFrame frame = MakeSyntheticTactileFrame(std::string(64, 'S'), 123456789);
+  TactileFrame frame = MakeSyntheticTactileFrame(std::string(48, 'S'), 123456789);
   for (const FrameFlag flag : kAllFrameFlags) frame.set(flag);
   EncodedFrame out;
-  EncodeFrame(frame, 0, cv::Mat(2, 2, CV_8UC1, cv::Scalar(7)), kAllExtras, &out);
+  EncodeFrame(frame, 0, cv::Mat(), kAllExtras, &out);
   EXPECT_LE(out.header.size(), kChunkBytes);
+  TactileFrame imaged = MakeSyntheticTactileFrame(std::string(16, 'S'), 123456789);
+  for (const FrameFlag flag : {FrameFlag::kMarkersLost,
+                               FrameFlag::kGridReacquired,
+                               FrameFlag::kDisplacementOutOfRange,
+                               FrameFlag::kForceOutOfRange}) {
+    imaged.set(flag);
+  }
+  const cv::Mat image(2, 2, CV_8UC1, cv::Scalar(7));
+  EncodedFrame with_image;
+  EncodeFrame(imaged, 0, image, kAllExtras, &with_image);
+  EXPECT_LE(with_image.header.size(), kChunkBytes);
+  for (const FrameFlag flag : kAllFrameFlags) imaged.set(flag);
+  EXPECT_THAT([&] { EncodeFrame(imaged, 0, image, kAllExtras, &with_image); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("it must fit in one")));
   EncodedFrame plain, six;
   EncodeFrame(MakeSyntheticTactileFrame("AD2-0065L", 42), 0, cv::Mat(), kAllExtras, &plain);
   EncodeFrame(MakeSyntheticTactileFrame("AD2-0065L", 42), 0, cv::Mat(), ExtraItems(), &six);
   std::printf("header: %zu bytes for docs/protocol.md's example (%zu with the extra items), %zu "
-              "with them, a 64-byte SN, every flag and an image\n",
-              six.header.size(), plain.header.size(), out.header.size());
+              "with them, a 48-byte SN and every flag, %zu with them, a 16-byte SN, four flags "
+              "and an image\n",
+              six.header.size(), plain.header.size(), out.header.size(),
+              with_image.header.size());
 }
 
 TEST(WireFormat, ImageTravelsAsLosslessPng) {

@@ -106,6 +106,7 @@ FrameSlip SlipEstimator::Estimate(const TactileFrame& frame) {
     out.state = SlipState::kNone;
     num_contact_ = 0;
     gross_seen_still_ = false;
+    held_friction_ = held_friction_sigma_ = FrameSlip::kNaN;
   } else {
     FindPlateau();
     ApplyMotion(frame);
@@ -123,6 +124,8 @@ FrameSlip SlipEstimator::Estimate(const TactileFrame& frame) {
       std::fill(slipping_.begin(), slipping_.end(), false);
       num_slipping_ = 0;
     }
+    held_friction_ = out.friction;
+    held_friction_sigma_ = out.friction_sigma;
     out.fraction = static_cast<double>(num_slipping_) / num_contact_;
   }
   previous_ratio_ = ratio;
@@ -185,17 +188,17 @@ void SlipEstimator::ApplyMotion(const TactileFrame& frame) {
     if (count >= options_.min_contact_markers) break;
   }
   const double step_noise_mm = std::sqrt(2.0) * displacement_sigma_mm_;
-  bool moving = false;
+  moving_ = false;
   if (count >= options_.min_contact_markers) {
     for (int a = 0; a < 3; ++a) rigid_increment_mm_[a] = Median(axis_[a], count);
-    moving = rigid_increment_mm_.norm() > k * step_noise_mm;
+    moving_ = rigid_increment_mm_.norm() > k * step_noise_mm;
   }
-  if (!moving) rigid_increment_mm_.setZero();
+  if (!moving_) rigid_increment_mm_.setZero();
   const double lag_mm = k * step_noise_mm + options_.lag_tolerance * rigid_increment_mm_.norm();
   for (int c = 0; c < num_contact_; ++c) {
     const int i = contact_index_[c];
     bool slipping = on_plateau_[c];
-    if (slipping && moving && previous_valid_[i]) {
+    if (slipping && moving_ && previous_valid_[i]) {
       const Eigen::Vector3d du = frame.displacements_mm[i] - previous_mm_[i];
       slipping = (du - rigid_increment_mm_).norm() > lag_mm;
     }
@@ -287,30 +290,50 @@ SlipEstimator::LoadRatio SlipEstimator::CalcLoadRatio(const TactileFrame& frame,
   return out;
 }
 
+bool SlipEstimator::EstimateConeFriction(const TactileFrame& frame,
+                                         const LoadRatio& contact,
+                                         double* mu,
+                                         double* mu_sigma) {
+  // The slipping annulus sits on the friction cone: the load-weighted ratio of the markers that
+  // slip (on the plateau and lagging the contact's motion) is mu. A sigma-clipped mean over
+  // them: a stuck marker that passed (a ratio a little below mu, just inside the stick
+  // boundary) leaves, the annulus' noise is cut on both sides alike. A still contact's slipping
+  // markers cannot be told from its stuck ones (no lag): none are taken.
+  constexpr int kClippings = 3;  // the selection settles in 2 on the synthetic contacts
+  const auto slips = [&](int c) { return moving_ && slipping_[contact_index_[c]]; };
+  for (int c = 0; c < num_contact_; ++c) on_cone_[c] = slips(c);
+  LoadRatio annulus = CalcLoadRatio(frame, &on_cone_);
+  for (int k = 0; k < kClippings && annulus.count >= options_.min_contact_markers; ++k) {
+    int kept = 0;
+    for (int c = 0; c < num_contact_; ++c) {
+      on_cone_[c] = slips(c) &&
+                    std::abs(ratio_[c] - annulus.ratio) <= options_.cone_sigmas * ratio_sigma_[c];
+      kept += on_cone_[c];
+    }
+    if (kept < options_.min_contact_markers) break;
+    annulus = CalcLoadRatio(frame, &on_cone_);
+  }
+  // Enough slipping markers, and a cone not below the whole contact's ratio R beyond its noise
+  // (Coulomb bounds the load by mu P; below R the ratio is noise).
+  if (annulus.count >= options_.min_contact_markers &&
+      annulus.ratio + options_.cone_sigmas * annulus.sigma() >= contact.ratio) {
+    *mu = std::max(annulus.ratio, contact.ratio);
+    *mu_sigma = annulus.sigma();
+    return true;
+  }
+  // No cone seen this frame: the last estimate holds while the contact stays in partial slip.
+  if (std::isnan(held_friction_)) return false;
+  *mu = std::max(held_friction_, contact.ratio);
+  *mu_sigma = held_friction_sigma_;
+  return true;
+}
+
 void SlipEstimator::EstimateFriction(const TactileFrame& frame,
                                      const LoadRatio& contact,
                                      FrameSlip* out) {
   double mu = contact.ratio, mu_sigma = contact.sigma();
   if (out->state == SlipState::kPartialSlip) {
-    // The slipping annulus sits on the friction cone: its markers' load-weighted ratio is mu.
-    // From the plateau, a sigma-clipped mean: the stuck markers just inside the stick boundary
-    // (a ratio a little below mu) leave, the annulus' noise is cut on both sides alike.
-    constexpr int kClippings = 3;  // the selection settles in 2 on the synthetic contacts
-    std::copy(on_plateau_.begin(), on_plateau_.begin() + num_contact_, on_cone_.begin());
-    LoadRatio annulus = CalcLoadRatio(frame, &on_cone_);
-    for (int k = 0; k < kClippings && annulus.count >= options_.min_contact_markers; ++k) {
-      int kept = 0;
-      for (int c = 0; c < num_contact_; ++c) {
-        on_cone_[c] = std::abs(ratio_[c] - annulus.ratio) <= options_.cone_sigmas * ratio_sigma_[c];
-        kept += on_cone_[c];
-      }
-      if (kept < options_.min_contact_markers) break;
-      annulus = CalcLoadRatio(frame, &on_cone_);
-    }
-    if (annulus.count < options_.min_contact_markers) return;
-    // Coulomb bounds the whole contact's load by mu P: mu below R is noise or scatter.
-    mu = std::max(annulus.ratio, contact.ratio);
-    mu_sigma = annulus.sigma();
+    if (!EstimateConeFriction(frame, contact, &mu, &mu_sigma)) return;
   }
   if (!(mu > 0.0)) return;
   out->friction = mu;

@@ -410,6 +410,40 @@ TEST(SlipEstimator, PureStickReportsNoFriction) {
   EXPECT_LE(alarms, 0.01 * total);
 }
 
+// The per-marker slip state needs motion: a contact still from its first frame reports no mu;
+// once measured on a moving contact, mu holds through still frames of partial slip, the margin
+// following the present load.
+TEST(SlipEstimator, AStillContactHoldsTheLastMu) {
+  std::mt19937_64 rng(testing::kRandomSeed);
+  constexpr double kMuHere = 0.6;
+  SlipEstimator estimator(kSide * kSide);
+  const auto frame = [&](double load, const Eigen::Vector3d& step) {
+    return MakeContact(Load::kPartial, StickRadius(load), kBase, step, 0.3, rng, kMuHere).frame;
+  };
+  const FrameSlip first = estimator.Estimate(frame(0.7, Eigen::Vector3d::Zero()));
+  EXPECT_EQ(first.state, SlipState::kPartialSlip);
+  EXPECT_TRUE(std::isnan(first.friction));
+  EXPECT_TRUE(std::isnan(first.margin));
+  const FrameSlip moving = estimator.Estimate(frame(0.7, kStep));
+  ASSERT_EQ(moving.state, SlipState::kPartialSlip);
+  EXPECT_NEAR(moving.friction, kMuHere, 0.02);
+  // Still (the same displacements) at a higher load: the same mu, a smaller margin.
+  const Contact still =
+      MakeContact(Load::kPartial, StickRadius(0.8), kBase, kStep, 0.3, rng, kMuHere);
+  const FrameSlip held = estimator.Estimate(still.frame);
+  ASSERT_EQ(held.state, SlipState::kPartialSlip);
+  EXPECT_EQ(held.friction, moving.friction);
+  EXPECT_EQ(held.friction_sigma, moving.friction_sigma);
+  const TrueLoad truth = TrueLoadOf(still, StickRadius(0.8), kMuHere);
+  EXPECT_NEAR(held.margin, 1 - truth.tangential_n / (kMuHere * truth.normal_n), 0.05);
+  EXPECT_LT(held.margin, moving.margin);
+  // A release to no load: stick, and mu is forgotten.
+  TactileFrame released = still.frame;
+  for (auto& f : released.forces_n) f.x() = 0;
+  EXPECT_EQ(estimator.Estimate(released).state, SlipState::kStick);
+  EXPECT_TRUE(std::isnan(estimator.Estimate(still.frame).friction));
+}
+
 // Gross slip: no margin left, and the least normal force is safety_factor times the load's.
 TEST(SlipEstimator, GrossSlipHasNoMargin) {
   std::mt19937_64 rng(testing::kRandomSeed);
