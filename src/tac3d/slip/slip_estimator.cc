@@ -124,8 +124,12 @@ FrameSlip SlipEstimator::Estimate(const TactileFrame& frame) {
       std::fill(slipping_.begin(), slipping_.end(), false);
       num_slipping_ = 0;
     }
-    held_friction_ = out.friction;
-    held_friction_sigma_ = out.friction_sigma;
+    // Held for still frames: an estimate with motion evidence, not a gross slip read on a
+    // contact never seen still (a noisy small load can look saturated).
+    const bool evidence = out.state == SlipState::kPartialSlip ||
+                          (out.state == SlipState::kGrossSlip && gross_seen_still_);
+    held_friction_ = evidence ? out.friction : FrameSlip::kNaN;
+    held_friction_sigma_ = evidence ? out.friction_sigma : FrameSlip::kNaN;
     out.fraction = static_cast<double>(num_slipping_) / num_contact_;
   }
   previous_ratio_ = ratio;
