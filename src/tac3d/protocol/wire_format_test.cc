@@ -291,6 +291,7 @@ TEST(WireFormat, HeaderWithTheExtraItemsStillFitsWithEveryFlagAndALongSn) {
   EncodedFrame with_image;
   EncodeFrame(imaged, 0, image, kAllExtras, &with_image);
   EXPECT_LE(with_image.header.size(), kChunkBytes);
+  const std::size_t with_image_bytes = with_image.header.size();
   for (const FrameFlag flag : kAllFrameFlags) imaged.set(flag);
   EXPECT_THAT([&] { EncodeFrame(imaged, 0, image, kAllExtras, &with_image); },
               ::testing::ThrowsMessage<Error>(HasSubstr("it must fit in one")));
@@ -301,7 +302,7 @@ TEST(WireFormat, HeaderWithTheExtraItemsStillFitsWithEveryFlagAndALongSn) {
               "with them, a 48-byte SN and every flag, %zu with them, a 16-byte SN, four flags "
               "and an image\n",
               six.header.size(), plain.header.size(), out.header.size(),
-              with_image.header.size());
+              with_image_bytes);
 }
 
 TEST(WireFormat, ImageTravelsAsLosslessPng) {
