@@ -303,7 +303,7 @@ bool SlipEstimator::EstimateConeFriction(const TactileFrame& frame,
   // them: a stuck marker that passed (a ratio a little below mu, just inside the stick
   // boundary) leaves, the annulus' noise is cut on both sides alike. A still contact's slipping
   // markers cannot be told from its stuck ones (no lag): none are taken.
-  constexpr int kClippings = 3;  // the selection settles in 2 on the synthetic contacts
+  constexpr int kClippings = 3;  // a bound on the passes, so the cost per frame is too
   const auto slips = [&](int c) { return moving_ && slipping_[contact_index_[c]]; };
   for (int c = 0; c < num_contact_; ++c) on_cone_[c] = slips(c);
   LoadRatio annulus = CalcLoadRatio(frame, &on_cone_);
