@@ -2,7 +2,8 @@
 // displacement, F = K D, normals, contact, resultants and the live slip estimate, on twin
 // frames of a moving press (/0) and of a press that also shears the surface along x (/1, so
 // the slip estimate sees a tangential load); the slip estimate alone on the sheared press's
-// frames (BM_SlipEstimate); and
+// frames (BM_SlipEstimate/0) and on those around its partial slip (/1, the friction-cone mu);
+// and
 // the throughput with the Tac3D UDP sender on, streaming every frame to a loopback client
 // socket that drains what arrives (issue 6). At 1920 x 1080 on a vendor-calibrated sensor
 // (issue 23: median <= 2 ms on one core), with the decoding of a 1920 x 1080 MJPEG frame beside
@@ -123,27 +124,49 @@ void BM_DecodeMjpeg1080p(benchmark::State& state) {
 }
 BENCHMARK(BM_DecodeMjpeg1080p)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 
-// The SlipEstimator's share: its Estimate alone on the sheared press's TactileFrames.
+// The SlipEstimator's share: its Estimate alone on the sheared press's TactileFrames (/0), and
+// on the pairs of them whose second reads partial slip (/1: the frame before, then that frame,
+// so about half the calls take the friction-cone estimate of mu, issue 26's added cost).
 void BM_SlipEstimate(benchmark::State& state) {
   PressStream stream(0.4);
   std::vector<TactileFrame> frames(stream.frames.size());
   for (size_t k = 0; k < frames.size(); ++k) stream.pipeline.Process(stream.frames[k], frames[k]);
+  if (state.range(0) == 1) {
+    std::vector<TactileFrame> partial_pairs;
+    for (size_t k = 1; k < frames.size(); ++k) {
+      if (frames[k].slip.state != SlipState::kPartialSlip) continue;
+      partial_pairs.push_back(frames[k - 1]);
+      partial_pairs.push_back(frames[k]);
+    }
+    if (partial_pairs.empty()) {
+      state.SkipWithError("no frame of the sheared press reads partial slip");
+      return;
+    }
+    frames = std::move(partial_pairs);
+  }
   SlipEstimator estimator(stream.config.markers.rows * stream.config.markers.cols);
   size_t k = 0;
   std::array<std::int64_t, kNumSlipStates> states{};
+  std::int64_t with_mu = 0;
+  const bool pairs = state.range(0) == 1;
   for (auto _ : state) {
+    // Each pair from a fresh history, as the pipeline's estimator saw it: else the replayed
+    // pairs run on from each other's gross slip.
+    if (pairs && k % 2 == 0) estimator.Reset();
     FrameSlip slip = estimator.Estimate(frames[k++ % frames.size()]);
     ++states[static_cast<int>(slip.state)];
+    with_mu += !std::isnan(slip.friction);
     benchmark::DoNotOptimize(slip);
   }
-  // Which paths ran: the share of frames in each state.
+  // Which paths ran: the share of frames in each state, and of those with mu.
   const double iterations = static_cast<double>(std::max<std::int64_t>(state.iterations(), 1));
   for (const SlipState s :
        {SlipState::kNone, SlipState::kStick, SlipState::kPartialSlip, SlipState::kGrossSlip}) {
     state.counters[SlipStateName(s)] = static_cast<double>(states[static_cast<int>(s)]) / iterations;
   }
+  state.counters["with_mu"] = static_cast<double>(with_mu) / iterations;
 }
-BENCHMARK(BM_SlipEstimate)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_SlipEstimate)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 
 // Image -> TactileFrame -> Tac3D datagrams to 127.0.0.1, a client socket on the same machine
 // taking them off its queue: frames/s end to end on loopback (no images in the stream).

@@ -224,7 +224,7 @@ TEST(Cli, RunRefusesAnUnknownUdpItemListingTheKnownOnes) {
   EXPECT_EQ(o.exit_code, 1);
   EXPECT_THAT(o.output, HasSubstr("--udp-items 'Normals': unknown item 'Normals'; the items to add "
                                   "to the vendor's six are 3D_Normals, SlipState, SlipFraction, "
-                                  "Friction, FrictionSigma (or all)"));
+                                  "Friction, FrictionSigma, SlipMargin (or all)"));
   o = RunCli(fmt::format("run --source {} --udp-items all", dir));
   EXPECT_EQ(o.exit_code, 1);
   EXPECT_THAT(o.output, HasSubstr("--udp-items needs --udp HOST:PORT"));

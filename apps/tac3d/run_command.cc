@@ -126,7 +126,8 @@ void RegisterRun(CLI::App& app) {
   cmd->add_option("--udp", sensor.outputs.udp, "stream the Tac3D protocol to HOST:PORT");
   cmd->add_option("--udp-items", sensor.outputs.udp_items,
                   "with --udp, tac3d's extra items after the vendor's six: NAME,NAME,... of "
-                  "3D_Normals, SlipState, SlipFraction, Friction, FrictionSigma, or all");
+                  "3D_Normals, SlipState, SlipFraction, Friction, FrictionSigma, "
+                  "SlipMargin, or all");
   cmd->add_flag("--udp-progress", sensor.outputs.udp_progress,
                 "with --udp, also send the frames taken while the reference is (re)taken "
                 "(InitializeProgress < 100; PyTac3D 3.3.0-p1 stops at the first)");

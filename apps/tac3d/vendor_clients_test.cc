@@ -116,9 +116,9 @@ TEST(VendorCppClient, TheExtraItemsArriveWhenAskedAndItComplainsOfEachEveryFrame
   client.ReceiveUntilIdle(0.5, 10.0);
   EXPECT_EQ(client.delivered(), run.measured) << run.log;
   const std::set<std::string> extras = {
-      "3D_Normals", "SlipState", "SlipFraction", "Friction", "FrictionSigma"};
+      "3D_Normals", "SlipState", "SlipFraction", "Friction", "FrictionSigma", "SlipMargin"};
   EXPECT_EQ(client.unknown_items(), extras);
-  EXPECT_EQ(client.complaints(), 5 * client.frames_completed());
+  EXPECT_EQ(client.complaints(), 6 * client.frames_completed());
 }
 
 TEST(VendorCppClient, ProgressFramesWhenAskedAreSentAndSkippedByTheClient) {

@@ -37,6 +37,17 @@ void DefVector3Field(py::class_<TactileFrame, FramePtr>& c, const char* name, co
       doc);
 }
 
+// A scalar of the frame's slip estimate, read and written as a float (a frame built in Python
+// can carry one through a recording).
+template <double FrameSlip::*kField>
+auto SlipGetter() {
+  return [](const TactileFrame& f) { return f.slip.*kField; };
+}
+template <double FrameSlip::*kField>
+auto SlipSetter() {
+  return [](TactileFrame& f, double value) { f.slip.*kField = value; };
+}
+
 // Whole recordings in memory: frames and their images, and T x N x 3 arrays on demand.
 struct Recording {
   std::vector<FramePtr> frames;
@@ -219,12 +230,27 @@ change the frame. Assigning an array copies it in after a shape check.
           [](const TactileFrame& f) { return std::string(SlipStateName(f.slip.state)); },
           "unknown, none, stick, partial_slip or gross_slip.")
       .def_property_readonly("slip_fraction", [](const TactileFrame& f) { return f.slip.fraction; })
-      .def_property_readonly(
-          "friction",
-          [](const TactileFrame& f) { return f.slip.friction; },
-          "Friction coefficient estimate (NaN unless gross slip).")
-      .def_property_readonly("friction_sigma",
-                             [](const TactileFrame& f) { return f.slip.friction_sigma; })
+      .def_property("friction",
+                    SlipGetter<&FrameSlip::friction>(),
+                    SlipSetter<&FrameSlip::friction>(),
+                    "Friction coefficient estimate (partial and gross slip; NaN otherwise).")
+      .def_property("friction_sigma",
+                    SlipGetter<&FrameSlip::friction_sigma>(),
+                    SlipSetter<&FrameSlip::friction_sigma>(),
+                    "Its 1-sigma uncertainty.")
+      .def_property("slip_margin",
+                    SlipGetter<&FrameSlip::margin>(),
+                    SlipSetter<&FrameSlip::margin>(),
+                    "Margin to gross slip, 1 - |Q| / (mu P) (NaN without a friction estimate).")
+      .def_property("slip_margin_sigma",
+                    SlipGetter<&FrameSlip::margin_sigma>(),
+                    SlipSetter<&FrameSlip::margin_sigma>(),
+                    "Its 1-sigma uncertainty.")
+      .def_property("least_normal_force_n",
+                    SlipGetter<&FrameSlip::least_normal_force_n>(),
+                    SlipSetter<&FrameSlip::least_normal_force_n>(),
+                    "The least normal force (N) holding the present tangential load with the "
+                    "slip options' safety factor (NaN without a friction estimate).")
       .def("validate",
            &TactileFrame::Validate,
            "Raises tac3d.Error naming a field that is inconsistent.")

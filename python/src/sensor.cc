@@ -261,7 +261,8 @@ sender sent by name: 3D_Displacements, 3D_Positions, 3D_Forces (float64 N x 3),
 3D_ResultantForce, 3D_ResultantMoment (float64 1 x 3; tac3d sends the moment in N mm),
 InitializeProgress (float as the vendor and tac3d send it; int from a tac3d before issue 22);
 when the sender adds them (`tac3d run --udp-items`), 3D_Normals (float64 N x 3) and tac3d's
-SlipState (int), SlipFraction, Friction, FrictionSigma (float). An item not sent is absent.
+SlipState (int), SlipFraction, Friction, FrictionSigma (float) and SlipMargin (float64 1 x 3:
+the margin to gross slip, its 1-sigma, the least normal force in N). An item not sent is absent.
 
 Frames still initializing (InitializeProgress != 100) are dropped, as the vendor client does,
 unless drop_initializing=False. recvCallback(frame, param) runs on the receive thread with the

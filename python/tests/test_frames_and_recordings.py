@@ -1,6 +1,8 @@
 """TactileFrame's numpy fields and recordings: write, read (streamed, whole), errors."""
+import json
 import os
 import resource
+import subprocess
 
 import numpy as np
 import pytest
@@ -58,7 +60,7 @@ def test_recording_round_trip_streamed_and_whole(tmp_path):
     path = write_recording(tmp_path / "r.tac3drec", 30)
     reader = tac3d.RecordingReader(path)
     frames = list(reader)
-    assert len(frames) == 30 and reader.status == "complete" and reader.version == 2
+    assert len(frames) == 30 and reader.status == "complete" and reader.version == 3
     for k, f in enumerate(frames):
         expected = synthetic_frame(k)
         np.testing.assert_array_equal(f.positions, expected.positions)
@@ -161,3 +163,29 @@ def test_a_frame_is_bounded_as_a_sensor_is():
     assert tac3d.TactileFrame(100, 100).positions.shape == (10_000, 3)
     with pytest.raises(tac3d.Error, match="grid 1000000 x 1000000 must be within 1 x 1 .. 100 x 100"):
         tac3d.TactileFrame(10**6, 10**6)
+
+
+def test_slip_estimate_round_trips_through_a_recording_and_json_lines(tmp_path, tac3d_cli):
+    f = synthetic_frame(0)
+    assert np.isnan(f.slip_margin) and np.isnan(f.least_normal_force_n)
+    values = {"friction": 0.61, "friction_sigma": 0.012, "slip_margin": 0.35,
+              "slip_margin_sigma": 0.021, "least_normal_force_n": 2.75}
+    for name, value in values.items():
+        setattr(f, name, value)
+    path = str(tmp_path / "slip.tac3drec")
+    with tac3d.RecordingWriter(path) as w:
+        w.write(f)
+    (read,) = list(tac3d.RecordingReader(path))
+    for name, value in values.items():
+        assert getattr(read, name) == value, name
+    assert read == f
+    # Replayed to JSON lines (docs/pipeline.md): the same numbers under their keys, null for NaN.
+    f.friction = float("nan")
+    with tac3d.RecordingWriter(path, overwrite=True) as w:
+        w.write(f)
+    run = subprocess.run([tac3d_cli, "run", "--source", f"recording:{path}", "--speed", "0",
+                          "--json"], check=True, capture_output=True, text=True, timeout=60)
+    (line,) = [json.loads(x) for x in run.stdout.splitlines()]
+    assert line["friction"] is None
+    assert line["friction_sigma"] == 0.012 and line["slip_margin"] == 0.35
+    assert line["slip_margin_sigma"] == 0.021 and line["least_normal_force_n"] == 2.75

@@ -95,6 +95,7 @@ def test_the_extra_items_arrive_when_asked(tac3d_cli, twin, cache_dir):
         assert states[f["SlipState"]] == by_index[f["index"]]["slip_state"]
         for name in ("SlipFraction", "Friction", "FrictionSigma"):
             assert isinstance(f[name], float)
+        assert f["SlipMargin"].shape == (1, 3)
 
 
 def test_progress_frames_when_asked_end_this_client_at_the_first(tac3d_cli, twin, cache_dir):

@@ -46,9 +46,14 @@ TactileFrame MakeSyntheticTactileFrame(const std::string& sn,
   if (frame.slip.state >= SlipState::kStick) {
     frame.slip.fraction = 0.01 * static_cast<double>(index % 100);
   }
-  if (frame.slip.state == SlipState::kGrossSlip) {
+  if (frame.slip.state >= SlipState::kPartialSlip) {
     frame.slip.friction = 0.4 + 1e-3 * static_cast<double>(index % 100);
     frame.slip.friction_sigma = 0.01 + 1e-5 * static_cast<double>(index % 100);
+    frame.slip.margin = frame.slip.state == SlipState::kGrossSlip
+                            ? 0.0
+                            : 0.2 + 1e-3 * static_cast<double>(index % 100);
+    frame.slip.margin_sigma = 0.02 + 1e-5 * static_cast<double>(index % 100);
+    frame.slip.least_normal_force_n = 1.5 + 1e-3 * static_cast<double>(index % 100);
   }
   return frame;
 }

@@ -52,11 +52,17 @@ struct FrameSlip {
   static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
   SlipState state = SlipState::kUnknown;
   double fraction = kNaN;        ///< slipping / contact markers, NaN without contact
-  double friction = kNaN;        ///< friction coefficient, NaN unless kGrossSlip
-  double friction_sigma = kNaN;  ///< its 1-sigma uncertainty, NaN unless kGrossSlip
-  double margin = kNaN;          ///< margin to gross slip, 1 - |Q| / (mu P); NaN without an estimate
-  double margin_sigma = kNaN;    ///< its 1-sigma uncertainty
-  double least_normal_force_n = kNaN;  ///< the least normal force that holds the tangential load
+  /// Friction coefficient mu: in gross slip the contact's ratio, in partial slip the friction
+  /// cone at the slipping annulus (docs/slip.md); NaN in stick, without contact or unknown.
+  double friction = kNaN;
+  double friction_sigma = kNaN;  ///< its 1-sigma uncertainty, NaN when friction is
+  /// Margin to gross slip 1 - |Q| / (mu P) (Q, P: the contact's tangential and normal load):
+  /// 1 unloaded, 0 sliding; NaN when friction is.
+  double margin = kNaN;
+  double margin_sigma = kNaN;  ///< its 1-sigma uncertainty, NaN when margin is
+  /// The least normal force (N) that holds the present tangential load with
+  /// SlipOptions::safety_factor: safety_factor * |Q| / mu; NaN when friction is.
+  double least_normal_force_n = kNaN;
 
   /// Bitwise equal values (NaN equals NaN), so a frame equals its round trip.
   bool operator==(const FrameSlip& other) const;

@@ -178,6 +178,15 @@ FrameSlip DecodeSlip(const DecodedFrame& frame) {
     if (field->type != FieldType::kF64) fail(fmt::format("item '{}' must be f64", name));
     *value = field->matrix(0, 0);
   }
+  if (const DecodedField* margin = frame.Find(kFieldSlipMargin)) {
+    if (margin->type != FieldType::kMat || margin->matrix.rows() != 1 ||
+        margin->matrix.cols() != 3) {
+      fail(fmt::format("item '{}' must be a 1 x 3 mat", kFieldSlipMargin));
+    }
+    slip.margin = margin->matrix(0, 0);
+    slip.margin_sigma = margin->matrix(0, 1);
+    slip.least_normal_force_n = margin->matrix(0, 2);
+  }
   return slip;
 }
 
@@ -268,6 +277,11 @@ void AppendExtraItems(const TactileFrame& frame, ExtraItems extras, EncodedFrame
         std::pair{ExtraItem::kFrictionSigma, frame.slip.friction_sigma}}) {
     if (has(item)) AppendScalar(ExtraItemName(item), "f64", value, out);
   }
+  if (has(ExtraItem::kSlipMargin)) {
+    const double margin[3] = {
+        frame.slip.margin, frame.slip.margin_sigma, frame.slip.least_normal_force_n};
+    AppendMat(kFieldSlipMargin, margin, 1, out);
+  }
 }
 
 void AppendImage(const cv::Mat& image, EncodedFrame* out) {
@@ -328,6 +342,8 @@ const char* ExtraItemName(ExtraItem item) {
       return kFieldFriction;
     case ExtraItem::kFrictionSigma:
       return kFieldFrictionSigma;
+    case ExtraItem::kSlipMargin:
+      return kFieldSlipMargin;
   }
   TAC3D_DEMAND(false);
 }

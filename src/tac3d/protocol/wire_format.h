@@ -38,8 +38,12 @@ inline constexpr const char* kFieldImage = "img";
 /// per-frame dictionary by name and never read them (its C++ client complains: ExtraItem).
 inline constexpr const char* kFieldSlipState = "SlipState";          ///< i32, SlipState's value
 inline constexpr const char* kFieldSlipFraction = "SlipFraction";    ///< f64, NaN without contact
-inline constexpr const char* kFieldFriction = "Friction";            ///< f64, NaN unless gross slip
+inline constexpr const char* kFieldFriction = "Friction";  ///< f64, NaN in stick or no contact
 inline constexpr const char* kFieldFrictionSigma = "FrictionSigma";  ///< f64, 1-sigma of Friction
+/// mat f64 1 x 3: FrameSlip's margin to gross slip, its 1-sigma and the least normal force (N).
+/// One item, not three: each item costs its header lines, and the header must fit in one
+/// datagram (docs/protocol.md).
+inline constexpr const char* kFieldSlipMargin = "SlipMargin";
 
 /// The items the vendor's processing program sends by default, in its order (its per-sensor
 /// sensor.yaml): what every frame of ours carries first.
@@ -52,8 +56,15 @@ inline constexpr std::array<const char*, 6> kVendorItems = {kFieldDisplacements,
 
 /// tac3d's items beyond the vendor's six, each sent only when asked (StreamOptions::items),
 /// after the six, in this order. The vendor's C++ client complains of each in every frame.
-enum class ExtraItem { kNormals, kSlipState, kSlipFraction, kFriction, kFrictionSigma };
-inline constexpr int kNumExtraItems = static_cast<int>(ExtraItem::kFrictionSigma) + 1;
+enum class ExtraItem {
+  kNormals,
+  kSlipState,
+  kSlipFraction,
+  kFriction,
+  kFrictionSigma,
+  kSlipMargin,
+};
+inline constexpr int kNumExtraItems = static_cast<int>(ExtraItem::kSlipMargin) + 1;
 /// A set of extra items, bit ExtraItem.
 using ExtraItems = std::bitset<kNumExtraItems>;
 /// The item's name on the wire: kFieldNormals, kFieldSlipState, ...
@@ -98,7 +109,7 @@ struct EncodedFrame {
 /// in its order (kVendorItems: per-marker fields rows*cols x 3 float64 row-major; resultant
 /// force N and moment N mm as 1 x 3; InitializeProgress as f64), then the extra items in
 /// `extras` (3D_Normals as the per-marker fields, SlipState i32, SlipFraction, Friction and
-/// FrictionSigma f64), then `img` as PNG when `image` is not empty. The header's msg holds
+/// FrictionSigma f64, SlipMargin 1 x 3), then `img` as PNG when `image` is not empty. The header's msg holds
 /// FrameFlagNames(frame.flags).
 /// @param image 8-bit, 1 or 3 channels, or empty for none.
 /// @throws Error if the frame does not Validate(), its SN is not printable ASCII without
@@ -177,7 +188,8 @@ struct DecodedFrame {
 /// offset and length against the body, a mat's dtype (f64) and height * width * 8 == length,
 /// f64 and i32 lengths, that images decode, and the table's fields' shapes (per-marker
 /// fields N x 3 with one N, resultants 1 x 3, InitializeProgress i32 or f64), and fills `slip`
-/// from the extra items (SlipState an i32 naming a SlipState, the others f64).
+/// from the extra items (SlipState an i32 naming a SlipState, SlipMargin a 1 x 3 mat, the
+/// others f64).
 /// @throws DecodeError with kBadHeader, kBadField or kBadImage, saying what was wrong.
 DecodedFrame DecodeFrame(std::string_view header, std::string_view body);
 

@@ -40,6 +40,7 @@ const std::vector<ExpectedItem> kExtraTable = {
     {"SlipFraction", "f64", 0, 0, 8},
     {"Friction", "f64", 0, 0, 8},
     {"FrictionSigma", "f64", 0, 0, 8},
+    {"SlipMargin", "mat", 1, 3, 24},
 };
 
 std::vector<ExpectedItem> FullTable() {
@@ -153,8 +154,8 @@ TEST(WireFormat, DatagramsFollowTheProtocolByteForByte) {
 TEST(WireFormat, ExtraItemsFollowTheVendorsSixWhenAsked) {
   const TactileFrame frame = MakeSyntheticTactileFrame("AD2-0065L", 42);
   const EncodedFrame all = Encode(frame);
-  // + 9600 of normals, 4 of slip state, 24 of slip figures = 38484: 28 chunks.
-  EXPECT_EQ(all.body.size(), 38484u);
+  // + 9600 of normals, 4 of slip state, 48 of slip figures = 38508: 28 chunks.
+  EXPECT_EQ(all.body.size(), 38508u);
   EXPECT_EQ(all.packet_count(), 28);
   const YAML::Node data = YAML::Load(all.header)["data"];
   ExpectItems(data, FullTable());
@@ -172,7 +173,8 @@ TEST(WireFormat, ExtraItemsFollowTheVendorsSixWhenAsked) {
 TEST(WireFormat, ExtraItemsAreParsedByNameOrAll) {
   EXPECT_EQ(ParseExtraItems("", "--udp-items"), ExtraItems());
   EXPECT_EQ(ParseExtraItems("all", "--udp-items"), kAllExtras);
-  EXPECT_EQ(ParseExtraItems("3D_Normals,SlipState,SlipFraction,Friction,FrictionSigma", "x"),
+  EXPECT_EQ(ParseExtraItems("3D_Normals,SlipState,SlipFraction,Friction,FrictionSigma,SlipMargin",
+                            "x"),
             kAllExtras);
   EXPECT_EQ(ParseExtraItems("SlipState", "x"),
             ExtraItems().set(static_cast<int>(ExtraItem::kSlipState)));
@@ -183,8 +185,8 @@ TEST(WireFormat, ExtraItemsAreParsedByNameOrAll) {
   EXPECT_THAT([] { ParseExtraItems("3D_Normals,Slip", "--udp-items"); },
               ::testing::ThrowsMessage<Error>(::testing::StrEq(
                   "--udp-items '3D_Normals,Slip': unknown item 'Slip'; the items to add to the "
-                  "vendor's six are 3D_Normals, SlipState, SlipFraction, Friction, FrictionSigma "
-                  "(or all)")));
+                  "vendor's six are 3D_Normals, SlipState, SlipFraction, Friction, FrictionSigma, "
+                  "SlipMargin (or all)")));
   EXPECT_THAT([] { ParseExtraItems("3D_Forces", "--udp-items"); },
               ::testing::ThrowsMessage<Error>(HasSubstr(
                   "--udp-items '3D_Forces': '3D_Forces' is one of the vendor's six, always sent")));
@@ -256,20 +258,51 @@ TEST(WireFormat, SlipExtraItemsRoundTripInEveryState) {
   ASSERT_TRUE(received);
   EXPECT_EQ(received->frame.Find("Friction")->matrix(0, 0), gross.slip.friction);
   EXPECT_EQ(received->frame.slip.friction_sigma, gross.slip.friction_sigma);
+  EXPECT_EQ(received->frame.Find("SlipMargin")->matrix(0, 2), gross.slip.least_normal_force_n);
+  // Partial slip carries them too, with its margin to gross slip.
+  const TactileFrame partial = MakeSyntheticTactileFrame("AD2-0065L", 103);
+  ASSERT_EQ(partial.slip.state, SlipState::kPartialSlip);
+  const auto received_partial = Reassemble(Encode(partial).Datagrams(), &assembler);
+  ASSERT_TRUE(received_partial);
+  EXPECT_EQ(received_partial->frame.Find("SlipMargin")->matrix(0, 0), partial.slip.margin);
+  EXPECT_EQ(received_partial->frame.slip.margin_sigma, partial.slip.margin_sigma);
+  EXPECT_EQ(received_partial->frame.slip.least_normal_force_n, partial.slip.least_normal_force_n);
+  EXPECT_GT(partial.slip.margin, 0.0);
 }
 
+// The header must fit in one datagram. With every extra item: `tac3d run`'s stream (no image)
+// with every flag and a 48-character SN; a stream with images, a 16-character SN and the four
+// per-frame measurement flags. Every flag, an image and every extra item do not fit together
+// (the encoder throws, naming the header's size).
 TEST(WireFormat, HeaderWithTheExtraItemsStillFitsWithEveryFlagAndALongSn) {
-  TactileFrame frame = MakeSyntheticTactileFrame(std::string(64, 'S'), 123456789);
+  TactileFrame frame = MakeSyntheticTactileFrame(std::string(48, 'S'), 123456789);
   for (const FrameFlag flag : kAllFrameFlags) frame.set(flag);
   EncodedFrame out;
-  EncodeFrame(frame, 0, cv::Mat(2, 2, CV_8UC1, cv::Scalar(7)), kAllExtras, &out);
+  EncodeFrame(frame, 0, cv::Mat(), kAllExtras, &out);
   EXPECT_LE(out.header.size(), kChunkBytes);
+  TactileFrame imaged = MakeSyntheticTactileFrame(std::string(16, 'S'), 123456789);
+  for (const FrameFlag flag : {FrameFlag::kMarkersLost,
+                               FrameFlag::kGridReacquired,
+                               FrameFlag::kDisplacementOutOfRange,
+                               FrameFlag::kForceOutOfRange}) {
+    imaged.set(flag);
+  }
+  const cv::Mat image(2, 2, CV_8UC1, cv::Scalar(7));
+  EncodedFrame with_image;
+  EncodeFrame(imaged, 0, image, kAllExtras, &with_image);
+  EXPECT_LE(with_image.header.size(), kChunkBytes);
+  const std::size_t with_image_bytes = with_image.header.size();
+  for (const FrameFlag flag : kAllFrameFlags) imaged.set(flag);
+  EXPECT_THAT([&] { EncodeFrame(imaged, 0, image, kAllExtras, &with_image); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("it must fit in one")));
   EncodedFrame plain, six;
   EncodeFrame(MakeSyntheticTactileFrame("AD2-0065L", 42), 0, cv::Mat(), kAllExtras, &plain);
   EncodeFrame(MakeSyntheticTactileFrame("AD2-0065L", 42), 0, cv::Mat(), ExtraItems(), &six);
   std::printf("header: %zu bytes for docs/protocol.md's example (%zu with the extra items), %zu "
-              "with them, a 64-byte SN, every flag and an image\n",
-              six.header.size(), plain.header.size(), out.header.size());
+              "with them, a 48-byte SN and every flag, %zu with them, a 16-byte SN, four flags "
+              "and an image\n",
+              six.header.size(), plain.header.size(), out.header.size(),
+              with_image_bytes);
 }
 
 TEST(WireFormat, ImageTravelsAsLosslessPng) {

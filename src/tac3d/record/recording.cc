@@ -169,6 +169,9 @@ void RecordingWriter::Write(const TactileFrame& frame, const cv::Mat& image) {
   Put(&record_, frame.slip.fraction);
   Put(&record_, frame.slip.friction);
   Put(&record_, frame.slip.friction_sigma);
+  Put(&record_, frame.slip.margin);
+  Put(&record_, frame.slip.margin_sigma);
+  Put(&record_, frame.slip.least_normal_force_n);
   Put(&record_, static_cast<std::uint32_t>(image.rows));
   Put(&record_, static_cast<std::uint32_t>(image.cols));
   for (int r = 0; r < image.rows; ++r) PutBytes(&record_, image.ptr(r), image.cols);
@@ -296,6 +299,11 @@ std::optional<RecordedFrame> RecordingReader::Next() {
       frame.slip.fraction = payload.Get<double>("slip fraction");
       frame.slip.friction = payload.Get<double>("friction");
       frame.slip.friction_sigma = payload.Get<double>("friction sigma");
+    }
+    if (version_ >= 3) {
+      frame.slip.margin = payload.Get<double>("slip margin");
+      frame.slip.margin_sigma = payload.Get<double>("slip margin sigma");
+      frame.slip.least_normal_force_n = payload.Get<double>("least normal force");
     }
     const auto image_rows = payload.Get<std::uint32_t>("image rows");
     const auto image_cols = payload.Get<std::uint32_t>("image cols");

@@ -21,8 +21,9 @@ namespace tac3d {
 
 inline constexpr char kRecordingMagic[8] = {'T', 'A', 'C', '3', 'D', 'R', 'E', 'C'};
 /// The version the writer writes. 2 adds the slip estimate (TactileFrame::slip) after the
-/// contact flags; the reader also reads version 1, whose frames carry SlipState::kUnknown.
-inline constexpr std::uint32_t kRecordingVersion = 2;
+/// contact flags, 3 its margin to gross slip and least normal force after it; the reader also
+/// reads versions 1 (frames carry SlipState::kUnknown) and 2 (margin and least force NaN).
+inline constexpr std::uint32_t kRecordingVersion = 3;
 inline constexpr std::uint32_t kOldestRecordingVersion = 1;
 /// Records longer than this are refused by the writer and taken as corruption by the reader,
 /// so a damaged length field cannot make the reader allocate without bound.

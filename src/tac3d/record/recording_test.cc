@@ -148,33 +148,39 @@ TEST(Recording, RefusesWhatItCannotWriteOrRead) {
   EXPECT_THROW(RecordingReader(dir + "/missing"), Error);
   EXPECT_THROW(RecordingReader(WriteBytes(dir + "/text", "hello, world")), Error);
   std::string future = FileBytes(path);
-  future[8] = 3;
+  future[8] = 4;
   try {
-    RecordingReader reader(WriteBytes(dir + "/v3", future));
-    ADD_FAILURE() << "read version 3";
+    RecordingReader reader(WriteBytes(dir + "/v4", future));
+    ADD_FAILURE() << "read version 4";
   } catch (const Error& e) {
-    EXPECT_THAT(e.what(), HasSubstr("version 3; this reader knows 1 to 2"));
+    EXPECT_THAT(e.what(), HasSubstr("version 4; this reader knows 1 to 3"));
   }
 }
 
-// The slip estimate's 25 bytes sit right after the contact flags (docs/recording.md).
+// The slip estimate's 25 bytes sit right after the contact flags, the 24 bytes of its margin
+// and least normal force (version 3) right after them (docs/recording.md).
 constexpr std::size_t kSlipBytes = 1 + 3 * 8;
+constexpr std::size_t kMarginBytes = 3 * 8;
 std::size_t SlipOffsetInPayload(const TactileFrame& f) {
   return 4 + 4 + 8 + 8 + 4 + 4 + 2 + f.sn.size() + 24 + 24 + 4 * 24 * f.num_markers() +
          2 * f.num_markers();
 }
 
-// A version-1 file of the same frames: the header's version 1 and each record without the
-// slip bytes, its length and CRC recomputed, as the version-1 writer made them.
-std::string ToVersion1(const std::string& v2, const std::vector<TactileFrame>& frames) {
-  std::string out = v2.substr(0, kFileHeaderBytes);
-  out[8] = 1;
+// An older file of the same frames: the header's version and each record without the bytes
+// that version lacked (version 2: the margin's; version 1: the slip estimate's too), its length
+// and CRC recomputed, as that version's writer made them.
+std::string ToVersion(int version,
+                      const std::string& v3,
+                      const std::vector<TactileFrame>& frames) {
+  std::string out = v3.substr(0, kFileHeaderBytes);
+  out[8] = static_cast<char>(version);
   std::size_t at = kFileHeaderBytes;
   for (const TactileFrame& f : frames) {
     std::uint32_t length;
-    std::memcpy(&length, v2.data() + at, 4);
-    std::string payload = v2.substr(at + 8, length);
-    payload.erase(SlipOffsetInPayload(f), kSlipBytes);
+    std::memcpy(&length, v3.data() + at, 4);
+    std::string payload = v3.substr(at + 8, length);
+    payload.erase(SlipOffsetInPayload(f) + (version == 2 ? kSlipBytes : 0),
+                  kMarginBytes + (version == 1 ? kSlipBytes : 0));
     const auto new_length = static_cast<std::uint32_t>(payload.size());
     const std::uint32_t crc = Crc32(Crc32(0, &new_length, 4), payload.data(), payload.size());
     out.append(reinterpret_cast<const char*>(&new_length), 4);
@@ -182,7 +188,7 @@ std::string ToVersion1(const std::string& v2, const std::vector<TactileFrame>& f
     out += payload;
     at += 8 + length;
   }
-  EXPECT_EQ(at, v2.size());
+  EXPECT_EQ(at, v3.size());
   return out;
 }
 
@@ -191,7 +197,7 @@ TEST(Recording, SlipEstimateRoundTripsAtItsDocumentedOffset) {
   const std::string path = WriteRecording(dir, 5);
   const std::string bytes = FileBytes(path);
   RecordingReader reader(path);
-  EXPECT_EQ(reader.version(), 2u);
+  EXPECT_EQ(reader.version(), 3u);
   std::size_t at = kFileHeaderBytes;
   for (int i = 0; i < 5; ++i) {
     const TactileFrame expected = MakeSyntheticTactileFrame("AD2-0065L", i);
@@ -207,7 +213,15 @@ TEST(Recording, SlipEstimateRoundTripsAtItsDocumentedOffset) {
     std::memcpy(&fraction, bytes.data() + slip + 1, 8);
     std::memcpy(&friction, bytes.data() + slip + 9, 8);
     std::memcpy(&sigma, bytes.data() + slip + 17, 8);
-    EXPECT_EQ(FrameSlip({expected.slip.state, fraction, friction, sigma}), expected.slip) << i;
+    double margin, margin_sigma, least_force;
+    std::memcpy(&margin, bytes.data() + slip + 25, 8);
+    std::memcpy(&margin_sigma, bytes.data() + slip + 33, 8);
+    std::memcpy(&least_force, bytes.data() + slip + 41, 8);
+    EXPECT_EQ(
+        FrameSlip(
+            {expected.slip.state, fraction, friction, sigma, margin, margin_sigma, least_force}),
+        expected.slip)
+        << i;
     std::uint32_t length;
     std::memcpy(&length, bytes.data() + at, 4);
     at += 8 + length;
@@ -221,10 +235,10 @@ TEST(Recording, SlipEstimateRoundTripsAtItsDocumentedOffset) {
 
 TEST(Recording, ReadsVersion1FilesWithTheSlipUnknown) {
   const std::string dir = testing::MakeTempDir("v1");
-  const std::string v2 = FileBytes(WriteRecording(dir, 7));
+  const std::string v3 = FileBytes(WriteRecording(dir, 7));
   std::vector<TactileFrame> frames;
   for (int i = 0; i < 7; ++i) frames.push_back(MakeSyntheticTactileFrame("AD2-0065L", i));
-  RecordingReader reader(WriteBytes(dir + "/v1.tac3d", ToVersion1(v2, frames)));
+  RecordingReader reader(WriteBytes(dir + "/v1.tac3d", ToVersion(1, v3, frames)));
   EXPECT_EQ(reader.version(), 1u);
   const auto read = ReadAll(&reader);
   ASSERT_EQ(read.size(), 7u) << reader.message();
@@ -236,6 +250,24 @@ TEST(Recording, ReadsVersion1FilesWithTheSlipUnknown) {
     EXPECT_EQ(read[i].frame.slip.state, SlipState::kUnknown);
     EXPECT_TRUE(std::isnan(read[i].frame.slip.fraction));
     EXPECT_EQ(read[i].image.empty(), i % 3 != 0);
+  }
+}
+
+TEST(Recording, ReadsVersion2FilesWithoutTheMargin) {
+  const std::string dir = testing::MakeTempDir("v2");
+  const std::string v3 = FileBytes(WriteRecording(dir, 7));
+  std::vector<TactileFrame> frames;
+  for (int i = 0; i < 7; ++i) frames.push_back(MakeSyntheticTactileFrame("AD2-0065L", i));
+  RecordingReader reader(WriteBytes(dir + "/v2.tac3d", ToVersion(2, v3, frames)));
+  EXPECT_EQ(reader.version(), 2u);
+  const auto read = ReadAll(&reader);
+  ASSERT_EQ(read.size(), 7u) << reader.message();
+  EXPECT_EQ(reader.status(), RecordingStatus::kComplete);
+  for (int i = 0; i < 7; ++i) {
+    TactileFrame expected = frames[i];
+    expected.slip.margin = expected.slip.margin_sigma = expected.slip.least_normal_force_n =
+        FrameSlip::kNaN;
+    EXPECT_EQ(read[i].frame, expected) << i;  // friction and its sigma kept
   }
 }
 

@@ -88,7 +88,10 @@ nlohmann::json Summary(const TactileFrame& f) {
           {"slip_state", SlipStateName(f.slip.state)},
           {"slip_fraction", FiniteOrNull(f.slip.fraction)},
           {"friction", FiniteOrNull(f.slip.friction)},
-          {"friction_sigma", FiniteOrNull(f.slip.friction_sigma)}};
+          {"friction_sigma", FiniteOrNull(f.slip.friction_sigma)},
+          {"slip_margin", FiniteOrNull(f.slip.margin)},
+          {"slip_margin_sigma", FiniteOrNull(f.slip.margin_sigma)},
+          {"least_normal_force_n", FiniteOrNull(f.slip.least_normal_force_n)}};
 }
 
 }  // namespace

@@ -411,7 +411,7 @@ TEST(RunFile, RefusesMistakesNamingTheLine) {
   EXPECT_THAT(RunFileError(udp + "    udp_items: all,Slip\n"),
               HasSubstr("hand.yaml: line 5: sensors[0].udp_items: --udp-items 'all,Slip': unknown item "
                         "'Slip'; the items to add to the vendor's six are 3D_Normals, SlipState, "
-                        "SlipFraction, Friction, FrictionSigma (or all)"));
+                        "SlipFraction, Friction, FrictionSigma, SlipMargin (or all)"));
   EXPECT_THAT(RunFileError(a + "    udp_items: all\n"),
               HasSubstr("hand.yaml: line 4: sensors[0].udp_items: --udp-items needs --udp HOST:PORT"));
   EXPECT_THAT(RunFileError(a + "    udp_progress: true\n"),

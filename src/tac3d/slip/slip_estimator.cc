@@ -37,6 +37,8 @@ void SlipOptions::Validate() const {
           "saturation_tolerance",
           "in [0, 1)",
           saturation_tolerance);
+  Require(safety_factor >= 1, "safety_factor", ">= 1", safety_factor);
+  Require(cone_sigmas > 0, "cone_sigmas", "> 0", cone_sigmas);
 }
 
 SlipEstimator::SlipEstimator(int num_markers, const SlipOptions& options)
@@ -54,6 +56,7 @@ SlipEstimator::SlipEstimator(int num_markers, const SlipOptions& options)
   normal_n_.resize(n);
   slipping_.assign(n, false);
   on_plateau_.assign(n, false);
+  on_cone_.assign(n, false);
   previous_mm_.assign(n, Eigen::Vector3d::Zero());
   previous_valid_.assign(n, false);
   for (auto& a : axis_) a.resize(n);
@@ -103,22 +106,30 @@ FrameSlip SlipEstimator::Estimate(const TactileFrame& frame) {
     out.state = SlipState::kNone;
     num_contact_ = 0;
     gross_seen_still_ = false;
+    held_friction_ = held_friction_sigma_ = FrameSlip::kNaN;
   } else {
     FindPlateau();
     ApplyMotion(frame);
-    double sigma = 0.0;
-    CalcContactRatio(frame, &ratio, &sigma);
-    out.state = Classify(frame, ratio, sigma);
+    const LoadRatio contact = CalcLoadRatio(frame, nullptr);
+    ratio = contact.ratio;
+    out.state = Classify(frame, ratio, contact.sigma());
     if (out.state == SlipState::kGrossSlip) {
       // The whole contact slips.
       for (int c = 0; c < num_contact_; ++c) slipping_[contact_index_[c]] = true;
       num_slipping_ = num_contact_;
-      out.friction = ratio;
-      out.friction_sigma = sigma;
+      EstimateFriction(frame, contact, &out);
+    } else if (out.state == SlipState::kPartialSlip) {
+      EstimateFriction(frame, contact, &out);
     } else if (out.state == SlipState::kStick) {
       std::fill(slipping_.begin(), slipping_.end(), false);
       num_slipping_ = 0;
     }
+    // Held for still frames: an estimate with motion evidence, not a gross slip read on a
+    // contact never seen still (a noisy small load can look saturated).
+    const bool evidence = out.state == SlipState::kPartialSlip ||
+                          (out.state == SlipState::kGrossSlip && gross_seen_still_);
+    held_friction_ = evidence ? out.friction : FrameSlip::kNaN;
+    held_friction_sigma_ = evidence ? out.friction_sigma : FrameSlip::kNaN;
     out.fraction = static_cast<double>(num_slipping_) / num_contact_;
   }
   previous_ratio_ = ratio;
@@ -181,17 +192,17 @@ void SlipEstimator::ApplyMotion(const TactileFrame& frame) {
     if (count >= options_.min_contact_markers) break;
   }
   const double step_noise_mm = std::sqrt(2.0) * displacement_sigma_mm_;
-  bool moving = false;
+  moving_ = false;
   if (count >= options_.min_contact_markers) {
     for (int a = 0; a < 3; ++a) rigid_increment_mm_[a] = Median(axis_[a], count);
-    moving = rigid_increment_mm_.norm() > k * step_noise_mm;
+    moving_ = rigid_increment_mm_.norm() > k * step_noise_mm;
   }
-  if (!moving) rigid_increment_mm_.setZero();
+  if (!moving_) rigid_increment_mm_.setZero();
   const double lag_mm = k * step_noise_mm + options_.lag_tolerance * rigid_increment_mm_.norm();
   for (int c = 0; c < num_contact_; ++c) {
     const int i = contact_index_[c];
     bool slipping = on_plateau_[c];
-    if (slipping && moving && previous_valid_[i]) {
+    if (slipping && moving_ && previous_valid_[i]) {
       const Eigen::Vector3d du = frame.displacements_mm[i] - previous_mm_[i];
       slipping = (du - rigid_increment_mm_).norm() > lag_mm;
     }
@@ -250,30 +261,98 @@ bool SlipEstimator::IsDragged(const TactileFrame& frame, bool* seen) {
   return *mid > options_.noise_sigmas * std::sqrt(2.0) * displacement_sigma_mm_;
 }
 
-void SlipEstimator::CalcContactRatio(const TactileFrame& frame,
-                                     double* ratio,
-                                     double* sigma) const {
+SlipEstimator::LoadRatio SlipEstimator::CalcLoadRatio(const TactileFrame& frame,
+                                                      const std::vector<bool>* selected) const {
+  LoadRatio out;
   Eigen::Vector3d sum_ft = Eigen::Vector3d::Zero();
   double sum_fn = 0.0, sum_var = 0.0;
   for (int c = 0; c < num_contact_; ++c) {
+    if (selected && !(*selected)[c]) continue;
     const int i = contact_index_[c];
     sum_ft += frame.forces_n[i] + normal_n_[c] * frame.normals[i];
     sum_fn += normal_n_[c];
     sum_var += sigma_n_[i] * sigma_n_[i];
+    ++out.count;
   }
-  const double mu = sum_ft.norm() / sum_fn;
+  if (out.count == 0) return out;
+  out.tangential_n = sum_ft.norm();
+  const double mu = out.tangential_n / sum_fn;
   // The force noise of the sums, propagated to the quotient.
   const double noise_var = sum_var * (1.0 + mu * mu) / (sum_fn * sum_fn);
   // The spread of the load-weighted per-marker ratios: the standard error of their mean,
   // sum w^2 * sum w (r - mu)^2 with weights w = F_n / sum F_n.
   double spread = 0.0, weight2 = 0.0;
   for (int c = 0; c < num_contact_; ++c) {
+    if (selected && !(*selected)[c]) continue;
     const double w = normal_n_[c] / sum_fn;
     spread += w * (ratio_[c] - mu) * (ratio_[c] - mu);
     weight2 += w * w;
   }
-  *ratio = mu;
-  *sigma = std::sqrt(noise_var + spread * weight2);
+  out.ratio = mu;
+  out.noise_sigma = std::sqrt(noise_var);
+  out.spread_sigma = std::sqrt(spread * weight2);
+  return out;
+}
+
+bool SlipEstimator::EstimateConeFriction(const TactileFrame& frame,
+                                         const LoadRatio& contact,
+                                         double* mu,
+                                         double* mu_sigma) {
+  // The slipping annulus sits on the friction cone: the load-weighted ratio of the markers that
+  // slip (on the plateau and lagging the contact's motion) is mu. A sigma-clipped mean over
+  // them: a stuck marker that passed (a ratio a little below mu, just inside the stick
+  // boundary) leaves, the annulus' noise is cut on both sides alike. A still contact's slipping
+  // markers cannot be told from its stuck ones (no lag): none are taken.
+  constexpr int kClippings = 3;  // a bound on the passes, so the cost per frame is too
+  const auto slips = [&](int c) { return moving_ && slipping_[contact_index_[c]]; };
+  for (int c = 0; c < num_contact_; ++c) on_cone_[c] = slips(c);
+  LoadRatio annulus = CalcLoadRatio(frame, &on_cone_);
+  for (int k = 0; k < kClippings && annulus.count >= options_.min_contact_markers; ++k) {
+    int kept = 0;
+    for (int c = 0; c < num_contact_; ++c) {
+      on_cone_[c] = slips(c) &&
+                    std::abs(ratio_[c] - annulus.ratio) <= options_.cone_sigmas * ratio_sigma_[c];
+      kept += on_cone_[c];
+    }
+    if (kept < options_.min_contact_markers) break;
+    annulus = CalcLoadRatio(frame, &on_cone_);
+  }
+  // Enough slipping markers, and a cone not below the whole contact's ratio R beyond its noise
+  // (Coulomb bounds the load by mu P; below R the ratio is noise).
+  if (annulus.count >= options_.min_contact_markers &&
+      annulus.ratio + options_.cone_sigmas * annulus.sigma() >= contact.ratio) {
+    *mu = std::max(annulus.ratio, contact.ratio);
+    *mu_sigma = annulus.sigma();
+    return true;
+  }
+  // No cone seen this frame: the last estimate holds while the contact stays in partial slip.
+  if (std::isnan(held_friction_)) return false;
+  *mu = std::max(held_friction_, contact.ratio);
+  *mu_sigma = held_friction_sigma_;
+  return true;
+}
+
+void SlipEstimator::EstimateFriction(const TactileFrame& frame,
+                                     const LoadRatio& contact,
+                                     FrameSlip* out) {
+  double mu = contact.ratio, mu_sigma = contact.sigma();
+  if (out->state == SlipState::kPartialSlip) {
+    if (!EstimateConeFriction(frame, contact, &mu, &mu_sigma)) return;
+  }
+  if (!(mu > 0.0)) return;
+  out->friction = mu;
+  out->friction_sigma = mu_sigma;
+  out->least_normal_force_n = options_.safety_factor * contact.tangential_n / mu;
+  if (out->state == SlipState::kGrossSlip) {
+    out->margin = 0.0;  // sliding: no margin left
+    out->margin_sigma = 0.0;
+    return;
+  }
+  // 1 - R / mu; R's own uncertainty is the force noise only (the ratios' spread is mu's, not
+  // R's), and the two are taken independent, which overstates sigma (they share markers).
+  const double load = contact.ratio / mu;
+  out->margin = 1.0 - load;
+  out->margin_sigma = std::hypot(contact.noise_sigma, load * mu_sigma) / mu;
 }
 
 }  // namespace tac3d

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cmath>
 #include <vector>
 
 #include "tac3d/frame/tactile_frame.h"
@@ -49,6 +50,18 @@ struct SlipOptions {
   /// markers slip (on the plateau and lagging), else stick. 0.1: well beyond the noise's 0.3 %
   /// false calls per marker.
   double stick_below = 0.1;
+  /// FrameSlip::least_normal_force_n holds the present tangential load |Q| at mu / safety_factor:
+  /// safety_factor * |Q| / mu. 1.5: covers mu read 5 % high (the force reconstruction's bias on
+  /// the twin) and a tangential load that grows by a quarter before the next frame's update,
+  /// 1.05 * 1.25, with room for what the checks have not seen (docs/slip.md). >= 1.
+  double safety_factor = 1.5;
+  /// mu in partial slip is a sigma-clipped load-weighted mean over the slipping markers: a
+  /// marker stays on the friction cone while its ratio is within cone_sigmas of its own noise
+  /// of the estimate; and a cone more than cone_sigmas of its sigma below the contact's ratio R
+  /// is no cone. 2: keeps 95 % of the annulus' markers (cut on both sides alike, so no bias)
+  /// and drops a stuck marker that passed for slipping, whose ratio is a little below mu
+  /// (docs/slip.md).
+  double cone_sigmas = 2.0;
 
   /// @throws tac3d::Error naming the field and the broken bound.
   void Validate() const;
@@ -74,6 +87,13 @@ struct SlipOptions {
 /// is on the contact's plateau (the plateau_quantile of its ratios, within plateau_tolerance
 /// and noise_sigmas of its ratio noise) and, when the contact moves, it lags the contact's
 /// rigid motion; 1 in gross slip, 0 in stick.
+/// Friction in partial slip (docs/slip.md, "Friction before it slips"): the slipping annulus of a
+/// Cattaneo-Mindlin contact sits on the friction cone, so mu is the load-weighted ratio
+/// |sum F_t| / sum F_n of the slipping markers (sigma-clipped, cone_sigmas), at least the
+/// contact's R (Coulomb bounds the whole load by mu P); in a frame without that evidence (the
+/// contact still, too few slipping markers) the last estimate holds while the contact stays in
+/// partial slip. The margin to gross slip 1 - R / mu and the least normal force
+/// safety_factor * |Q| / mu follow; in gross slip mu = R and the margin is 0.
 /// Allocates only in the constructor; not thread-safe.
 class SlipEstimator {
  public:
@@ -93,6 +113,7 @@ class SlipEstimator {
   void Reset() {
     has_previous_ = false;
     gross_seen_still_ = false;
+    held_friction_ = held_friction_sigma_ = FrameSlip::kNaN;
   }
 
   /// The slip estimate of `frame` from its forces_n, normals, valid, contact and displacements
@@ -115,8 +136,25 @@ class SlipEstimator {
   void CollectRatios(const TactileFrame& frame);
   void FindPlateau();
   void ApplyMotion(const TactileFrame& frame);
-  // R = |sum F_t| / sum F_n over the contact and its 1-sigma (force noise and ratios' spread).
-  void CalcContactRatio(const TactileFrame& frame, double* ratio, double* sigma) const;
+  // R = |sum F_t| / sum F_n over the contact markers (or its plateau markers only), the sums and
+  // R's 1-sigma parts: the force noise's and the standard error from the ratios' spread.
+  struct LoadRatio {
+    double ratio = 0.0;
+    double noise_sigma = 0.0;
+    double spread_sigma = 0.0;
+    double tangential_n = 0.0;  // |sum F_t|
+    int count = 0;
+    double sigma() const { return std::hypot(noise_sigma, spread_sigma); }
+  };
+  // `selected`: by contact slot, nullptr for every contact marker.
+  LoadRatio CalcLoadRatio(const TactileFrame& frame, const std::vector<bool>* selected) const;
+  // mu, the margin and the least normal force of a contact in partial or gross slip.
+  void EstimateFriction(const TactileFrame& frame, const LoadRatio& contact, FrameSlip* out);
+  // mu and its sigma in partial slip from the slipping markers' ratios (false: none seen).
+  bool EstimateConeFriction(const TactileFrame& frame,
+                            const LoadRatio& contact,
+                            double* mu,
+                            double* mu_sigma);
   // Whether the plateau_quantile of the contact markers' tangential increments since the
   // previous frame is above noise (a stuck core moves); *seen is false when too few contact
   // markers have an increment.
@@ -135,6 +173,12 @@ class SlipEstimator {
   std::vector<double> normal_n_;
   std::vector<bool> slipping_;
   std::vector<bool> on_plateau_;  // by contact slot
+  std::vector<bool> on_cone_;     // by contact slot: the markers mu in partial slip comes from
+  bool moving_ = false;           // the contact moved since the previous frame (ApplyMotion)
+  // The last mu (and sigma) estimated from a moving contact, held while it stays in partial
+  // slip without moving (its slipping markers cannot be told from the stuck ones then).
+  double held_friction_ = FrameSlip::kNaN;
+  double held_friction_sigma_ = FrameSlip::kNaN;
   std::vector<Eigen::Vector3d> previous_mm_;
   std::vector<bool> previous_valid_;  // valid and in contact in the previous frame
   std::vector<double> axis_[3];

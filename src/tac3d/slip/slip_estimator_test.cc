@@ -47,8 +47,9 @@ Contact MakeContact(Load load,
                     const Eigen::Vector3d& step_mm,
                     double lag,
                     std::mt19937_64& rng,
-                    double mu = kMu) {
-  std::normal_distribution<double> noise(0.0, kSigmaN);
+                    double mu = kMu,
+                    double sigma_n = kSigmaN) {
+  std::normal_distribution<double> noise(0.0, sigma_n);
   Contact c{TactileFrame::Sized(kSide, kSide), std::vector<bool>(kSide * kSide, false)};
   for (int i = 0; i < kSide * kSide; ++i) {
     const double rho = Rho(i);
@@ -102,6 +103,8 @@ TEST(SlipEstimator, NoContactIsNoneWithNaN) {
   EXPECT_TRUE(std::isnan(slip.fraction));
   EXPECT_TRUE(std::isnan(slip.friction));
   EXPECT_TRUE(std::isnan(slip.friction_sigma));
+  EXPECT_TRUE(std::isnan(slip.margin));
+  EXPECT_TRUE(std::isnan(slip.least_normal_force_n));
 }
 
 TEST(SlipEstimator, RigidShiftOfTheContactIsStick) {
@@ -165,7 +168,7 @@ TEST(SlipEstimator, PartialSlipFindsTheAnnulus) {
     EXPECT_EQ(slip.state, SlipState::kPartialSlip) << c_over_a << " " << slip.fraction;
     EXPECT_NEAR(slip.fraction, true_fraction, 0.1) << c_over_a;
     EXPECT_GE(Agreement(c, estimator.slipping()), 0.9) << c_over_a;
-    EXPECT_TRUE(std::isnan(slip.friction));
+    EXPECT_NEAR(slip.friction, kMu, 0.02) << c_over_a;
   }
 }
 
@@ -195,6 +198,8 @@ TEST(SlipEstimator, SaturatedButDraggedIsPartialSlip) {
   const FrameSlip slip =
       estimator.Estimate(MakeContact(Load::kGross, 0, kBase, kStep, 1, rng).frame);
   EXPECT_EQ(slip.state, SlipState::kPartialSlip);
+  // No marker lags (none is seen slipping), and the gross slip read before was never seen
+  // still: no mu.
   EXPECT_TRUE(std::isnan(slip.friction));
 }
 
@@ -286,6 +291,197 @@ TEST(SlipEstimator, AccuracyOverLoads) {
   }
 }
 
+// Cattaneo-Mindlin's stick radius at a tangential load Q = load * mu P: c / a = (1 - load)^(1/3).
+double StickRadius(double load) { return std::cbrt(1.0 - load); }
+
+// The true |sum F_t| / sum F_n of a Cattaneo-Mindlin contact over its contact markers: the
+// noiseless tractions of MakeContact at the same loads.
+struct TrueLoad {
+  double tangential_n = 0, normal_n = 0;
+};
+TrueLoad TrueLoadOf(const Contact& noisy, double c_over_a, double mu) {
+  std::mt19937_64 unused(0);
+  const Contact exact = MakeContact(
+      Load::kPartial, c_over_a, kBase, Eigen::Vector3d::Zero(), 0.3, unused, mu, 0.0);
+  TrueLoad t;
+  Eigen::Vector3d ft = Eigen::Vector3d::Zero();
+  for (int i = 0; i < kSide * kSide; ++i) {
+    if (!noisy.frame.contact[i]) continue;
+    ft += exact.frame.forces_n[i] - exact.frame.forces_n[i].dot(Eigen::Vector3d::UnitZ()) *
+                                        Eigen::Vector3d::UnitZ();
+    t.normal_n -= exact.frame.forces_n[i].z();
+  }
+  t.tangential_n = ft.norm();
+  return t;
+}
+
+// A Cattaneo-Mindlin contact loaded to `load` = Q / (mu P), seen over two frames (the annulus
+// lags 0.3 of the object's step): the estimate of the second.
+FrameSlip EstimateMindlin(double load, double mu, std::mt19937_64& rng, Contact* seen = nullptr) {
+  const double c_over_a = StickRadius(load);
+  SlipEstimator estimator(kSide * kSide);
+  estimator.Estimate(
+      MakeContact(Load::kPartial, c_over_a, kBase, Eigen::Vector3d::Zero(), 0.3, rng, mu).frame);
+  Contact c = MakeContact(Load::kPartial, c_over_a, kBase, kStep, 0.3, rng, mu);
+  const FrameSlip slip = estimator.Estimate(c.frame);
+  if (seen) *seen = std::move(c);
+  return slip;
+}
+
+// Issue 26's acceptance on synthetic contacts: mu within 0.02 at Q / (mu P) = 0.5, 0.7, 0.9 (in
+// 95 % of the noise draws, its mean error within 0.005), its 1-sigma covering the truth
+// (|error| <= 2 sigma) in >= 90 % of the draws, the margin within 0.05 and the least normal
+// force within 10 % of their truths in every draw.
+TEST(SlipEstimator, PartialSlipRecoversMuAndTheMargin) {
+  std::mt19937_64 rng(testing::kRandomSeed);
+  constexpr int kDraws = 50;
+  constexpr double kSafety = SlipOptions{}.safety_factor;
+  int covered = 0, total = 0;
+  const auto error_or_one = [](double e) { return std::isnan(e) ? 1.0 : std::abs(e); };
+  for (const double mu : {0.3, 0.6, 1.0}) {
+    for (const double load : {0.5, 0.7, 0.9}) {
+      double max_mu_error = 0, sum_mu_error = 0, max_margin_error = 0, max_force_error = 0,
+             sum_sigma = 0;
+      int wrong_state = 0, case_covered = 0, within = 0;
+      for (int k = 0; k < kDraws; ++k) {
+        Contact c;
+        const FrameSlip slip = EstimateMindlin(load, mu, rng, &c);
+        const TrueLoad truth = TrueLoadOf(c, StickRadius(load), mu);
+        wrong_state += slip.state != SlipState::kPartialSlip;
+        const double mu_error = error_or_one(slip.friction - mu);
+        max_mu_error = std::max(max_mu_error, mu_error);
+        sum_mu_error += slip.friction - mu;
+        within += mu_error <= 0.02;
+        case_covered += mu_error <= 2 * slip.friction_sigma;
+        sum_sigma += slip.friction_sigma;
+        const double true_margin = 1 - truth.tangential_n / (mu * truth.normal_n);
+        max_margin_error = std::max(max_margin_error, error_or_one(slip.margin - true_margin));
+        const double true_force = kSafety * truth.tangential_n / mu;
+        max_force_error =
+            std::max(max_force_error, error_or_one(slip.least_normal_force_n / true_force - 1));
+        EXPECT_LE(slip.margin_sigma, 0.05) << mu << " " << load;
+      }
+      std::printf(
+          "partial slip mu %.1f Q/(mu P) %.1f: mean mu error %+.4f, max |mu error| %.4f, within "
+          "0.02 %d/%d, mean sigma %.4f, within 2 sigma %d/%d, max |margin error| %.4f, max "
+          "least-force error %.1f %%, wrong state %d/%d\n",
+          mu,
+          load,
+          sum_mu_error / kDraws,
+          max_mu_error,
+          within,
+          kDraws,
+          sum_sigma / kDraws,
+          case_covered,
+          kDraws,
+          max_margin_error,
+          100 * max_force_error,
+          wrong_state,
+          kDraws);
+      EXPECT_EQ(wrong_state, 0) << mu << " " << load;
+      EXPECT_GE(within, 0.95 * kDraws) << mu << " " << load;
+      EXPECT_LE(std::abs(sum_mu_error / kDraws), 0.005) << mu << " " << load;
+      EXPECT_LE(max_margin_error, 0.05) << mu << " " << load;
+      EXPECT_LE(max_force_error, 0.1) << mu << " " << load;
+      covered += case_covered;
+      total += kDraws;
+    }
+  }
+  EXPECT_GE(covered, 0.9 * total);
+}
+
+// Pure stick (Q / (mu P) <= 0.1: a Cattaneo-Mindlin annulus thinner than the outer ring of
+// markers) reports no friction: false alarms over many noisy draws. The contact-level state may
+// read partial slip there (the noise inflates the markers' |F_t|, so their median ratio exceeds
+// R), but no marker is seen slipping.
+TEST(SlipEstimator, PureStickReportsNoFriction) {
+  std::mt19937_64 rng(testing::kRandomSeed);
+  constexpr int kDraws = 100;
+  int alarms = 0, total = 0;
+  for (const double mu : {0.3, 0.6, 1.0}) {
+    for (const double load : {0.02, 0.05, 0.1}) {
+      for (int k = 0; k < kDraws; ++k) {
+        const FrameSlip slip = EstimateMindlin(load, mu, rng);
+        EXPECT_NE(slip.state, SlipState::kGrossSlip);
+
+        alarms += !std::isnan(slip.friction) || !std::isnan(slip.margin) ||
+                  !std::isnan(slip.least_normal_force_n);
+        ++total;
+      }
+    }
+  }
+  std::printf("pure stick: friction reported in %d of %d draws\n", alarms, total);
+  EXPECT_LE(alarms, 0.01 * total);
+  // Below 0.3 (issue 26's "pure stick" of the twin's evaluation) a thin annulus may be measured,
+  // but a margin under 0.5 would be a false alarm.
+  int low_margins = 0, measured = 0;
+  total = 0;
+  for (const double mu : {0.3, 0.6, 1.0}) {
+    for (const double load : {0.2, 0.25}) {
+      for (int k = 0; k < kDraws; ++k) {
+        const FrameSlip slip = EstimateMindlin(load, mu, rng);
+        measured += !std::isnan(slip.margin);
+        low_margins += slip.margin < 0.5;
+        ++total;
+      }
+    }
+  }
+  std::printf("Q/(mu P) 0.2 and 0.25: margin measured in %d of %d draws, under 0.5 in %d\n",
+              measured,
+              total,
+              low_margins);
+  EXPECT_LE(low_margins, 0.01 * total);
+}
+
+// The per-marker slip state needs motion: a contact still from its first frame reports no mu;
+// once measured on a moving contact, mu holds through still frames of partial slip, the margin
+// following the present load.
+TEST(SlipEstimator, AStillContactHoldsTheLastMu) {
+  std::mt19937_64 rng(testing::kRandomSeed);
+  constexpr double kMuHere = 0.6;
+  SlipEstimator estimator(kSide * kSide);
+  const auto frame = [&](double load, const Eigen::Vector3d& step) {
+    return MakeContact(Load::kPartial, StickRadius(load), kBase, step, 0.3, rng, kMuHere).frame;
+  };
+  const FrameSlip first = estimator.Estimate(frame(0.7, Eigen::Vector3d::Zero()));
+  EXPECT_EQ(first.state, SlipState::kPartialSlip);
+  EXPECT_TRUE(std::isnan(first.friction));
+  EXPECT_TRUE(std::isnan(first.margin));
+  const FrameSlip moving = estimator.Estimate(frame(0.7, kStep));
+  ASSERT_EQ(moving.state, SlipState::kPartialSlip);
+  EXPECT_NEAR(moving.friction, kMuHere, 0.02);
+  // Still (the same displacements) at a higher load: the same mu, a smaller margin.
+  const Contact still =
+      MakeContact(Load::kPartial, StickRadius(0.8), kBase, kStep, 0.3, rng, kMuHere);
+  const FrameSlip held = estimator.Estimate(still.frame);
+  ASSERT_EQ(held.state, SlipState::kPartialSlip);
+  EXPECT_EQ(held.friction, moving.friction);
+  EXPECT_EQ(held.friction_sigma, moving.friction_sigma);
+  const TrueLoad truth = TrueLoadOf(still, StickRadius(0.8), kMuHere);
+  EXPECT_NEAR(held.margin, 1 - truth.tangential_n / (kMuHere * truth.normal_n), 0.05);
+  EXPECT_LT(held.margin, moving.margin);
+  // A release to no load: stick, and mu is forgotten.
+  TactileFrame released = still.frame;
+  for (auto& f : released.forces_n) f.x() = 0;
+  EXPECT_EQ(estimator.Estimate(released).state, SlipState::kStick);
+  EXPECT_TRUE(std::isnan(estimator.Estimate(still.frame).friction));
+}
+
+// Gross slip: no margin left, and the least normal force is safety_factor times the load's.
+TEST(SlipEstimator, GrossSlipHasNoMargin) {
+  std::mt19937_64 rng(testing::kRandomSeed);
+  SlipEstimator estimator(kSide * kSide, {.safety_factor = 2.0});
+  estimator.Estimate(MakeContact(Load::kGross, 0, kBase, Eigen::Vector3d::Zero(), 0, rng).frame);
+  const Contact c = MakeContact(Load::kGross, 0, kBase, Eigen::Vector3d::Zero(), 0, rng);
+  const FrameSlip slip = estimator.Estimate(c.frame);
+  ASSERT_EQ(slip.state, SlipState::kGrossSlip);
+  EXPECT_EQ(slip.margin, 0.0);
+  EXPECT_EQ(slip.margin_sigma, 0.0);
+  double normal_n = 0;
+  for (int i = 0; i < kSide * kSide; ++i) normal_n -= c.frame.contact[i] ? c.frame.forces_n[i].z() : 0;
+  EXPECT_NEAR(slip.least_normal_force_n, 2.0 * normal_n, 1e-9 * normal_n);
+}
+
 TEST(SlipEstimator, FewContactMarkersIsNone) {
   SlipEstimator estimator(kSide * kSide, {.min_contact_markers = 4});
   TactileFrame frame = TactileFrame::Sized(kSide, kSide);
@@ -327,6 +523,9 @@ TEST(SlipEstimator, RefusesBadOptionsAndSizes) {
   throws({.stick_below = 1.5}, "stick_below");
   throws({.saturation_tolerance = 1}, "saturation_tolerance");
   throws({.saturation_tolerance = -0.1}, "saturation_tolerance");
+  throws({.safety_factor = 0.9}, "safety_factor");
+  throws({.safety_factor = NAN}, "safety_factor");
+  throws({.cone_sigmas = 0}, "cone_sigmas");
   EXPECT_THROW(SlipEstimator(0), Error);
   SlipEstimator estimator(4);
   EXPECT_THROW(estimator.Estimate(TactileFrame::Sized(3, 3)), Error);

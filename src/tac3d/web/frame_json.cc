@@ -92,6 +92,12 @@ std::string FrameToJson(const TactileFrame& f, double fps) {
   Number(out, f.slip.friction, 3);
   fmt::format_to(std::back_inserter(out), ",\"mu_sigma\":");
   Number(out, f.slip.friction_sigma, 3);
+  fmt::format_to(std::back_inserter(out), ",\"slip_margin\":");
+  Number(out, f.slip.margin, 3);
+  fmt::format_to(std::back_inserter(out), ",\"slip_margin_sigma\":");
+  Number(out, f.slip.margin_sigma, 3);
+  fmt::format_to(std::back_inserter(out), ",\"least_normal_force_n\":");
+  Number(out, f.slip.least_normal_force_n, 3);
   fmt::format_to(std::back_inserter(out), ",\"fps\":");
   Number(out, fps, 1);
   out.push_back('}');

@@ -282,6 +282,10 @@ def main():
             fail("no frames arrived in the page in 5 loads: " + (received.group(0) if received else dom[:400]))
         if "TAC3D-TWIN" not in dom or 'id="connection" class="good"' not in dom:
             fail("the sensor's panel or the connection state is missing")
+        # The margin gauge (docs/viewer.md): its meter and its text, "-" or "0.42 +- 0.03, ...".
+        if not re.search(r'<meter class="margin"', dom) or not re.search(
+                r'class="margin-text">(-|\d\.\d\d)', dom):
+            fail("the margin gauge is missing or its text is not a margin")
         rect = re.search(r'data-canvas="([^"]+)"', dom)
         if not rect:
             fail("the page did not report its 3D canvas")

@@ -109,7 +109,8 @@ class WebServer {
 /// The frame as the compact JSON message the page reads (docs/viewer.md): {"type":"frame",
 /// "sn", "index", "t", "rows", "cols", "p", "d", "f", "n" (flat x,y,z arrays, 3 decimals,
 /// null for an invalid marker's values), "valid", "contact" (0/1 strings), "F", "M", "flags",
-/// "init", "slip", "slip_fraction", "mu", "mu_sigma", "fps"}.
+/// "init", "slip", "slip_fraction", "mu", "mu_sigma", "slip_margin", "slip_margin_sigma",
+/// "least_normal_force_n", "fps"} (null for NaN).
 std::string FrameToJson(const TactileFrame& frame, double fps);
 
 /// Both halves' markers of an observation into `markers` (its storage reused): each valid one

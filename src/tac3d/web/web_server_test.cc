@@ -569,10 +569,15 @@ TEST(FrameToJson, CarriesEveryFieldCompactly) {
   TactileFrame frame = MakeSyntheticTactileFrame("SN", 3, 4, 5);
   frame.slip.state = SlipState::kGrossSlip;
   frame.slip.friction = 0.5;
+  frame.slip.friction_sigma = FrameSlip::kNaN;
+  frame.slip.margin = 0.25;
+  frame.slip.margin_sigma = 0.03;
+  frame.slip.least_normal_force_n = 2.5;
   const std::string json = FrameToJson(frame, 29.94);
   for (const char* key : {"\"p\":[", "\"d\":[", "\"f\":[", "\"n\":[", "\"F\":[", "\"M\":[", "\"valid\":\"",
                           "\"contact\":\"", "\"slip\":\"gross_slip\"", "\"mu\":0.500", "\"fps\":29.9", "\"rows\":4",
-                          "\"cols\":5", "\"mu_sigma\":null"}) {
+                          "\"cols\":5", "\"mu_sigma\":null", "\"slip_margin\":0.250",
+                          "\"slip_margin_sigma\":0.030", "\"least_normal_force_n\":2.500"}) {
     EXPECT_NE(json.find(key), std::string::npos) << key;
   }
   // 20 markers, 3 values each, in the positions array: 59 commas between them.
