@@ -22,7 +22,7 @@ struct SimulateArgs {
   /// The twin's FEM refinement instead of the scene's deviation.mesh_refinement (unset: the
   /// scene's). Memory grows steeply with it: 1.25 builds the default dome's twin body in
   /// ~3 GB, the scenes' 1.5 in ~7.3 GB (docs/simulation.md).
-  std::optional<double> twin_refinement;
+  std::optional<double> twin_refinement = std::nullopt;
   bool json = false;
 };
 

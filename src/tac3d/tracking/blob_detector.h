@@ -67,7 +67,9 @@ struct Blob {
 /// `search_radius_px` of `predicted`, the local background as the median of a ring just
 /// outside `blob_radius_px` around it (16 samples; so uneven light and vignetting cancel), then the
 /// darkness-weighted centroid (weight = background - threshold - image, clipped at 0) over
-/// the disk of `blob_radius_px`. Uses only pixels inside `roi`; allocates nothing.
+/// the disk of `blob_radius_px`, placed about the darkest pixel (a disk of 8 px or more: about
+/// `predicted`) and again about the centroid while it may cut the dot. Uses only pixels inside
+/// `roi`; allocates nothing.
 /// @param image CV_8UC1. @param roi the part of the image that may be read (one half).
 /// @param blob receives the measurement when the status is kFound (else untouched).
 /// @pre image is CV_8UC1, roi lies in it, radii > 0 (checked by the callers' Validate).
