@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <optional>
 #include <random>
 
@@ -12,6 +13,7 @@
 #include "tac3d/fem/compliance_family.h"
 #include "tac3d/force/force_gains.h"
 #include "tac3d/force/force_reconstructor.h"
+#include "tac3d/util/cache_file.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/eval_check.h"
 #include "tac3d/util/progress.h"
@@ -319,7 +321,96 @@ struct TrueResponses {
   nlohmann::json model;
 };
 
-// The true sensor: a finer mesh with the options' true material.
+// The true responses are solved in chunks of about this many load cases and, with a cache
+// folder, saved after each chunk: the refinement-2 truth at nu 0.499 takes hours of CPU, so a
+// run that is stopped resumes from the chunks it had solved.
+constexpr int kTruthChunkCases = 12;
+constexpr char kTruthCacheMagic[] = "TAC3DFTR";
+constexpr std::uint32_t kTruthCacheFormat = 1;
+
+// A hash of everything the true responses depend on: the code, the true body and its solver's
+// tolerance, the markers and every load case.
+std::uint64_t TrueResponsesKey(const fem::BodyModelOptions& truth_options,
+                               const fem::BodySolverOptions& solver,
+                               const std::vector<Eigen::Vector3d>& markers,
+                               const std::vector<const LoadCase*>& all) {
+  nlohmann::json inputs = {{"code", fem::FemCodeVersion()},
+                           {"body", fem::ToJson(truth_options)},
+                           {"relative_tolerance", solver.pcg.relative_tolerance},
+                           {"subdivisions", kSubdivisions}};
+  nlohmann::json& points = inputs["markers"] = nlohmann::json::array();
+  for (const Eigen::Vector3d& p : markers) points.push_back(Json(p));
+  nlohmann::json& loads = inputs["cases"] = nlohmann::json::array();
+  for (const LoadCase* load : all) {
+    nlohmann::json& discs = loads.emplace_back(nlohmann::json::array());
+    for (const DiscTraction& disc : *load) {
+      discs.push_back({disc.center_mm.x(), disc.center_mm.y(), disc.radius_mm, disc.hertz,
+                       disc.force_n.x(), disc.force_n.y(), disc.force_n.z()});
+    }
+  }
+  const std::string text = inputs.dump();
+  return Fnv1a(text.data(), text.size());
+}
+
+// The cases solved so far: their columns of `clean`, and per case the solver's iterations and
+// final relative residual (-1 where not solved yet).
+struct TruthProgress {
+  std::vector<bool> solved;
+  TrueResponses responses;
+  std::vector<int> iterations;
+  std::vector<double> residuals;
+};
+
+void SaveTruthProgress(const std::string& path, std::uint64_t key, const TruthProgress& progress) {
+  CacheRecord record;
+  record.key = key;
+  record.header = {{"created_utc", UtcNow()},
+                   {"code", fem::FemCodeVersion()},
+                   {"solved", progress.solved},
+                   {"model", progress.responses.model},
+                   {"iterations", progress.iterations},
+                   {"relative_residuals", progress.residuals}};
+  record.matrices = {progress.responses.clean};
+  WriteCacheRecord(path, kTruthCacheMagic, kTruthCacheFormat, record);
+}
+
+// The saved progress if `path` holds one for `key` with this shape; else none solved. A stale or
+// unreadable file is reported and solved again (then overwritten).
+TruthProgress LoadTruthProgress(
+    const std::string& path, std::uint64_t key, int rows, int cases, bool show_progress) {
+  TruthProgress progress{std::vector<bool>(cases, false),
+                         {Eigen::MatrixXd::Zero(rows, cases), {}},
+                         std::vector<int>(cases, -1),
+                         std::vector<double>(cases, -1.0)};
+  if (path.empty() || !std::filesystem::exists(path)) return progress;
+  try {
+    CacheRecord record = ReadCacheRecord(path, kTruthCacheMagic, kTruthCacheFormat);
+    if (record.key != key) {
+      if (show_progress) fmt::print(stderr, "force truth: {} is for other inputs, solving again\n", path);
+      return progress;
+    }
+    if (record.matrices.size() != 1 || record.matrices[0].rows() != rows ||
+        record.matrices[0].cols() != cases) {
+      throw Error(fmt::format("{}: the responses are not {} x {}", path, rows, cases));
+    }
+    TruthProgress saved{record.header.at("solved").get<std::vector<bool>>(),
+                        {std::move(record.matrices[0]), record.header.at("model")},
+                        record.header.at("iterations").get<std::vector<int>>(),
+                        record.header.at("relative_residuals").get<std::vector<double>>()};
+    if (static_cast<int>(saved.solved.size()) != cases ||
+        static_cast<int>(saved.iterations.size()) != cases ||
+        static_cast<int>(saved.residuals.size()) != cases) {
+      throw Error(fmt::format("{}: the per-case lists do not have {} entries", path, cases));
+    }
+    return saved;
+  } catch (const std::exception& e) {
+    if (show_progress) fmt::print(stderr, "force truth: {} unusable ({}), solving again\n", path, e.what());
+    return progress;
+  }
+}
+
+// The true sensor: a finer mesh with the options' true material. With options.cache_dir the
+// responses are cached (cache_dir/force_truth_<key>.bin), chunk by chunk.
 TrueResponses CalcTrueResponses(const EvalForceOptions& options,
                                 const std::vector<Eigen::Vector3d>& markers,
                                 const ForceCases& cases,
@@ -328,34 +419,82 @@ TrueResponses CalcTrueResponses(const EvalForceOptions& options,
   fem::BodyModelOptions truth_options = options.body;
   truth_options.refinement *= options.truth_refinement;
   truth_options.material = options.TrueMaterial();
-  const fem::BodyModel truth(truth_options, options.show_progress);
-  (*timing)["truth_model"] = SecondsSince(start);
-
-  start = std::chrono::steady_clock::now();
+  const fem::BodySolverOptions solver_options;
   const std::vector<const LoadCase*> all = cases.All();
-  std::vector<Eigen::Triplet<double>> triplets;
-  for (size_t c = 0; c < all.size(); ++c) {
-    const Eigen::VectorXd f = AssembleLoad(truth, *all[c]);
-    for (Eigen::Index j = 0; j < f.size(); ++j) {
-      if (f(j) != 0.0) triplets.emplace_back(j, static_cast<int>(c), f(j));
-    }
+  const int count = static_cast<int>(all.size());
+  const std::uint64_t key = TrueResponsesKey(truth_options, solver_options, markers, all);
+  const std::string path =
+      options.cache_dir.empty()
+          ? std::string()
+          : (std::filesystem::path(options.cache_dir) / fmt::format("force_truth_{:016x}.bin", key))
+                .string();
+  TruthProgress progress = LoadTruthProgress(
+      path, key, static_cast<int>(markers.size()) * 3, count, options.show_progress);
+  const int loaded = static_cast<int>(std::count(progress.solved.begin(), progress.solved.end(), true));
+  if (options.show_progress && loaded > 0) {
+    fmt::print(stderr, "force truth: {} of {} load cases loaded from {}\n", loaded, count, path);
   }
-  Eigen::SparseMatrix<double> loads(truth.mesh().num_dofs(), static_cast<int>(all.size()));
-  loads.setFromTriplets(triplets.begin(), triplets.end());
-  fem::SolveSummary solves;
-  TrueResponses responses;
-  responses.clean = truth.solver().CalcResponse(
-      truth.CalcPointInterpolation(markers), loads, options.show_progress, 100, &solves);
+  (*timing)["truth_cases_from_cache"] = loaded;
+  (*timing)["truth_model"] = 0.0;
+
+  std::optional<fem::BodyModel> truth;  // built only if a case is left to solve
+  Eigen::SparseMatrix<double> readout;
+  const int chunks = (count + kTruthChunkCases - 1) / kTruthChunkCases;
+  ProgressBar bar("force truth: load cases", count, options.show_progress && loaded < count);
+  bar.Update(loaded);
+  int done = loaded;
+  for (int chunk = 0; chunk < chunks; ++chunk) {
+    const int begin = count * chunk / chunks, end = count * (chunk + 1) / chunks;
+    std::vector<int> left;
+    for (int c = begin; c < end; ++c) {
+      if (!progress.solved[c]) left.push_back(c);
+    }
+    if (left.empty()) continue;
+    if (!truth) {
+      truth.emplace(truth_options, options.show_progress, solver_options);
+      readout = truth->CalcPointInterpolation(markers);
+      const fem::ElasticSolverSummary& summary = truth->solver().summary();
+      progress.responses.model = {{"options", fem::ToJson(truth_options)},
+                                  {"free_dofs", summary.num_free_dofs},
+                                  {"coarse_free_dofs", summary.coarse_free_dofs},
+                                  {"assembly_s", summary.assembly_s},
+                                  {"factorization_s", summary.factorization_s},
+                                  {"iterative", summary.method != fem::ElasticSolverMethod::kDirect}};
+      (*timing)["truth_model"] = SecondsSince(start);
+      start = std::chrono::steady_clock::now();
+    }
+    std::vector<Eigen::Triplet<double>> triplets;
+    for (size_t k = 0; k < left.size(); ++k) {
+      const Eigen::VectorXd f = AssembleLoad(*truth, *all[left[k]]);
+      for (Eigen::Index j = 0; j < f.size(); ++j) {
+        if (f(j) != 0.0) triplets.emplace_back(j, static_cast<int>(k), f(j));
+      }
+    }
+    Eigen::SparseMatrix<double> loads(truth->mesh().num_dofs(), static_cast<int>(left.size()));
+    loads.setFromTriplets(triplets.begin(), triplets.end());
+    fem::SolveSummary solves;
+    const Eigen::MatrixXd response = truth->solver().CalcResponse(
+        readout, loads, false, kTruthChunkCases, &solves);
+    for (size_t k = 0; k < left.size(); ++k) {
+      const int c = left[k];
+      progress.responses.clean.col(c) = response.col(static_cast<Eigen::Index>(k));
+      progress.solved[c] = true;
+      if (k < solves.iterations.size()) {  // a direct solve reports none
+        progress.iterations[c] = solves.iterations[k];
+        progress.residuals[c] = solves.relative_residuals[k];
+      }
+    }
+    if (!path.empty()) SaveTruthProgress(path, key, progress);
+    done += static_cast<int>(left.size());
+    bar.Update(done);
+  }
+  bar.Finish();
   (*timing)["truth_responses"] = SecondsSince(start);
-  const fem::ElasticSolverSummary& summary = truth.solver().summary();
-  responses.model = {{"options", fem::ToJson(truth_options)},
-                     {"free_dofs", summary.num_free_dofs},
-                     {"coarse_free_dofs", summary.coarse_free_dofs},
-                     {"assembly_s", summary.assembly_s},
-                     {"factorization_s", summary.factorization_s},
-                     {"pcg_iterations", solves.iterations},
-                     {"pcg_relative_residuals", solves.relative_residuals}};
-  return responses;
+  if (progress.responses.model.value("iterative", false)) {
+    progress.responses.model["pcg_iterations"] = progress.iterations;
+    progress.responses.model["pcg_relative_residuals"] = progress.residuals;
+  }
+  return progress.responses;
 }
 
 // The largest distance between a probe's centre and the normal-force-weighted centroid of the

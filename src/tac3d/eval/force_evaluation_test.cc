@@ -2,7 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
+
 #include "tac3d/testing/testing.h"
+#include "tac3d/util/cache_file.h"
 #include "tac3d/util/error.h"
 
 namespace tac3d {
@@ -105,6 +108,55 @@ TEST(EvaluateForceOverMaterials, EachPointEqualsARunOfItsOwn) {
   // The two materials differ, so the scaling did something: E x 1.2 is not E x 0.8.
   EXPECT_GT((points[0].resultant_error_max_pct_fs - points[1].resultant_error_max_pct_fs).norm(),
             1e-6);
+}
+
+// The true responses are cached chunk by chunk: a second run loads them all, a run stopped
+// after some chunks resumes with the rest, and a damaged file is solved again; every run gives
+// the same figures. Coarse mesh and few presses (14 load cases, 2 chunks), as above.
+TEST(EvaluateForce, CachesTheTruthAndResumesAStoppedSolve) {
+  EvalForceOptions options;
+  options.body.refinement = 0.25;
+  options.truth_refinement = 1.0;
+  options.calibration_presses = 3;
+  options.test_presses = 3;
+  options.show_progress = false;
+  options.cache_dir = testing::MakeTempDir("force_truth_cache");
+  const auto from_cache = [](const ForceEvaluation& e) {
+    return e.details.at("timing_s").at("truth_cases_from_cache").get<int>();
+  };
+  const auto expect_same = [](const ForceEvaluation& a, const ForceEvaluation& b) {
+    EXPECT_THAT(a.resultant_error_max_pct_fs, EigenNear(b.resultant_error_max_pct_fs, 1e-12));
+    EXPECT_NEAR(a.probe_center_error_mm, b.probe_center_error_mm, 1e-12);
+  };
+  const ForceEvaluation first = EvaluateForce(options);
+  EXPECT_EQ(from_cache(first), 0);
+  std::string path;
+  for (const auto& entry : std::filesystem::directory_iterator(options.cache_dir)) {
+    if (entry.path().filename().string().starts_with("force_truth_")) path = entry.path().string();
+  }
+  ASSERT_FALSE(path.empty());
+
+  const ForceEvaluation loaded = EvaluateForce(options);
+  EXPECT_EQ(from_cache(loaded), 14);
+  expect_same(loaded, first);
+
+  // As if stopped after the first chunk: the second chunk's cases unsolved, their columns lost.
+  CacheRecord record = ReadCacheRecord(path, "TAC3DFTR", 1);
+  ASSERT_EQ(record.matrices.at(0).cols(), 14);
+  for (int c = 7; c < 14; ++c) {
+    record.header["solved"][c] = false;
+    record.matrices[0].col(c).setZero();
+  }
+  WriteCacheRecord(path, "TAC3DFTR", 1, record);
+  const ForceEvaluation resumed = EvaluateForce(options);
+  EXPECT_EQ(from_cache(resumed), 7);
+  expect_same(resumed, first);
+
+  std::filesystem::resize_file(path, std::filesystem::file_size(path) / 2);
+  const ForceEvaluation damaged = EvaluateForce(options);
+  EXPECT_EQ(from_cache(damaged), 0);
+  expect_same(damaged, first);
+  EXPECT_EQ(from_cache(EvaluateForce(options)), 14);  // the damaged file was replaced
 }
 
 TEST(MaterialGrid, RefusesAnEmptyListAndABadFactor) {
