@@ -38,7 +38,7 @@ void AddReplayOptions(CLI::App* cmd, ReplayArgs& replay) {
                   "with --calibration: the least R^2 a fitted gain is usable with")
       ->capture_default_str();
   cmd->add_option("--config", replay.config, "sensor YAML (default: the dataset's scene's sensor)");
-  cmd->add_option("--cache", replay.cache_dir, "directory of cached compliance models")->capture_default_str();
+  cmd->add_option("--cache,--cache-dir", replay.cache_dir, "directory of cached compliance models")->capture_default_str();
   cmd->add_option("--steps", replay.max_steps, "replay only the first N steps (0: all)")->capture_default_str();
 }
 

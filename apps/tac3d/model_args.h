@@ -19,7 +19,7 @@ struct ModelArgs {
 
   void Add(CLI::App* cmd) {
     cmd->add_option("--config", config, "sensor YAML (default: the built-in prototype)");
-    cmd->add_option("--cache", cache_dir, "directory of cached compliance models")
+    cmd->add_option("--cache,--cache-dir", cache_dir, "directory of cached compliance models")
         ->capture_default_str();
     cmd->add_option("--refinement", refinement, "mesh refinement (1 = the paper's mesh)")
         ->capture_default_str();

@@ -119,7 +119,7 @@ void RegisterRun(CLI::App& app) {
   cmd->add_option("--run-file", a->run_file,
                   "several sensors in one process, each on its thread (YAML; docs/pipeline.md)");
   cmd->add_option("--config", sensor.config, "sensor YAML (default: the built-in prototype)");
-  cmd->add_option("--cache", a->cache_dir, "directory of cached compliance models")->capture_default_str();
+  cmd->add_option("--cache,--cache-dir", a->cache_dir, "directory of cached compliance models")->capture_default_str();
   cmd->add_option("--sn", sensor.sn,
                   "the sensor's serial number in the stream (default: an imported sensor's own, from "
                   "its config; else " + sensor.sn + "; a replay: the recorded one)");

@@ -138,7 +138,7 @@ void RegisterSimulate(CLI::App& app) {
   cmd->add_option("--scene", args->scene, "scene YAML file or built-in name")->required();
   cmd->add_option("--out", args->out, "dataset folder to create (must be new or empty)")
       ->required();
-  cmd->add_option("--cache", args->cache_dir, "directory of cached twin body models")
+  cmd->add_option("--cache,--cache-dir", args->cache_dir, "directory of cached twin body models")
       ->capture_default_str();
   cmd->add_flag("--no-images", args->no_images, "do not render camera images");
   cmd->add_option("--steps", args->steps, "simulate only the first N steps (0: all)")

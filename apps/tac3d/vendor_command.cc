@@ -80,7 +80,7 @@ void RegisterEvalVendor(CLI::App& eval) {
   cmd->add_option("--min-resultant-n", args->forces.min_resultant_n,
                   "compare the frames whose recorded |resultant| exceeds this (N)")
       ->capture_default_str();
-  cmd->add_option("--cache", args->forces.cache_dir, "directory of cached compliance models")->capture_default_str();
+  cmd->add_option("--cache,--cache-dir", args->forces.cache_dir, "directory of cached compliance models")->capture_default_str();
   cmd->add_flag("--json", args->json, "print JSON");
   cmd->callback([args] {
     args->options.stereo.undistort = !args->no_distortion;

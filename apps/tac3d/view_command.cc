@@ -99,7 +99,7 @@ void RegisterView(CLI::App& app) {
   cmd->add_option("--dataset", a->dataset, "a twin dataset, its images through the pipeline");
   cmd->add_option("--friction-map", a->friction_map, "map.ply of tac3d friction-map, or its folder");
   cmd->add_option("--config", a->sensor.config, "with --dataset: sensor YAML (default: the built-in prototype)");
-  cmd->add_option("--cache", a->cache_dir, "with --dataset: directory of cached compliance models")
+  cmd->add_option("--cache,--cache-dir", a->cache_dir, "with --dataset: directory of cached compliance models")
       ->capture_default_str();
   cmd->add_option("--sn", a->sensor.sn, "with --dataset: the sensor's serial number")->capture_default_str();
   cmd->add_option("--reference-frames", a->sensor.reference_frames, "with --dataset: static frames taken as the reference")

@@ -45,6 +45,11 @@ std::string FourCcName(int code) {
   return name;
 }
 
+// Why a camera's read failed: the device file tells an unplugged camera from a stalled driver.
+std::string CameraReadFailure(const std::string& path) {
+  return fs::exists(path) ? "the driver stopped delivering frames" : "the device is gone (unplugged)";
+}
+
 // A camera streaming MJPEG: each frame's JPEG, as the driver delivered it, decoded to grey. A
 // frame that does not decode (a USB transfer cut short) is skipped; so many in a row that the
 // stream is not MJPEG fails the source.
@@ -57,7 +62,7 @@ class MjpegGrab {
     constexpr int kMaxUndecodable = 30;
     for (int undecodable = 0; undecodable < kMaxUndecodable; ++undecodable) {
       if (!capture_->read(raw_)) {
-        error = fs::exists(path_) ? "the driver stopped delivering frames" : "the device is gone (unplugged)";
+        error = CameraReadFailure(path_);
         return false;
       }
       bytes_.assign(raw_.datastart, raw_.dataend);
@@ -233,7 +238,7 @@ std::unique_ptr<FrameSource> OpenCamera(const CameraSourceOptions& options) {
   }
   auto grab = [capture, path](cv::Mat& image, std::string& error) {
     if (capture->read(image)) return true;
-    error = fs::exists(path) ? "the driver stopped delivering frames" : "the device is gone (unplugged)";
+    error = CameraReadFailure(path);
     return false;
   };
   return std::make_unique<ThreadedCapture>(description, grab, kCameraTimeoutS);

@@ -232,10 +232,11 @@ void RenderOptions::Validate() const {
   const LedColour& led = led_colour;
   require(led.gain.allFinite() && led.gain.minCoeff() > 0 && led.gain.maxCoeff() <= 4,
           "led_colour.gain", "each in (0, 4]", led.gain.allFinite() ? led.gain.minCoeff() : NAN);
-  require(led.x_slope.allFinite() && led.x_slope.cwiseAbs().maxCoeff() <= 5, "led_colour.x_slope",
-          "each in [-5, 5]", led.x_slope.cwiseAbs().maxCoeff());
-  require(led.y_slope.allFinite() && led.y_slope.cwiseAbs().maxCoeff() <= 5, "led_colour.y_slope",
-          "each in [-5, 5]", led.y_slope.cwiseAbs().maxCoeff());
+  for (const auto& [slope, field] : {std::pair{&led.x_slope, "led_colour.x_slope"},
+                                     std::pair{&led.y_slope, "led_colour.y_slope"}}) {
+    require(slope->allFinite() && slope->cwiseAbs().maxCoeff() <= 5, field, "each in [-5, 5]",
+            slope->cwiseAbs().maxCoeff());
+  }
   require(led.falloff.allFinite() && led.falloff.minCoeff() >= 0 && led.falloff.maxCoeff() <= 5,
           "led_colour.falloff", "each in [0, 5]",
           led.falloff.minCoeff() < 0 ? led.falloff.minCoeff() : led.falloff.maxCoeff());

@@ -86,18 +86,17 @@ std::string FrameToJson(const TactileFrame& f, double fps) {
   Vector(out, f.resultant_moment_nmm, 3);
   fmt::format_to(std::back_inserter(out), ",\"flags\":\"{}\",\"init\":{},\"slip\":\"{}\"",
                  FrameFlagNames(f.flags), f.initialize_progress, SlipStateName(f.slip.state));
-  fmt::format_to(std::back_inserter(out), ",\"slip_fraction\":");
-  Number(out, f.slip.fraction, 3);
-  fmt::format_to(std::back_inserter(out), ",\"mu\":");
-  Number(out, f.slip.friction, 3);
-  fmt::format_to(std::back_inserter(out), ",\"mu_sigma\":");
-  Number(out, f.slip.friction_sigma, 3);
-  fmt::format_to(std::back_inserter(out), ",\"slip_margin\":");
-  Number(out, f.slip.margin, 3);
-  fmt::format_to(std::back_inserter(out), ",\"slip_margin_sigma\":");
-  Number(out, f.slip.margin_sigma, 3);
-  fmt::format_to(std::back_inserter(out), ",\"least_normal_force_n\":");
-  Number(out, f.slip.least_normal_force_n, 3);
+  const std::pair<const char*, double> slip_numbers[] = {
+      {"slip_fraction", f.slip.fraction},
+      {"mu", f.slip.friction},
+      {"mu_sigma", f.slip.friction_sigma},
+      {"slip_margin", f.slip.margin},
+      {"slip_margin_sigma", f.slip.margin_sigma},
+      {"least_normal_force_n", f.slip.least_normal_force_n}};
+  for (const auto& [key, value] : slip_numbers) {
+    fmt::format_to(std::back_inserter(out), ",\"{}\":", key);
+    Number(out, value, 3);
+  }
   fmt::format_to(std::back_inserter(out), ",\"fps\":");
   Number(out, fps, 1);
   out.push_back('}');
