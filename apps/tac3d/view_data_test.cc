@@ -124,6 +124,7 @@ class MarkedStream final : public SensorStream {
     return Produced::kFrame;
   }
   void Zero() override {}
+  bool ZeroRetakesReference() const override { return true; }
   StreamEnd End(long) const override { return {}; }
   std::string Describe() const override { return "marked"; }
 

@@ -233,7 +233,7 @@ FrameLoopCounts FrameLoop(FrameOutputs& outputs,
                           long max_frames,
                           const std::atomic<bool>& stop,
                           const FrameProducer& produce,
-                          const std::function<void()>& on_zero) {
+                          const ZeroHandler& on_zero) {
   FrameLoopCounts counts;
   while (!stop && !counts.quit && (max_frames <= 0 || counts.emitted < max_frames)) {
     ProducedFrame out;
@@ -247,8 +247,9 @@ FrameLoopCounts FrameLoop(FrameOutputs& outputs,
     ++counts.emitted;
     outputs.Emit(*out.frame, out.image != nullptr ? *out.image : cv::Mat(), out.markers);
     while (const std::optional<SensorCommand> command = outputs.PollCommand()) {
-      if (*command == SensorCommand::kZero && (!out.zero_retakes_reference || outputs.AcceptZero(*out.frame))) {
-        on_zero();
+      if (*command == SensorCommand::kZero &&
+          (!on_zero.retakes_reference || outputs.AcceptZero(*out.frame))) {
+        on_zero.zero();
       }
       if (*command == SensorCommand::kStop) counts.quit = true;
     }
@@ -259,7 +260,7 @@ FrameLoopCounts FrameLoop(FrameOutputs& outputs,
 FrameLoopCounts RunFrameLoop(FrameOutputs& outputs,
                              long max_frames,
                              const FrameProducer& produce,
-                             const std::function<void()>& on_zero) {
+                             const ZeroHandler& on_zero) {
   g_stop = false;
   StopSignals signals;
   const FrameLoopCounts counts = FrameLoop(outputs, max_frames, g_stop, produce, on_zero);

@@ -135,15 +135,20 @@ struct ProducedFrame {
   const cv::Mat* image = nullptr;  ///< the frame's camera image (possibly empty), or null
   /// The tracker's markers in `image` (a pipeline's stream), or null (a recording's).
   const MarkerObservation* markers = nullptr;
-  /// Whether a `$C` retakes the reference of the frames to come (a pipeline's stream), so one
-  /// under load is refused (FrameOutputs::AcceptZero); a recording's frames were computed when
-  /// it was recorded, and its stream only notes the `$C`.
-  bool zero_retakes_reference = true;
 };
 
 /// Gives the next frame: fills `out`. `stop` is set by Ctrl-C, SIGTERM or the client's `$Q`; a
 /// producer that waits checks it.
 using FrameProducer = std::function<Produced(const std::atomic<bool>& stop, ProducedFrame& out)>;
+
+/// What a client's `$C` does to a stream.
+struct ZeroHandler {
+  std::function<void()> zero;
+  /// Whether it retakes the reference of the frames to come (a pipeline's stream), so one under
+  /// load is refused (FrameOutputs::AcceptZero); a recording's frames were computed when it was
+  /// recorded, and its stream only notes the `$C`.
+  bool retakes_reference = true;
+};
 
 struct FrameLoopCounts {
   long emitted = 0;
@@ -152,21 +157,21 @@ struct FrameLoopCounts {
 };
 
 /// One sensor's loop: takes frames from `produce` and emits them until it ends, `max_frames`
-/// (> 0) have been emitted, `stop` is set, or the client's `$Q`; a `$C` calls `on_zero`, for a
-/// frame whose zero retakes the reference only if outputs.AcceptZero of the frame just emitted.
+/// (> 0) have been emitted, `stop` is set, or the client's `$Q`; a `$C` calls `on_zero.zero`,
+/// if it retakes the reference only when outputs.AcceptZero of the frame just emitted.
 /// Thread-safe for distinct outputs (the sensors of a run file each run one).
 FrameLoopCounts FrameLoop(FrameOutputs& outputs,
                           long max_frames,
                           const std::atomic<bool>& stop,
                           const FrameProducer& produce,
-                          const std::function<void()>& on_zero);
+                          const ZeroHandler& on_zero);
 
 /// The loop of `tac3d run`: FrameLoop, stopped by Ctrl-C or SIGTERM as well, whose handlers
 /// are in place only during the loop; a `$Q` also skips the viewer's hold.
 FrameLoopCounts RunFrameLoop(FrameOutputs& outputs,
                              long max_frames,
                              const FrameProducer& produce,
-                             const std::function<void()>& on_zero);
+                             const ZeroHandler& on_zero);
 
 /// The recording's path when `source` is "recording:FILE", else nullopt.
 std::optional<std::string> RecordingSourcePath(const std::string& source);

@@ -97,7 +97,7 @@ ZeroRun ZeroAfter(const TactileFrame& frame, bool allow_zero_under_load) {
           out.frame = calls++ == 0 ? &rest : &frame;
           return Produced::kFrame;
         },
-        [&] { ++run.zeros; });
+        {[&] { ++run.zeros; }});
     run.quit = counts.quit;
   }
   run.log = ::testing::internal::GetCapturedStderr();

@@ -83,7 +83,7 @@ void RunSensor(OpenSensor& sensor, const StreamClock& clock, const SensorGroupOp
           given = true;
           return produced;
         },
-        [&] { sensor.stream->Zero(); });
+        {[&] { sensor.stream->Zero(); }, sensor.stream->ZeroRetakesReference()});
     report.frames = counts.emitted;
     report.skipped = counts.skipped;
     const StreamEnd end = sensor.stream->End(counts.emitted);
@@ -118,7 +118,7 @@ void RunSingleSensor(SensorStream& stream, const FrameOutputArgs& output_args, l
   const FrameLoopCounts counts = RunFrameLoop(
       outputs, max_frames,
       [&](const std::atomic<bool>& stop, ProducedFrame& out) { return stream.Next(stop, out); },
-      [&] { stream.Zero(); });
+      {[&] { stream.Zero(); }, stream.ZeroRetakesReference()});
   std::fprintf(stderr, "%ld frames %s, %ld skipped%s\n", counts.emitted, done.c_str(), counts.skipped,
                outputs.RecordedNote().c_str());
   outputs.HoldWeb();

@@ -77,6 +77,7 @@ class PipelineStream final : public SensorStream {
   }
 
   void Zero() override { pipeline_->RequestZero(); }
+  bool ZeroRetakesReference() const override { return true; }
 
   StreamEnd End(long) const override {
     return {.failure = failure_.empty() ? "" : fmt::format("the frame source failed: {}", failure_),
@@ -127,11 +128,11 @@ class RecordingStream final : public SensorStream {
     out.frame = &current_->frame;
     out.image = &current_->image;
     out.markers = nullptr;
-    out.zero_retakes_reference = false;
     return Produced::kFrame;
   }
 
   void Zero() override { NoteIgnoredZero(log_prefix_, &zero_noted_); }
+  bool ZeroRetakesReference() const override { return false; }
 
   // A truncated file (a writer killed mid-record) is a warning, a corrupt one a failure.
   StreamEnd End(long emitted) const override {
@@ -200,11 +201,11 @@ class VendorStream final : public SensorStream {
     out.frame = &current_;
     out.image = nullptr;
     out.markers = nullptr;
-    out.zero_retakes_reference = false;
     return Produced::kFrame;
   }
 
   void Zero() override { NoteIgnoredZero(log_prefix_, &zero_noted_); }
+  bool ZeroRetakesReference() const override { return false; }
 
   // Every file was read and checked when the stream was opened: nothing can fail later.
   StreamEnd End(long) const override { return {}; }

@@ -91,6 +91,8 @@ class SensorStream {
   virtual Produced Next(const std::atomic<bool>& stop, ProducedFrame& out) = 0;
   /// A `$C`: retake the reference.
   virtual void Zero() = 0;
+  /// ZeroHandler::retakes_reference: a pipeline's stream's does; a recording's only notes it.
+  virtual bool ZeroRetakesReference() const = 0;
   /// @param emitted frames the loop emitted, for the messages.
   virtual StreamEnd End(long emitted) const = 0;
   virtual std::string Describe() const = 0;

@@ -73,10 +73,8 @@ std::vector<TactileFrame> AllFrames(SensorStream& stream) {
   const std::atomic<bool> stop{false};
   stream.Start({});
   ProducedFrame out;
-  while (stream.Next(stop, out) == Produced::kFrame) {
-    EXPECT_FALSE(out.zero_retakes_reference);
-    frames.push_back(*out.frame);
-  }
+  EXPECT_FALSE(stream.ZeroRetakesReference());
+  while (stream.Next(stop, out) == Produced::kFrame) frames.push_back(*out.frame);
   EXPECT_TRUE(stream.End(static_cast<long>(frames.size())).failure.empty());
   return frames;
 }
