@@ -230,6 +230,7 @@ std::vector<contact::NodeState> TwinSimulation::SolveContact(const GapField& gap
   if (!touching) {
     *solver_json = {{"status", "separated"}, {"num_contact", 0}};
     state_ = contact::ContactState::Unloaded(n);
+    previous_capacity_n_ = 0.0;
     return node_state;
   }
   contact::ContactStep step;
@@ -240,11 +241,8 @@ std::vector<contact::NodeState> TwinSimulation::SolveContact(const GapField& gap
   const std::optional<TangentialLoadRamp>& load = scene_.trajectory.tangential_load;
   const bool loaded = load && t_s >= load->start_s;
   if (loaded) {
-    // The load in capacities of the previous step's contact (its pressure, this step's mu).
-    const double capacity = model_->grid.cell_area_mm2() *
-                            (gaps.friction_coefficient.array() * state_.pressure_mpa.array()).sum();
     step.tangential_control = contact::TangentialControl::kForce;
-    step.tangential_force_n = load->LoadAt(t_s) * capacity * load->Direction();
+    step.tangential_force_n = load->LoadAt(t_s) * previous_capacity_n_ * load->Direction();
   } else {
     step.tangential_control = contact::TangentialControl::kShift;
     step.shift_mm = state_.shift_mm + increment;
@@ -268,6 +266,9 @@ std::vector<contact::NodeState> TwinSimulation::SolveContact(const GapField& gap
   } else {
     state_ = contact::ContactState::Unloaded(n);
   }
+  // The next step's load is in capacities of this one's: sum mu p A with the mu each node met.
+  previous_capacity_n_ = model_->grid.cell_area_mm2() *
+                         (gaps.friction_coefficient.array() * state_.pressure_mpa.array()).sum();
   return node_state;
 }
 

@@ -152,6 +152,8 @@ class TwinSimulation {
   bool previous_contact_ = false;
   /// The object's tangential motion under the tangential load so far, sensor frame (mm).
   Eigen::Vector2d load_shift_mm_ = Eigen::Vector2d::Zero();
+  /// The previous step's friction capacity sum mu p A (N), which a tangential load is of.
+  double previous_capacity_n_ = 0.0;
   int next_step_ = 0;
   SimulationSummary summary_;
 };
