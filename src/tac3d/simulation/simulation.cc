@@ -78,6 +78,10 @@ void AccumulateSolverSummary(const contact::ContactSummary& s, SimulationSummary
 
 }  // namespace
 
+SensorConfig RenderedSensor(const Scene& scene) {
+  return scene.spread ? PerturbSensor(scene.sensor, *scene.spread) : scene.sensor;
+}
+
 contact::ContactSolverOptions DefaultSimulationContactOptions() {
   contact::ContactSolverOptions o;
   o.normal_tolerance = 1e-6;
@@ -154,8 +158,8 @@ TwinSimulation::TwinSimulation(const Scene& scene,
   caster_ = std::make_unique<GapCaster>(
       scene_.objects, model_->grid, surface_points_, model_->CalcActiveNodes());
   if (options_.render_images) {
-    renderer_ = std::make_unique<MarkerImageRenderer>(
-        scene_.spread ? PerturbSensor(scene_.sensor, *scene_.spread) : scene_.sensor);
+    renderer_ = options_.renderer ? options_.renderer
+                                  : std::make_shared<const MarkerImageRenderer>(RenderedSensor(scene_));
   }
   state_ = contact::ContactState::Unloaded(model_->grid.num_nodes());
 }

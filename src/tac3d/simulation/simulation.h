@@ -27,6 +27,10 @@ struct SimulationOptions {
   /// Render each step's camera image (MarkerImageRenderer with the scene's sensor, frame
   /// index = step, so the noise differs per frame).
   bool render_images = true;
+  /// The renderer to draw them with, built for RenderedSensor(scene); null: built by the
+  /// simulation. Building one (its per-pixel optics) takes ~1 s, more than a short episode's
+  /// steps, so simulations of one sensor share it (tac3d.simulate_arrays).
+  std::shared_ptr<const MarkerImageRenderer> renderer;
   /// Keep the surface tractions in each TwinStep (TwinStep::surface).
   bool keep_surface = true;
   /// Simulate only the first this many steps (0: all of the trajectory's).
@@ -43,6 +47,9 @@ struct SimulationOptions {
   ///   the contact options' bounds.
   void Validate() const;
 };
+
+/// The sensor a scene's images are rendered with: its sensor after its manufacturing spread.
+SensorConfig RenderedSensor(const Scene& scene);
 
 /// Wall time of a run's phases (s), summed over the steps.
 struct SimulationTimings {
@@ -143,7 +150,7 @@ class TwinSimulation {
   std::shared_ptr<const contact::ConvolutionCompliance> compliance_;
   contact::ContactSolver solver_;
   std::unique_ptr<GapCaster> caster_;
-  std::unique_ptr<MarkerImageRenderer> renderer_;
+  std::shared_ptr<const MarkerImageRenderer> renderer_;
   std::vector<Eigen::Vector3d> surface_points_;
   std::vector<int> node_markers_;
   contact::ContactState state_;
