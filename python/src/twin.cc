@@ -24,6 +24,7 @@
 #include "tac3d/sensor/sensor_config.h"
 #include "tac3d/simulation/simulation.h"
 #include "tac3d/simulation/twin_body.h"
+#include "tac3d/twin/camera_renderer.h"
 #include "tac3d/util/cache_file.h"
 #include "tac3d/util/file_io.h"
 #include "twin_common.h"
@@ -311,6 +312,22 @@ std::shared_ptr<const simulation::TwinBodyModel> SharedTwinBodyModel(
   return it->second.model;
 }
 
+// The renderer for `scene`'s images, kept for the next call while the sensor is the same: a
+// worker simulating episode after episode of one spec builds it (~1 s) once.
+std::shared_ptr<const MarkerImageRenderer> SharedRenderer(const Scene& scene) {
+  static std::mutex mutex;
+  static std::string last_sensor;
+  static std::shared_ptr<const MarkerImageRenderer> last;
+  const SensorConfig sensor = simulation::RenderedSensor(scene);
+  const std::string key = SensorConfigToYaml(sensor);
+  const std::lock_guard<std::mutex> lock(mutex);
+  if (!last || key != last_sensor) {
+    last = std::make_shared<const MarkerImageRenderer>(sensor);
+    last_sensor = key;
+  }
+  return last;
+}
+
 // The body a simulation of `scene` needs, and the E scale it runs at: with scaling, the model
 // at the scene's nu and E x 1 (one model for every E), scaled to the scene's E.
 fem::BodyModelOptions SimulatedBody(const Scene& scene, bool scale_youngs_modulus, double* scale) {
@@ -386,6 +403,7 @@ py::dict SimulateArrays(const py::object& scene_arg,
     py::gil_scoped_release release;
     simulation::SimulationOptions options;
     options.render_images = images;
+    if (images) options.renderer = SharedRenderer(scene);
     options.max_steps = steps;
     const fem::BodyModelOptions body =
         SimulatedBody(scene, scale_youngs_modulus, &options.youngs_modulus_scale);

@@ -162,6 +162,44 @@ def test_youngs_modulus_scales_one_body_model(cache_dir):
     np.testing.assert_allclose(at_2e["total_force"], built["total_force"], rtol=1e-4, atol=1e-7)
 
 
+def test_a_load_ramp_loads_through_partial_slip_into_gross_slip(cache_dir):
+    spec = tac3d.datasets.load_spec(str(SMALL))
+    draw = next(d for d in map(spec.draw, range(40)) if d["parameters"]["trajectory"]["kind"] == "load_ramp")
+    scene = json.loads(draw["scene_yaml"])
+    scene["trajectory"]["steps"] = 40  # small.yaml's 10 steps hold too few on the ramp
+    load = scene["trajectory"]["tangential_load"]
+    drawn = draw["parameters"]["trajectory"]
+    assert (load["rate_per_s"], load["final_load"]) == (drawn["rate_per_s"], drawn["final_load"])
+    assert 1.1 <= load["final_load"] <= 1.5
+    run = tac3d.simulate_arrays(tac3d.parse_scene(json.dumps(scene)), cache_dir=cache_dir,
+                                images=False, twin_options=spec.twin_options)
+    assert run["summary"]["non_converged_steps"] == 0
+    direction = np.radians(load["direction_deg"])
+    phases, previous_capacity = [], 0.0
+    for t, q, mu, states in zip(run["t"], run["surface_tractions"], run["surface_friction"],
+                                run["surface_states"]):
+        touching = states > 0
+        # The friction capacity sum mu p, and |sum q| (the grid's cell area cancels).
+        capacity = (mu[touching] * -q[touching, 2]).sum()
+        tangential = np.hypot(*q[:, :2].sum(axis=0))
+        if t >= load["start_s"]:
+            asked = min(load["rate_per_s"] * (t - load["start_s"]), load["final_load"])
+            stick, slip = (states == 1).sum(), (states == 2).sum()
+            if stick:  # the load asked for, of the previous step's capacity
+                assert tangential == pytest.approx(asked * previous_capacity, rel=1e-3, abs=1e-9), t
+            else:  # sliding as a whole: Q = mu P, the load asked for being above it
+                assert tangential == pytest.approx(capacity, rel=1e-6) and asked * previous_capacity >= (1 - 1e-6) * capacity, t
+            if asked > 0.05:
+                angle = np.arctan2(q[:, 1].sum(), q[:, 0].sum())
+                assert abs(np.angle(np.exp(1j * (angle - direction)))) < 1e-3, t
+            phases.append("stick" if slip == 0 else "gross" if stick == 0 else "partial")
+        previous_capacity = capacity
+    # Stick (or nearly: a curved contact's rim slips radially), then partial slip, then gross.
+    order = [p for i, p in enumerate(phases) if i == 0 or p != phases[i - 1]]
+    assert order[-2:] == ["partial", "gross"] and order.count("gross") == 1, phases
+    assert phases.count("partial") >= 5 and phases.count("gross") >= 3, phases
+
+
 def test_a_rerun_skips_finished_episodes(two_workers, tac3d_cli, cache_dir):
     out, _ = two_workers
     group = out / "episodes" / "episode_000002.zarr" / ".zattrs"

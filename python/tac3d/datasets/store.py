@@ -6,10 +6,12 @@ Layout of a dataset folder (docs/datasets.md, "Randomized datasets"):
     DIR/manifest.jsonl                     one line an episode, sorted by id
     DIR/episodes/episode_000000.zarr/      one zarr group an episode, complete once renamed
 """
+import concurrent.futures
 import hashlib
 import json
 import os
 import pathlib
+import threading
 
 import numpy as np
 import zarr
@@ -27,6 +29,19 @@ SPEC_COPY = "spec.yaml"
 PER_FRAME = ("images", "surface_tractions", "surface_states", "surface_friction")
 # Frames Episode.frames reads with one zarr call: a call's overhead is paid once a block.
 READ_BLOCK_FRAMES = 32
+
+_read_pool = None
+_read_pool_lock = threading.Lock()
+
+
+def read_pool():
+    """The thread that reads (and decompresses) the next block while the caller uses the
+    current one: Blosc and file reads release the GIL, so a second core decodes images."""
+    global _read_pool
+    with _read_pool_lock:
+        if _read_pool is None:
+            _read_pool = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="tac3d-read")
+        return _read_pool
 
 
 def episode_name(episode):
@@ -141,7 +156,8 @@ class Episode:
         """Each frame as a dict of numpy arrays: t, sensor_pose, marker_*, total_force,
         total_moment, and image (when the episode has images and `images`) and the surface
         truth (surface_tractions, surface_states, surface_friction, with `surface`). The small
-        per-marker arrays are read once; images and surface frames READ_BLOCK_FRAMES at a time."""
+        per-marker arrays are read once; images and surface frames READ_BLOCK_FRAMES at a time,
+        the next block read in a background thread (read_pool) while this one is yielded."""
         names = [n for n in self.group.array_keys() if n not in PER_FRAME and n != "surface_positions"]
         small = {n: self.group[n][...] for n in names}
         per_frame = []
@@ -149,14 +165,25 @@ class Episode:
             per_frame.append(("image", self.group["images"]))
         if surface and "surface_tractions" in self.group:
             per_frame += [(n, self.group[n]) for n in PER_FRAME[1:] if n in self.group]
-        for start in range(0, len(self), READ_BLOCK_FRAMES):
-            stop = min(start + READ_BLOCK_FRAMES, len(self))
-            block = [(n, a[start:stop]) for n, a in per_frame]
-            for k in range(start, stop):
-                frame = {n: a[k] for n, a in small.items()}
-                for n, a in block:
-                    frame[n] = a[k - start]
-                yield frame
+        count = len(self)
+
+        def read_block(start):
+            return [(n, a[start:start + READ_BLOCK_FRAMES]) for n, a in per_frame]
+
+        pool = read_pool()
+        pending = pool.submit(read_block, 0)
+        try:
+            for start in range(0, count, READ_BLOCK_FRAMES):
+                block = pending.result()
+                if start + READ_BLOCK_FRAMES < count:
+                    pending = pool.submit(read_block, start + READ_BLOCK_FRAMES)
+                for k in range(start, min(start + READ_BLOCK_FRAMES, count)):
+                    frame = {n: a[k] for n, a in small.items()}
+                    for n, a in block:
+                        frame[n] = a[k - start]
+                    yield frame
+        finally:
+            pending.cancel()
 
     def __repr__(self):
         return f"<tac3d.datasets.Episode {self.id} ({len(self)} frames) {self.path}>"

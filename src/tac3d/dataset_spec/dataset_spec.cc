@@ -157,16 +157,22 @@ ObjectFamily ReadObjectFamily(YamlReader r, const std::string& base_dir) {
 TrajectoryFamily ReadTrajectoryFamily(YamlReader r) {
   TrajectoryFamily t;
   t.kind = r.String("kind");
-  if (t.kind != "press" && t.kind != "slide" && t.kind != "twist" && t.kind != "lift") {
+  if (t.kind != "press" && t.kind != "slide" && t.kind != "twist" && t.kind != "lift" &&
+      t.kind != "load_ramp") {
     r.FailAt(r.Required("kind"),
              r.Join("kind"),
-             fmt::format("'{}' is not one of press, slide, twist, lift", t.kind));
+             fmt::format("'{}' is not one of press, slide, twist, lift, load_ramp", t.kind));
   }
   t.weight = ReadWeight(r);
   t.depth_mm = ReadDistribution(r, "depth_mm", Bound{0.0, 5.0, true});
   t.speed_mm_s = ReadDistribution(r, "speed_mm_s", kSpeed);
   if (t.kind == "slide") {
     t.distance_mm = ReadDistribution(r, "distance_mm", Bound{0.0, 100.0, true});
+    t.direction_deg = ReadDistribution(r, "direction_deg", Bound{-360, 360}, 0.0);
+  }
+  if (t.kind == "load_ramp") {
+    t.load_rate_per_s = ReadDistribution(r, "rate_per_s", Bound{0.0, 1e4, true});
+    t.final_load = ReadDistribution(r, "final_load", Bound{0.0, 10.0, true});
     t.direction_deg = ReadDistribution(r, "direction_deg", Bound{-360, 360}, 0.0);
   }
   if (t.kind == "twist") {
@@ -323,6 +329,7 @@ nlohmann::json DrawTrajectory(const DatasetSpec& spec,
   const double t_in = in_z / speed;
   *params = {{"kind", f.kind}, {"depth_mm", depth}, {"speed_mm_s", speed}};
   nlohmann::json keyframes = {Keyframe(0.0, 0, 0, 0), Keyframe(t_in, 0, 0, in_z)};
+  nlohmann::json trajectory = {{"steps", spec.steps}};
   if (f.kind == "slide") {
     const double distance = f.distance_mm.Draw(random);
     const double direction = f.direction_deg.Draw(random) * M_PI / 180.0;
@@ -341,8 +348,22 @@ nlohmann::json DrawTrajectory(const DatasetSpec& spec,
     (*params)["angular_speed_deg_s"] = angular_speed;
   } else if (f.kind == "lift") {
     keyframes.push_back(Keyframe(2.0 * t_in, 0, 0, 0));
+  } else if (f.kind == "load_ramp") {
+    const double rate = f.load_rate_per_s.Draw(random);
+    const double final_load = f.final_load.Draw(random);
+    const double direction = f.direction_deg.Draw(random);
+    // Held pressed while the load ramps from 0 (at t_in) to final_load.
+    keyframes.push_back(Keyframe(t_in + final_load / rate, 0, 0, in_z));
+    trajectory["tangential_load"] = {{"start_s", t_in},
+                                     {"rate_per_s", rate},
+                                     {"final_load", final_load},
+                                     {"direction_deg", direction}};
+    (*params)["rate_per_s"] = rate;
+    (*params)["final_load"] = final_load;
+    (*params)["direction_deg"] = direction;
   }
-  return {{"steps", spec.steps}, {"keyframes", keyframes}};
+  trajectory["keyframes"] = keyframes;
+  return trajectory;
 }
 
 }  // namespace

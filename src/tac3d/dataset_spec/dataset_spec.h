@@ -53,16 +53,21 @@ struct ObjectFamily {
 /// One kind of sensor motion, each starting `clearance_mm` below the object and pressing in
 /// `depth_mm`: press (in, and no more), slide (in, then `distance_mm` along `direction_deg` in
 /// x-y: the tangential load ramps through incipient into gross slip), twist (in, then
-/// `angle_deg` about z), lift (in, then back out to the start).
+/// `angle_deg` about z), lift (in, then back out to the start), load_ramp (in, then held while
+/// a tangential force along `direction_deg` rises at `rate_per_s` times mu P a second to
+/// `final_load` times mu P: stick, partial slip, and above 1 gross slip; Scene's
+/// TangentialLoadRamp).
 struct TrajectoryFamily {
-  std::string kind;  ///< press | slide | twist | lift
+  std::string kind;  ///< press | slide | twist | lift | load_ramp
   double weight = 1.0;
   Distribution depth_mm;
   Distribution speed_mm_s;  ///< sets the times (the simulation is quasi-static)
   Distribution distance_mm;
-  Distribution direction_deg;
+  Distribution direction_deg;  ///< slide, load_ramp
   Distribution angle_deg;
   Distribution angular_speed_deg_s;  ///< twist
+  Distribution load_rate_per_s;      ///< load_ramp: mu P a second
+  Distribution final_load;           ///< load_ramp: mu P
 };
 
 /// Where an object's friction comes from: its mu everywhere, and up to `region_count` balls of

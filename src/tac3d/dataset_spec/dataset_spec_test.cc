@@ -42,6 +42,7 @@ trajectories:
   - {kind: slide, depth_mm: 0.1, distance_mm: {uniform: [0.2, 1]}, direction_deg: {uniform: [0, 360]}, speed_mm_s: 2}
   - {kind: twist, depth_mm: 0.1, speed_mm_s: 1, angle_deg: {uniform: [-10, 10]}, angular_speed_deg_s: 10}
   - {kind: lift, depth_mm: 0.1, speed_mm_s: 1}
+  - {kind: load_ramp, depth_mm: {uniform: [0.05, 0.2]}, speed_mm_s: 1, rate_per_s: {uniform: [0.5, 2]}, final_load: {uniform: [1.1, 1.5]}, direction_deg: {uniform: [0, 360]}}
 )";
 
 DatasetSpec MixedSpec(const std::string& text = kMixedSpec) {
@@ -72,7 +73,7 @@ TEST(DatasetSpec, ParsesEveryFamily) {
   EXPECT_EQ(spec.steps, 20);
   EXPECT_FALSE(spec.images);
   EXPECT_EQ(spec.objects.size(), 5u);
-  EXPECT_EQ(spec.trajectories.size(), 4u);
+  EXPECT_EQ(spec.trajectories.size(), 5u);
   EXPECT_EQ(spec.objects[0].weight, 2.0);
   EXPECT_EQ(spec.objects[0].sizes.at("radius_mm").kind, Distribution::Kind::kUniform);
   EXPECT_EQ(spec.twin_options.at("margin_mm"), 0.8);
@@ -121,6 +122,20 @@ TEST(DatasetSpec, DrawsStayInTheirRangesAndEverySceneIsValid) {
     EXPECT_NEAR(scene.trajectory.PoseAt(0).translation().z(), 0.0, 1e-12);
     const double end_z = scene.trajectory.PoseAt(scene.trajectory.duration_s()).translation().z();
     EXPECT_NEAR(end_z, p["trajectory"]["kind"] == "lift" ? 0.0 : 0.05 + depth, 1e-12);
+    // A load ramp: pressed in at t_in, then held while the load rises to final_load.
+    const std::optional<TangentialLoadRamp>& load = scene.trajectory.tangential_load;
+    ASSERT_EQ(load.has_value(), p["trajectory"]["kind"] == "load_ramp");
+    if (load) {
+      const nlohmann::json& t = p["trajectory"];
+      EXPECT_GE(load->rate_per_s, 0.5);
+      EXPECT_LE(load->rate_per_s, 2.0);
+      EXPECT_GE(load->final_load, 1.1);
+      EXPECT_LE(load->final_load, 1.5);
+      EXPECT_EQ(load->direction_deg, t["direction_deg"].get<double>());
+      EXPECT_DOUBLE_EQ(load->start_s, (0.05 + depth) / 1.0);
+      EXPECT_DOUBLE_EQ(scene.trajectory.duration_s(), load->start_s + load->final_load / load->rate_per_s);
+      EXPECT_DOUBLE_EQ(load->LoadAt(scene.trajectory.duration_s()), t["final_load"].get<double>());
+    }
     if (p["object"]["shape"] == "sphere") {
       const double r = p["object"]["radius_mm"];
       EXPECT_GE(r, 3.0);
@@ -129,7 +144,7 @@ TEST(DatasetSpec, DrawsStayInTheirRangesAndEverySceneIsValid) {
     }
   }
   EXPECT_EQ(shapes, (std::set<std::string>{"sphere", "cylinder", "flat_punch", "pins", "box"}));
-  EXPECT_EQ(kinds, (std::set<std::string>{"press", "slide", "twist", "lift"}));
+  EXPECT_EQ(kinds, (std::set<std::string>{"press", "slide", "twist", "lift", "load_ramp"}));
   EXPECT_EQ(youngs, (std::set<double>{0.9, 1.0, 1.1}));
 }
 
@@ -174,7 +189,14 @@ TEST(DatasetSpec, RefusesBadInputNamingTheLine) {
       "pins, box, mesh");
   EXPECT_EQ(
       DatasetSpecErrorOf(ReplacedInSpec(kMixedSpec, "kind: lift", "kind: hover")),
-      "spec.yaml: line 25: trajectories[3].kind: 'hover' is not one of press, slide, twist, lift");
+      "spec.yaml: line 25: trajectories[3].kind: 'hover' is not one of press, slide, twist, lift, "
+      "load_ramp");
+  EXPECT_EQ(DatasetSpecErrorOf(ReplacedInSpec(kMixedSpec, "final_load: \\{uniform: \\[1.1, 1.5\\]\\}",
+                                              "final_load: {uniform: [1.1, 11]}")),
+            "spec.yaml: line 26: trajectories[4].final_load.uniform[1]: 11 is out of range: must be in "
+            "(0, 10]");
+  EXPECT_EQ(DatasetSpecErrorOf(ReplacedInSpec(kMixedSpec, "rate_per_s: \\{uniform: \\[0.5, 2\\]\\}, ", "")),
+            "spec.yaml: line 26: trajectories[4].rate_per_s: missing");
   EXPECT_EQ(DatasetSpecErrorOf(ReplacedInSpec(
                 kMixedSpec, "rows: \\{choice: \\[1, 3\\]\\}", "rows: {uniform: [1, 3]}")),
             "spec.yaml: line 16: objects[3].rows.uniform: an integer is drawn with choice");

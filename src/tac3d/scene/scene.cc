@@ -108,6 +108,15 @@ Trajectory ReadTrajectory(YamlReader r, const std::string& base_dir) {
       t.keyframes.push_back({k.Double("t_s"), ReadPose(k)});
     }
   }
+  if (r.Has("tangential_load")) {
+    YamlReader l = r.Child("tangential_load");
+    TangentialLoadRamp ramp;
+    ramp.start_s = l.Double("start_s");
+    ramp.rate_per_s = l.Double("rate_per_s");
+    ramp.final_load = l.Double("final_load");
+    ramp.direction_deg = l.Double("direction_deg", 0.0);
+    t.tangential_load = ramp;
+  }
   return t;
 }
 
@@ -212,6 +221,15 @@ Rigid3 PoseFromRpy(const Eigen::Vector3d& position_mm, const Eigen::Vector3d& rp
                       .toRotationMatrix();
   pose.translation() = position_mm;
   return pose;
+}
+
+double TangentialLoadRamp::LoadAt(double t_s) const {
+  return t_s <= start_s ? 0.0 : std::min(final_load, rate_per_s * (t_s - start_s));
+}
+
+Eigen::Vector2d TangentialLoadRamp::Direction() const {
+  const double a = direction_deg * M_PI / 180.0;
+  return {std::cos(a), std::sin(a)};
 }
 
 Rigid3 Trajectory::PoseAt(double t_s) const {
@@ -345,6 +363,27 @@ void Scene::Validate() const {
   for (size_t k = 1; k < t.keyframes.size(); ++k) {
     Require(t.keyframes[k].t_s > t.keyframes[k - 1].t_s, fmt::format("trajectory.keyframes[{}].t_s", k),
             "greater than the previous keyframe's", t.keyframes[k].t_s);
+  }
+  if (const auto& load = t.tangential_load) {
+    Require(load->start_s >= t.keyframes.front().t_s && load->start_s < t.keyframes.back().t_s,
+            "trajectory.tangential_load.start_s", "within the keyframes' span, before the last",
+            load->start_s);
+    Require(load->rate_per_s > 0 && load->rate_per_s <= 1e6, "trajectory.tangential_load.rate_per_s",
+            "in (0, 1e6]", load->rate_per_s);
+    Require(load->final_load > 0 && load->final_load <= 10, "trajectory.tangential_load.final_load",
+            "in (0, 10]", load->final_load);
+    Require(std::abs(load->direction_deg) <= 360, "trajectory.tangential_load.direction_deg",
+            "in [-360, 360]", load->direction_deg);
+    // Under the load the pose only presses: the load moves the object tangentially.
+    const Rigid3 loaded = t.PoseAt(load->start_s);
+    for (size_t k = 0; k < t.keyframes.size(); ++k) {
+      if (t.keyframes[k].t_s <= load->start_s) continue;
+      const Rigid3& pose = t.keyframes[k].world_from_sensor;
+      const double moved = (pose.translation() - loaded.translation()).head<2>().norm();
+      const double turned = Eigen::AngleAxisd(pose.linear() * loaded.linear().transpose()).angle();
+      Require(moved < 1e-9 && turned < 1e-9, fmt::format("trajectory.keyframes[{}] (x-y motion, mm, and turn, rad, under "
+              "tangential_load)", k), "0", moved + turned);
+    }
   }
 }
 

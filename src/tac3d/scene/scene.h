@@ -89,6 +89,22 @@ struct SceneObject {
 
 std::string_view ToString(SceneObject::Shape shape);
 
+/// A tangential load ramp (docs/scenes.md, "A tangential load ramp"): from `start_s` on, the
+/// contact is loaded by a tangential force rather than moved: |Q| = LoadAt(t) times the
+/// contact's friction capacity mu P (sum of mu p A over the nodes, the previous step's),
+/// along `direction_deg` in the sensor's x-y; the object follows the solved shift. Above 1
+/// the contact slides as a whole (gross slip), Q = mu P.
+struct TangentialLoadRamp {
+  double start_s = 0.0;
+  double rate_per_s = 1.0;      ///< the load's rise, capacities a second, > 0
+  double final_load = 1.2;      ///< the load it stops at, capacities, in (0, 10]
+  double direction_deg = 0.0;   ///< of the load on the fingertip, from the sensor's +x
+  /// The load at time t, capacities (0 before start_s).
+  double LoadAt(double t_s) const;
+  /// The load's direction, a unit vector in the sensor's x-y.
+  Eigen::Vector2d Direction() const;
+};
+
 /// world_from_sensor over time: keyframes interpolated linearly in position and by slerp in
 /// rotation, sampled at `steps` equal intervals from the first keyframe's time to the last's.
 struct Trajectory {
@@ -98,6 +114,9 @@ struct Trajectory {
   };
   std::vector<Keyframe> keyframes;
   int steps = 100;
+  /// A tangential load from its start_s on; the keyframes must not move the sensor in x-y nor
+  /// turn it from then on (the load, not the pose, drives the tangential motion).
+  std::optional<TangentialLoadRamp> tangential_load;
 
   /// The pose at time t (clamped to the keyframes' span).
   Rigid3 PoseAt(double t_s) const;

@@ -110,6 +110,33 @@ TEST(Trajectory, InterpolatesPositionLinearlyAndRotationBySlerp) {
   EXPECT_THAT(t.PoseAt(99).translation(), EigenNear(Eigen::Vector3d(8, 0, 1.3), 1e-12));
 }
 
+TEST(Trajectory, TangentialLoadRampsFromItsStartToItsFinalLoad) {
+  // Pressed by t = 1 at x = -8, held there while the load ramps.
+  const std::string held = Replace(kSlide, "- {t_s: 5, position_mm: [8, 0, 1.3], rpy_deg: [0, 0, 90]}",
+                                   "- {t_s: 5, position_mm: [-8, 0, 1.3]}\n"
+                                   "  tangential_load: {start_s: 1, rate_per_s: 0.5, final_load: 1.2, direction_deg: 90}");
+  const Scene scene = ParseScene(held, "test.yaml", "");
+  ASSERT_TRUE(scene.trajectory.tangential_load.has_value());
+  const TangentialLoadRamp& load = *scene.trajectory.tangential_load;
+  EXPECT_EQ(load.LoadAt(0.5), 0.0);
+  EXPECT_DOUBLE_EQ(load.LoadAt(2.0), 0.5);
+  EXPECT_DOUBLE_EQ(load.LoadAt(4.0), 1.2);  // capped at final_load from t = 3.4
+  EXPECT_THAT(load.Direction(), EigenNear(Eigen::Vector2d(0, 1), 1e-15));
+  EXPECT_FALSE(ParseScene(kSlide, "test.yaml", "").trajectory.tangential_load.has_value());
+  EXPECT_THAT(SceneErrorOf(Replace(held, "rate_per_s: 0.5", "rate_per_s: 0")),
+              HasSubstr("trajectory.tangential_load.rate_per_s = 0 is out of range"));
+  EXPECT_THAT(SceneErrorOf(Replace(held, "final_load: 1.2", "final_load: 11")),
+              HasSubstr("trajectory.tangential_load.final_load = 11 is out of range"));
+  EXPECT_THAT(SceneErrorOf(Replace(held, "start_s: 1", "start_s: 5")),
+              HasSubstr("trajectory.tangential_load.start_s = 5 is out of range"));
+  EXPECT_THAT(SceneErrorOf(Replace(held, "final_load: 1.2", "final_load: 1.2, speed: 1")),
+              HasSubstr("unknown key"));
+  // The pose may not move the sensor tangentially under the load: kSlide's own slide is refused.
+  EXPECT_THAT(SceneErrorOf(Replace(kSlide, "  keyframes:", "  tangential_load: {start_s: 1, rate_per_s: 1, "
+                                   "final_load: 1}\n  keyframes:")),
+              HasSubstr("trajectory.keyframes[2] (x-y motion"));
+}
+
 TEST(Scene, BadValuesNameTheFieldAndTheBound) {
   EXPECT_THAT(SceneErrorOf(Replace(kSlide, "default: 0.4", "default: -0.1")), HasSubstr("friction.default"));
   EXPECT_THAT(SceneErrorOf(Replace(kSlide, "shape: box", "shape: torus")), HasSubstr("'torus' is not one of"));

@@ -67,7 +67,9 @@ void AccumulateSolverSummary(const contact::ContactSummary& s, SimulationSummary
   summary->max_cone_violation_mpa =
       std::max(summary->max_cone_violation_mpa, s.max_cone_violation_mpa);
   summary->max_penetration_mm = std::max(summary->max_penetration_mm, s.max_penetration_mm);
-  if (s.status != contact::ContactStatus::kConverged) ++summary->non_converged_steps;
+  // Gross sliding is a tangential load's converged answer: the contact slides as a whole.
+  if (s.status == contact::ContactStatus::kGrossSliding) ++summary->gross_sliding_steps;
+  else if (s.status != contact::ContactStatus::kConverged) ++summary->non_converged_steps;
   if (s.num_contact > 0) {
     ++summary->contact_steps;
     if (s.contact_at_grid_edge) ++summary->contact_at_grid_edge_steps;
@@ -75,6 +77,10 @@ void AccumulateSolverSummary(const contact::ContactSummary& s, SimulationSummary
 }
 
 }  // namespace
+
+SensorConfig RenderedSensor(const Scene& scene) {
+  return scene.spread ? PerturbSensor(scene.sensor, *scene.spread) : scene.sensor;
+}
 
 contact::ContactSolverOptions DefaultSimulationContactOptions() {
   contact::ContactSolverOptions o;
@@ -101,6 +107,7 @@ nlohmann::json ToJson(const SimulationSummary& s) {
   return {{"steps", s.steps},
           {"contact_steps", s.contact_steps},
           {"non_converged_steps", s.non_converged_steps},
+          {"gross_sliding_steps", s.gross_sliding_steps},
           {"max_normal_iterations", s.max_normal_iterations},
           {"max_tangential_iterations", s.max_tangential_iterations},
           {"max_coupling_iterations", s.max_coupling_iterations},
@@ -151,8 +158,8 @@ TwinSimulation::TwinSimulation(const Scene& scene,
   caster_ = std::make_unique<GapCaster>(
       scene_.objects, model_->grid, surface_points_, model_->CalcActiveNodes());
   if (options_.render_images) {
-    renderer_ = std::make_unique<MarkerImageRenderer>(
-        scene_.spread ? PerturbSensor(scene_.sensor, *scene_.spread) : scene_.sensor);
+    renderer_ = options_.renderer ? options_.renderer
+                                  : std::make_shared<const MarkerImageRenderer>(RenderedSensor(scene_));
   }
   state_ = contact::ContactState::Unloaded(model_->grid.num_nodes());
 }
@@ -173,7 +180,9 @@ TwinStep TwinSimulation::Step() {
   TwinStep out;
   out.index = k;
   out.t_s = scene_.trajectory.StepTime(k);
-  out.world_from_sensor = scene_.trajectory.PoseAt(out.t_s);
+  // Under a tangential load the object has moved by the solved shifts: the sensor by minus them.
+  out.world_from_sensor = scene_.trajectory.PoseAt(out.t_s) *
+                          Eigen::Translation3d(-load_shift_mm_.x(), -load_shift_mm_.y(), 0.0);
 
   auto start = Clock::now();
   const GapField gaps = caster_->Cast(out.world_from_sensor);
@@ -182,7 +191,8 @@ TwinStep TwinSimulation::Step() {
   const Eigen::Vector2d increment = TakeTangentialIncrement(out.world_from_sensor);
 
   start = Clock::now();
-  const std::vector<contact::NodeState> node_state = SolveContact(gaps, increment, &out.solver);
+  const std::vector<contact::NodeState> node_state =
+      SolveContact(gaps, increment, out.t_s, &out.solver);
   timings.contact_s += SecondsSince(start);
 
   start = Clock::now();
@@ -216,6 +226,7 @@ Eigen::Vector2d TwinSimulation::TakeTangentialIncrement(const Rigid3& world_from
 
 std::vector<contact::NodeState> TwinSimulation::SolveContact(const GapField& gaps,
                                                              const Eigen::Vector2d& increment,
+                                                             double t_s,
                                                              nlohmann::json* solver_json) {
   const int n = model_->grid.num_nodes();
   std::vector<contact::NodeState> node_state(n, contact::NodeState::kSeparated);
@@ -223,6 +234,7 @@ std::vector<contact::NodeState> TwinSimulation::SolveContact(const GapField& gap
   if (!touching) {
     *solver_json = {{"status", "separated"}, {"num_contact", 0}};
     state_ = contact::ContactState::Unloaded(n);
+    previous_capacity_n_ = 0.0;
     return node_state;
   }
   contact::ContactStep step;
@@ -230,10 +242,26 @@ std::vector<contact::NodeState> TwinSimulation::SolveContact(const GapField& gap
   step.friction_coefficient = gaps.friction_coefficient;
   step.normal_control = contact::NormalControl::kApproach;
   step.approach_mm = 0.0;
-  step.tangential_control = contact::TangentialControl::kShift;
-  step.shift_mm = state_.shift_mm + increment;
+  const std::optional<TangentialLoadRamp>& load = scene_.trajectory.tangential_load;
+  const bool loaded = load && t_s >= load->start_s;
+  if (loaded) {
+    step.tangential_control = contact::TangentialControl::kForce;
+    step.tangential_force_n = load->LoadAt(t_s) * previous_capacity_n_ * load->Direction();
+  } else {
+    step.tangential_control = contact::TangentialControl::kShift;
+    step.shift_mm = state_.shift_mm + increment;
+  }
   contact::ContactResult result = solver_.Solve(step, state_);
   const contact::ContactSummary& s = result.summary;
+  if (loaded && s.num_contact > 0) {
+    if (s.status == contact::ContactStatus::kGrossSliding) {
+      // A quasi-static slide under a load above the capacity has no determined length: the
+      // object is held where it began to slide (its tractions, mu p along the load, are exact).
+      result.state.shift_mm = state_.shift_mm;
+    } else {
+      load_shift_mm_ += result.state.shift_mm - state_.shift_mm;
+    }
+  }
   *solver_json = contact::ToJson(s);
   AccumulateSolverSummary(s, &summary_);
   if (s.num_contact > 0) {
@@ -242,6 +270,9 @@ std::vector<contact::NodeState> TwinSimulation::SolveContact(const GapField& gap
   } else {
     state_ = contact::ContactState::Unloaded(n);
   }
+  // The next step's load is in capacities of this one's: sum mu p A with the mu each node met.
+  previous_capacity_n_ = model_->grid.cell_area_mm2() *
+                         (gaps.friction_coefficient.array() * state_.pressure_mpa.array()).sum();
   return node_state;
 }
 

@@ -27,6 +27,10 @@ struct SimulationOptions {
   /// Render each step's camera image (MarkerImageRenderer with the scene's sensor, frame
   /// index = step, so the noise differs per frame).
   bool render_images = true;
+  /// The renderer to draw them with, built for RenderedSensor(scene); null: built by the
+  /// simulation. Building one (its per-pixel optics) takes ~1 s, more than a short episode's
+  /// steps, so simulations of one sensor share it (tac3d.simulate_arrays).
+  std::shared_ptr<const MarkerImageRenderer> renderer;
   /// Keep the surface tractions in each TwinStep (TwinStep::surface).
   bool keep_surface = true;
   /// Simulate only the first this many steps (0: all of the trajectory's).
@@ -44,6 +48,9 @@ struct SimulationOptions {
   void Validate() const;
 };
 
+/// The sensor a scene's images are rendered with: its sensor after its manufacturing spread.
+SensorConfig RenderedSensor(const Scene& scene);
+
 /// Wall time of a run's phases (s), summed over the steps.
 struct SimulationTimings {
   double gap_s = 0.0;       ///< ray casting the gaps and friction
@@ -60,6 +67,9 @@ struct SimulationSummary {
   int contact_steps = 0;
   /// Steps whose contact solve did not converge (ContactStatus other than kConverged).
   int non_converged_steps = 0;
+  /// Steps under a tangential load above the friction capacity: the contact slid as a whole
+  /// (ContactStatus::kGrossSliding, not counted as non-converged).
+  int gross_sliding_steps = 0;
   int max_normal_iterations = 0;
   int max_tangential_iterations = 0;
   int max_coupling_iterations = 0;
@@ -77,7 +87,8 @@ nlohmann::json ToJson(const SimulationSummary& summary);
 /// one ContactSolver step (normal: kApproach with delta = 0, the gap holds the penetration;
 /// tangential: kShift, the shift accumulating the object's rigid motion relative to the sensor,
 /// the increment being the (x, y) motion of the previous step's pressure centroid under
-/// sensor_from_world_k * world_from_sensor_{k-1}, zero after a step without contact); the state of
+/// sensor_from_world_k * world_from_sensor_{k-1}, zero after a step without contact; under the
+/// trajectory's tangential_load, kForce at that load, the object moved by the solved shift); the state of
 /// step k - 1 is the history of step k, reset to Unloaded when nothing touches. Then the truth:
 /// node tractions in the sensor frame (the object's push on the fingertip: (q_x, q_y, -p)), nodal
 /// forces = traction x cell area, marker forces (the sum over a marker's patch), the total
@@ -119,8 +130,11 @@ class TwinSimulation {
   Eigen::Vector2d TakeTangentialIncrement(const Rigid3& world_from_sensor);
   // One contact solve (or none when nothing touches), folded into the summary; sets state_,
   // writes the solver's report to `solver_json`, returns each node's state.
+  // Under the trajectory's tangential load (from its start_s), the step is force-controlled
+  // and the solved shift moves the object (load_shift_mm_).
   std::vector<contact::NodeState> SolveContact(const GapField& gaps,
                                                const Eigen::Vector2d& increment,
+                                               double t_s,
                                                nlohmann::json* solver_json);
   // The truth from state_: nodal forces, their total and moment, marker forces, contact and
   // slip flags, the surface (keep_surface, with each contact node's mu from `gaps`) and the
@@ -136,13 +150,17 @@ class TwinSimulation {
   std::shared_ptr<const contact::ConvolutionCompliance> compliance_;
   contact::ContactSolver solver_;
   std::unique_ptr<GapCaster> caster_;
-  std::unique_ptr<MarkerImageRenderer> renderer_;
+  std::shared_ptr<const MarkerImageRenderer> renderer_;
   std::vector<Eigen::Vector3d> surface_points_;
   std::vector<int> node_markers_;
   contact::ContactState state_;
   Rigid3 previous_pose_ = Rigid3::Identity();
   Eigen::Vector3d previous_centroid_ = Eigen::Vector3d::Zero();
   bool previous_contact_ = false;
+  /// The object's tangential motion under the tangential load so far, sensor frame (mm).
+  Eigen::Vector2d load_shift_mm_ = Eigen::Vector2d::Zero();
+  /// The previous step's friction capacity sum mu p A (N), which a tangential load is of.
+  double previous_capacity_n_ = 0.0;
   int next_step_ = 0;
   SimulationSummary summary_;
 };

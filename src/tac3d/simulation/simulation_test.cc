@@ -195,6 +195,70 @@ TEST(TwinSimulation, HistoryCarriesTheShiftFromStepToStep) {
   EXPECT_EQ(lifted.state().pressure_mpa.maxCoeff(), 0.0);
 }
 
+TEST(TwinSimulation, TangentialLoadRampsThroughPartialSlipIntoGrossSlip) {
+  // Pressed 0.1 mm by t = 1, held; from t = 1 a tangential load along 30 deg rises at 0.6 mu P
+  // a second to 1.2 mu P (reached at t = 3; mu P at t = 2.67). Steps every 0.1 s.
+  Scene scene = SphereScene({{0.0, {0, 0, -0.05}}, {1.0, {0, 0, 0.1}}, {3.0, {0, 0, 0.1}}}, 31);
+  TangentialLoadRamp ramp;
+  ramp.start_s = 1.0;
+  ramp.rate_per_s = 0.6;
+  ramp.final_load = 1.2;
+  ramp.direction_deg = 30.0;
+  scene.trajectory.tangential_load = ramp;
+  TwinSimulation sim(scene, SmallModel(), NoImages());
+  std::vector<TwinStep> steps;
+  const SimulationSummary summary = sim.Run([&](const TwinStep& s) { steps.push_back(s); });
+  ASSERT_EQ(steps.size(), 31u);
+  EXPECT_EQ(summary.non_converged_steps, 0);
+  EXPECT_EQ(summary.contact_at_grid_edge_steps, 0);
+  const double mu = 0.3;
+  const Eigen::Vector2d direction = ramp.Direction();
+  int partial = 0, gross = 0;
+  double previous_q = 0.0;
+  for (size_t k = 10; k < steps.size(); ++k) {
+    SCOPED_TRACE(k);
+    const TwinStep& s = steps[k];
+    const double p = -s.total_force_n.z();
+    ASSERT_GT(p, 0.01);
+    const Eigen::Vector2d q = s.total_force_n.head<2>();
+    // The true load is the one asked for (of the previous step's capacity: P is held to
+    // ~1 %), capped by the capacity, along the load's direction.
+    const double load = ramp.LoadAt(s.t_s);
+    EXPECT_NEAR(q.norm() / (mu * p), std::min(load, 1.0), 0.02);
+    if (load > 0.05) {
+      EXPECT_GT(q.normalized().dot(direction), 0.9999);
+    }
+    EXPECT_GE(q.norm(), previous_q - 1e-3 * mu * p);
+    previous_q = q.norm();
+    int stick = 0, slip = 0;
+    for (const tac3d::ContactState state : s.surface.states) {
+      stick += state == tac3d::ContactState::kStick;
+      slip += state == tac3d::ContactState::kSlip;
+    }
+    ASSERT_GT(stick + slip, 0);
+    if (load <= 0.9) {
+      EXPECT_GT(stick, 0) << "stuck at " << load << " mu P";
+    }
+    if (load >= 0.3 && load <= 0.9) {
+      EXPECT_GT(slip, 0) << "no partial slip at " << load << " mu P";
+    }
+    if (load > 1.0) {
+      EXPECT_EQ(stick, 0) << "not sliding as a whole at " << load << " mu P";
+    }
+    partial += stick > 0 && slip > 0;
+    gross += stick == 0;
+  }
+  EXPECT_GE(partial, 8);
+  EXPECT_GE(gross, 4);
+  EXPECT_EQ(summary.gross_sliding_steps, gross);
+  // The load drags the object along its direction: the sensor moved the other way in x-y, and
+  // the pose held while it slid as a whole.
+  const Eigen::Vector2d moved = steps[26].world_from_sensor.translation().head<2>();
+  EXPECT_GT(moved.norm(), 1e-3);
+  EXPECT_LT(moved.normalized().dot(direction), -0.9999);
+  EXPECT_EQ(steps.back().world_from_sensor.translation(), steps[27].world_from_sensor.translation());
+}
+
 TEST(TwinSimulation, WritesADatasetTheReaderReadsBack) {
   const Scene scene = SphereScene({{0.0, {0, 0, -0.05}}, {1.0, {0.1, 0, 0.1}}}, 4);
   SimulationOptions options;  // with images
