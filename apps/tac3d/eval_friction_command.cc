@@ -62,10 +62,7 @@ void RegisterEvalFriction(CLI::App& eval) {
     ReplayArgs replay = args->replay;
     replay.show_progress = true;  // on stderr
     nlohmann::json report = {{"datasets", datasets}};
-    if (replay.gains.empty() && replay.calibration.empty()) {
-      replay.calibration = datasets + "/force_calibration";
-      EnsureTwinDataset({.scene = "force_calibration", .out = replay.calibration, .cache_dir = replay.cache_dir});
-    }
+    GainsFittedOnce gains(replay, datasets);
     std::vector<FrictionEvaluation> results;
     nlohmann::json scenes = nlohmann::json::array();
     for (const std::string& name : args->scenes) {
@@ -75,18 +72,10 @@ void RegisterEvalFriction(CLI::App& eval) {
       const Scene scene = LoadSceneOrBuiltIn(reader.header().at("scene").get<std::string>());
       friction::FrictionMapBuilder builder(args->map.Options(scene.sensor));
       FrictionReplayRecorder recorder(builder);
-      replay.dataset = folder;
       auto start = std::chrono::steady_clock::now();
-      const ReplayRun run =
-          RunReplay(replay, [&](const TwinStep& s, const TactileFrame& f) { recorder.Add(s, f); });
+      const ReplayRun run = gains.Replay(
+          folder, report, [&](const TwinStep& s, const TactileFrame& f) { recorder.Add(s, f); });
       const double replay_s = SecondsSince(start);
-      if (run.calibration) {  // fitted once, reused for the other scenes
-        replay.calibration.clear();
-        const Eigen::Vector3d& g = run.options.pipeline.force.gains;
-        replay.gains = {g.x(), g.y(), g.z()};
-        report["calibration"] = run.report.at("calibration");
-      }
-      report["gains"] = replay.gains.empty() ? std::vector<double>{1, 1, 1} : replay.gains;
       start = std::chrono::steady_clock::now();
       ProgressBar bar(scene.name + " map", 4);
       const friction::FrictionMapResult map =

@@ -135,10 +135,7 @@ void RegisterEvalIncipient(CLI::App& eval) {
       return EnsureTwinDataset(sim);
     };
     nlohmann::json report = {{"datasets", datasets}, {"frame_rate_hz", args->frame_rate_hz}};
-    if (replay.gains.empty() && replay.calibration.empty()) {
-      replay.calibration = datasets + "/force_calibration";
-      simulate("force_calibration", replay.calibration);
-    }
+    GainsFittedOnce gains(replay, datasets, args->twin_refinement);
     std::vector<IncipientEvaluation> results;
     nlohmann::json scenes = nlohmann::json::array();
     for (const IncipientSceneSpec& spec : specs) {
@@ -149,18 +146,11 @@ void RegisterEvalIncipient(CLI::App& eval) {
       const nlohmann::json& grid = reader.header().at("twin_body").at("grid");
       const double cell_area_mm2 = grid.at("dx_mm").get<double>() * grid.at("dy_mm").get<double>();
       std::vector<IncipientFrame> frames;
-      replay.dataset = folder;
-      const ReplayRun run = RunReplay(replay, [&](const TwinStep& truth, const TactileFrame& frame) {
-        const TwinStep with_surface = reader.Read(truth.index, /*with_surface=*/true);
-        frames.push_back({IncipientTruthOf(with_surface, spec.mu, cell_area_mm2), frame.slip});
-      });
-      if (run.calibration) {  // fitted once, reused for the other scenes
-        replay.calibration.clear();
-        const Eigen::Vector3d& g = run.options.pipeline.force.gains;
-        replay.gains = {g.x(), g.y(), g.z()};
-        report["calibration"] = run.report.at("calibration");
-      }
-      report["gains"] = replay.gains.empty() ? std::vector<double>{1, 1, 1} : replay.gains;
+      const ReplayRun run =
+          gains.Replay(folder, report, [&](const TwinStep& truth, const TactileFrame& frame) {
+            const TwinStep with_surface = reader.Read(truth.index, /*with_surface=*/true);
+            frames.push_back({IncipientTruthOf(with_surface, spec.mu, cell_area_mm2), frame.slip});
+          });
       IncipientEvaluation e = EvaluateIncipient(name, frames, spec.ramp_start_s(),
                                                 spec.ramp == IncipientSceneSpec::Ramp::kSlow, args->evaluation);
       nlohmann::json j = ToJson(e, args->evaluation);

@@ -92,6 +92,34 @@ ReplayRun RunReplay(const ReplayArgs& a, const std::function<void(const TwinStep
   return run;
 }
 
+GainsFittedOnce::GainsFittedOnce(const ReplayArgs& replay,
+                                 const std::string& datasets,
+                                 std::optional<double> twin_refinement)
+    : replay_(replay) {
+  if (!replay_.gains.empty() || !replay_.calibration.empty()) return;
+  replay_.calibration = datasets + "/force_calibration";
+  EnsureTwinDataset({.scene = "force_calibration",
+                     .out = replay_.calibration,
+                     .cache_dir = replay_.cache_dir,
+                     .twin_refinement = twin_refinement});
+}
+
+ReplayRun GainsFittedOnce::Replay(
+    const std::string& dataset,
+    nlohmann::json& report,
+    const std::function<void(const TwinStep&, const TactileFrame&)>& on_frame) {
+  replay_.dataset = dataset;
+  ReplayRun run = RunReplay(replay_, on_frame);
+  if (run.calibration) {  // fitted once, reused for the other datasets
+    replay_.calibration.clear();
+    const Eigen::Vector3d& g = run.options.pipeline.force.gains;
+    replay_.gains = {g.x(), g.y(), g.z()};
+    report["calibration"] = run.report.at("calibration");
+  }
+  report["gains"] = replay_.gains.empty() ? std::vector<double>{1, 1, 1} : replay_.gains;
+  return run;
+}
+
 void WriteReplayFiles(const ReplayRun& run, const std::string& folder) {
   MakeDirectory(folder);
   WriteTextFileAtomically(folder + "/report.json", run.report.dump(2) + "\n");

@@ -99,6 +99,30 @@ struct ReplayRun {
 ReplayRun RunReplay(const ReplayArgs& args,
                     const std::function<void(const TwinStep&, const TactileFrame&)>& on_frame = {});
 
+/// The replays of a run over several datasets (`tac3d eval friction`, `tac3d eval incipient`)
+/// with their gains fitted once: without gains or a calibration given, the calibration is
+/// DATASETS/force_calibration, simulated there if missing; the first replay fits the gains on
+/// it and the others reuse them.
+class GainsFittedOnce {
+ public:
+  /// Defaults the calibration and simulates it (EnsureTwinDataset in replay.cache_dir, at
+  /// `twin_refinement`, unset: the scene's) if needed.
+  /// @throws Error as EnsureTwinDataset.
+  GainsFittedOnce(const ReplayArgs& replay,
+                  const std::string& datasets,
+                  std::optional<double> twin_refinement = std::nullopt);
+
+  /// RunReplay of `dataset` with the gains given or fitted (fitted now if not yet); writes
+  /// into `report` the fit's "calibration" when fitted now and "gains" as used (1 1 1 when
+  /// none were given or fitted). @throws Error as RunReplay.
+  ReplayRun Replay(const std::string& dataset,
+                   nlohmann::json& report,
+                   const std::function<void(const TwinStep&, const TactileFrame&)>& on_frame = {});
+
+ private:
+  ReplayArgs replay_;
+};
+
 /// Writes report.json, frames.csv (per-frame measured vs true) and force_pairs.csv (the
 /// calibration's pairs if gains were fitted, else the dataset's own: `tac3d calibrate-force
 /// --pairs` reproduces the gains from it) into `folder`. @throws Error if a file cannot be written.

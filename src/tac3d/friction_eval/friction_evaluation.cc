@@ -53,10 +53,21 @@ Eigen::Vector3d NearestOnObject(const SceneObject& o, const Eigen::Vector3d& p) 
       q[axis] = p[axis] < 0 ? -h[axis] : h[axis];
       return q;
     }
+    case SceneObject::Shape::kMesh:
+      // The triangles the twin's gap caster rasterises; the truth's mu on them is the nearest
+      // vertex's (SceneObject::FrictionAt), as the twin simulated it.
+      if (!o.mesh || !o.mesh->has_surface()) {
+        throw Error(
+            fmt::format("friction evaluation: the mesh object '{}' ('{}') has no triangle "
+                        "with an area, so no surface",
+                        o.name,
+                        o.ply_path));
+      }
+      return o.mesh->ClosestSurfacePoint(p);
     default:
       throw Error(
           fmt::format("friction evaluation: object '{}' is a {}; the truth's surface is "
-                      "known for sphere, cylinder and box only",
+                      "known for sphere, cylinder, box and mesh only",
                       o.name,
                       ToString(o.shape)));
   }

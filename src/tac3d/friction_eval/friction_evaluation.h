@@ -39,7 +39,8 @@ struct FrictionEvaluationOptions {
   void Validate() const;
 };
 
-/// The nearest point of an object's true (analytic) surface to a world point.
+/// The nearest point of an object's true surface (analytic, or a mesh's triangles) to a
+/// world point.
 struct SurfacePoint {
   Eigen::Vector3d p_in_world_mm = Eigen::Vector3d::Zero();
   Eigen::Vector3d p_in_object_mm = Eigen::Vector3d::Zero();
@@ -48,7 +49,9 @@ struct SurfacePoint {
 };
 
 /// The nearest point on the surface of the scene's objects (sphere, cylinder's lateral
-/// surface, box). @throws Error if an object has another shape (mesh, punch, pins).
+/// surface, box, mesh: its triangles with an area, IndexedMesh::ClosestSurfacePoint).
+/// @throws Error if an object has another shape (punch, pins) or is a mesh with no triangle
+///   of non-zero area.
 SurfacePoint NearestSurfacePoint(const Scene& scene, const Eigen::Vector3d& p_in_world_mm);
 
 /// Feeds replayed frames to a FrictionMapBuilder at the twin's world_from_sensor and keeps

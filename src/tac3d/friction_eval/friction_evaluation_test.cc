@@ -1,12 +1,15 @@
 #include "tac3d/friction_eval/friction_evaluation.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <random>
 
 #include "tac3d/dataset/twin_dataset.h"
+#include "tac3d/friction/friction_output.h"
 #include "tac3d/scene/scene.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
@@ -122,12 +125,224 @@ TEST(FrictionEvaluation, NearestSurfacePointOfEachShape) {
   s = NearestSurfacePoint(block, {3, 2, 8.7});
   EXPECT_NEAR(s.distance_mm, 0.2, 1e-12);
   EXPECT_NEAR(s.p_in_world_mm.z(), 8.5, 1e-12);
-  Scene mesh = block;
+  Scene mesh = block;  // a mesh object without its mesh
   mesh.objects[0].shape = SceneObject::Shape::kMesh;
   EXPECT_THROW(NearestSurfacePoint(mesh, {0, 0, 0}), Error);
+  Scene punch = block;
+  punch.objects[0].shape = SceneObject::Shape::kFlatPunch;
+  EXPECT_THAT(
+      [&] {
+        NearestSurfacePoint(punch, {0, 0, 0});
+      },
+      ::testing::ThrowsMessage<Error>(
+          ::testing::HasSubstr("known for sphere, cylinder, box and mesh only")));
   FrictionEvaluationOptions bad;
   bad.coverage_distance_mm = 0;
   EXPECT_THROW(bad.Validate(), Error);
+}
+
+// friction_block's block (60 x 40 x 10 mm) as a mesh: its bottom face, the one the sensor
+// strokes, tessellated with vertex columns at odd multiples of 0.1 mm (and its edges), the other
+// faces two triangles each; per-vertex mu 1.0 for x < 0 and 0.4 beyond, so the nearest vertex's
+// mu changes at x = 0, where the analytic block's regions change it.
+TriangleMesh BlockMesh() {
+  TriangleMesh mesh;
+  std::vector<double> xs = {-30.0}, ys = {-20.0};
+  for (double x = -29.9; x < 30.0; x += 0.2) xs.push_back(x);
+  for (double y = -19.9; y < 20.0; y += 0.2) ys.push_back(y);
+  xs.push_back(30.0);
+  ys.push_back(20.0);
+  const int nx = static_cast<int>(xs.size()), ny = static_cast<int>(ys.size());
+  for (const double y : ys) {
+    for (const double x : xs) mesh.vertices.push_back({x, y, -5.0});
+  }
+  for (int j = 0; j + 1 < ny; ++j) {
+    for (int i = 0; i + 1 < nx; ++i) {
+      const int a = j * nx + i;  // outward normal -z: clockwise seen from +z
+      mesh.triangles.push_back({a, a + nx + 1, a + 1});
+      mesh.triangles.push_back({a, a + nx, a + nx + 1});
+    }
+  }
+  // The top face's corners; the sides join the bottom's corners to them.
+  const int b00 = 0, b10 = nx - 1, b01 = (ny - 1) * nx, b11 = ny * nx - 1;
+  const int t0 = static_cast<int>(mesh.vertices.size());
+  for (const Eigen::Vector3d& c : {Eigen::Vector3d(-30, -20, 5),
+                                   Eigen::Vector3d(30, -20, 5),
+                                   Eigen::Vector3d(-30, 20, 5),
+                                   Eigen::Vector3d(30, 20, 5)}) {
+    mesh.vertices.push_back(c);
+  }
+  const int t00 = t0, t10 = t0 + 1, t01 = t0 + 2, t11 = t0 + 3;
+  const auto quad = [&](int a, int b, int c, int d) {  // counter-clockwise from outside
+    mesh.triangles.push_back({a, b, c});
+    mesh.triangles.push_back({a, c, d});
+  };
+  quad(t00, t10, t11, t01);  // top
+  quad(b00, b10, t10, t00);  // y = -20
+  quad(b10, b11, t11, t10);  // x = +30
+  quad(b11, b01, t01, t11);  // y = +20
+  quad(b01, b00, t00, t01);  // x = -30
+  std::vector<double>& mu = mesh.vertex_properties["mu"];
+  for (const Eigen::Vector3d& v : mesh.vertices) mu.push_back(v.x() < 0 ? 1.0 : 0.4);
+  return mesh;
+}
+
+// A scene of one mesh object read from `ply` (written into `dir`) at `position_mm`,
+// `rpy_deg`, its mu per vertex.
+Scene MeshScene(const TriangleMesh& ply,
+                const std::string& dir,
+                const std::string& position_mm,
+                const std::string& rpy_deg) {
+  PlyWriteOptions binary;
+  binary.format = PlyFormat::kBinaryLittleEndian;
+  WritePly(ply, dir + "/object.ply", binary);
+  return ParseScene(fmt::format(R"(
+name: mesh
+objects:
+  - {{name: object, shape: mesh, ply: object.ply, position_mm: {}, rpy_deg: {},
+     friction: {{default: 0.5, vertex_property: mu}}}}
+trajectory: {{steps: 2, keyframes: [{{t_s: 0, position_mm: [0, 0, 0]}}, {{t_s: 1, position_mm: [0, 0, 0]}}]}}
+)",
+                                position_mm,
+                                rpy_deg),
+                    "mesh.yaml",
+                    dir);
+}
+
+// The block as a PLY mesh gives the analytic block's truth: the same figures on the same map.
+TEST(FrictionEvaluation, MeshBlockGivesTheAnalyticBlocksTruth) {
+  const Scene analytic = BuiltInScene("friction_block");
+  const Scene mesh = MeshScene(
+      BlockMesh(), testing::MakeTempDir("friction_eval_mesh_block"), "[0, 0, 13.5]", "[0, 0, 0]");
+  std::vector<Eigen::Vector3d> touched;
+  for (double x = -10.0; x <= 12.0 + 1e-9; x += 0.25) touched.push_back({x, 0.3, 8.5 + 0.01 * x});
+  for (const double offset : {0.05, -0.1}) {  // the map under the face, and inside the block
+    SCOPED_TRACE(offset);
+    const friction::FrictionMapResult map = BlockMap(offset, 0.4);
+    const FrictionEvaluation a = EvaluateFrictionMap(analytic, map, {}, touched);
+    const FrictionEvaluation m = EvaluateFrictionMap(mesh, map, {}, touched);
+    EXPECT_NEAR(m.mu_mae, a.mu_mae, 1e-12);
+    EXPECT_NEAR(m.mu_mae, 0.6 * 0.4 / 20.2, 1e-6);
+    EXPECT_NEAR(m.band_agreement, a.band_agreement, 1e-12);
+    ASSERT_EQ(m.boundary_levels, a.boundary_levels);
+    EXPECT_NEAR(m.boundary_error_mm, a.boundary_error_mm, 1e-5);
+    EXPECT_NEAR(m.boundary_error_mm, 0.4, 1e-4);
+    EXPECT_NEAR(m.surface_rms_mm, std::abs(offset), 1e-9);
+    EXPECT_EQ(m.covered_points, a.covered_points);
+  }
+  // The touched points projected: onto the face, the same point in the world.
+  for (const Eigen::Vector3d& p : touched) {
+    EXPECT_THAT(NearestSurfacePoint(mesh, p).p_in_world_mm,
+                EigenNear(NearestSurfacePoint(analytic, p).p_in_world_mm, 1e-9));
+  }
+}
+
+// A UV sphere of `radius_mm`: `rings` bands of latitude, `segments` of longitude, and its poles.
+TriangleMesh SphereMesh(double radius_mm, int rings, int segments) {
+  TriangleMesh mesh;
+  mesh.vertices.push_back({0, 0, -radius_mm});
+  for (int r = 1; r < rings; ++r) {
+    const double theta = M_PI * r / rings;  // from the south pole
+    for (int s = 0; s < segments; ++s) {
+      const double phi = 2 * M_PI * s / segments;
+      mesh.vertices.push_back(radius_mm * Eigen::Vector3d(std::sin(theta) * std::cos(phi),
+                                                          std::sin(theta) * std::sin(phi),
+                                                          -std::cos(theta)));
+    }
+  }
+  mesh.vertices.push_back({0, 0, radius_mm});
+  const int north = static_cast<int>(mesh.vertices.size()) - 1;
+  const auto at = [segments](int ring, int s) {
+    return 1 + (ring - 1) * segments + (s % segments);
+  };
+  for (int s = 0; s < segments; ++s) {
+    mesh.triangles.push_back({0, at(1, s + 1), at(1, s)});
+    mesh.triangles.push_back({north, at(rings - 1, s), at(rings - 1, s + 1)});
+    for (int r = 1; r + 1 < rings; ++r) {
+      mesh.triangles.push_back({at(r, s), at(r, s + 1), at(r + 1, s + 1)});
+      mesh.triangles.push_back({at(r, s), at(r + 1, s + 1), at(r + 1, s)});
+    }
+  }
+  return mesh;
+}
+
+// A sphere mesh with two materials, turned and moved: its surface within the facets' sagitta
+// of the analytic sphere's, and the right mu (so band) at every point more than an edge from
+// the boundary, in the same world frame.
+TEST(FrictionEvaluation, MeshSphereWithTwoMaterialsGivesTheAnalyticTruth) {
+  const double radius = 10.0;
+  const int rings = 64, segments = 128;  // edges up to 2 pi 10 / 128 = 0.49 mm
+  TriangleMesh ply = SphereMesh(radius, rings, segments);
+  std::vector<double>& mu = ply.vertex_properties["mu"];
+  for (const Eigen::Vector3d& v : ply.vertices) mu.push_back(v.x() <= 2.0 ? 1.0 : 0.3);
+  const Scene mesh = MeshScene(
+      ply, testing::MakeTempDir("friction_eval_mesh_sphere"), "[3, -2, 20]", "[30, -20, 45]");
+  Scene analytic = mesh;
+  SceneObject& sphere = analytic.objects[0];
+  sphere.shape = SceneObject::Shape::kSphere;
+  sphere.radius_mm = radius;
+  sphere.mesh = nullptr;
+  sphere.friction.vertex_property.clear();
+  sphere.friction.default_mu = 0.3;
+  FrictionRegion rubber;
+  rubber.min_mm = Eigen::Vector3d(-11, -11, -11);
+  rubber.max_mm = Eigen::Vector3d(2, 11, 11);
+  rubber.mu = 1.0;
+  sphere.friction.regions = {rubber};
+  // The largest gap between a facet and the sphere: a band's facet spans 2 pi r / segments
+  // round and pi r / rings along; its centre lies r (1 - cos(half its diagonal / r)) inside.
+  const double half_diagonal =
+      0.5 * std::hypot(2 * M_PI * radius / segments, M_PI * radius / rings);
+  const double sagitta = radius * (1 - std::cos(half_diagonal / radius));
+  // A point up to 2 mm off the surface projects along its facet's normal, which turns from the
+  // radius by up to half_diagonal / radius: its nearest point moves sideways by up to that
+  // angle times 2 mm.
+  const double sideways = sagitta + 2.0 * half_diagonal / radius;
+  std::mt19937_64 rng(testing::kRandomSeed);
+  std::normal_distribution<double> direction(0, 1);
+  std::uniform_real_distribution<double> depth(-2, 2);
+  int away_from_boundary = 0;
+  for (int k = 0; k < 2000; ++k) {
+    const Eigen::Vector3d u =
+        Eigen::Vector3d(direction(rng), direction(rng), direction(rng)).normalized();
+    const Eigen::Vector3d p = mesh.objects[0].world_from_object * ((radius + depth(rng)) * u);
+    const SurfacePoint m = NearestSurfacePoint(mesh, p), a = NearestSurfacePoint(analytic, p);
+    ASSERT_EQ(m.object, 0);
+    EXPECT_NEAR(m.distance_mm, a.distance_mm, sagitta);
+    EXPECT_THAT(m.p_in_world_mm, EigenNear(a.p_in_world_mm, sideways));
+    EXPECT_THAT(m.p_in_object_mm, EigenNear(a.p_in_object_mm, sideways));
+    if (std::abs(a.p_in_object_mm.x() - 2.0) < 0.5) continue;  // within an edge of the boundary
+    ++away_from_boundary;
+    const double mesh_mu = mesh.objects[0].FrictionAt(m.p_in_object_mm);
+    ASSERT_DOUBLE_EQ(mesh_mu, sphere.FrictionAt(a.p_in_object_mm)) << a.p_in_object_mm.transpose();
+    EXPECT_EQ(
+        friction::BandOf(mesh_mu),
+        a.p_in_object_mm.x() <= 2.0 ? friction::FrictionBand::kHigh : friction::FrictionBand::kLow);
+  }
+  EXPECT_GT(away_from_boundary, 1800);
+  EXPECT_LT(sagitta, 0.01);
+  EXPECT_LT(sideways, 0.08);
+}
+
+// What the evaluation cannot take a truth from is refused, naming the object.
+TEST(FrictionEvaluation, MalformedMeshesAreRefused) {
+  const std::string dir = testing::MakeTempDir("friction_eval_bad_mesh");
+  TriangleMesh line;
+  line.vertices = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}};
+  line.triangles = {{0, 1, 2}};
+  line.vertex_properties["mu"] = {0.5, 0.5, 0.5};
+  const Scene flat = MeshScene(line, dir, "[0, 0, 10]", "[0, 0, 0]");
+  EXPECT_THAT(
+      [&] {
+        NearestSurfacePoint(flat, {0, 0, 0});
+      },
+      ::testing::ThrowsMessage<Error>(::testing::HasSubstr(
+          "the mesh object 'object' ('object.ply') has no triangle with an area")));
+  // A friction map's PLY with its unknown vertices (NaN mu) as the object: no truth there.
+  TriangleMesh unknown = BlockMesh();
+  unknown.vertex_properties["mu"][7] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THAT([&] { MeshScene(unknown, dir, "[0, 0, 13.5]", "[0, 0, 0]"); },
+              ::testing::ThrowsMessage<Error>(::testing::HasSubstr("a vertex's mu")));
 }
 
 // The chain after the pipeline on the friction_block scene: its trajectory's poses, frames

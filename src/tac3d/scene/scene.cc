@@ -136,26 +136,96 @@ std::string_view ToString(SceneObject::Shape shape) {
 
 // ---- IndexedMesh -------------------------------------------------------------------------
 
+namespace {
+
+// The point of triangle abc nearest to p (Ericson, Real-Time Collision Detection, 5.1.5): by
+// the Voronoi region of the triangle's features that holds p.
+Eigen::Vector3d ClosestPointOnTriangle(const Eigen::Vector3d& p,
+                                       const Eigen::Vector3d& a,
+                                       const Eigen::Vector3d& b,
+                                       const Eigen::Vector3d& c) {
+  const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return a;
+  const Eigen::Vector3d bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + d1 / (d1 - d3) * ab;
+  const Eigen::Vector3d cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + d2 / (d2 - d6) * ac;
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0)
+    return b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b);
+  const double denom = 1.0 / (va + vb + vc);
+  return a + ab * (vb * denom) + ac * (vc * denom);
+}
+
+}  // namespace
+
 IndexedMesh::IndexedMesh(TriangleMesh mesh) : mesh_(std::move(mesh)) {
   if (mesh_.vertices.empty()) throw Error("mesh: no vertices");
+  const int num_vertices = static_cast<int>(mesh_.vertices.size());
+  for (size_t t = 0; t < mesh_.triangles.size(); ++t) {
+    const Eigen::Vector3i& tri = mesh_.triangles[t];
+    if (tri.minCoeff() < 0 || tri.maxCoeff() >= num_vertices) {
+      throw Error(
+          fmt::format("mesh: triangle {} indexes a vertex out of 0..{}", t, num_vertices - 1));
+    }
+  }
   Eigen::Vector3d lo = mesh_.vertices.front(), hi = lo;
   for (const Eigen::Vector3d& v : mesh_.vertices) {
     lo = lo.cwiseMin(v);
     hi = hi.cwiseMax(v);
   }
-  // About two vertices a cell on average for a surface mesh filling its box's faces.
+  // About two vertices a cell on average for a surface mesh filling its box's faces, and at
+  // most 512 cells an axis.
   const Eigen::Vector3d extent = (hi - lo).cwiseMax(1e-9);
-  cell_mm_ = std::max(std::sqrt(2.0 * (extent.x() * extent.y() + extent.y() * extent.z() +
-                                       extent.z() * extent.x()) / (mesh_.vertices.size() / 2.0 + 1)),
-                      1e-6);
+  cell_mm_ = std::max(
+      {std::sqrt(2.0 *
+                 (extent.x() * extent.y() + extent.y() * extent.z() + extent.z() * extent.x()) /
+                 (mesh_.vertices.size() / 2.0 + 1)),
+       extent.maxCoeff() / 511.0,
+       1e-6});
   origin_ = lo;
   cells_ = ((extent / cell_mm_).array().floor().cast<int>() + 1).matrix();
-  cells_ = cells_.cwiseMin(512);
   buckets_.resize(static_cast<size_t>(cells_.x()) * cells_.y() * cells_.z());
-  for (int i = 0; i < static_cast<int>(mesh_.vertices.size()); ++i) {
+  for (int i = 0; i < num_vertices; ++i) {
     const Eigen::Vector3i c = CellOf(mesh_.vertices[i]);
-    buckets_[(static_cast<size_t>(c.z()) * cells_.y() + c.y()) * cells_.x() + c.x()].push_back(i);
+    buckets_[CellIndex(c.x(), c.y(), c.z())].push_back(i);
   }
+  // Triangles into the cells their bounding boxes overlap, in two passes (count, then fill).
+  const auto for_each_cell = [&](int t, const auto& visit) {
+    const Eigen::Vector3i& tri = mesh_.triangles[t];
+    const Eigen::Vector3d& a = mesh_.vertices[tri[0]];
+    const Eigen::Vector3d& b = mesh_.vertices[tri[1]];
+    const Eigen::Vector3d& c = mesh_.vertices[tri[2]];
+    const Eigen::Vector3i from = CellOf(a.cwiseMin(b).cwiseMin(c));
+    const Eigen::Vector3i to = CellOf(a.cwiseMax(b).cwiseMax(c));
+    for (int z = from.z(); z <= to.z(); ++z)
+      for (int y = from.y(); y <= to.y(); ++y)
+        for (int x = from.x(); x <= to.x(); ++x) visit(CellIndex(x, y, z));
+  };
+  for (int t = 0; t < static_cast<int>(mesh_.triangles.size()); ++t) {
+    const Eigen::Vector3i& tri = mesh_.triangles[t];
+    const Eigen::Vector3d ab = mesh_.vertices[tri[1]] - mesh_.vertices[tri[0]];
+    const Eigen::Vector3d ac = mesh_.vertices[tri[2]] - mesh_.vertices[tri[0]];
+    const Eigen::Vector3d bc = mesh_.vertices[tri[2]] - mesh_.vertices[tri[1]];
+    const double longest2 = std::max({ab.squaredNorm(), ac.squaredNorm(), bc.squaredNorm()});
+    if (ab.cross(ac).norm() > 1e-12 * longest2) surface_triangles_.push_back(t);
+  }
+  triangle_cell_start_.assign(buckets_.size() + 1, 0);
+  for (const int t : surface_triangles_)
+    for_each_cell(t, [&](size_t cell) { ++triangle_cell_start_[cell + 1]; });
+  for (size_t i = 1; i < triangle_cell_start_.size(); ++i)
+    triangle_cell_start_[i] += triangle_cell_start_[i - 1];
+  triangle_cells_.resize(triangle_cell_start_.back());
+  std::vector<int> filled(triangle_cell_start_.begin(), triangle_cell_start_.end() - 1);
+  for (const int t : surface_triangles_)
+    for_each_cell(t, [&](size_t cell) { triangle_cells_[filled[cell]++] = t; });
 }
 
 Eigen::Vector3i IndexedMesh::CellOf(const Eigen::Vector3d& p) const {
@@ -177,7 +247,7 @@ int IndexedMesh::NearestVertex(const Eigen::Vector3d& p) const {
           if (!on_shell || x < 0 || y < 0 || z < 0 || x >= cells_.x() || y >= cells_.y() || z >= cells_.z()) {
             continue;
           }
-          for (int i : buckets_[(static_cast<size_t>(z) * cells_.y() + y) * cells_.x() + x]) {
+          for (int i : buckets_[CellIndex(x, y, z)]) {
             const double d2 = (mesh_.vertices[i] - p).squaredNorm();
             if (d2 < best_d2) {
               best_d2 = d2;
@@ -189,6 +259,47 @@ int IndexedMesh::NearestVertex(const Eigen::Vector3d& p) const {
     }
     // Every cell beyond this ring is at least `ring` cells away from p's cell.
     if (best >= 0 && std::sqrt(best_d2) <= ring * cell_mm_) break;
+  }
+  return best;
+}
+
+Eigen::Vector3d IndexedMesh::ClosestSurfacePoint(const Eigen::Vector3d& p) const {
+  if (!has_surface()) throw Error("mesh: no triangle with an area, so no surface");
+  const Eigen::Vector3i center = CellOf(p);
+  Eigen::Vector3d best = Eigen::Vector3d::Zero();
+  double best_d2 = std::numeric_limits<double>::infinity();
+  const int max_ring = cells_.maxCoeff();
+  for (int ring = 0; ring <= max_ring; ++ring) {
+    for (int z = std::max(center.z() - ring, 0); z <= std::min(center.z() + ring, cells_.z() - 1);
+         ++z) {
+      for (int y = std::max(center.y() - ring, 0); y <= std::min(center.y() + ring, cells_.y() - 1);
+           ++y) {
+        for (int x = std::max(center.x() - ring, 0);
+             x <= std::min(center.x() + ring, cells_.x() - 1);
+             ++x) {
+          if (std::max(
+                  {std::abs(x - center.x()), std::abs(y - center.y()), std::abs(z - center.z())}) !=
+              ring) {
+            continue;
+          }
+          const size_t cell = CellIndex(x, y, z);
+          // A triangle in several cells is tested once a cell: cheaper than remembering it.
+          for (int k = triangle_cell_start_[cell]; k < triangle_cell_start_[cell + 1]; ++k) {
+            const Eigen::Vector3i& tri = mesh_.triangles[triangle_cells_[k]];
+            const Eigen::Vector3d q = ClosestPointOnTriangle(
+                p, mesh_.vertices[tri[0]], mesh_.vertices[tri[1]], mesh_.vertices[tri[2]]);
+            const double d2 = (q - p).squaredNorm();
+            if (d2 < best_d2) {
+              best_d2 = d2;
+              best = q;
+            }
+          }
+        }
+      }
+    }
+    // A triangle's nearest point lies in a cell it is listed in; every cell beyond this ring
+    // is at least `ring` cells away from p's cell.
+    if (std::sqrt(best_d2) <= ring * cell_mm_) break;
   }
   return best;
 }

@@ -16,23 +16,39 @@
 
 namespace tac3d {
 
-/// A mesh object's triangles with a uniform grid over its vertices, for the nearest vertex
-/// of a surface point (per-vertex friction) in about constant time.
+/// A mesh object's triangles with a uniform grid over its vertices and triangles, for the
+/// nearest vertex of a surface point (per-vertex friction) and the nearest point of the
+/// surface (the friction evaluation's truth) in about constant time.
 class IndexedMesh {
  public:
+  /// @throws Error if the mesh has no vertices or a triangle indexes a vertex it lacks.
   explicit IndexedMesh(TriangleMesh mesh);
   const TriangleMesh& mesh() const { return mesh_; }
   /// Index of the vertex nearest to p (object frame).
   int NearestVertex(const Eigen::Vector3d& p) const;
+  /// Whether a triangle has an area (degenerate ones, area under 1e-12 of their longest edge
+  /// squared, are no surface).
+  bool has_surface() const { return !surface_triangles_.empty(); }
+  /// The point of the surface (the triangles with an area) nearest to p (object frame).
+  /// @throws Error unless has_surface().
+  Eigen::Vector3d ClosestSurfacePoint(const Eigen::Vector3d& p) const;
 
  private:
   Eigen::Vector3i CellOf(const Eigen::Vector3d& p) const;
+  size_t CellIndex(int x, int y, int z) const {
+    return (static_cast<size_t>(z) * cells_.y() + y) * cells_.x() + x;
+  }
 
   TriangleMesh mesh_;
   Eigen::Vector3d origin_;
   double cell_mm_ = 1.0;
   Eigen::Vector3i cells_;
-  std::vector<std::vector<int>> buckets_;
+  std::vector<std::vector<int>> buckets_;  ///< vertices by cell
+  std::vector<int> surface_triangles_;     ///< the triangles with an area
+  /// Triangles by cell (each in every cell its bounding box overlaps): those of cell i are
+  /// triangle_cells_[triangle_cell_start_[i] .. triangle_cell_start_[i + 1]).
+  std::vector<int> triangle_cell_start_;
+  std::vector<int> triangle_cells_;
 };
 
 /// Where the friction coefficient of an object's surface differs from its default: a box or

@@ -1,12 +1,16 @@
 #include "tac3d/scene/scene.h"
 
-#include <cmath>
-#include <fstream>
-#include <random>
-#include <set>
-
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+
+#include <Eigen/LU>
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <random>
+#include <set>
+#include <utility>
 
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
@@ -206,6 +210,74 @@ TEST(IndexedMesh, NearestVertexAgreesWithBruteForce) {
     }
     EXPECT_DOUBLE_EQ((mesh.vertices[indexed.NearestVertex(p)] - p).norm(), (mesh.vertices[best] - p).norm());
   }
+}
+
+// A triangle's nearest point by brute force: the nearest of its plane's projection (when
+// inside) and of the points on its three edges (dense samples, refined near the best).
+Eigen::Vector3d BruteClosestOnTriangle(const Eigen::Vector3d& p,
+                                       const Eigen::Vector3d& a,
+                                       const Eigen::Vector3d& b,
+                                       const Eigen::Vector3d& c) {
+  Eigen::Matrix3d basis;
+  basis << b - a, c - a, (b - a).cross(c - a);
+  const Eigen::Vector3d w = basis.inverse() * (p - a);  // p = a + w0 ab + w1 ac + w2 n
+  if (w[0] >= 0 && w[1] >= 0 && w[0] + w[1] <= 1) return a + w[0] * (b - a) + w[1] * (c - a);
+  Eigen::Vector3d best = a;
+  for (const auto& [from, to] : {std::pair{a, b}, std::pair{b, c}, std::pair{c, a}}) {
+    const double s = std::clamp((p - from).dot(to - from) / (to - from).squaredNorm(), 0.0, 1.0);
+    const Eigen::Vector3d q = from + s * (to - from);
+    if ((q - p).squaredNorm() < (best - p).squaredNorm()) best = q;
+  }
+  return best;
+}
+
+TEST(IndexedMesh, ClosestSurfacePointAgreesWithBruteForce) {
+  // Triangles of mixed sizes (0.2 to 8 mm) scattered in a 40 mm box, so that the nearest one
+  // is often listed far from the query's cell.
+  TriangleMesh mesh;
+  std::mt19937 rng(testing::kRandomSeed);
+  std::uniform_real_distribution<double> u(-20, 20), unit(-1, 1), size(0.2, 8.0);
+  for (int t = 0; t < 400; ++t) {
+    const Eigen::Vector3d centre(u(rng), u(rng), 0.2 * u(rng));
+    const double s = size(rng);
+    for (int k = 0; k < 3; ++k)
+      mesh.vertices.push_back(centre + s * Eigen::Vector3d(unit(rng), unit(rng), unit(rng)));
+    mesh.triangles.push_back({3 * t, 3 * t + 1, 3 * t + 2});
+  }
+  const IndexedMesh indexed(mesh);
+  ASSERT_TRUE(indexed.has_surface());
+  for (int k = 0; k < 300; ++k) {
+    const Eigen::Vector3d p(1.5 * u(rng), 1.5 * u(rng), u(rng));  // some outside the mesh's box
+    double best = std::numeric_limits<double>::infinity();
+    for (const Eigen::Vector3i& t : mesh.triangles) {
+      best = std::min(best,
+                      (BruteClosestOnTriangle(
+                           p, mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]]) -
+                       p)
+                          .norm());
+    }
+    EXPECT_NEAR((indexed.ClosestSurfacePoint(p) - p).norm(), best, 1e-9) << p.transpose();
+  }
+}
+
+TEST(IndexedMesh, DegenerateTrianglesAreNoSurface) {
+  TriangleMesh mesh;
+  mesh.vertices = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {0, 1, 0}};
+  mesh.triangles = {{0, 1, 2}, {1, 1, 3}};  // collinear; two corners the same vertex
+  const IndexedMesh line(mesh);
+  EXPECT_FALSE(line.has_surface());
+  EXPECT_THAT(
+      [&] {
+        line.ClosestSurfacePoint({0, 0, 1});
+      },
+      ::testing::ThrowsMessage<Error>(HasSubstr("no triangle with an area")));
+  mesh.triangles.push_back({0, 1, 3});  // one with an area: the surface
+  const IndexedMesh one(mesh);
+  EXPECT_THAT(one.ClosestSurfacePoint({2, 0, 1}), EigenNear(Eigen::Vector3d(1, 0, 0), 1e-12));
+  mesh.triangles.push_back({0, 1, 4});
+  EXPECT_THAT(
+      [&] { IndexedMesh bad(mesh); },
+      ::testing::ThrowsMessage<Error>(HasSubstr("triangle 3 indexes a vertex out of 0..3")));
 }
 
 // Each built-in scene is valid and does what its description says.
