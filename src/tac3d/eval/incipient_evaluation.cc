@@ -81,6 +81,7 @@ void IncipientEvaluationOptions::Validate() const {
   require(stick_load_ratio > 0.0, "stick_load_ratio", "> 0", stick_load_ratio);
   require(alarm_margin > 0.0, "alarm_margin", "> 0", alarm_margin);
   require(coverage_sigmas > 0.0, "coverage_sigmas", "> 0", coverage_sigmas);
+  require(target_coverage > 0.0 && target_coverage <= 1.0, "target_coverage", "in (0, 1]", target_coverage);
 }
 
 IncipientEvaluation EvaluateIncipient(const std::string& scene,
@@ -169,6 +170,7 @@ std::vector<EvalCheck> IncipientChecks(const IncipientEvaluation& e, const Incip
                        : EvalCheck::NotApplicable("lead_ms_slow_ramps", 1e3 * o.target_lead_s,
                                                   EvalCheck::Bound::kAtLeast, "ms"));
   checks.push_back(EvalCheck::AtMost("false_alarm_rate", e.false_alarm_rate, o.target_false_alarm_rate));
+  checks.push_back(EvalCheck::AtLeast("coverage", e.coverage, o.target_coverage));
   return checks;
 }
 

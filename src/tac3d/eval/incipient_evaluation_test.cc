@@ -76,6 +76,8 @@ TEST(EvaluateIncipient, MeasuresTheErrorsTheLeadAndTheCoverage) {
   EXPECT_TRUE(std::isnan(off.within_since_s));
   EXPECT_DOUBLE_EQ(off.lead_s, 0.0);
   EXPECT_DOUBLE_EQ(off.coverage, 0.0);
+  EXPECT_FALSE(IncipientChecks(off)[4].pass);  // coverage 0 < 0.9
+  EXPECT_TRUE(IncipientChecks(e)[4].pass);
 }
 
 TEST(EvaluateIncipient, NoEstimateIsNotMeasuredAndAlarmsCount) {
@@ -95,7 +97,7 @@ TEST(EvaluateIncipient, NoEstimateIsNotMeasuredAndAlarmsCount) {
   EXPECT_EQ(e.false_alarms, 20);
   EXPECT_DOUBLE_EQ(e.false_alarm_rate, 0.5);
   const std::vector<EvalCheck> checks = IncipientChecks(PoolIncipientEvaluations({e}));
-  ASSERT_EQ(checks.size(), 4u);
+  ASSERT_EQ(checks.size(), 5u);
   for (const EvalCheck& c : checks) EXPECT_FALSE(c.pass) << c.name;
 }
 
@@ -122,7 +124,7 @@ TEST(PoolIncipientEvaluations, PoolsFramesAndTakesTheLeastSlowLead) {
   for (const EvalCheck& c : checks) EXPECT_TRUE(c.pass) << c.name << " " << c.value;
   const nlohmann::json j = ToJson(p);
   EXPECT_TRUE(j.at("all_pass").get<bool>());
-  EXPECT_EQ(j.at("checks").size(), 4u);
+  EXPECT_EQ(j.at("checks").size(), 5u);
   EXPECT_NEAR(j.at("lead_ms").get<double>(), 350.0, 1e-9);
   // A slow ramp without gross slip has no lead: the check fails.
   std::vector<IncipientFrame> stuck = IncipientRamp(0.03, 0.6);
@@ -175,6 +177,10 @@ TEST(IncipientEvaluationOptions, BadOptionsNameTheField) {
   o = {};
   o.within_mu = 0.0;
   EXPECT_THAT([&] { o.Validate(); }, ::testing::ThrowsMessage<Error>(HasSubstr("within_mu must be > 0")));
+  o = {};
+  o.target_coverage = 1.5;
+  EXPECT_THAT([&] { o.Validate(); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("target_coverage must be in (0, 1], got 1.5")));
 }
 
 }  // namespace
