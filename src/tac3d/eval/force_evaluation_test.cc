@@ -75,16 +75,22 @@ TEST(EvalForceOptions, EveryBoundIsChecked) {
                Error);
 }
 
-// The grid's points reuse one true model a Poisson's ratio, its responses scaled by 1 / E: each
-// point must give what a run of its own gives. On a coarse mesh (refinement 0.25, the truth on
-// the same mesh) and three presses, so the check takes seconds.
-TEST(EvaluateForceOverMaterials, EachPointEqualsARunOfItsOwn) {
+// A coarse mesh (refinement 0.25, the truth on the same mesh) and three presses of each kind, so
+// an evaluation takes seconds.
+EvalForceOptions SmallEvaluation() {
   EvalForceOptions options;
   options.body.refinement = 0.25;
   options.truth_refinement = 1.0;
   options.calibration_presses = 3;
   options.test_presses = 3;
   options.show_progress = false;
+  return options;
+}
+
+// The grid's points reuse one true model a Poisson's ratio, its responses scaled by 1 / E: each
+// point must give what a run of its own gives (SmallEvaluation).
+TEST(EvaluateForceOverMaterials, EachPointEqualsARunOfItsOwn) {
+  EvalForceOptions options = SmallEvaluation();
   const MaterialGrid grid{.youngs_modulus_factors = {0.8, 1.2}, .poisson_ratios = {0.45}};
   const std::vector<ForceEvaluation> points = EvaluateForceOverMaterials(options, grid);
   ASSERT_EQ(points.size(), 2u);
@@ -111,15 +117,10 @@ TEST(EvaluateForceOverMaterials, EachPointEqualsARunOfItsOwn) {
 }
 
 // The true responses are cached chunk by chunk: a second run loads them all, a run stopped
-// after some chunks resumes with the rest, and a damaged file is solved again; every run gives
-// the same figures. Coarse mesh and few presses (14 load cases, 2 chunks), as above.
+// with cases unsolved resumes with them, and a damaged file is solved again; every run gives
+// the same figures (SmallEvaluation: 14 load cases).
 TEST(EvaluateForce, CachesTheTruthAndResumesAStoppedSolve) {
-  EvalForceOptions options;
-  options.body.refinement = 0.25;
-  options.truth_refinement = 1.0;
-  options.calibration_presses = 3;
-  options.test_presses = 3;
-  options.show_progress = false;
+  EvalForceOptions options = SmallEvaluation();
   options.cache_dir = testing::MakeTempDir("force_truth_cache");
   const auto from_cache = [](const ForceEvaluation& e) {
     return e.details.at("timing_s").at("truth_cases_from_cache").get<int>();
