@@ -339,7 +339,7 @@ double TangentialLoadRamp::LoadAt(double t_s) const {
 }
 
 Eigen::Vector2d TangentialLoadRamp::Direction() const {
-  const double a = direction_deg * M_PI / 180.0;
+  const double a = DegToRad(direction_deg);
   return {std::cos(a), std::sin(a)};
 }
 
