@@ -65,6 +65,11 @@ void ValidateNamingFlags(const std::function<void()>& validate,
 /// `--drift off|flag|rezero` into `mode` (any case), with `help`.
 void AddDriftOption(CLI::App* cmd, DriftMode* mode, const std::string& help);
 
+/// Whether a command shows progress on stderr: always without --json; with --json only when
+/// stderr is a terminal, so an hours-long `--json` run still shows it is alive while scripts'
+/// and CI logs get the JSON alone.
+bool ShowProgress(bool json);
+
 /// Prints an evaluation's checks ([{name, value, unit, tolerance, pass}]), one line each.
 void PrintChecks(const nlohmann::json& checks);
 

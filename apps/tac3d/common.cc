@@ -3,6 +3,8 @@
 #include <cstdio>
 #include <optional>
 
+#include <unistd.h>
+
 #include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
@@ -15,6 +17,8 @@
 #include "tac3d/util/eval_check.h"
 
 namespace tac3d::cli {
+
+bool ShowProgress(bool json) { return !json || isatty(STDERR_FILENO) != 0; }
 
 void PrintChecks(const nlohmann::json& checks) {
   for (const nlohmann::json& check : checks) {

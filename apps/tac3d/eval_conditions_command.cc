@@ -48,7 +48,7 @@ void RegisterEvalConditions(CLI::App& eval) {
   cmd->add_flag("--json", args->json, "print JSON");
   cmd->callback([args] {
     ReplayArgs a = args->replay;
-    a.show_progress = !args->json;
+    a.show_progress = ShowProgress(args->json);
     const TwinDatasetReader dataset(a.dataset);
     const ReplaySetup setup = PrepareReplay(a, dataset);
     ConditionsEvaluationOptions options = args->options;

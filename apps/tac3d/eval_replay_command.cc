@@ -150,7 +150,7 @@ void RegisterEvalReplay(CLI::App& eval) {
   cmd->add_flag("--json", args->json, "print JSON");
   cmd->callback([args] {
     ReplayArgs a = args->replay;
-    a.show_progress = !args->json;
+    a.show_progress = ShowProgress(args->json);
     // An evaluation reports a poor fit (a failed check, the fit's warning) rather than stop.
     a.gain_fit.on_poor_fit = PoorGainFit::kFlag;
     const ReplayRun run = RunReplay(a);

@@ -21,7 +21,7 @@ void RegisterBuildModel(CLI::App& app) {
     const fem::BodyModelOptions body = args->Body();
     MakeCacheDirectory(args->cache_dir);
     const fem::ComplianceCacheResult r =
-        fem::LoadOrBuildComplianceModel(body, args->cache_dir, /*show_progress=*/!args->json);
+        fem::LoadOrBuildComplianceModel(body, args->cache_dir, /*show_progress=*/ShowProgress(args->json));
     const nlohmann::json provenance = fem::ToJson(r.model.provenance);
     if (args->json) {
       const nlohmann::json j = {{"path", r.path},
@@ -55,7 +55,7 @@ void RegisterEvalFem(CLI::App& eval) {
     options.body = args->Body();
     options.cache_dir = args->cache_dir;
     options.convergence_refinement = *convergence;
-    options.show_progress = !args->json;
+    options.show_progress = ShowProgress(args->json);
     MakeCacheDirectory(options.cache_dir);
     const fem::EvalFemResult result = fem::EvaluateFem(options);
     if (args->json) {

@@ -87,7 +87,7 @@ void RegisterEvalForce(CLI::App& eval) {
       if (args->material_grid) throw Error("--truth-material and --material-grid exclude each other");
       options.SetTrueMaterial({args->truth_material[0], args->truth_material[1]});
     }
-    options.show_progress = !args->model.json;
+    options.show_progress = ShowProgress(args->model.json);
     MakeCacheDirectory(options.cache_dir);
     if (args->material_grid) {
       // A line a point as it is done (JSON with --json): a later solve failing loses none.

@@ -85,7 +85,7 @@ void RegisterEvalVendor(CLI::App& eval) {
   cmd->callback([args] {
     args->options.stereo.undistort = !args->no_distortion;
     args->options.stereo.refract = !args->no_refraction;
-    args->forces.show_progress = !args->json;
+    args->forces.show_progress = ShowProgress(args->json);
     if (!args->no_forces) args->options.forces = args->forces;
     const VendorEvaluation evaluation = EvaluateVendorRecording(
         LoadSensorConfig(args->config), ReadVendorRecording(args->recording), args->options);
