@@ -62,10 +62,19 @@ TEST(IncipientScenes, SphereRampsThroughPartialSlipIntoGrossSlipAsCattaneoMindli
   const IncipientTruth& held = truth[ramp_start];
   ASSERT_TRUE(held.in_contact());
   EXPECT_LT(held.load_ratio, 0.05);
-  // Mostly stuck: pressed into this small, curved fingertip at mu 0.3 the contact's rim slips
-  // radially (0.73 of the nodes stick when measured, 2026-11-26).
-  EXPECT_GT(held.stick_fraction(), 0.5);
   const double cell = SmallIncipientTwin()->grid.cell_area_mm2(), dx = SmallIncipientTwin()->grid.dx_mm;
+  // Pressed, before the pull: Cattaneo-Mindlin's stick radius c = a (1 - Q / (mu P))^(1/3) is
+  // all but a, a stick fraction (c / a)^2 above 0.96. The twin's rim, where the pressure falls to
+  // zero, cannot hold the radial traction that pressing a curved, compressible fingertip leaves
+  // (Cattaneo-Mindlin assume none): its outermost ring of nodes slips. So the stick radius is
+  // within one cell width of Mindlin's: a stick fraction of at least ((c - dx) / a)^2 (0.700 at
+  // a = 1.33 mm, cell 0.21 mm; 0.734 measured, 2026-11-26).
+  const double held_a = DiscRadiusOf(held.contact_nodes, cell);
+  const double held_mindlin = held_a * std::cbrt(1.0 - held.load_ratio);
+  const double held_min_fraction = std::pow((held_mindlin - dx) / held_a, 2);
+  EXPECT_GE(held.stick_fraction(), held_min_fraction) << "a " << held_a << " mm, cell " << dx << " mm";
+  std::printf("held: Q/(mu P) %.3f, a %.3f mm, stick fraction %.3f (Cattaneo-Mindlin %.3f, at least %.3f)\n",
+              held.load_ratio, held_a, held.stick_fraction(), std::pow(held_mindlin / held_a, 2), held_min_fraction);
   int gross = -1, compared = 0;
   double worst = 0.0, worst_of_a = 0.0;
   for (int k = ramp_start + 1; k < static_cast<int>(truth.size()); ++k) {

@@ -3,6 +3,8 @@
 // clock; a sensor whose dataset disappears mid-run, or that cannot start, is reported and the
 // others go on. And the run file's validation. The compliance is the synthetic stand-in (the
 // FEM model takes a minute to build); all else is what `tac3d run --run-file` runs.
+// The tests wait on events (frames given, frames received), never on a sleep: a loaded 2-core
+// machine may hold any thread back for a second.
 #include "tac3d/runtime/sensor_group.h"
 
 #include <gmock/gmock.h>
@@ -11,7 +13,9 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <cstdio>
 #include <filesystem>
 #include <map>
@@ -94,21 +98,36 @@ SensorRunSpec TwinSensor(const std::string& sn, const std::string& dataset, std:
   return spec;
 }
 
+// Only a frame lost or a sensor held up by another waits this long; no scheduling does.
+constexpr std::chrono::seconds kHungAfter{60};
+
 // Every frame a Tac3D client receives, by SN: index -> the sender's timestamp.
 class Receiver {
  public:
-  Receiver() : client_({.bind_address = "127.0.0.1", .port = 0}) {
+  // An incomplete frame is kept until kHungAfter: a sender descheduled between two datagrams
+  // of a frame (a loaded machine) must not lose it.
+  Receiver()
+      : client_({.bind_address = "127.0.0.1",
+                 .port = 0,
+                 .assembler = {.timeout_s = std::chrono::duration<double>(kHungAfter).count()}}) {
     thread_ = std::thread([this] {
       while (!done_) {
         if (std::optional<ReceivedFrame> r = client_.Receive(0.02)) {
           std::lock_guard lock(mutex_);
           frames_[r->frame.sn][r->frame.index] = r->frame.timestamp_s;
+          arrived_.notify_all();
         }
       }
     });
   }
   ~Receiver() { Stop(); }
   std::uint16_t port() const { return client_.local_endpoint().port; }
+  // Waits until `count` frames of `sn` have arrived (a sender's datagrams may still be on their
+  // way through the kernel when it returns); false if they did not within kHungAfter.
+  bool WaitForFrames(const std::string& sn, long count) {
+    std::unique_lock lock(mutex_);
+    return arrived_.wait_for(lock, kHungAfter, [&] { return static_cast<long>(frames_[sn].size()) >= count; });
+  }
   void Stop() {
     done_ = true;
     if (thread_.joinable()) thread_.join();
@@ -122,6 +141,7 @@ class Receiver {
   Client client_;
   std::atomic<bool> done_{false};
   std::mutex mutex_;
+  std::condition_variable arrived_;
   std::map<std::string, std::map<std::int64_t, double>> frames_;
   std::thread thread_;
 };
@@ -137,18 +157,13 @@ std::pair<double, double> Lateness(const std::map<std::int64_t, double>& frames)
   return {latest, earliest};
 }
 
-// A sanity bound on keeping pace, loose for a shared 2-core machine: up to 0.7 s was seen with
-// ctest -j2 and other builds beside it (load 10). Waiting on another sensor is tested apart,
-// without a clock bound (ASensorThatFailsOrWaitsHoldsUpNoOther).
-constexpr double kMaxLatenessS = 1.5;
-
 TEST(SensorGroup, ThreeTwinSensorsDeliverEveryFrameOnOneClock) {
   Receiver receiver;
   std::vector<SensorRunSpec> sensors;
   for (const char* sn : {"HAND-A", "HAND-B", "HAND-C"}) sensors.push_back(TwinSensor(sn, Dataset(), receiver.port()));
   const std::atomic<bool> stop{false};
   const std::vector<SensorReport> reports = RunSensorGroup(sensors, SyntheticModel(), {}, nullptr, stop);
-  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // the last datagrams
+  for (const SensorReport& r : reports) EXPECT_TRUE(receiver.WaitForFrames(r.sn, r.frames)) << r.BriefReport();
   receiver.Stop();
 
   ASSERT_EQ(reports.size(), 3u);
@@ -160,17 +175,21 @@ TEST(SensorGroup, ThreeTwinSensorsDeliverEveryFrameOnOneClock) {
     const std::map<std::int64_t, double> frames = receiver.Frames(r.sn);
     EXPECT_EQ(frames.size(), static_cast<size_t>(kSteps)) << "frames received over UDP";
     const auto [latest, earliest] = Lateness(frames);
-    // Paced from the common epoch: never early (1 ms for the clock's rounding), never far late.
+    // Paced from the common epoch: never early (1 ms for the clock's rounding). How late is the
+    // machine's scheduling (seconds at load 20 on 2 cores): printed, not asserted.
     EXPECT_GE(earliest, -1e-3);
-    EXPECT_LE(latest, kMaxLatenessS);
     std::printf("%s; over UDP: %zu frames, lateness behind k/30 s on the common clock %.1f-%.1f ms\n",
                 r.BriefReport().c_str(), frames.size(), 1e3 * earliest, 1e3 * latest);
   }
 }
 
-// HAND-C's dataset disappears mid-run, HAND-D's does not exist, HAND-E waits 1 s for its third
-// frame (a slow source): HAND-A and HAND-B must stream every frame on time all the same.
+// HAND-C's dataset disappears after its 10th frame, HAND-D's does not exist, HAND-E is held in its
+// first frame (a source that waits: a stalled camera, a slow dataset) until HAND-A and HAND-B
+// have given every frame, and they give their last only once HAND-E is held. Threads get there
+// whatever the scheduling; a runner serving the sensors one after the other, or frame by frame
+// in turn, never does (the waits give up after kHungAfter and the test fails).
 TEST(SensorGroup, ASensorThatFailsOrWaitsHoldsUpNoOther) {
+  constexpr int kRemovedAfter = 10;
   const std::string dir = testing::MakeTempDir("failing");
   fs::copy(Dataset(), dir + "/HAND-C", fs::copy_options::recursive);
   Receiver receiver;
@@ -178,47 +197,61 @@ TEST(SensorGroup, ASensorThatFailsOrWaitsHoldsUpNoOther) {
   for (const char* sn : {"HAND-A", "HAND-B"}) sensors.push_back(TwinSensor(sn, Dataset(), receiver.port()));
   sensors.push_back(TwinSensor("HAND-C", dir + "/HAND-C", receiver.port()));
   sensors.push_back(TwinSensor("HAND-D", dir + "/missing", receiver.port()));
-  sensors.push_back(TwinSensor("HAND-E", MakeDataset(dir + "/slow", {0.0, 0.02, 1.0}), receiver.port()));
-  sensors.back().reference_frames = 2;
+  sensors.push_back(TwinSensor("HAND-E", Dataset(), receiver.port()));
+
+  // The events, on the sensors' threads: on_frame is called with each frame before its outputs.
+  std::mutex mutex;
+  std::condition_variable given;
+  std::map<std::string, int> frames_given;
+  bool held = false, others_ran_while_held = false, a_and_b_saw_the_hold = true;
+  SensorGroupOptions options;
+  options.on_frame = [&](const TactileFrame& frame) {
+    std::unique_lock lock(mutex);
+    const int n = ++frames_given[frame.sn];
+    given.notify_all();
+    if (frame.sn == "HAND-C" && n == kRemovedAfter) fs::remove_all(dir + "/HAND-C");
+    if ((frame.sn == "HAND-A" || frame.sn == "HAND-B") && n == kSteps) {
+      a_and_b_saw_the_hold &= given.wait_for(lock, kHungAfter, [&] { return held; });
+    }
+    if (frame.sn == "HAND-E" && n == 1) {
+      held = true;
+      given.notify_all();
+      others_ran_while_held = given.wait_for(lock, kHungAfter, [&] {
+        return frames_given["HAND-A"] == kSteps && frames_given["HAND-B"] == kSteps;
+      });
+    }
+  };
   const std::atomic<bool> stop{false};
-  std::vector<SensorReport> reports;
-  std::atomic<bool> done{false};
-  std::thread run([&] {
-    reports = RunSensorGroup(sensors, SyntheticModel(), {}, nullptr, stop);
-    done = true;
-  });
-  // HAND-C's dataset disappears once it has streamed 10 frames.
-  while (!done && receiver.Frames("HAND-C").size() < 10) std::this_thread::sleep_for(std::chrono::milliseconds(2));
-  fs::remove_all(dir + "/HAND-C");
-  run.join();
-  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  const std::vector<SensorReport> reports = RunSensorGroup(sensors, SyntheticModel(), options, nullptr, stop);
+  for (const SensorReport& r : reports) EXPECT_TRUE(receiver.WaitForFrames(r.sn, r.frames)) << r.BriefReport();
   receiver.Stop();
 
   ASSERT_EQ(reports.size(), 5u);
-  // HAND-E's third frame came 1 s after its second; one thread serving the sensors in turn
-  // would have sent nothing else in between.
-  const std::map<std::int64_t, double> slow_frames = receiver.Frames("HAND-E");
-  ASSERT_EQ(slow_frames.size(), 3u);
-  const double wait_from_s = slow_frames.at(1), wait_to_s = slow_frames.at(2);
+  EXPECT_TRUE(a_and_b_saw_the_hold) << "HAND-E was not held before HAND-A and HAND-B gave their last frame";
+  EXPECT_TRUE(others_ran_while_held) << "HAND-A and HAND-B did not finish while HAND-E was held";
+  // HAND-E's second frame was stamped after the hold, every frame of A and B before it ended.
+  const std::map<std::int64_t, double> held_frames = receiver.Frames("HAND-E");
+  ASSERT_TRUE(held_frames.contains(1));
+  const double released_s = held_frames.at(1);
   for (int i : {0, 1}) {
     SCOPED_TRACE(reports[i].BriefReport());
     EXPECT_EQ(reports[i].frames, kSteps);
     EXPECT_EQ(reports[i].failure, "");
     const std::map<std::int64_t, double> frames = receiver.Frames(reports[i].sn);
     EXPECT_EQ(frames.size(), static_cast<size_t>(kSteps));
-    EXPECT_LE(Lateness(frames).first, kMaxLatenessS);
-    const long during_wait = std::count_if(frames.begin(), frames.end(), [&](const auto& f) {
-      return f.second > wait_from_s && f.second < wait_to_s;
+    EXPECT_GE(Lateness(frames).second, -1e-3) << "a frame sent before its time";
+    const long before_release = std::count_if(frames.begin(), frames.end(), [&](const auto& f) {
+      return f.second < released_s;
     });
-    EXPECT_GE(during_wait, 10) << "frames sent while HAND-E waited";
-    std::printf("%s; %ld frames sent while HAND-E waited %.2f-%.2f s\n", reports[i].BriefReport().c_str(),
-                during_wait, wait_from_s, wait_to_s);
+    EXPECT_EQ(before_release, kSteps) << "frames sent before HAND-E was released";
+    std::printf("%s; %ld frames sent before HAND-E was released at %.2f s\n", reports[i].BriefReport().c_str(),
+                before_release, released_s);
   }
   const SensorReport& killed = reports[2];
   std::printf("%s\n", killed.BriefReport().c_str());
-  EXPECT_GE(killed.frames, 10);
-  EXPECT_LT(killed.frames, kSteps);
-  EXPECT_EQ(killed.frames + killed.skipped, kSteps);
+  EXPECT_EQ(killed.frames, kRemovedAfter);
+  EXPECT_EQ(killed.skipped, kSteps - kRemovedAfter);
+  EXPECT_EQ(killed.failure, "");
   EXPECT_THAT(killed.BriefReport(), HasSubstr("HAND-C"));
   EXPECT_THAT(killed.last_skip, HasSubstr(dir + "/HAND-C"));
   const SensorReport& missing = reports[3];
@@ -226,10 +259,10 @@ TEST(SensorGroup, ASensorThatFailsOrWaitsHoldsUpNoOther) {
   EXPECT_EQ(missing.frames, 0);
   EXPECT_THAT(missing.failure, HasSubstr("could not start"));
   EXPECT_THAT(missing.failure, HasSubstr(dir + "/missing"));
-  const SensorReport& slow = reports[4];
-  std::printf("%s\n", slow.BriefReport().c_str());
-  EXPECT_EQ(slow.frames, 3);
-  EXPECT_GE(wait_to_s, 1.0 - 1e-3);  // due 1 s after the epoch: it did wait
+  const SensorReport& waiting = reports[4];
+  std::printf("%s\n", waiting.BriefReport().c_str());
+  EXPECT_EQ(waiting.frames, kSteps);
+  EXPECT_EQ(waiting.failure, "");
 }
 
 // A recording of `frames` synthetic frames, 1 ms apart, in `dir`.

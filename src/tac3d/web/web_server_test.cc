@@ -381,18 +381,23 @@ TEST(WebServer, StalledClientDoesNotBlockPublishing) {
     } catch (...) {
     }
   });
+  // Publishing until the stalled client was dropped and the other got 100 frames: events, not a
+  // fixed time, as a loaded machine fills the stalled socket and runs the server's ticks late
+  // (publishing for 2.5 s, 84-85 frames arrived and the stalled client was not yet dropped, 10
+  // runs of 10 on one core at load ~20). A server that blocked on the stalled socket would drop
+  // it and serve the other never: the guard then ends the loop.
+  const Clock::time_point give_up = Clock::now() + std::chrono::seconds(60);
   std::vector<double> publish_s;
-  const Clock::time_point start = Clock::now();
   std::int64_t index = 0;
-  while (Clock::now() - start < std::chrono::milliseconds(2500)) {
+  while ((server.stats().clients_dropped == 0 || received < 100) && Clock::now() < give_up) {
     const TactileFrame frame = MakeSyntheticTactileFrame("SN", ++index);
     const Clock::time_point t0 = Clock::now();
     server.Publish(frame);
     publish_s.push_back(std::chrono::duration<double>(Clock::now() - t0).count());
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));  // a sensor's pace, not a wait
   }
   ExpectPublishBounded(publish_s);
-  EXPECT_GT(received.load(), 100) << "the reading client starved";
+  EXPECT_GE(received.load(), 100) << "the reading client starved";
   EXPECT_EQ(server.stats().clients_dropped, 1);
   // The dropped session leaves once its cancelled operations have completed.
   EXPECT_TRUE(WaitFor([&] { return server.stats().clients == 1; })) << server.stats().clients;
