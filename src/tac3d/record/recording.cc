@@ -9,11 +9,11 @@
 #include <bit>
 #include <cerrno>
 #include <cstring>
-#include <thread>
 
 #include "tac3d/util/error.h"
 #include "tac3d/util/file_io.h"
 #include "tac3d/util/seconds_since.h"
+#include "tac3d/util/stoppable_sleep.h"
 
 namespace tac3d {
 namespace {
@@ -343,19 +343,9 @@ bool ReplayPacer::Wait(double timestamp_s, const std::atomic<bool>* stop) {
   const double elapsed_s = std::chrono::duration<double>(now - start_).count();
   const double delay_s = ReplayDelay(*first_timestamp_s_, timestamp_s, elapsed_s, speed_);
   if (delay_s <= 0.0) return true;
-  // Sleep in slices, so that a stop request (Ctrl-C) ends even a long gap promptly. Counted in
-  // double seconds: a gap of centuries (a file's timestamps, 1e300 s) overflows the clock's
-  // integer nanoseconds.
-  constexpr double kSliceS = 0.01;
-  for (double left_s = delay_s; left_s > 0.0; left_s = delay_s - SecondsSince(now)) {
-    if (stop != nullptr && *stop) {
-      waited_s_ += SecondsSince(now);
-      return false;
-    }
-    std::this_thread::sleep_for(std::chrono::duration<double>(std::min(left_s, kSliceS)));
-  }
+  const bool due = SleepUnlessStopped(delay_s, stop);
   waited_s_ += SecondsSince(now);
-  return true;
+  return due;
 }
 
 }  // namespace tac3d

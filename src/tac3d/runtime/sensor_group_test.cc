@@ -309,6 +309,22 @@ class ThreadsCannotStart {
 
 // Before issue 22 a std::thread that could not start left the others joinable when their
 // vector was destroyed: std::terminate ("terminate called without an active exception").
+// A paced dataset whose next frame is due in 11 days: a stop request (Ctrl-C, a client's $Q)
+// ends the wait at once, not when the frame is due.
+TEST(SensorStream, AStopEndsAPacedDatasetsLongGap) {
+  SensorRunSpec spec;
+  spec.source = "dataset:" + MakeDataset(testing::MakeTempDir("gap") + "/ds", {0.0, 1e6});
+  spec.speed = 1.0;
+  spec.reference_frames = 1;
+  const std::unique_ptr<SensorStream> stream = OpenSensorStream(spec, SyntheticModel());
+  stream->Start({.epoch = std::chrono::steady_clock::now()});
+  std::atomic<bool> stop{false};
+  ProducedFrame out;
+  EXPECT_EQ(stream->Next(stop, out), Produced::kFrame);
+  stop = true;
+  EXPECT_EQ(stream->Next(stop, out), Produced::kEnd);
+}
+
 TEST(SensorGroup, AThreadThatCannotStartFailsItsSensorNotTheRun) {
   const std::string recording = MakeRecording(testing::MakeTempDir("threads"), 5);
   const std::vector<SensorRunSpec> sensors = {ReplaySensor("A", recording), ReplaySensor("B", recording)};

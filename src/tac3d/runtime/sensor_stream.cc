@@ -1,7 +1,6 @@
 #include "tac3d/runtime/sensor_stream.h"
 
 #include <cstdio>
-#include <thread>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -12,13 +11,12 @@
 #include "tac3d/util/error.h"
 #include "tac3d/util/file_io.h"
 #include "tac3d/util/seconds_since.h"
+#include "tac3d/util/stoppable_sleep.h"
 #include "tac3d/vendor/vendor_frames.h"
 #include "tac3d/vendor/vendor_gel.h"
 
 namespace tac3d::runtime {
 namespace {
-
-using Clock = std::chrono::steady_clock;
 
 std::unique_ptr<FrameSource> OpenImageSource(const SensorRunSpec& spec, const SensorConfig& config) {
   if (spec.source.rfind("dataset:", 0) == 0) return OpenTwinDataset(spec.source.substr(8));
@@ -45,7 +43,7 @@ class PipelineStream final : public SensorStream {
 
   void Start(const StreamClock& clock) override { clock_ = clock; }
 
-  Produced Next(const std::atomic<bool>&, ProducedFrame& out) override {
+  Produced Next(const std::atomic<bool>& stop, ProducedFrame& out) override {
     const ReadStatus status = source_->Read(frame_);
     if (status == ReadStatus::kEnd) return Produced::kEnd;
     if (status == ReadStatus::kFailed) {
@@ -57,9 +55,9 @@ class PipelineStream final : public SensorStream {
       std::fprintf(stderr, "%sskipped a bad frame: %s\n", log_prefix_.c_str(), last_skip_.c_str());
       return Produced::kSkipped;
     }
-    if (spec_.speed && *spec_.speed > 0) {
-      std::this_thread::sleep_until(clock_.epoch + std::chrono::duration_cast<Clock::duration>(
-                                                       std::chrono::duration<double>(frame_.timestamp_s / *spec_.speed)));
+    if (spec_.speed && *spec_.speed > 0 &&
+        !SleepUnlessStopped(frame_.timestamp_s / *spec_.speed - SecondsSince(clock_.epoch), &stop)) {
+      return Produced::kEnd;
     }
     if (clock_.common) frame_.timestamp_s = SecondsSince(clock_.epoch);
     try {
