@@ -274,6 +274,8 @@ std::vector<contact::NodeState> TwinSimulation::SolveContact(const GapField& gap
   contact::ContactStep step;
   step.gap_mm = gaps.gap_mm;
   step.friction_coefficient = gaps.friction_coefficient;
+  step.normal_control = contact::NormalControl::kApproach;
+  step.approach_mm = 0.0;
   const std::optional<TangentialLoadRamp>& load = scene_.trajectory.tangential_load;
   const bool loaded = loads != nullptr || (load && t_s >= load->start_s);
   if (loads) {
@@ -282,13 +284,9 @@ std::vector<contact::NodeState> TwinSimulation::SolveContact(const GapField& gap
     step.tangential_control = contact::TangentialControl::kForce;
     step.tangential_force_n = loads->tangential_force_n;
   } else if (loaded) {
-    step.normal_control = contact::NormalControl::kApproach;
-    step.approach_mm = 0.0;
     step.tangential_control = contact::TangentialControl::kForce;
     step.tangential_force_n = load->LoadAt(t_s) * previous_capacity_n_ * load->Direction();
   } else {
-    step.normal_control = contact::NormalControl::kApproach;
-    step.approach_mm = 0.0;
     step.tangential_control = contact::TangentialControl::kShift;
     step.shift_mm = state_.shift_mm + increment;
   }
