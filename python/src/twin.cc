@@ -11,6 +11,7 @@
 #include <optional>
 #include <string>
 #include <type_traits>
+#include <utility>
 #include <variant>
 
 #include "arrays.h"
@@ -445,6 +446,63 @@ py::dict SimulateArrays(const py::object& scene_arg,
   return d;
 }
 
+// A simulation stepped from Python, one step a call: along the scene's trajectory, or under
+// the loads a controller chose from what it measured (TwinSimulation::Step(const StepLoads&)).
+struct SteppedSimulation {
+  std::unique_ptr<simulation::TwinSimulation> sim;
+  bool images = true;
+  nlohmann::json model_json;
+};
+
+SteppedSimulation MakeSteppedSimulation(const py::object& scene_arg,
+                                        const std::string& cache_dir,
+                                        bool images,
+                                        const py::dict& twin_options,
+                                        bool scale_youngs_modulus) {
+  const Scene scene = SceneArg(scene_arg);
+  const simulation::TwinBodyOptions twin = TwinOptions(twin_options);
+  SteppedSimulation out;
+  out.images = images;
+  py::gil_scoped_release release;
+  simulation::SimulationOptions options;
+  options.render_images = images;
+  if (images) options.renderer = SharedRenderer(scene);
+  const fem::BodyModelOptions body =
+      SimulatedBody(scene, scale_youngs_modulus, &options.youngs_modulus_scale);
+  out.sim = std::make_unique<simulation::TwinSimulation>(
+      scene, SharedTwinBodyModel(body, twin, cache_dir, &out.model_json), options);
+  return out;
+}
+
+py::dict StepStepped(SteppedSimulation& s,
+                     const std::optional<double>& normal_force_n,
+                     const std::optional<std::pair<double, double>>& tangential_force_n) {
+  if (tangential_force_n && !normal_force_n) {
+    throw Error("TwinSimulation.step: a tangential_force_n needs a normal_force_n");
+  }
+  if (!normal_force_n && s.sim->summary().steps >= s.sim->num_steps()) {
+    throw Error(fmt::format("TwinSimulation.step: all {} steps are simulated", s.sim->num_steps()));
+  }
+  TwinStep step;
+  {
+    py::gil_scoped_release release;
+    if (normal_force_n) {
+      simulation::StepLoads loads;
+      loads.normal_force_n = *normal_force_n;
+      if (tangential_force_n) {
+        loads.tangential_force_n = {tangential_force_n->first, tangential_force_n->second};
+      }
+      step = s.sim->Step(loads);
+    } else {
+      step = s.sim->Step();
+    }
+  }
+  nlohmann::json solver = std::move(step.solver);
+  py::dict d = StepDict(std::move(step), s.images);
+  d["solver"] = JsonToPython(solver);
+  return d;
+}
+
 py::dict DesignDict(const LightPathDesign& design) {
   py::list roots;
   for (const LightPathRoot& r : design.roots) {
@@ -693,6 +751,47 @@ void RegisterTwin(py::module_& m) {
         "Loads, or builds and saves in cache_dir, the body model simulate_arrays would use for\n"
         "the scene (not kept: a client makes sure the model is cached before its workers load\n"
         "it). Returns {cache_file, cache_status, load_or_build_s}.");
+
+  py::class_<SteppedSimulation>(m, "TwinSimulation", R"doc(
+The twin stepped one step a call (docs/simulation.md, "Stepping from Python"): along the
+scene's trajectory, or under the normal and tangential forces a controller chooses each step
+from what it measured (closed-loop control; examples/python/hold_without_slip.py).
+)doc")
+      .def(py::init(&MakeSteppedSimulation),
+           py::arg("scene"),
+           py::kw_only(),
+           py::arg("cache_dir") = "",
+           py::arg("images") = true,
+           py::arg("twin_options") = py::dict(),
+           py::arg("scale_youngs_modulus") = true,
+           "scene: a Scene, a built-in name or a YAML path; the body model is loaded (or built)\n"
+           "once a process and kept, as by simulate_arrays, whose options these are.")
+      .def_property_readonly("num_steps",
+                             [](const SteppedSimulation& s) { return s.sim->num_steps(); })
+      .def_property_readonly("steps_done",
+                             [](const SteppedSimulation& s) { return s.sim->summary().steps; })
+      .def_property_readonly(
+          "summary",
+          [](const SteppedSimulation& s) {
+            nlohmann::json j = simulation::ToJson(s.sim->summary());
+            j["twin_body"] = s.model_json;
+            return JsonToPython(j);
+          })
+      .def("step",
+           &StepStepped,
+           py::arg("normal_force_n") = py::none(),
+           py::arg("tangential_force_n") = py::none(),
+           "Simulates the next step (GIL released) and returns its truth as Dataset.step does\n"
+           "(t, world_from_sensor, marker_positions, marker_forces, marker_contact, marker_slip,\n"
+           "total_force, total_moment, surface_positions, surface_tractions, surface_states,\n"
+           "image with images=True) and solver (the contact solver's report; status\n"
+           "'separated', 'converged', 'gross sliding' or 'iteration limit'). Without loads the\n"
+           "step follows the scene's trajectory; with normal_force_n (N, >= 0; 0: nothing\n"
+           "touches) and tangential_force_n ((x, y) N on the fingertip, default (0, 0)) both\n"
+           "are force-controlled, the pose only placing the object, which the tangential load\n"
+           "moves by the solved shift; above the friction capacity the contact slides as a\n"
+           "whole (status 'gross sliding'). Raises tac3d.Error on bad loads, a scene with a\n"
+           "trajectory.tangential_load, or no step left (num_steps: the trajectory's).");
 
   py::class_<Dataset>(m, "Dataset", R"doc(
 A twin dataset folder (written by tac3d.simulate or `tac3d simulate`): its header, its steps'

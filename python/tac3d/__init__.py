@@ -6,7 +6,8 @@
 - ``tac3d.run``, ``SensorSpec``, ``load_run_file``: the runtime of ``tac3d run``, several
   sensors on their threads with their outputs (UDP, recording, JSON lines) and one clock.
 - ``tac3d.open_recording``, ``RecordingReader``, ``RecordingWriter``: recordings.
-- ``tac3d.load_scene``, ``tac3d.simulate``, ``tac3d.Dataset``: the digital twin.
+- ``tac3d.load_scene``, ``tac3d.simulate``, ``tac3d.Dataset``: the digital twin;
+  ``tac3d.TwinSimulation``: the twin stepped a step a call, under a controller's loads.
 - ``tac3d.datasets``: randomized twin datasets generated on Dask and stored as zarr
   (``tac3d.datasets.open(DIR)``; imported on first use, so ``import tac3d`` needs neither).
 - ``tac3d.design_light_path``, ``tac3d.friction_map``: the design solver and friction map
@@ -28,6 +29,7 @@ from ._core import (  # noqa: F401
     SensorReport,
     SensorSpec,
     TactileFrame,
+    TwinSimulation,
     builtin_scenes,
     default_sensor_yaml,
     design_light_path,
@@ -60,7 +62,7 @@ PYTAC3D_VERSION = "3.3.0 (tac3d)"
 __all__ = [
     "Dataset", "Error", "FrameSource", "Pipeline", "Recording", "RecordingReader",
     "RecordingWriter", "Scene", "Sensor", "SensorReport", "SensorSpec", "TactileFrame",
-    "builtin_scenes", "default_sensor_yaml", "design_light_path", "friction_map",
-    "friction_map_defaults", "load_run_file", "load_scene", "open_recording", "open_source",
+    "TwinSimulation", "builtin_scenes", "default_sensor_yaml", "design_light_path",
+    "friction_map", "friction_map_defaults", "load_run_file", "load_scene", "open_recording", "open_source",
     "parse_scene", "run", "simulate", "simulate_arrays", "PYTAC3D_VERSION",
 ]

@@ -264,6 +264,28 @@ def prepare_twin_body(
     scale_youngs_modulus: bool = True,
 ) -> dict[str, Any]: ...
 
+class TwinSimulation:
+    def __init__(
+        self,
+        scene: Union[Scene, str],
+        *,
+        cache_dir: str = "",
+        images: bool = True,
+        twin_options: Mapping[str, float] = ...,
+        scale_youngs_modulus: bool = True,
+    ) -> None: ...
+    @property
+    def num_steps(self) -> int: ...
+    @property
+    def steps_done(self) -> int: ...
+    @property
+    def summary(self) -> dict[str, Any]: ...
+    def step(
+        self,
+        normal_force_n: Optional[float] = None,
+        tangential_force_n: Optional[tuple[float, float]] = None,
+    ) -> dict[str, Any]: ...
+
 class Dataset:
     def __init__(self, folder: str) -> None: ...
     @property

@@ -101,6 +101,18 @@ void SimulationOptions::Validate() const {
   contact.Validate();
 }
 
+void StepLoads::Validate() const {
+  if (!(normal_force_n >= 0.0 && std::isfinite(normal_force_n))) {
+    throw Error(fmt::format("StepLoads.normal_force_n must be finite and >= 0, got {}",
+                            normal_force_n));
+  }
+  if (!tangential_force_n.allFinite()) {
+    throw Error(fmt::format("StepLoads.tangential_force_n must be finite, got ({}, {})",
+                            tangential_force_n.x(),
+                            tangential_force_n.y()));
+  }
+}
+
 nlohmann::json ToJson(const SimulationSummary& s) {
   const SimulationTimings& t = s.timings;
   const double per_step = s.steps > 0 ? 1.0 / s.steps : 0.0;
@@ -173,6 +185,26 @@ int TwinSimulation::num_steps() const {
 
 TwinStep TwinSimulation::Step() {
   TAC3D_DEMAND(next_step_ < num_steps());
+  return SimulateStep(nullptr);
+}
+
+TwinStep TwinSimulation::Step(const StepLoads& loads) {
+  loads.Validate();
+  if (next_step_ >= num_steps()) {
+    throw Error(fmt::format("TwinSimulation::Step: all {} steps of scene '{}' are simulated",
+                            num_steps(),
+                            scene_.name));
+  }
+  if (scene_.trajectory.tangential_load) {
+    throw Error(fmt::format(
+        "TwinSimulation::Step: scene '{}' has a trajectory.tangential_load; the caller's loads "
+        "replace it, so the scene must not have one",
+        scene_.name));
+  }
+  return SimulateStep(&loads);
+}
+
+TwinStep TwinSimulation::SimulateStep(const StepLoads* loads) {
   const auto step_start = Clock::now();
   const int k = next_step_++;
   SimulationTimings& timings = summary_.timings;
@@ -192,7 +224,7 @@ TwinStep TwinSimulation::Step() {
 
   start = Clock::now();
   const std::vector<contact::NodeState> node_state =
-      SolveContact(gaps, increment, out.t_s, &out.solver);
+      SolveContact(gaps, increment, out.t_s, loads, &out.solver);
   timings.contact_s += SecondsSince(start);
 
   start = Clock::now();
@@ -227,10 +259,12 @@ Eigen::Vector2d TwinSimulation::TakeTangentialIncrement(const Rigid3& world_from
 std::vector<contact::NodeState> TwinSimulation::SolveContact(const GapField& gaps,
                                                              const Eigen::Vector2d& increment,
                                                              double t_s,
+                                                             const StepLoads* loads,
                                                              nlohmann::json* solver_json) {
   const int n = model_->grid.num_nodes();
   std::vector<contact::NodeState> node_state(n, contact::NodeState::kSeparated);
-  const bool touching = (gaps.gap_mm.array() <= 0.0).any();
+  const bool touching =
+      loads ? loads->normal_force_n > 0.0 : (gaps.gap_mm.array() <= 0.0).any();
   if (!touching) {
     *solver_json = {{"status", "separated"}, {"num_contact", 0}};
     state_ = contact::ContactState::Unloaded(n);
@@ -243,8 +277,13 @@ std::vector<contact::NodeState> TwinSimulation::SolveContact(const GapField& gap
   step.normal_control = contact::NormalControl::kApproach;
   step.approach_mm = 0.0;
   const std::optional<TangentialLoadRamp>& load = scene_.trajectory.tangential_load;
-  const bool loaded = load && t_s >= load->start_s;
-  if (loaded) {
+  const bool loaded = loads != nullptr || (load && t_s >= load->start_s);
+  if (loads) {
+    step.normal_control = contact::NormalControl::kForce;
+    step.normal_force_n = loads->normal_force_n;
+    step.tangential_control = contact::TangentialControl::kForce;
+    step.tangential_force_n = loads->tangential_force_n;
+  } else if (loaded) {
     step.tangential_control = contact::TangentialControl::kForce;
     step.tangential_force_n = load->LoadAt(t_s) * previous_capacity_n_ * load->Direction();
   } else {

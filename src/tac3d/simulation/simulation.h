@@ -48,6 +48,21 @@ struct SimulationOptions {
   void Validate() const;
 };
 
+/// One step's loads chosen by the caller, a controller closing the loop on what it measured,
+/// in place of the trajectory's (TwinSimulation::Step(const StepLoads&)).
+struct StepLoads {
+  /// The total normal force P (N, >= 0) pressing the object on the fingertip: the step is
+  /// force-controlled normally, the pose only places the object (its approach is solved).
+  /// 0: nothing touches.
+  double normal_force_n = 0.0;
+  /// The total tangential force Q (N) the object puts on the fingertip, sensor x-y. Above the
+  /// friction capacity the contact slides as a whole (ContactStatus::kGrossSliding).
+  Eigen::Vector2d tangential_force_n = Eigen::Vector2d::Zero();
+
+  /// @throws tac3d::Error naming the field: P finite >= 0, Q finite.
+  void Validate() const;
+};
+
 /// The sensor a scene's images are rendered with: its sensor after its manufacturing spread.
 SensorConfig RenderedSensor(const Scene& scene);
 
@@ -110,6 +125,15 @@ class TwinSimulation {
   /// @pre the trajectory has steps left (TAC3D_DEMAND).
   TwinStep Step();
 
+  /// Simulates the next step under the caller's loads: the trajectory gives the step's time
+  /// and pose (where the object is placed), `loads` the normal and tangential force
+  /// (both force-controlled); the object moves by the solved tangential shift, as under a
+  /// tangential load ramp. Steps of both kinds may alternate.
+  /// @throws tac3d::Error if the loads are invalid (StepLoads::Validate), no step is left,
+  ///   the scene's trajectory has a tangential_load (two loads at once), or a normal force
+  ///   is asked where no node faces the object.
+  TwinStep Step(const StepLoads& loads);
+
   /// Simulates every remaining step, handing each to `sink` (e.g. TwinDatasetWriter::Write;
   /// its time is the write time).
   SimulationSummary Run(const std::function<void(const TwinStep&)>& sink);
@@ -130,12 +154,15 @@ class TwinSimulation {
   Eigen::Vector2d TakeTangentialIncrement(const Rigid3& world_from_sensor);
   // One contact solve (or none when nothing touches), folded into the summary; sets state_,
   // writes the solver's report to `solver_json`, returns each node's state.
-  // Under the trajectory's tangential load (from its start_s), the step is force-controlled
-  // and the solved shift moves the object (load_shift_mm_).
+  // Under the trajectory's tangential load (from its start_s) or the caller's `loads`, the step
+  // is force-controlled and the solved shift moves the object (load_shift_mm_).
   std::vector<contact::NodeState> SolveContact(const GapField& gaps,
                                                const Eigen::Vector2d& increment,
                                                double t_s,
+                                               const StepLoads* loads,
                                                nlohmann::json* solver_json);
+  // Step's body, under the trajectory (`loads` null) or the caller's loads.
+  TwinStep SimulateStep(const StepLoads* loads);
   // The truth from state_: nodal forces, their total and moment, marker forces, contact and
   // slip flags, the surface (keep_surface, with each contact node's mu from `gaps`) and the
   // marker positions (rest + M f / youngs_modulus_scale, not crept); sets the pressure

@@ -259,6 +259,99 @@ TEST(TwinSimulation, TangentialLoadRampsThroughPartialSlipIntoGrossSlip) {
   EXPECT_EQ(steps.back().world_from_sensor.translation(), steps[27].world_from_sensor.translation());
 }
 
+int CountNodes(const TwinStep& step, tac3d::ContactState state) {
+  return static_cast<int>(
+      std::count(step.surface.states.begin(), step.surface.states.end(), state));
+}
+
+TEST(TwinSimulation, CallersLoadsPressAndLoadTheContactStepByStep) {
+  // The sphere (mu 0.3) placed just touching and held there; a controller's loads each step.
+  const Scene scene = SphereScene({{0.0, {0, 0, 0}}, {1.0, {0, 0, 0}}}, 6);
+  TwinSimulation sim(scene, SmallModel(), NoImages());
+  const double mu = 0.3;
+  auto step = [&](double p, double qx) { return sim.Step(StepLoads{p, {qx, 0.0}}); };
+
+  const TwinStep free = step(0.0, 0.0);  // no normal force: nothing touches
+  EXPECT_EQ(free.total_force_n, Eigen::Vector3d::Zero());
+  EXPECT_EQ(free.solver["status"], "separated");
+
+  const TwinStep pressed = step(0.5, 0.0);
+  EXPECT_NEAR(-pressed.total_force_n.z(), 0.5, 1e-3);
+  EXPECT_NEAR(pressed.total_force_n.head<2>().norm(), 0.0, 1e-6);
+
+  // Q = 0.1 N < mu P = 0.15 N: held, the centre stuck, the rim slipping.
+  const TwinStep held = step(0.5, 0.1);
+  EXPECT_EQ(held.solver["status"], "converged");
+  EXPECT_NEAR(held.total_force_n.x(), 0.1, 1e-4);
+  EXPECT_NEAR(held.total_force_n.y(), 0.0, 1e-4);
+  EXPECT_GT(CountNodes(held, tac3d::ContactState::kStick), 0);
+  EXPECT_GT(CountNodes(held, tac3d::ContactState::kSlip), 0);
+  const double held_x = held.world_from_sensor.translation().x();
+  EXPECT_LT(held_x, 0.0);  // the load dragged the object along +x: the sensor moved along -x
+
+  // Q = 0.2 N > mu P: the contact slides as a whole, carrying mu P, the object where it began.
+  const TwinStep slid = step(0.5, 0.2);
+  EXPECT_EQ(slid.solver["status"], "gross sliding");
+  EXPECT_EQ(CountNodes(slid, tac3d::ContactState::kStick), 0);
+  EXPECT_NEAR(slid.total_force_n.x(), mu * -slid.total_force_n.z(), 1e-3);
+
+  // Squeezed harder, the same load holds again.
+  const TwinStep regripped = step(1.0, 0.2);
+  EXPECT_EQ(regripped.solver["status"], "converged");
+  EXPECT_NEAR(-regripped.total_force_n.z(), 1.0, 2e-3);
+  EXPECT_NEAR(regripped.total_force_n.x(), 0.2, 1e-4);
+  EXPECT_GT(CountNodes(regripped, tac3d::ContactState::kStick), 0);
+
+  step(1.0, 0.2);
+  EXPECT_THROW(
+      {
+        try {
+          step(1.0, 0.2);
+        } catch (const Error& e) {
+          EXPECT_THAT(e.what(), HasSubstr("all 6 steps of scene 'sphere' are simulated"));
+          throw;
+        }
+      },
+      Error);
+}
+
+TEST(TwinSimulation, CallersLoadsAreChecked) {
+  Scene scene = SphereScene({{0.0, {0, 0, 0}}, {1.0, {0, 0, 0}}}, 3);
+  TwinSimulation sim(scene, SmallModel(), NoImages());
+  EXPECT_THROW(
+      {
+        try {
+          sim.Step(StepLoads{-1.0, {0.0, 0.0}});
+        } catch (const Error& e) {
+          EXPECT_THAT(e.what(), HasSubstr("StepLoads.normal_force_n must be finite and >= 0"));
+          throw;
+        }
+      },
+      Error);
+  EXPECT_THROW(
+      {
+        try {
+          sim.Step(StepLoads{1.0, {std::nan(""), 0.0}});
+        } catch (const Error& e) {
+          EXPECT_THAT(e.what(), HasSubstr("StepLoads.tangential_force_n must be finite"));
+          throw;
+        }
+      },
+      Error);
+  scene.trajectory.tangential_load = TangentialLoadRamp{};
+  TwinSimulation ramped(scene, SmallModel(), NoImages());
+  EXPECT_THROW(
+      {
+        try {
+          ramped.Step(StepLoads{1.0, {0.0, 0.0}});
+        } catch (const Error& e) {
+          EXPECT_THAT(e.what(), HasSubstr("has a trajectory.tangential_load"));
+          throw;
+        }
+      },
+      Error);
+}
+
 TEST(TwinSimulation, WritesADatasetTheReaderReadsBack) {
   const Scene scene = SphereScene({{0.0, {0, 0, -0.05}}, {1.0, {0.1, 0, 0.1}}}, 4);
   SimulationOptions options;  // with images

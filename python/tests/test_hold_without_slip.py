@@ -1,0 +1,65 @@
+"""The twin stepped under a controller's loads (tac3d.TwinSimulation), and the grasp example
+(examples/python/hold_without_slip.py, docs/grasping.md) on a reduced run."""
+import importlib.util
+
+import pytest
+
+import tac3d
+from conftest import REPO, SMALL_TWIN
+
+SPHERE_HELD = """
+name: held
+sensor: {sensor}
+deviation: {{mesh_refinement: 1.0, youngs_modulus_factor: 1.0, poisson_ratio_factor: 1.0}}
+objects:
+  - {{name: ball, shape: sphere, radius_mm: 5, position_mm: [0, 0, 8.0], friction: {{default: 0.3}}}}
+trajectory:
+  steps: 4
+  keyframes:
+    - {{t_s: 0, position_mm: [0, 0, 0]}}
+    - {{t_s: 1, position_mm: [0, 0, 0]}}
+"""
+
+
+def test_twin_simulation_steps_under_the_callers_forces(small_sensor_yaml, cache_dir):
+    scene = tac3d.parse_scene(SPHERE_HELD.format(sensor=small_sensor_yaml))
+    sim = tac3d.TwinSimulation(scene, cache_dir=cache_dir, images=False, twin_options=SMALL_TWIN)
+    assert (sim.num_steps, sim.steps_done) == (4, 0)
+    free = sim.step(normal_force_n=0.0)
+    assert free["solver"]["status"] == "separated" and not free["total_force"].any()
+    held = sim.step(normal_force_n=0.5, tangential_force_n=(0.1, 0.0))  # mu P = 0.15 N
+    assert held["solver"]["status"] == "converged"
+    assert held["total_force"] == pytest.approx([0.1, 0.0, -0.5], abs=2e-3)
+    assert "image" not in held and sim.steps_done == 2
+    slid = sim.step(normal_force_n=0.5, tangential_force_n=(0.2, 0.0))
+    assert slid["solver"]["status"] == "gross sliding"
+    assert slid["total_force"][0] == pytest.approx(0.3 * -slid["total_force"][2], rel=1e-2)
+    with pytest.raises(tac3d.Error, match="needs a normal_force_n"):
+        sim.step(tangential_force_n=(0.1, 0.0))
+    with pytest.raises(tac3d.Error, match="normal_force_n must be finite and >= 0"):
+        sim.step(normal_force_n=-1.0)
+    sim.step()  # the trajectory's own step: the sphere only touches
+    with pytest.raises(tac3d.Error, match="all 4 steps"):
+        sim.step()
+    with pytest.raises(tac3d.Error, match="all 4 steps"):
+        sim.step(normal_force_n=0.5)
+
+
+def load_example():
+    path = REPO / "examples" / "python" / "hold_without_slip.py"
+    spec = importlib.util.spec_from_file_location("hold_without_slip", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_least_force_grip_holds_with_less_force_than_the_fixed_one(cache_dir, capsys):
+    """The example's claim on one trial of the default sensor, shortened (its body and
+    compliance models are built into the session's cache on first use: a few minutes)."""
+    summaries = load_example().main(
+        ["--mu", "0.6", "--rates", "1.0", "--hold-steps", "30", "--cache", cache_dir])
+    fixed = summaries[(0.6, 1.0, "fixed threshold")]
+    least = summaries[(0.6, 1.0, "least-force")]
+    assert fixed["held"] and least["held"], (fixed, least)
+    assert least["mean_normal_n"] < fixed["mean_normal_n"]
+    assert "least-force" in capsys.readouterr().out
