@@ -1,11 +1,10 @@
-"""The twin stepped under a controller's loads (tac3d.TwinSimulation), and the grasp example
-(examples/python/hold_without_slip.py, docs/grasping.md) on a reduced run."""
-import importlib.util
-
+"""The twin stepped under a controller's loads (tac3d.TwinSimulation). The grasp example that
+drives it (examples/python/hold_without_slip.py) runs shortened as docs/grasping.md's example,
+on the models the docs' examples share."""
 import pytest
 
 import tac3d
-from conftest import REPO, SMALL_TWIN
+from conftest import SMALL_TWIN
 
 SPHERE_HELD = """
 name: held
@@ -43,23 +42,3 @@ def test_twin_simulation_steps_under_the_callers_forces(small_sensor_yaml, cache
         sim.step()
     with pytest.raises(tac3d.Error, match="all 4 steps"):
         sim.step(normal_force_n=0.5)
-
-
-def load_example():
-    path = REPO / "examples" / "python" / "hold_without_slip.py"
-    spec = importlib.util.spec_from_file_location("hold_without_slip", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-def test_the_least_force_grip_holds_with_less_force_than_the_fixed_one(cache_dir, capsys):
-    """The example's claim on one trial of the default sensor, shortened (its body and
-    compliance models are built into the session's cache on first use: a few minutes)."""
-    summaries = load_example().main(
-        ["--mu", "0.6", "--rates", "1.0", "--hold-steps", "30", "--cache", cache_dir])
-    fixed = summaries[(0.6, 1.0, "fixed threshold")]
-    least = summaries[(0.6, 1.0, "least-force")]
-    assert fixed["held"] and least["held"], (fixed, least)
-    assert least["mean_normal_n"] < fixed["mean_normal_n"]
-    assert "least-force" in capsys.readouterr().out
