@@ -313,14 +313,14 @@ class ThreadsCannotStart {
 // ends the wait at once, not when the frame is due.
 TEST(SensorStream, AStopEndsAPacedDatasetsLongGap) {
   SensorRunSpec spec;
-  spec.source = "dataset:" + MakeDataset(testing::MakeTempDir("gap") + "/ds", {0.0, 1e6});
+  spec.source = "dataset:" + MakeDataset(testing::MakeTempDir("gap") + "/ds", {0.0, 0.001, 1e6});
   spec.speed = 1.0;
-  spec.reference_frames = 1;
+  spec.reference_frames = 2;
   const std::unique_ptr<SensorStream> stream = OpenSensorStream(spec, SyntheticModel());
   stream->Start({.epoch = std::chrono::steady_clock::now()});
   std::atomic<bool> stop{false};
   ProducedFrame out;
-  EXPECT_EQ(stream->Next(stop, out), Produced::kFrame);
+  for (int reference = 0; reference < 2; ++reference) EXPECT_EQ(stream->Next(stop, out), Produced::kFrame);
   stop = true;
   EXPECT_EQ(stream->Next(stop, out), Produced::kEnd);
 }
