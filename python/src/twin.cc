@@ -388,6 +388,25 @@ py::array StackSteps(const std::vector<TwinStep>& steps, Get get) {
   return out;
 }
 
+// The twin simulation of simulate_arrays and TwinSimulation: the scene's body model shared
+// within the process (SharedTwinBodyModel, its report in `model_json`), the renderer too.
+std::unique_ptr<simulation::TwinSimulation> MakeTwinSimulation(const Scene& scene,
+                                                               const simulation::TwinBodyOptions& twin,
+                                                               const std::string& cache_dir,
+                                                               bool images,
+                                                               bool scale_youngs_modulus,
+                                                               int max_steps,
+                                                               nlohmann::json* model_json) {
+  simulation::SimulationOptions options;
+  options.render_images = images;
+  if (images) options.renderer = SharedRenderer(scene);
+  options.max_steps = max_steps;
+  const fem::BodyModelOptions body =
+      SimulatedBody(scene, scale_youngs_modulus, &options.youngs_modulus_scale);
+  return std::make_unique<simulation::TwinSimulation>(
+      scene, SharedTwinBodyModel(body, twin, cache_dir, model_json), options);
+}
+
 py::dict SimulateArrays(const py::object& scene_arg,
                         const std::string& cache_dir,
                         int steps,
@@ -402,16 +421,10 @@ py::dict SimulateArrays(const py::object& scene_arg,
   std::vector<TwinStep> run;
   {
     py::gil_scoped_release release;
-    simulation::SimulationOptions options;
-    options.render_images = images;
-    if (images) options.renderer = SharedRenderer(scene);
-    options.max_steps = steps;
-    const fem::BodyModelOptions body =
-        SimulatedBody(scene, scale_youngs_modulus, &options.youngs_modulus_scale);
-    simulation::TwinSimulation sim(
-        scene, SharedTwinBodyModel(body, twin, cache_dir, &model_json), options);
-    run.reserve(sim.num_steps());
-    summary = sim.Run([&](const TwinStep& step) { run.push_back(step); });
+    const std::unique_ptr<simulation::TwinSimulation> sim =
+        MakeTwinSimulation(scene, twin, cache_dir, images, scale_youngs_modulus, steps, &model_json);
+    run.reserve(sim->num_steps());
+    summary = sim->Run([&](const TwinStep& step) { run.push_back(step); });
   }
   if (run.empty()) throw Error(fmt::format("scene '{}' has no steps to simulate", scene.name));
   py::dict d = TruthArrays(run);
@@ -464,13 +477,8 @@ SteppedSimulation MakeSteppedSimulation(const py::object& scene_arg,
   SteppedSimulation out;
   out.images = images;
   py::gil_scoped_release release;
-  simulation::SimulationOptions options;
-  options.render_images = images;
-  if (images) options.renderer = SharedRenderer(scene);
-  const fem::BodyModelOptions body =
-      SimulatedBody(scene, scale_youngs_modulus, &options.youngs_modulus_scale);
-  out.sim = std::make_unique<simulation::TwinSimulation>(
-      scene, SharedTwinBodyModel(body, twin, cache_dir, &out.model_json), options);
+  out.sim = MakeTwinSimulation(scene, twin, cache_dir, images, scale_youngs_modulus,
+                               /*max_steps=*/0, &out.model_json);
   return out;
 }
 
