@@ -316,6 +316,20 @@ Eigen::MatrixXd ConvolutionCompliance::Apply(Components out,
   return u;
 }
 
+std::shared_ptr<const ComplianceOperator> ConvolutionCompliance::Window(int nx, int ny) const {
+  TAC3D_DEMAND(nx >= 3 && ny >= 3 && nx <= grid_.nx && ny <= grid_.ny);
+  SurfaceGrid window = grid_;
+  window.nx = nx;
+  window.ny = ny;
+  SampledKernel cropped = SampledKernel::Zero(window);
+  for (int out = 0; out < 3; ++out) {
+    for (int in = 0; in < 3; ++in) {
+      cropped.k[out][in] = kernel_.k[out][in].block(grid_.ny - ny, grid_.nx - nx, 2 * ny - 1, 2 * nx - 1);
+    }
+  }
+  return std::make_shared<ConvolutionCompliance>(window, cropped);
+}
+
 Eigen::MatrixXd ConvolutionCompliance::CalcDenseMatrix() const {
   const int n = grid_.num_nodes();
   Eigen::MatrixXd c(3 * n, 3 * n);

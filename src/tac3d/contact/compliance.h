@@ -45,6 +45,13 @@ class ComplianceOperator {
   virtual Eigen::MatrixXd Apply(Components out,
                                 Components in,
                                 const Eigen::MatrixXd& traction) const = 0;
+  /// The compliance among the nodes of an nx x ny block of the grid (the operator's principal
+  /// submatrix, on a grid of that size with the same spacing) if it is the same wherever the
+  /// block lies, as a convolution's is; null otherwise. A contact solver can then work on a
+  /// window around the contact instead of the whole grid.
+  virtual std::shared_ptr<const ComplianceOperator> Window(int /*nx*/, int /*ny*/) const {
+    return nullptr;
+  }
 };
 
 /// A compliance given as a dense 3n x 3n matrix (mm/MPa) in the project's component-major
@@ -127,6 +134,10 @@ class ConvolutionCompliance final : public ComplianceOperator {
   Eigen::MatrixXd Apply(Components out,
                         Components in,
                         const Eigen::MatrixXd& traction) const override;
+  /// The kernel as used, cropped to the block's offsets (a principal submatrix of a positive
+  /// definite operator is positive definite, so no clamping).
+  /// @pre 3 <= nx <= grid().nx, 3 <= ny <= grid().ny.
+  std::shared_ptr<const ComplianceOperator> Window(int nx, int ny) const override;
   /// The operator as a 3n x 3n matrix (DenseCompliance's order), from the kernel as clamped.
   Eigen::MatrixXd CalcDenseMatrix() const;
   /// The kernel as used (after clamping).
@@ -154,6 +165,9 @@ class HalfSpaceCompliance final : public ComplianceOperator {
                         Components in,
                         const Eigen::MatrixXd& traction) const override {
     return convolution_.Apply(out, in, traction);
+  }
+  std::shared_ptr<const ComplianceOperator> Window(int nx, int ny) const override {
+    return convolution_.Window(nx, ny);
   }
   /// The same operator as a 3n x 3n matrix (DenseCompliance's order), by direct summation.
   Eigen::MatrixXd CalcDenseMatrix() const { return convolution_.CalcDenseMatrix(); }

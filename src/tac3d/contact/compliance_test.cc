@@ -6,6 +6,7 @@
 #include <cmath>
 #include <numbers>
 #include <random>
+#include <utility>
 
 #include "tac3d/fem/evaluation.h"
 #include "tac3d/testing/testing.h"
@@ -88,6 +89,39 @@ TEST(HalfSpaceCompliance, FftEqualsTheDirectSum) {
   EXPECT_THAT(Eigen::MatrixXd(ut.col(0)), EigenNear(Eigen::MatrixXd(u_all.segment(0, n)), tol));
   EXPECT_THAT(Eigen::MatrixXd(ut.col(1)), EigenNear(Eigen::MatrixXd(u_all.segment(n, n)), tol));
   EXPECT_THAT(un, EigenNear(Eigen::MatrixXd(u_all.segment(2 * n, n)), tol));
+}
+
+TEST(ConvolutionCompliance, AWindowIsTheOperatorOnAnyBlockOfItsNodes) {
+  const SurfaceGrid grid{9, 8, 0.3, 0.2};
+  const HalfSpaceCompliance c(grid, {2.0, 0.3});
+  const std::shared_ptr<const ComplianceOperator> window = c.Window(5, 4);
+  ASSERT_NE(window, nullptr);
+  EXPECT_EQ(window->grid().nx, 5);
+  EXPECT_EQ(window->grid().ny, 4);
+  EXPECT_EQ(window->grid().dx_mm, grid.dx_mm);
+  std::mt19937_64 rng(testing::kRandomSeed);
+  const Eigen::MatrixXd t = RandomTraction(20, 3, rng);
+  for (const auto& [i0, j0] : {std::pair{0, 0}, std::pair{4, 4}, std::pair{2, 1}}) {
+    // The traction on the block, zero elsewhere: the grid's displacements on the block are the
+    // window's.
+    Eigen::MatrixXd on_grid = Eigen::MatrixXd::Zero(grid.num_nodes(), 3);
+    for (int k = 0; k < 20; ++k) on_grid.row((j0 + k / 5) * grid.nx + i0 + k % 5) = t.row(k);
+    for (Components out : {Components::kTangential, Components::kNormal}) {
+      for (Components in : {Components::kTangential, Components::kNormal}) {
+        const bool normal = in == Components::kNormal;
+        const Eigen::MatrixXd tin = normal ? t.rightCols(1) : t.leftCols(2);
+        const Eigen::MatrixXd gin = normal ? on_grid.rightCols(1) : on_grid.leftCols(2);
+        const Eigen::MatrixXd u_window = window->Apply(out, in, tin);
+        const Eigen::MatrixXd u_grid = c.Apply(out, in, gin);
+        Eigen::MatrixXd u_block(20, u_grid.cols());
+        for (int k = 0; k < 20; ++k) u_block.row(k) = u_grid.row((j0 + k / 5) * grid.nx + i0 + k % 5);
+        EXPECT_THAT(u_window, EigenNear(u_block, 1e-12 * u_block.cwiseAbs().maxCoeff()))
+            << "block at " << i0 << ", " << j0;
+      }
+    }
+  }
+  // A dense matrix need not be the same on every block: no windows.
+  EXPECT_EQ(DenseCompliance(grid, c.CalcDenseMatrix()).Window(5, 4), nullptr);
 }
 
 TEST(HalfSpaceCompliance, IsSymmetricPositiveDefiniteAndDrawsTheSurfaceInward) {

@@ -4,7 +4,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <limits>
+#include <map>
+#include <mutex>
+#include <utility>
 
 #include <nlohmann/json.hpp>
 
@@ -466,6 +470,159 @@ CouplingOutcome AlternateSubProblems(const ComplianceOperator& c,
   return outcome;
 }
 
+// A block of grid nodes: columns [i0, i1), rows [j0, j1).
+struct NodeBox {
+  int i0 = 0, j0 = 0, i1 = 0, j1 = 0;
+
+  int nx() const { return i1 - i0; }
+  int ny() const { return j1 - j0; }
+  bool empty() const { return i1 <= i0 || j1 <= j0; }
+  bool Contains(int i, int j) const { return i >= i0 && i < i1 && j >= j0 && j < j1; }
+  void Add(int i, int j) {
+    if (empty()) {
+      *this = {i, j, i + 1, j + 1};
+    } else {
+      i0 = std::min(i0, i), j0 = std::min(j0, j), i1 = std::max(i1, i + 1), j1 = std::max(j1, j + 1);
+    }
+  }
+  void Add(const NodeBox& other) {
+    if (other.empty()) return;
+    Add(other.i0, other.j0);
+    Add(other.i1 - 1, other.j1 - 1);
+  }
+};
+
+// The box widened by `margin` nodes on every side and to a multiple of 4 nodes along each axis
+// (few window sizes, whose compliances are reused), within the grid.
+NodeBox Padded(NodeBox box, int margin, const SurfaceGrid& grid) {
+  const auto fit = [margin](int& lo, int& hi, int n) {
+    lo = std::max(lo - margin, 0);
+    hi = std::min(hi + margin, n);
+    const int size = std::min(n, std::max(3, (hi - lo + 3) / 4 * 4));
+    hi += size - (hi - lo);
+    if (hi > n) lo -= hi - n, hi = n;
+  };
+  fit(box.i0, box.i1, grid.nx);
+  fit(box.j0, box.j1, grid.ny);
+  return box;
+}
+
+// Where the contact can be: the nodes in contact before and those the indenter overlaps (under
+// force control the approach is unknown: the nearest node); empty if none.
+NodeBox LikelyContact(const SurfaceGrid& grid,
+                      const ContactStep& step,
+                      const ContactState& previous,
+                      const Eigen::VectorXd& h,
+                      const std::vector<char>& candidate) {
+  double reach = step.approach_mm;
+  if (step.normal_control == NormalControl::kForce) {
+    reach = std::numeric_limits<double>::infinity();
+    for (int i = 0; i < h.size(); ++i) {
+      if (candidate[i]) reach = std::min(reach, h[i]);
+    }
+  }
+  NodeBox box;
+  for (int i = 0; i < h.size(); ++i) {
+    if (candidate[i] && (previous.pressure_mpa[i] > 0.0 || h[i] <= reach)) box.Add(i % grid.nx, i / grid.nx);
+  }
+  return box;
+}
+
+// A window's solution is the grid's if no contact node lies on the window's border (other than
+// the grid's own) and no node outside it penetrates; returns the nodes that break this.
+NodeBox NodesOutsideTheWindow(const ComplianceOperator& c,
+                              const ContactStep& step,
+                              const NodeBox& box,
+                              const Eigen::VectorXd& h,
+                              const std::vector<char>& candidate,
+                              const Eigen::VectorXd& p,
+                              const Eigen::MatrixX2d& q,
+                              bool coupled) {
+  const SurfaceGrid& grid = c.grid();
+  NodeBox outside;
+  for (int j = box.j0; j < box.j1; ++j) {
+    for (int i = box.i0; i < box.i1; ++i) {
+      const bool border = (i == box.i0 && i > 0) || (i == box.i1 - 1 && i < grid.nx - 1) ||
+                          (j == box.j0 && j > 0) || (j == box.j1 - 1 && j < grid.ny - 1);
+      if (border && p[j * grid.nx + i] > 0.0) outside.Add(i, j);
+    }
+  }
+  if (!outside.empty()) return outside;
+  Eigen::VectorXd u_normal = c.Apply(Components::kNormal, Components::kNormal, p);
+  if (coupled) u_normal += c.Apply(Components::kNormal, Components::kTangential, q);
+  const double approach = CalcApproach(step, p, h, candidate, u_normal);
+  // Penetration beyond the solver's own rounding (its gaps in contact are ~1e-7 of u).
+  const double tolerance = 1e-6 * u_normal.cwiseAbs().maxCoeff();
+  for (int k = 0; k < h.size(); ++k) {
+    const int i = k % grid.nx, j = k / grid.nx;
+    if (candidate[k] && !box.Contains(i, j) && h[k] + u_normal[k] - approach < -tolerance) {
+      outside.Add(i, j);
+    }
+  }
+  return outside;
+}
+
+// AlternateSubProblems on windows of the grid around the contact (`window` gives a window's
+// compliance, null to use the whole grid), grown until the window's solution is the grid's.
+// p and q are the grid's, in and out.
+CouplingOutcome AlternateOnWindows(
+    const ComplianceOperator& c,
+    const std::function<std::shared_ptr<const ComplianceOperator>(int, int)>& window,
+    const ContactStep& step,
+    const ContactSolverOptions& options,
+    const ContactState& previous,
+    const Eigen::VectorXd& h,
+    const std::vector<char>& candidate,
+    const Eigen::MatrixX2d& u_t_prev,
+    const Eigen::Vector2d& shift_increment,
+    Eigen::VectorXd& p,
+    Eigen::MatrixX2d& q,
+    ContactSummary& summary) {
+  const SurfaceGrid& grid = c.grid();
+  const NodeBox likely = LikelyContact(grid, step, previous, h, candidate);
+  NodeBox box = Padded(likely, std::max(3, std::max(likely.nx(), likely.ny()) / 4), grid);
+  for (;;) {
+    ++summary.window_attempts;
+    // A window of most of the grid saves little.
+    const bool whole = likely.empty() || box.nx() * box.ny() > 0.6 * grid.num_nodes();
+    const std::shared_ptr<const ComplianceOperator> w = whole ? nullptr : window(box.nx(), box.ny());
+    if (!w) {
+      summary.window_nx = grid.nx, summary.window_ny = grid.ny;
+      return AlternateSubProblems(
+          c, step, options, h, candidate, u_t_prev, shift_increment, p, q, summary);
+    }
+    summary.window_nx = box.nx(), summary.window_ny = box.ny();
+    std::vector<int> nodes;  // window node k is grid node nodes[k]
+    for (int j = box.j0; j < box.j1; ++j) {
+      for (int i = box.i0; i < box.i1; ++i) nodes.push_back(j * grid.nx + i);
+    }
+    const int m = static_cast<int>(nodes.size());
+    ContactStep sub = step;
+    Eigen::VectorXd h_w(m), p_w(m);
+    Eigen::MatrixX2d u_w(m, 2), q_w(m, 2);
+    std::vector<char> candidate_w(m);
+    for (int k = 0; k < m; ++k) {
+      const int g = nodes[k];
+      sub.gap_mm[k] = step.gap_mm[g], sub.friction_coefficient[k] = step.friction_coefficient[g];
+      h_w[k] = h[g], p_w[k] = p[g], q_w.row(k) = q.row(g), u_w.row(k) = u_t_prev.row(g);
+      candidate_w[k] = candidate[g];
+    }
+    sub.gap_mm.conservativeResize(m);
+    sub.friction_coefficient.conservativeResize(m);
+    const CouplingOutcome outcome = AlternateSubProblems(
+        *w, sub, options, h_w, candidate_w, u_w, shift_increment, p_w, q_w, summary);
+    p.setZero();
+    q.setZero();
+    for (int k = 0; k < m; ++k) p[nodes[k]] = p_w[k], q.row(nodes[k]) = q_w.row(k);
+    if (!outcome.converged) return outcome;
+    const NodeBox outside = NodesOutsideTheWindow(
+        c, step, box, h, candidate, p, q, options.coupling == Coupling::kFull);
+    if (outside.empty()) return outcome;
+    box.Add(outside);
+    box = Padded(box, std::max(3, std::max(box.nx(), box.ny()) / 4), grid);
+  }
+}
+
 // The state the tractions imply: tractions, displacements, approach and resultant forces (the
 // shift and slip come later, from the stick nodes).
 void SetImpliedState(const ComplianceOperator& c,
@@ -685,14 +842,33 @@ nlohmann::json ToJson(const ContactSummary& s) {
           {"num_stick", s.num_stick},
           {"num_slip", s.num_slip},
           {"contact_at_grid_edge", s.contact_at_grid_edge},
+          {"window", {s.window_nx, s.window_ny}},
+          {"window_attempts", s.window_attempts},
           {"time_s", s.time_s}};
 }
 
+struct ContactSolver::WindowCache {
+  std::mutex mutex;
+  std::map<std::pair<int, int>, std::shared_ptr<const ComplianceOperator>> by_size;
+};
+
 ContactSolver::ContactSolver(std::shared_ptr<const ComplianceOperator> compliance,
                              const ContactSolverOptions& options)
-    : compliance_(std::move(compliance)), options_(options) {
+    : compliance_(std::move(compliance)),
+      options_(options),
+      windows_(std::make_shared<WindowCache>()) {
   if (!compliance_) throw Error("ContactSolver: no compliance operator");
   options_.Validate();
+}
+
+std::shared_ptr<const ComplianceOperator> ContactSolver::WindowCompliance(int nx, int ny) const {
+  if (!options_.windowed) return nullptr;
+  const std::lock_guard lock(windows_->mutex);
+  // Bounded: a long run meets many contact sizes; a window's compliance is made in milliseconds.
+  if (windows_->by_size.size() >= 32) windows_->by_size.clear();
+  std::shared_ptr<const ComplianceOperator>& w = windows_->by_size[{nx, ny}];
+  if (!w) w = compliance_->Window(nx, ny);
+  return w;
 }
 
 ContactResult ContactSolver::Solve(const ContactStep& step, const ContactState& previous) const {
@@ -718,8 +894,19 @@ ContactResult ContactSolver::Solve(const ContactStep& step, const ContactState& 
   }
   ContactResult result;
   ContactSummary& summary = result.summary;
-  const CouplingOutcome outcome = AlternateSubProblems(
-      c, step, options_, h, candidate, u_t_prev, shift_increment, p, q, summary);
+  const CouplingOutcome outcome = AlternateOnWindows(
+      c,
+      [this](int nx, int ny) { return WindowCompliance(nx, ny); },
+      step,
+      options_,
+      previous,
+      h,
+      candidate,
+      u_t_prev,
+      shift_increment,
+      p,
+      q,
+      summary);
   bool gross_sliding = outcome.gross_sliding;
   SetImpliedState(c, step, h, candidate, p, q, coupled, result.state);
   const Eigen::MatrixX2d elastic_increment = result.state.displacement_mm.leftCols<2>() - u_t_prev;

@@ -33,6 +33,11 @@ struct ContactSolverOptions {
   double tangential_tolerance = 1e-8;
   /// kFull: stop alternating when tractions change by less than this (relative, L1).
   double coupling_tolerance = 1e-8;
+  /// Solve on a window of the grid around the contact when the compliance has windows
+  /// (ComplianceOperator::Window): the same solution, the window grown until the contact lies
+  /// inside its border and no node outside penetrates, at the cost of the window's size
+  /// instead of the grid's.
+  bool windowed = true;
 
   /// @throws tac3d::Error naming the field: iteration limits >= 1, tolerances in (0, 1).
   void Validate() const;
@@ -119,6 +124,11 @@ struct ContactSummary {
   int num_slip = 0;
   /// A contact node on the grid's outer row or column: the grid is too small for the contact.
   bool contact_at_grid_edge = false;
+  /// The last window the tractions were solved on (nodes along x and y; the grid's size when
+  /// solved on the whole grid), and how many windows were tried (1 + the times one grew).
+  int window_nx = 0;
+  int window_ny = 0;
+  int window_attempts = 0;
   double time_s = 0.0;
 };
 nlohmann::json ToJson(const ContactSummary& summary);
@@ -152,8 +162,13 @@ class ContactSolver {
   const ComplianceOperator& compliance() const { return *compliance_; }
 
  private:
+  struct WindowCache;
+  // The compliance on an nx x ny window, made once per size (null without windows).
+  std::shared_ptr<const ComplianceOperator> WindowCompliance(int nx, int ny) const;
+
   std::shared_ptr<const ComplianceOperator> compliance_;
   ContactSolverOptions options_;
+  std::shared_ptr<WindowCache> windows_;
 };
 
 }  // namespace tac3d::contact

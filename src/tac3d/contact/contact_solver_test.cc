@@ -153,6 +153,55 @@ TEST(ContactSolver, DenseAndFftHalfSpacesGiveTheSameSolution) {
               EigenNear(Eigen::MatrixXd(fft.state.traction_mpa), 1e-6));
 }
 
+// The same contact solved on windows around it and on the whole grid (windowed off).
+void ExpectTheWholeGridsSolution(const std::shared_ptr<const ComplianceOperator>& compliance,
+                                 const ContactStep& step,
+                                 int min_attempts) {
+  const int n = compliance->grid().num_nodes();
+  ContactSolverOptions whole_grid;
+  whole_grid.windowed = false;
+  const ContactResult windowed = ContactSolver(compliance).Solve(step, ContactState::Unloaded(n));
+  const ContactResult whole = ContactSolver(compliance, whole_grid).Solve(step, ContactState::Unloaded(n));
+  ExpectContactConditions(windowed.summary);
+  EXPECT_LT(windowed.summary.window_nx * windowed.summary.window_ny, n / 2);
+  EXPECT_GE(windowed.summary.window_attempts, min_attempts);
+  EXPECT_EQ(whole.summary.window_nx, compliance->grid().nx);
+  const double p_max = whole.state.pressure_mpa.maxCoeff();
+  EXPECT_THAT(windowed.state.pressure_mpa, EigenNear(whole.state.pressure_mpa, 1e-7 * p_max));
+  EXPECT_THAT(Eigen::MatrixXd(windowed.state.traction_mpa),
+              EigenNear(Eigen::MatrixXd(whole.state.traction_mpa), 1e-6 * p_max));
+  EXPECT_THAT(Eigen::MatrixXd(windowed.state.displacement_mm),
+              EigenNear(Eigen::MatrixXd(whole.state.displacement_mm),
+                        1e-7 * whole.state.displacement_mm.cwiseAbs().maxCoeff()));
+  EXPECT_EQ(windowed.summary.num_stick, whole.summary.num_stick);
+  EXPECT_EQ(windowed.summary.num_slip, whole.summary.num_slip);
+}
+
+TEST(ContactSolver, AWindowAroundTheContactGivesTheWholeGridsSolution) {
+  const ElasticMaterial material{1.0, 0.48};
+  const SurfaceGrid grid{61, 61, 0.1, 0.1};
+  const auto compliance = std::make_shared<HalfSpaceCompliance>(grid, material);
+  ContactStep step;
+  step.friction_coefficient = Eigen::VectorXd::Constant(grid.num_nodes(), 0.5);
+  {
+    SCOPED_TRACE("a sphere pressed and sheared by forces, off centre: the first window, the "
+                 "nearest node's, grows to hold the contact");
+    step.gap_mm = Indenter::Sphere(10.0).CalcGap(grid, Eigen::Vector2d(0.7, -0.4));
+    step.normal_force_n = 0.2;
+    step.tangential_force_n = Eigen::Vector2d(0.05, 0.03);
+    ExpectTheWholeGridsSolution(compliance, step, 2);
+  }
+  {
+    SCOPED_TRACE("two pins far apart, one recessed, under a force: the window around the "
+                 "nearer pin grows once the other penetrates");
+    step.gap_mm = Indenter::Pins({{{-1.2, 0.3}, 0.3, 0.0}, {{1.2, -0.2}, 0.3, 0.01}})
+                      .CalcGap(grid, Eigen::Vector2d::Zero());
+    step.normal_force_n = 0.3;
+    step.tangential_force_n = Eigen::Vector2d(0.02, 0.0);
+    ExpectTheWholeGridsSolution(compliance, step, 2);
+  }
+}
+
 // A rigid flat punch of radius a: P = 2 a E* delta (Boussinesq; Johnson, Contact Mechanics, ch. 3).
 TEST(ContactSolver, FlatPunchStiffnessIsBoussinesqs) {
   const ElasticMaterial material{1.0, 0.48};
