@@ -488,9 +488,6 @@ py::dict StepStepped(SteppedSimulation& s,
   if (tangential_force_n && !normal_force_n) {
     throw Error("TwinSimulation.step: a tangential_force_n needs a normal_force_n");
   }
-  if (!normal_force_n && s.sim->summary().steps >= s.sim->num_steps()) {
-    throw Error(fmt::format("TwinSimulation.step: all {} steps are simulated", s.sim->num_steps()));
-  }
   TwinStep step;
   {
     py::gil_scoped_release release;

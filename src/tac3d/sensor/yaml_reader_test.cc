@@ -3,7 +3,6 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include <chrono>
 #include <string>
 
 #include "tac3d/util/error.h"
@@ -35,13 +34,12 @@ TEST(ParseYamlDocument, AliasesWithinTheBoundAreExpanded) {
 }
 
 // Issue 22, defect 7: eight levels of ten (332 bytes) made every reader walk 10^8 values
-// (`tac3d design --config` ran 60 s+); the walk is refused at the alias that crosses the bound.
+// (`tac3d design --config` ran 60 s+); the walk is refused at the alias that crosses the bound:
+// line 4's level (10^4 values), not after walking the levels below it.
 TEST(ParseYamlDocument, NestedAliasesPastTheBoundAreRefusedAtOnce) {
-  const auto start = std::chrono::steady_clock::now();
   EXPECT_THAT([] { ParseYamlDocument(TenfoldAliases(8), "bomb.yaml"); },
               ThrowsMessage<Error>(HasSubstr(
                   "bomb.yaml: line 4: the aliases (*name) stand for more than 10000 values in all")));
-  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(1));
   // 10000 exactly is allowed: 1000 aliases of a list of 9 values (10 with the list).
   std::string many = "l: &l [1, 2, 3, 4, 5, 6, 7, 8, 9]\nall:\n";
   for (int k = 0; k < 1000; ++k) many += "  - *l\n";

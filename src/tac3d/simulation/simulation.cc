@@ -183,18 +183,22 @@ int TwinSimulation::num_steps() const {
   return options_.max_steps > 0 ? std::min(all, options_.max_steps) : all;
 }
 
-TwinStep TwinSimulation::Step() {
-  TAC3D_DEMAND(next_step_ < num_steps());
-  return SimulateStep(nullptr);
-}
-
-TwinStep TwinSimulation::Step(const StepLoads& loads) {
-  loads.Validate();
+void TwinSimulation::RequireAStepLeft() const {
   if (next_step_ >= num_steps()) {
     throw Error(fmt::format("TwinSimulation::Step: all {} steps of scene '{}' are simulated",
                             num_steps(),
                             scene_.name));
   }
+}
+
+TwinStep TwinSimulation::Step() {
+  RequireAStepLeft();
+  return SimulateStep(nullptr);
+}
+
+TwinStep TwinSimulation::Step(const StepLoads& loads) {
+  loads.Validate();
+  RequireAStepLeft();
   if (scene_.trajectory.tangential_load) {
     throw Error(fmt::format(
         "TwinSimulation::Step: scene '{}' has a trajectory.tangential_load; the caller's loads "

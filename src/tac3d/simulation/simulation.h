@@ -122,7 +122,7 @@ class TwinSimulation {
   int num_steps() const;
 
   /// Simulates the next step (0, 1, ...) and returns its truth; timings accumulate.
-  /// @pre the trajectory has steps left (TAC3D_DEMAND).
+  /// @throws tac3d::Error if no step is left.
   TwinStep Step();
 
   /// Simulates the next step under the caller's loads: the trajectory gives the step's time
@@ -146,6 +146,9 @@ class TwinSimulation {
   const contact::ConvolutionCompliance& compliance() const { return *compliance_; }
 
  private:
+  /// @throws tac3d::Error if every step is simulated.
+  void RequireAStepLeft() const;
+
   // Step's phases, in order.
 
   // The object's rigid tangential motion relative to the sensor since the previous step, and

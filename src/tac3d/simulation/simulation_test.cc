@@ -317,6 +317,7 @@ TEST(TwinSimulation, CallersLoadsPressAndLoadTheContactStepByStep) {
         }
       },
       Error);
+  EXPECT_THROW(sim.Step(), Error);  // the trajectory's step, as the caller's: none left
 }
 
 TEST(TwinSimulation, CallersLoadsAreChecked) {
