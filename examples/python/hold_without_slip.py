@@ -9,12 +9,14 @@ camera image, the real pipeline turns it into a TactileFrame (tracking, forces, 
 estimate: docs/slip.md), and the controller sets the next step's normal force from that frame
 only; the twin's truth (its contact solver) says whether the object slid.
 
-Two controllers:
+Three controllers:
 
 - least-force: N = safety |Q| / mu, |Q| the measured tangential load and mu the live estimate
-  (the TactileFrame's `friction`, kept once seen), never under a floor; while mu is unknown the
-  grip holds, and each frame the estimator reports partial or gross slip it is raised by a
-  fixed fraction (a slip reflex).
+  (the TactileFrame's `friction`, kept once seen), the design mu until there is one, never under
+  a floor; each frame the estimator reports gross slip the grip is raised by a fixed fraction
+  (a slip reflex).
+- load-proportional: the same rule with the design mu always, no friction estimate: what the
+  measured load alone gives.
 - fixed threshold: the gripper closes to a fixed normal force, chosen for the worst case it is
   designed for: safety x the heaviest half-weight / the lowest mu (the usual force-threshold
   grasp of a parallel gripper).
@@ -22,7 +24,7 @@ Two controllers:
 Held: the twin's contact never slides as a whole (no step with status 'gross sliding').
 
     /usr/bin/python3 examples/python/hold_without_slip.py [--plot docs/images/grasping.png]
-        [--mu 0.3 0.6 1.0] [--rates 0.5 1.0] [--hold-steps 60] [--cache DIR]
+        [--mu 0.3 0.6 1.0] [--rates 0.5 1.0] [--hold-steps 60] [--trace FRAMES.csv] [--cache DIR]
 
 The first run builds the twin body model and the pipeline's compliance model (about a minute
 each at refinement 1) into the cache ($TAC3D_CACHE_DIR by default).
@@ -50,29 +52,49 @@ trajectory:
 """
 
 
-class LeastForce:
-    """N = safety |Q| / mu from the live estimate, with a floor and a slip reflex."""
+class LoadProportional:
+    """N = safety |Q| / design mu: the grip follows the measured tangential load, with the lowest
+    mu the gripper is designed for; no friction estimate."""
 
-    name = "least-force"
+    name = "load-proportional"
 
-    def __init__(self, safety, floor_n, reflex):
-        self.safety, self.floor_n, self.reflex = safety, floor_n, reflex
-        self.mu = math.nan  # the last estimate seen
+    def __init__(self, safety, floor_n, design_mu):
+        self.safety, self.floor_n, self.design_mu = safety, floor_n, design_mu
+
+    def mu(self, frame):
+        return self.design_mu
 
     def grip(self, frame, previous_n):
         if frame is None:
             return self.floor_n
-        if math.isfinite(frame.friction):
-            self.mu = frame.friction
         q = math.hypot(frame.resultant_force[0], frame.resultant_force[1])
-        n = previous_n if math.isnan(self.mu) else self.safety * q / self.mu
-        # Partial slip is the rule's working point once mu is known (safety 1.5 puts the load
-        # at 2/3 of the capacity, where an annulus slips); before, and in gross slip, it is
-        # the only warning.
-        if frame.slip_state == "gross_slip" or (
-                frame.slip_state == "partial_slip" and math.isnan(self.mu)):
+        return max(self.floor_n, self.safety * q / self.mu(frame))
+
+
+class LeastForce(LoadProportional):
+    """N = safety |Q| / mu with mu the live estimate (the frame's `friction`, kept once seen, as
+    the estimator forgets it in stick), the design mu until there is one; raised by a fixed
+    fraction in each frame of gross slip (a slip reflex)."""
+
+    name = "least-force"
+
+    def __init__(self, safety, floor_n, design_mu, reflex):
+        super().__init__(safety, floor_n, design_mu)
+        self.reflex = reflex
+        self.estimate = math.nan  # the last estimate seen
+
+    def mu(self, frame):
+        if math.isfinite(frame.friction):
+            self.estimate = frame.friction
+        return self.design_mu if math.isnan(self.estimate) else self.estimate
+
+    def grip(self, frame, previous_n):
+        n = super().grip(frame, previous_n)
+        # Partial slip is no warning here: Cattaneo-Mindlin's annulus slips under any tangential
+        # load, so a reflex on it only ratchets the grip up (docs/grasping.md).
+        if frame is not None and frame.slip_state == "gross_slip":
             n = max(n, (1.0 + self.reflex) * previous_n)
-        return max(self.floor_n, n)
+        return n
 
 
 class FixedThreshold:
@@ -118,8 +140,7 @@ def run_trial(mu, rate, controller, args):
         if k < args.reference:  # nothing touches: the pipeline's reference
             normal_n, weight = 0.0, 0.0
         elif k < args.reference + args.close_steps:  # the fingers close, nothing lifted yet
-            target = controller.grip(None, 0.0) if isinstance(controller, LeastForce) \
-                else controller.force_n
+            target = controller.grip(None, 0.0)
             normal_n = target * (k - args.reference + 1) / args.close_steps
             weight = 0.0
         else:
@@ -130,7 +151,7 @@ def run_trial(mu, rate, controller, args):
         frame = pipeline.process(step["image"], timestamp=step["t"])
         rows.append((step["t"], weight, normal_n, -step["total_force"][2],
                      math.hypot(*step["total_force"][:2]), step["solver"]["status"],
-                     frame.slip_state, frame.friction))
+                     frame.slip_state, frame.friction, frame.slip_margin))
     return rows
 
 
@@ -144,6 +165,25 @@ def summarize(rows, args):
             "mu_estimate": estimated[-1] if estimated else math.nan}
 
 
+TRACE_COLUMNS = ("t_s", "weight_n", "commanded_normal_n", "true_normal_n",
+                 "true_tangential_n", "solver_status", "slip_state", "friction", "margin")
+
+
+def write_trace(results, args):
+    """Every frame of every trial, the twin's truth beside the pipeline's estimate (CSV)."""
+    import csv
+
+    with open(args.trace, "w", newline="") as f:
+        out = csv.writer(f)
+        out.writerow(("mu", "rate_n_per_s", "controller", "step") + TRACE_COLUMNS +
+                      ("true_load_ratio",))
+        for (mu, rate, name), rows in results.items():
+            for k, r in enumerate(rows):
+                load_ratio = r[4] / (mu * r[3]) if r[3] > 0 else 0.0
+                out.writerow((mu, rate, name, k) + tuple(r) + (load_ratio,))
+    print(f"trace: {args.trace}")
+
+
 def plot(results, args):
     import matplotlib
 
@@ -154,7 +194,8 @@ def plot(results, args):
     fig, axes = plt.subplots(len(keys), 1, figsize=(7, 2.2 * len(keys)), sharex=True,
                              squeeze=False)
     for ax, (mu, rate) in zip(axes[:, 0], keys):
-        for name, style in (("fixed threshold", "C1"), ("least-force", "C0")):
+        for name, style in (("fixed threshold", "C1"), ("load-proportional", "C2"),
+                            ("least-force", "C0")):
             rows = results[(mu, rate, name)]
             t = np.array([r[0] for r in rows])
             t -= t[args.reference + args.close_steps]
@@ -190,18 +231,22 @@ def main(argv=None):
     p.add_argument("--hold-steps", type=int, default=60, help="frames of the hold")
     p.add_argument("--safety", type=float, default=1.5, help="safety factor of both")
     p.add_argument("--design-mu", type=float, default=0.3,
-                   help="the lowest mu the fixed threshold is designed for")
-    p.add_argument("--floor", type=float, default=0.5, help="least-force: least grip (N)")
+                   help="the lowest mu the gripper is designed for")
+    p.add_argument("--floor", type=float, default=0.5, help="load-proportional and least-force: least grip (N)")
     p.add_argument("--reflex", type=float, default=0.25,
-                   help="least-force: grip raised by this fraction a frame of slip")
+                   help="least-force: grip raised by this fraction a frame of gross slip")
     p.add_argument("--sensor", default="", help="sensor YAML ('': the built-in prototype)")
     p.add_argument("--cache", default="", help="model cache ('': $TAC3D_CACHE_DIR ...)")
     p.add_argument("--plot", default="", help="write the figure here (PNG)")
+    p.add_argument("--trace", default="",
+                   help="write every frame here (CSV): the truth's P, Q and Q / (mu P) beside "
+                        "the estimate's state, friction and margin")
     args = p.parse_args(argv)
 
     controllers = [
         lambda: FixedThreshold(args.safety, args.max_weight / 2.0, args.design_mu),
-        lambda: LeastForce(args.safety, args.floor, args.reflex),
+        lambda: LoadProportional(args.safety, args.floor, args.design_mu),
+        lambda: LeastForce(args.safety, args.floor, args.design_mu, args.reflex),
     ]
     results, summaries = {}, {}
     print(f"{'mu':>4} {'N/s':>4} {'controller':<16} {'held':<4} {'slid':>4} "
@@ -223,6 +268,8 @@ def main(argv=None):
                       f"{s['mu_estimate']:6.2f} {elapsed:6.1f}", flush=True)
     if args.plot:
         plot(results, args)
+    if args.trace:
+        write_trace(results, args)
     return summaries
 
 
