@@ -62,9 +62,10 @@ TEST(RecordingReplay, KeepsTheRecordedPace) {
     const auto start = Clock::now();
     EXPECT_EQ(ReplayAll(&replay).size(), 12u);
     const double expected_s = 11.0 / 90.0 / speed;
+    // Never ahead of the recording; how much later a loaded machine makes it is not the test's
+    // (the delay itself is ReplayDelay's, tested in recording_test).
     EXPECT_GE(SecondsSince(start), expected_s) << "speed " << speed;
-    EXPECT_LT(SecondsSince(start), expected_s + 0.5) << "speed " << speed;  // a loaded machine
-    EXPECT_GT(replay.waited_s(), 0.5 * expected_s) << "speed " << speed;
+    EXPECT_GT(replay.waited_s(), 0.0) << "speed " << speed;
     EXPECT_THAT(replay.Describe(), HasSubstr(fmt::format("at {}x", speed)));
   }
 }
@@ -127,10 +128,8 @@ TEST(RecordingReplay, RefusesBadSpeedsAndFiles) {
 
 TEST(ReplayPacer, AtSpeedZeroNeverSleeps) {
   ReplayPacer pacer(0.0);
-  const auto start = Clock::now();
   for (int i = 0; i < 1000; ++i) EXPECT_TRUE(pacer.Wait(i * 1.0, nullptr));  // 999 s recorded
   EXPECT_EQ(pacer.waited_s(), 0.0);
-  EXPECT_LT(SecondsSince(start), 0.5);
 }
 
 // Waits with `pacer` (made anew, speed 1) for a frame recorded at `due_s` after one at `first_s`
