@@ -74,6 +74,7 @@ SimulateRun SimulateToDataset(const SimulateArgs& args) {
   simulation::SimulationOptions options;
   options.render_images = !args.no_images;
   options.max_steps = args.steps;
+  options.contact.windowed = !args.no_window;
   options.show_progress = true;
   simulation::TwinSimulation sim(scene, model, options);
   const contact::KernelSymbolReport& symbol = sim.compliance().symbol_report();
@@ -144,6 +145,9 @@ void RegisterSimulate(CLI::App& app) {
   cmd->add_option("--steps", args->steps, "simulate only the first N steps (0: all)")
       ->capture_default_str();
   AddTwinRefinementOption(cmd, &args->twin_refinement);
+  cmd->add_flag("--no-window", args->no_window,
+                "solve each contact on the whole grid, not on a window around it (the same "
+                "solution, slower; docs/contact.md)");
   cmd->add_flag("--json", args->json, "print the summary as JSON");
   cmd->callback([args] {
     const SimulateRun run = SimulateToDataset(*args);

@@ -23,6 +23,9 @@ struct SimulateArgs {
   /// scene's). Memory grows steeply with it: 1.25 builds the default dome's twin body in
   /// ~3 GB, the scenes' 1.5 in ~7.3 GB (docs/simulation.md).
   std::optional<double> twin_refinement = std::nullopt;
+  /// Solve each contact on the whole grid, not on a window around it
+  /// (contact::ContactSolverOptions::windowed): the same solution, to time the two.
+  bool no_window = false;
   bool json = false;
 };
 

@@ -408,43 +408,69 @@ std::vector<char> CandidateNodes(const ContactStep& step) {
   return candidate;
 }
 
+// What a step fixes for the sub-problems, on the grid or on a window of it.
+struct StepInputs {
+  ContactStep step;
+  // The gap with a finite stand-in where it is infinite, and the nodes where it is finite.
+  Eigen::VectorXd h;
+  std::vector<char> candidate;
+  // The previous state's tangential displacement, and the indenter's shift increment (zero
+  // under force control).
+  Eigen::MatrixX2d u_t_prev;
+  Eigen::Vector2d shift_increment;
+
+  // The inputs of the window whose node k is this one's node nodes[k].
+  StepInputs OnNodes(const std::vector<int>& nodes) const {
+    const int m = static_cast<int>(nodes.size());
+    StepInputs w{step, Eigen::VectorXd(m), std::vector<char>(m), Eigen::MatrixX2d(m, 2),
+                 shift_increment};
+    w.step.gap_mm.resize(m);
+    w.step.friction_coefficient.resize(m);
+    for (int k = 0; k < m; ++k) {
+      const int g = nodes[k];
+      w.step.gap_mm[k] = step.gap_mm[g], w.step.friction_coefficient[k] = step.friction_coefficient[g];
+      w.h[k] = h[g], w.candidate[k] = candidate[g], w.u_t_prev.row(k) = u_t_prev.row(g);
+    }
+    return w;
+  }
+};
+
 struct CouplingOutcome {
   bool converged = false;
   bool gross_sliding = false;
+  // The grid's normal displacement under the returned tractions (mm).
+  Eigen::VectorXd u_normal_mm;
 };
 
 // Alternates the normal and tangential sub-problems on p and q (in place) until the tractions
-// stop changing (at once without coupling); counts iterations and residuals into `summary`.
+// stop changing (at once without coupling); adds the iterations to `summary` and sets its
+// residuals.
 CouplingOutcome AlternateSubProblems(const ComplianceOperator& c,
-                                     const ContactStep& step,
+                                     const StepInputs& in,
                                      const ContactSolverOptions& options,
-                                     const Eigen::VectorXd& h,
-                                     const std::vector<char>& candidate,
-                                     const Eigen::MatrixX2d& u_t_prev,
-                                     const Eigen::Vector2d& shift_increment,
                                      Eigen::VectorXd& p,
                                      Eigen::MatrixX2d& q,
                                      ContactSummary& summary) {
+  const ContactStep& step = in.step;
   const bool coupled = options.coupling == Coupling::kFull;
   CouplingOutcome outcome;
   Eigen::MatrixX2d b(p.size(), 2);
   double lipschitz = 0.0;
-  for (summary.coupling_iterations = 1;
-       summary.coupling_iterations <= options.max_coupling_iterations;
-       ++summary.coupling_iterations) {
+  int pass = 1;
+  for (; pass <= options.max_coupling_iterations; ++pass) {
     const Eigen::VectorXd p_before = p;
     const Eigen::MatrixX2d q_before = q;
     // The coupling enters each sub-problem as a fixed displacement from the other's tractions.
-    Eigen::VectorXd h_eff = h;
+    Eigen::VectorXd h_eff = in.h;
     if (coupled) h_eff += c.Apply(Components::kNormal, Components::kTangential, q);
-    NormalProblem normal_pass(c, h_eff, candidate, step, options);
+    NormalProblem normal_pass(c, h_eff, in.candidate, step, options);
     const SubSolve ns = normal_pass.Solve(p);
     summary.normal_iterations += ns.iterations;
     summary.normal_residual = ns.residual;
 
     const Eigen::VectorXd bound = step.friction_coefficient.cwiseProduct(p);
-    b = -u_t_prev;
-    b.rowwise() -= shift_increment.transpose();
+    b = -in.u_t_prev;
+    b.rowwise() -= in.shift_increment.transpose();
     if (coupled) b += c.Apply(Components::kTangential, Components::kNormal, p);
     TangentialProblem tangential(c, bound, b, step, options);
     SubSolve ts;
@@ -462,12 +488,23 @@ CouplingOutcome AlternateSubProblems(const ComplianceOperator& c,
     }
     if (!coupled || summary.coupling_change < options.coupling_tolerance) break;
   }
-  if (outcome.converged && summary.coupling_iterations > options.max_coupling_iterations) {
-    summary.coupling_iterations = options.max_coupling_iterations;
+  if (outcome.converged && pass > options.max_coupling_iterations) {
+    pass = options.max_coupling_iterations;
     outcome.converged = false;
     summary.message = "normal-tangential coupling: iteration limit";
   }
+  summary.coupling_iterations += pass;
   return outcome;
+}
+
+// The normal displacement (mm) the tractions p and q make on c's grid.
+Eigen::VectorXd CalcNormalDisplacement(const ComplianceOperator& c,
+                                       const Eigen::VectorXd& p,
+                                       const Eigen::MatrixX2d& q,
+                                       bool coupled) {
+  Eigen::VectorXd u_normal = c.Apply(Components::kNormal, Components::kNormal, p);
+  if (coupled) u_normal += c.Apply(Components::kNormal, Components::kTangential, q);
+  return u_normal;
 }
 
 // A block of grid nodes: columns [i0, i1), rows [j0, j1).
@@ -492,9 +529,11 @@ struct NodeBox {
   }
 };
 
-// The box widened by `margin` nodes on every side and to a multiple of 4 nodes along each axis
-// (few window sizes, whose compliances are reused), within the grid.
-NodeBox Padded(NodeBox box, int margin, const SurfaceGrid& grid) {
+// The box widened on every side by a quarter of its larger side (at least 3 nodes) and to a
+// multiple of 4 nodes along each axis (few window sizes, whose compliances are reused), within
+// the grid.
+NodeBox Padded(NodeBox box, const SurfaceGrid& grid) {
+  const int margin = std::max(3, std::max(box.nx(), box.ny()) / 4);
   const auto fit = [margin](int& lo, int& hi, int n) {
     lo = std::max(lo - margin, 0);
     hi = std::min(hi + margin, n);
@@ -529,15 +568,16 @@ NodeBox LikelyContact(const SurfaceGrid& grid,
 }
 
 // A window's solution is the grid's if no contact node lies on the window's border (other than
-// the grid's own) and no node outside it penetrates; returns the nodes that break this.
+// the grid's own) and no node outside it penetrates; returns the nodes that break this. Checking
+// for penetration (once the border is clear) sets `u_normal` to the grid's normal displacement
+// under the tractions, which the state of an accepted window reuses.
 NodeBox NodesOutsideTheWindow(const ComplianceOperator& c,
-                              const ContactStep& step,
+                              const StepInputs& in,
                               const NodeBox& box,
-                              const Eigen::VectorXd& h,
-                              const std::vector<char>& candidate,
                               const Eigen::VectorXd& p,
                               const Eigen::MatrixX2d& q,
-                              bool coupled) {
+                              bool coupled,
+                              Eigen::VectorXd& u_normal) {
   const SurfaceGrid& grid = c.grid();
   NodeBox outside;
   for (int j = box.j0; j < box.j1; ++j) {
@@ -548,14 +588,14 @@ NodeBox NodesOutsideTheWindow(const ComplianceOperator& c,
     }
   }
   if (!outside.empty()) return outside;
-  Eigen::VectorXd u_normal = c.Apply(Components::kNormal, Components::kNormal, p);
-  if (coupled) u_normal += c.Apply(Components::kNormal, Components::kTangential, q);
-  const double approach = CalcApproach(step, p, h, candidate, u_normal);
+  u_normal = CalcNormalDisplacement(c, p, q, coupled);
+  const Eigen::VectorXd& h = in.h;
+  const double approach = CalcApproach(in.step, p, h, in.candidate, u_normal);
   // Penetration beyond the solver's own rounding (its gaps in contact are ~1e-7 of u).
   const double tolerance = 1e-6 * u_normal.cwiseAbs().maxCoeff();
   for (int k = 0; k < h.size(); ++k) {
     const int i = k % grid.nx, j = k / grid.nx;
-    if (candidate[k] && !box.Contains(i, j) && h[k] + u_normal[k] - approach < -tolerance) {
+    if (in.candidate[k] && !box.Contains(i, j) && h[k] + u_normal[k] - approach < -tolerance) {
       outside.Add(i, j);
     }
   }
@@ -564,23 +604,20 @@ NodeBox NodesOutsideTheWindow(const ComplianceOperator& c,
 
 // AlternateSubProblems on windows of the grid around the contact (`window` gives a window's
 // compliance, null to use the whole grid), grown until the window's solution is the grid's.
-// p and q are the grid's, in and out.
+// p and q are the grid's, in and out; the summary's iterations add up over the windows tried.
 CouplingOutcome AlternateOnWindows(
     const ComplianceOperator& c,
     const std::function<std::shared_ptr<const ComplianceOperator>(int, int)>& window,
-    const ContactStep& step,
+    const StepInputs& in,
     const ContactSolverOptions& options,
     const ContactState& previous,
-    const Eigen::VectorXd& h,
-    const std::vector<char>& candidate,
-    const Eigen::MatrixX2d& u_t_prev,
-    const Eigen::Vector2d& shift_increment,
     Eigen::VectorXd& p,
     Eigen::MatrixX2d& q,
     ContactSummary& summary) {
   const SurfaceGrid& grid = c.grid();
-  const NodeBox likely = LikelyContact(grid, step, previous, h, candidate);
-  NodeBox box = Padded(likely, std::max(3, std::max(likely.nx(), likely.ny()) / 4), grid);
+  const bool coupled = options.coupling == Coupling::kFull;
+  const NodeBox likely = LikelyContact(grid, in.step, previous, in.h, in.candidate);
+  NodeBox box = Padded(likely, grid);
   for (;;) {
     ++summary.window_attempts;
     // A window of most of the grid saves little.
@@ -588,8 +625,9 @@ CouplingOutcome AlternateOnWindows(
     const std::shared_ptr<const ComplianceOperator> w = whole ? nullptr : window(box.nx(), box.ny());
     if (!w) {
       summary.window_nx = grid.nx, summary.window_ny = grid.ny;
-      return AlternateSubProblems(
-          c, step, options, h, candidate, u_t_prev, shift_increment, p, q, summary);
+      CouplingOutcome outcome = AlternateSubProblems(c, in, options, p, q, summary);
+      outcome.u_normal_mm = CalcNormalDisplacement(c, p, q, coupled);
+      return outcome;
     }
     summary.window_nx = box.nx(), summary.window_ny = box.ny();
     std::vector<int> nodes;  // window node k is grid node nodes[k]
@@ -597,40 +635,33 @@ CouplingOutcome AlternateOnWindows(
       for (int i = box.i0; i < box.i1; ++i) nodes.push_back(j * grid.nx + i);
     }
     const int m = static_cast<int>(nodes.size());
-    ContactStep sub = step;
-    Eigen::VectorXd h_w(m), p_w(m);
-    Eigen::MatrixX2d u_w(m, 2), q_w(m, 2);
-    std::vector<char> candidate_w(m);
-    for (int k = 0; k < m; ++k) {
-      const int g = nodes[k];
-      sub.gap_mm[k] = step.gap_mm[g], sub.friction_coefficient[k] = step.friction_coefficient[g];
-      h_w[k] = h[g], p_w[k] = p[g], q_w.row(k) = q.row(g), u_w.row(k) = u_t_prev.row(g);
-      candidate_w[k] = candidate[g];
-    }
-    sub.gap_mm.conservativeResize(m);
-    sub.friction_coefficient.conservativeResize(m);
-    const CouplingOutcome outcome = AlternateSubProblems(
-        *w, sub, options, h_w, candidate_w, u_w, shift_increment, p_w, q_w, summary);
+    Eigen::VectorXd p_w(m);
+    Eigen::MatrixX2d q_w(m, 2);
+    for (int k = 0; k < m; ++k) p_w[k] = p[nodes[k]], q_w.row(k) = q.row(nodes[k]);
+    CouplingOutcome outcome =
+        AlternateSubProblems(*w, in.OnNodes(nodes), options, p_w, q_w, summary);
     p.setZero();
     q.setZero();
     for (int k = 0; k < m; ++k) p[nodes[k]] = p_w[k], q.row(nodes[k]) = q_w.row(k);
-    if (!outcome.converged) return outcome;
-    const NodeBox outside = NodesOutsideTheWindow(
-        c, step, box, h, candidate, p, q, options.coupling == Coupling::kFull);
+    if (!outcome.converged) {
+      outcome.u_normal_mm = CalcNormalDisplacement(c, p, q, coupled);
+      return outcome;
+    }
+    const NodeBox outside =
+        NodesOutsideTheWindow(c, in, box, p, q, coupled, outcome.u_normal_mm);
     if (outside.empty()) return outcome;
     box.Add(outside);
-    box = Padded(box, std::max(3, std::max(box.nx(), box.ny()) / 4), grid);
+    box = Padded(box, grid);
   }
 }
 
 // The state the tractions imply: tractions, displacements, approach and resultant forces (the
-// shift and slip come later, from the stick nodes).
+// shift and slip come later, from the stick nodes). `u_normal` is their normal displacement.
 void SetImpliedState(const ComplianceOperator& c,
-                     const ContactStep& step,
-                     const Eigen::VectorXd& h,
-                     const std::vector<char>& candidate,
+                     const StepInputs& in,
                      const Eigen::VectorXd& p,
                      const Eigen::MatrixX2d& q,
+                     const Eigen::VectorXd& u_normal,
                      bool coupled,
                      ContactState& state) {
   const double area = c.grid().cell_area_mm2();
@@ -639,12 +670,11 @@ void SetImpliedState(const ComplianceOperator& c,
   state.displacement_mm.resize(p.size(), 3);
   state.displacement_mm.leftCols<2>() =
       c.Apply(Components::kTangential, Components::kTangential, q);
-  state.displacement_mm.col(2) = c.Apply(Components::kNormal, Components::kNormal, p);
   if (coupled) {
     state.displacement_mm.leftCols<2>() += c.Apply(Components::kTangential, Components::kNormal, p);
-    state.displacement_mm.col(2) += c.Apply(Components::kNormal, Components::kTangential, q);
   }
-  state.approach_mm = CalcApproach(step, p, h, candidate, state.displacement_mm.col(2));
+  state.displacement_mm.col(2) = u_normal;
+  state.approach_mm = CalcApproach(in.step, p, in.h, in.candidate, u_normal);
   state.normal_force_n = p.sum() * area;
   state.tangential_force_n = q.colwise().sum().transpose() * area;
 }
@@ -877,45 +907,37 @@ ContactResult ContactSolver::Solve(const ContactStep& step, const ContactState& 
   const int n = c.grid().num_nodes();
   step.Validate(n);
   RequirePreviousState(previous, n);
-  const std::vector<char> candidate = CandidateNodes(step);
   // Infinite gaps become a finite stand-in; those nodes never carry pressure.
-  const Eigen::VectorXd h =
-      step.gap_mm.unaryExpr([](double v) { return std::isfinite(v) ? v : 0.0; });
-  const Eigen::MatrixX2d u_t_prev = previous.displacement_mm.leftCols<2>();
+  const StepInputs in{
+      step,
+      step.gap_mm.unaryExpr([](double v) { return std::isfinite(v) ? v : 0.0; }),
+      CandidateNodes(step),
+      previous.displacement_mm.leftCols<2>(),
+      step.tangential_control == TangentialControl::kShift
+          ? Eigen::Vector2d(step.shift_mm - previous.shift_mm)
+          : Eigen::Vector2d::Zero()};
   const bool coupled = options_.coupling == Coupling::kFull;
-  const Eigen::Vector2d shift_increment = step.tangential_control == TangentialControl::kShift
-                                              ? Eigen::Vector2d(step.shift_mm - previous.shift_mm)
-                                              : Eigen::Vector2d::Zero();
 
   Eigen::VectorXd p = previous.pressure_mpa;
   Eigen::MatrixX2d q = previous.traction_mpa;
   for (int i = 0; i < n; ++i) {
-    if (!candidate[i]) p[i] = 0.0, q.row(i).setZero();
+    if (!in.candidate[i]) p[i] = 0.0, q.row(i).setZero();
   }
   ContactResult result;
   ContactSummary& summary = result.summary;
   const CouplingOutcome outcome = AlternateOnWindows(
-      c,
-      [this](int nx, int ny) { return WindowCompliance(nx, ny); },
-      step,
-      options_,
-      previous,
-      h,
-      candidate,
-      u_t_prev,
-      shift_increment,
-      p,
-      q,
+      c, [this](int nx, int ny) { return WindowCompliance(nx, ny); }, in, options_, previous, p, q,
       summary);
   bool gross_sliding = outcome.gross_sliding;
-  SetImpliedState(c, step, h, candidate, p, q, coupled, result.state);
-  const Eigen::MatrixX2d elastic_increment = result.state.displacement_mm.leftCols<2>() - u_t_prev;
+  SetImpliedState(c, in, p, q, outcome.u_normal_mm, coupled, result.state);
+  const Eigen::MatrixX2d elastic_increment =
+      result.state.displacement_mm.leftCols<2>() - in.u_t_prev;
   const Eigen::Vector2d stick_sum =
       ClassifyNodes(c.grid(), step, p, q, elastic_increment, result.node_state, summary);
   const Eigen::Vector2d increment =
-      CalcShiftIncrement(step, shift_increment, stick_sum, summary.num_stick, gross_sliding);
+      CalcShiftIncrement(step, in.shift_increment, stick_sum, summary.num_stick, gross_sliding);
   SetShiftAndSlip(previous, increment, elastic_increment, result);
-  MeasureContactConditions(step, h, candidate, result);
+  MeasureContactConditions(step, in.h, in.candidate, result);
 
   if (!outcome.converged) {
     summary.status = ContactStatus::kMaxIterations;

@@ -103,6 +103,10 @@ std::string ToString(ContactStatus status);
 struct ContactSummary {
   ContactStatus status = ContactStatus::kConverged;
   std::string message;
+  /// Iterations, summed over the window attempts (each attempt solves its window again,
+  /// warm-started from the last): normal-tangential alternations, and the normal and
+  /// tangential sub-solvers' iterations over all those alternations. Each attempt has the
+  /// options' limits of its own.
   int coupling_iterations = 0;
   int normal_iterations = 0;
   int tangential_iterations = 0;

@@ -202,6 +202,24 @@ TEST(ContactSolver, AWindowAroundTheContactGivesTheWholeGridsSolution) {
   }
 }
 
+TEST(ContactSolver, IterationsAddUpOverTheWindowsTried) {
+  // Off centre under a force, the first window (the nearest node's) grows at least once. Without
+  // coupling each window takes one pass, so the passes count the windows.
+  const SurfaceGrid grid{61, 61, 0.1, 0.1};
+  const auto compliance = std::make_shared<HalfSpaceCompliance>(grid, ElasticMaterial{1.0, 0.48});
+  ContactStep step;
+  step.friction_coefficient = Eigen::VectorXd::Constant(grid.num_nodes(), 0.5);
+  step.gap_mm = Indenter::Sphere(10.0).CalcGap(grid, Eigen::Vector2d(0.7, -0.4));
+  step.normal_force_n = 0.2;
+  ContactSolverOptions options;
+  options.coupling = Coupling::kNeglect;
+  const ContactResult r =
+      ContactSolver(compliance, options).Solve(step, ContactState::Unloaded(grid.num_nodes()));
+  ExpectContactConditions(r.summary);
+  ASSERT_GE(r.summary.window_attempts, 2);
+  EXPECT_EQ(r.summary.coupling_iterations, r.summary.window_attempts);
+}
+
 // A rigid flat punch of radius a: P = 2 a E* delta (Boussinesq; Johnson, Contact Mechanics, ch. 3).
 TEST(ContactSolver, FlatPunchStiffnessIsBoussinesqs) {
   const ElasticMaterial material{1.0, 0.48};

@@ -8,6 +8,8 @@
 #include <memory>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "tac3d/sensor/default_sensor.h"
 #include "tac3d/sensor/test_sensor.h"
 #include "tac3d/testing/testing.h"
@@ -167,6 +169,25 @@ TEST(TwinSimulation, YoungsModulusScaleIsTheModelBuiltAtThatModulus) {
     EXPECT_LT(MaxMarkerDifference(scaled[k], built[k]), 1e-6) << k;
     EXPECT_EQ(scaled[k].surface.states, at_e[k].surface.states) << k;
   }
+}
+
+TEST(TwinSimulation, ContactOptionsReachTheSolverWindowedOrNot) {
+  // Pressed 0.01 mm: a contact on a small part of the 13 x 13 grid, solved on a window around it
+  // unless the options turn windows off (tac3d simulate --no-window).
+  const Scene scene = SphereScene({{0.0, {0, 0, 0.01}}, {1.0, {0, 0, 0.01}}}, 2);
+  SimulationOptions whole_grid = NoImages();
+  whole_grid.contact.windowed = false;
+  TwinSimulation windowed_sim(scene, SmallModel(), NoImages());
+  TwinSimulation whole_sim(scene, SmallModel(), whole_grid);
+  const TwinStep windowed = windowed_sim.Step();
+  const TwinStep whole = whole_sim.Step();
+  const contact::SurfaceGrid& grid = whole_sim.compliance().grid();
+  ASSERT_EQ(whole.solver["status"], "converged");
+  EXPECT_EQ(whole.solver["window"], nlohmann::json::array({grid.nx, grid.ny}));
+  EXPECT_LT(windowed.solver["window"][0].get<int>() * windowed.solver["window"][1].get<int>(),
+            grid.num_nodes()) << windowed.solver.dump();
+  EXPECT_LT((windowed.total_force_n - whole.total_force_n).norm(),
+            1e-6 * whole.total_force_n.norm());
 }
 
 TEST(TwinSimulation, HistoryCarriesTheShiftFromStepToStep) {
