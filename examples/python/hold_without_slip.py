@@ -61,14 +61,14 @@ class LoadProportional:
     def __init__(self, safety, floor_n, design_mu):
         self.safety, self.floor_n, self.design_mu = safety, floor_n, design_mu
 
-    def mu(self, frame):
+    def mu(self):
         return self.design_mu
 
     def grip(self, frame, previous_n):
         if frame is None:
             return self.floor_n
         q = math.hypot(frame.resultant_force[0], frame.resultant_force[1])
-        return max(self.floor_n, self.safety * q / self.mu(frame))
+        return max(self.floor_n, self.safety * q / self.mu())
 
 
 class LeastForce(LoadProportional):
@@ -83,12 +83,12 @@ class LeastForce(LoadProportional):
         self.reflex = reflex
         self.estimate = math.nan  # the last estimate seen
 
-    def mu(self, frame):
-        if math.isfinite(frame.friction):
-            self.estimate = frame.friction
+    def mu(self):
         return self.design_mu if math.isnan(self.estimate) else self.estimate
 
     def grip(self, frame, previous_n):
+        if frame is not None and math.isfinite(frame.friction):
+            self.estimate = frame.friction
         n = super().grip(frame, previous_n)
         # Partial slip is no warning here: Cattaneo-Mindlin's annulus slips under any tangential
         # load, so a reflex on it only ratchets the grip up (docs/grasping.md).
