@@ -128,7 +128,8 @@ py::object Simulate(const py::object& scene_arg,
                     int steps,
                     bool images,
                     const py::object& progress,
-                    const py::dict& twin_options) {
+                    const py::dict& twin_options,
+                    bool window) {
   if (steps < 0) throw Error(fmt::format("steps must be >= 0, got {}", steps));
   const Scene scene = SceneArg(scene_arg);
   const std::string scene_ref =
@@ -149,6 +150,7 @@ py::object Simulate(const py::object& scene_arg,
     simulation::SimulationOptions options;
     options.render_images = images;
     options.max_steps = steps;
+    options.contact.windowed = window;
     simulation::TwinSimulation sim(scene, model, options);
     writer.UpdateHeader({{"steps", sim.num_steps()}, {"twin_body", model_json}});
     const int total = sim.num_steps();
@@ -390,17 +392,14 @@ py::array StackSteps(const std::vector<TwinStep>& steps, Get get) {
 
 // The twin simulation of simulate_arrays and TwinSimulation: the scene's body model shared
 // within the process (SharedTwinBodyModel, its report in `model_json`), the renderer too.
+// `options` says images, steps and the contact's; the rest is filled in here.
 std::unique_ptr<simulation::TwinSimulation> MakeTwinSimulation(const Scene& scene,
                                                                const simulation::TwinBodyOptions& twin,
                                                                const std::string& cache_dir,
-                                                               bool images,
+                                                               simulation::SimulationOptions options,
                                                                bool scale_youngs_modulus,
-                                                               int max_steps,
                                                                nlohmann::json* model_json) {
-  simulation::SimulationOptions options;
-  options.render_images = images;
-  if (images) options.renderer = SharedRenderer(scene);
-  options.max_steps = max_steps;
+  if (options.render_images) options.renderer = SharedRenderer(scene);
   const fem::BodyModelOptions body =
       SimulatedBody(scene, scale_youngs_modulus, &options.youngs_modulus_scale);
   return std::make_unique<simulation::TwinSimulation>(
@@ -412,7 +411,8 @@ py::dict SimulateArrays(const py::object& scene_arg,
                         int steps,
                         bool images,
                         const py::dict& twin_options,
-                        bool scale_youngs_modulus) {
+                        bool scale_youngs_modulus,
+                        bool window) {
   if (steps < 0) throw Error(fmt::format("steps must be >= 0, got {}", steps));
   const Scene scene = SceneArg(scene_arg);
   const simulation::TwinBodyOptions twin = TwinOptions(twin_options);
@@ -421,8 +421,12 @@ py::dict SimulateArrays(const py::object& scene_arg,
   std::vector<TwinStep> run;
   {
     py::gil_scoped_release release;
+    simulation::SimulationOptions options;
+    options.render_images = images;
+    options.max_steps = steps;
+    options.contact.windowed = window;
     const std::unique_ptr<simulation::TwinSimulation> sim =
-        MakeTwinSimulation(scene, twin, cache_dir, images, scale_youngs_modulus, steps, &model_json);
+        MakeTwinSimulation(scene, twin, cache_dir, options, scale_youngs_modulus, &model_json);
     run.reserve(sim->num_steps());
     summary = sim->Run([&](const TwinStep& step) { run.push_back(step); });
   }
@@ -471,14 +475,18 @@ SteppedSimulation MakeSteppedSimulation(const py::object& scene_arg,
                                         const std::string& cache_dir,
                                         bool images,
                                         const py::dict& twin_options,
-                                        bool scale_youngs_modulus) {
+                                        bool scale_youngs_modulus,
+                                        bool window) {
   const Scene scene = SceneArg(scene_arg);
   const simulation::TwinBodyOptions twin = TwinOptions(twin_options);
   SteppedSimulation out;
   out.images = images;
   py::gil_scoped_release release;
-  out.sim = MakeTwinSimulation(scene, twin, cache_dir, images, scale_youngs_modulus,
-                               /*max_steps=*/0, &out.model_json);
+  simulation::SimulationOptions options;
+  options.render_images = images;
+  options.contact.windowed = window;
+  out.sim = MakeTwinSimulation(scene, twin, cache_dir, options, scale_youngs_modulus,
+                               &out.model_json);
   return out;
 }
 
@@ -720,12 +728,15 @@ void RegisterTwin(py::module_& m) {
         py::arg("images") = true,
         py::arg("progress") = py::none(),
         py::arg("twin_options") = py::dict(),
+        py::arg("window") = true,
         "Simulates a scene (a Scene, a built-in name or a YAML path) into the new dataset folder\n"
         "`out` (GIL released). The twin body model is loaded from cache_dir or built (the\n"
         "default sensor's: ~15 min, 7 GB, once). progress(done, total) is called after each\n"
         "step; an exception it raises stops the simulation and is re-raised. steps > 0:\n"
         "only the first steps. twin_options: cells_per_pitch, margin_mm,\n"
-        "quadrature_points_per_side. Returns the summary (dict). Raises tac3d.Error.");
+        "quadrature_points_per_side. window=False solves each contact on the whole grid, not\n"
+        "on a window around it (the same solution, slower: tac3d simulate --no-window).\n"
+        "Returns the summary (dict). Raises tac3d.Error.");
 
   m.def("simulate_arrays",
         &SimulateArrays,
@@ -736,6 +747,7 @@ void RegisterTwin(py::module_& m) {
         py::arg("images") = true,
         py::arg("twin_options") = py::dict(),
         py::arg("scale_youngs_modulus") = true,
+        py::arg("window") = true,
         "Simulates a scene (a Scene, a built-in name or a YAML path) in memory (GIL released)\n"
         "and returns every step's truth as arrays, time first: t, world_from_sensor (T x 4 x 4),\n"
         "marker_positions, marker_forces (T x N x 3), marker_contact, marker_slip (T x N),\n"
@@ -745,7 +757,8 @@ void RegisterTwin(py::module_& m) {
         "touches, NaN elsewhere) and summary (dict). The body model is loaded (or built) once a\n"
         "process and kept. scale_youngs_modulus: the model at the scene's nu and E x 1, its\n"
         "compliance scaled to the scene's youngs_modulus_factor (one model for every E); else\n"
-        "the model at the scene's E, as tac3d.simulate. Raises tac3d.Error.");
+        "the model at the scene's E, as tac3d.simulate. window: as tac3d.simulate's. Raises\n"
+        "tac3d.Error.");
   m.def("prepare_twin_body",
         &PrepareTwinBody,
         py::arg("scene"),
@@ -769,6 +782,7 @@ from what it measured (closed-loop control; examples/python/hold_without_slip.py
            py::arg("images") = true,
            py::arg("twin_options") = py::dict(),
            py::arg("scale_youngs_modulus") = true,
+           py::arg("window") = true,
            "scene: a Scene, a built-in name or a YAML path; the body model is loaded (or built)\n"
            "once a process and kept, as by simulate_arrays, whose options these are.")
       .def_property_readonly("num_steps",

@@ -42,3 +42,18 @@ def test_twin_simulation_steps_under_the_callers_forces(small_sensor_yaml, cache
         sim.step()
     with pytest.raises(tac3d.Error, match="all 4 steps"):
         sim.step(normal_force_n=0.5)
+
+
+def test_twin_simulation_solves_on_a_window_unless_told_not_to(small_sensor_yaml, cache_dir):
+    scene = tac3d.parse_scene(SPHERE_HELD.format(sensor=small_sensor_yaml))
+    steps = {}
+    for window in (True, False):
+        sim = tac3d.TwinSimulation(scene, cache_dir=cache_dir, images=False,
+                                   twin_options=SMALL_TWIN, window=window)
+        steps[window] = sim.step(normal_force_n=0.05, tangential_force_n=(0.01, 0.0))
+        assert steps[window]["solver"]["status"] == "converged"
+    # A light press touches a few nodes: its window is a part of the grid the whole-grid solve
+    # covers (13 x 13 against 8 x 8 here), and the solution is the same.
+    (wx, wy), (gx, gy) = steps[True]["solver"]["window"], steps[False]["solver"]["window"]
+    assert wx <= gx and wy <= gy and wx * wy < gx * gy
+    assert steps[True]["total_force"] == pytest.approx(steps[False]["total_force"], abs=1e-7)
