@@ -229,10 +229,11 @@ def main(argv=None):
     p.add_argument("--reference", type=int, default=20, help="reference frames")
     p.add_argument("--close-steps", type=int, default=5, help="frames to close the grip")
     p.add_argument("--hold-steps", type=int, default=60, help="frames of the hold")
-    p.add_argument("--safety", type=float, default=1.5, help="safety factor of both")
+    p.add_argument("--safety", type=float, default=1.5, help="safety factor of every controller")
     p.add_argument("--design-mu", type=float, default=0.3,
                    help="the lowest mu the gripper is designed for")
-    p.add_argument("--floor", type=float, default=0.5, help="load-proportional and least-force: least grip (N)")
+    p.add_argument("--floor", type=float, default=0.5,
+                   help="load-proportional and least-force: least grip (N)")
     p.add_argument("--reflex", type=float, default=0.25,
                    help="least-force: grip raised by this fraction a frame of gross slip")
     p.add_argument("--sensor", default="", help="sensor YAML ('': the built-in prototype)")
