@@ -81,7 +81,7 @@ nlohmann::json IntrinsicsJson(const CameraIntrinsics& c) {
 void RunCalibrate(CalibrateArgs a) {
   if (a.images.empty()) throw Error("calibrate: --images DIR is required (or use `calibrate render-set`)");
   if (a.out.empty()) throw Error("calibrate: --out FILE is required");
-  CheckOutputFile(a.out, "--out", {".yaml", ".yml"});
+  CheckOutputFile(a.out, "--out", {".yaml", ".yml"}, {a.images, a.board, a.config});
   const std::string board_path =
       a.board.empty() ? (std::filesystem::path(a.images) / "board.yaml").string() : a.board;
   const CalibrationBoardFile board = LoadCalibrationBoardFile(board_path);

@@ -431,5 +431,49 @@ TEST(Cli, TrackRefusesAMalformedVideoAndAnEmptyFolder) {
   EXPECT_FALSE(fs::exists(dir + "/t.csv"));
 }
 
+// One rule for every output: never over an input, never a device, a pipe or a link replaced or
+// written through; and the counts a user gives bounded before any work.
+TEST(Cli, OutputsAreNeverAnInputADeviceOrALink) {
+  const std::string dir = testing::MakeTempDir("output_rule");
+  std::ofstream(dir + "/v.avi") << "RIFF....AVI LIST: the user's video";
+  Outcome o = RunCliBounded(fmt::format("track --source {0}/v.avi --out {0}/v.avi", dir));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr(fmt::format("--out '{0}/v.avi' is the input '{0}/v.avi'", dir)));
+  std::ifstream video(dir + "/v.avi");
+  EXPECT_EQ(std::string(std::istreambuf_iterator<char>(video), {}), "RIFF....AVI LIST: the user's video");
+  // The vendor's own sensor.yaml, by the default --out in its folder.
+  fs::create_directories(dir + "/vendor");
+  std::ofstream(dir + "/vendor/sensor.yaml") << "SN: X\n";
+  o = RunCli("import-vendor .", fmt::format("cd {}/vendor && timeout -s KILL 20 ", dir));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("--out 'sensor.yaml' would replace a file inside the input folder '.'"));
+  // A character device is refused, never renamed over (as root, /dev/null would have become a file).
+  o = RunCliBounded("design --out /dev/null");
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("--out '/dev/null' is not a regular file"));
+  EXPECT_TRUE(fs::is_character_file("/dev/null"));
+  fs::create_symlink(dir + "/v.avi", dir + "/link.yaml");
+  o = RunCliBounded(fmt::format("design --out {}/link.yaml", dir));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("is a symbolic link"));
+}
+
+TEST(Cli, CountsAndFrameRangesAreBoundedUpFront) {
+  const std::string dir = testing::MakeTempDir("counts");
+  std::ofstream(dir + "/v.avi") << "not a video";
+  Outcome o = RunCliBounded(fmt::format("track --source {}/v.avi --grid 1000x1000", dir));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("--grid '1000x1000': at most 100 x 100 markers"));
+  o = RunCliBounded(fmt::format("track --source {}/v.avi --rest-frames 0:99999999999", dir));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, HasSubstr("'0:99999999999': a frame number has at most 9 digits"));
+  // A link loop is a file that cannot be looked at, said as such.
+  fs::create_symlink(dir + "/loop", dir + "/loop");
+  o = RunCliBounded(fmt::format("track --source {}/loop", dir));
+  EXPECT_EQ(o.exit_code, 1) << o.output;
+  EXPECT_THAT(o.output, Not(HasSubstr("unexpected error")));
+  EXPECT_THAT(o.output, HasSubstr("loop"));
+}
+
 }  // namespace
 }  // namespace tac3d

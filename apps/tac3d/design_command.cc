@@ -40,9 +40,9 @@ nlohmann::json RootJson(const LightPathRoot& r) {
 }
 
 void Run(const DesignArgs& args) {
-  CheckOutputFile(args.out, "--out", {".yaml", ".yml"});
-  if (!args.svg.empty()) CheckOutputFile(args.svg, "--svg", {".svg"});
-  if (!args.png.empty()) CheckOutputFile(args.png, "--png", {".png"});
+  CheckOutputFile(args.out, "--out", {".yaml", ".yml"}, {args.base_config});
+  if (!args.svg.empty()) CheckOutputFile(args.svg, "--svg", {".svg"}, {args.base_config});
+  if (!args.png.empty()) CheckOutputFile(args.png, "--png", {".png"}, {args.base_config});
   const SensorConfig base = args.base_config.empty() ? SensorConfig{} : LoadSensorConfig(args.base_config);
   const LightPathDesign design = DesignLightPath(args.options, base);
   const auto& o = args.options;

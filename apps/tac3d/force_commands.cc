@@ -219,7 +219,7 @@ void RegisterCalibrateForce(CLI::App& app) {
   args->model.Add(cmd);
   cmd->add_option("--out", args->out, "also write the fit as JSON to this file");
   cmd->callback([args] {
-    if (!args->out.empty()) CheckOutputFile(args->out, "--out");
+    if (!args->out.empty()) CheckOutputFile(args->out, "--out", {}, {args->pairs, args->presses});
     nlohmann::json j;
     if (!args->pairs.empty()) {
       args->material.gain_fit.Validate();  // before the file is read

@@ -1,5 +1,7 @@
 #include <cstdio>
 #include <exception>
+#include <filesystem>
+#include <new>
 
 #include <CLI/CLI.hpp>
 
@@ -30,6 +32,14 @@ int main(int argc, char** argv) {
     return app.exit(e);
   } catch (const tac3d::Error& e) {
     std::fprintf(stderr, "tac3d: error: %s\n", e.what());
+    return 1;
+  } catch (const std::filesystem::filesystem_error& e) {
+    // A file the user named that cannot be looked at (a link loop, no permission): the path and
+    // why, as any other input error.
+    std::fprintf(stderr, "tac3d: error: '%s': %s\n", e.path1().c_str(), e.code().message().c_str());
+    return 1;
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "tac3d: error: out of memory (an input larger than this machine holds?)\n");
     return 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "tac3d: unexpected error: %s\n", e.what());

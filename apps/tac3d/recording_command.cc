@@ -113,10 +113,12 @@ struct ImportArgs {
 
 // `tac3d recording import`: a vendor recording as a tac3d recording.
 void Import(const ImportArgs& a) {
-  CheckOutputFile(a.out, "--out");
-  const VendorRecording vendor = ReadVendorRecording(a.folder);
+  CheckOutputFile(a.out, "--out", {}, {a.folder});
+  // A frame at a time: the recording's frames held at once took ~100 kB each.
+  const VendorFrames frames(ReadVendorRecording(a.folder));
+  const VendorRecording& vendor = frames.recording();
   RecordingWriter writer(a.out, {.overwrite = a.overwrite});
-  for (const TactileFrame& frame : FramesOfVendorRecording(vendor)) writer.Write(frame);
+  for (std::int64_t f = 0; f < frames.frames(); ++f) writer.Write(frames.Frame(f));
   std::printf("imported %lld frames of %lld markers of sensor %s to %s\n", static_cast<long long>(vendor.frames()),
               static_cast<long long>(vendor.markers()), vendor.serial_number.c_str(), a.out.c_str());
 }
@@ -160,7 +162,7 @@ void Pairs(const PairsArgs& args) {
     throw Error("recording pairs needs --pairs-out or --presses-out (or both)");
   }
   for (const std::string& out : {args.pairs_out, args.presses_out}) {
-    if (!out.empty()) CheckOutputFile(out, "calibration CSV", {".csv"});
+    if (!out.empty()) CheckOutputFile(out, "calibration CSV", {".csv"}, {args.path, args.reference});
   }
   ReferenceJoinOptions options = args.options;
   if (!args.time_offset.empty()) options.time_offset_s = args.time_offset[0];

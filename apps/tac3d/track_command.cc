@@ -62,6 +62,10 @@ std::pair<int, int> ParseGrid(const std::string& text) {
       std::stoi(m[2]) < 1) {
     throw Error(fmt::format("track: --grid '{}' must be ROWSxCOLS, such as 8x10", text));
   }
+  if (std::stoi(m[1]) > kMaxMarkerGridSide || std::stoi(m[2]) > kMaxMarkerGridSide) {
+    throw Error(fmt::format("track: --grid '{}': at most {} x {} markers", text, kMaxMarkerGridSide,
+                            kMaxMarkerGridSide));
+  }
   return {std::stoi(m[1]), std::stoi(m[2])};
 }
 
@@ -69,12 +73,18 @@ std::pair<int, int> ParseGrid(const std::string& text) {
 std::vector<std::pair<std::int64_t, std::int64_t>> ParseRanges(const std::string& text) {
   std::vector<std::pair<std::int64_t, std::int64_t>> ranges;
   if (text.empty()) return ranges;
-  const std::regex range(R"((\d{1,9}):(\d{1,9}))");
+  const std::regex range(R"((\d+):(\d+))");
   const std::regex comma(",");
   for (std::sregex_token_iterator it(text.begin(), text.end(), comma, -1), end; it != end; ++it) {
     std::smatch m;
     const std::string part = *it;
-    if (!std::regex_match(part, m, range) || std::stoll(m[1]) > std::stoll(m[2])) {
+    if (!std::regex_match(part, m, range)) {
+      throw Error(fmt::format("track: --rest-frames '{}': '{}' must be FIRST:LAST, two frame numbers", text, part));
+    }
+    if (m[1].length() > 9 || m[2].length() > 9) {
+      throw Error(fmt::format("track: --rest-frames '{}': '{}': a frame number has at most 9 digits", text, part));
+    }
+    if (std::stoll(m[1]) > std::stoll(m[2])) {
       throw Error(fmt::format("track: --rest-frames '{}': '{}' must be FIRST:LAST with FIRST <= LAST", text, part));
     }
     ranges.emplace_back(std::stoll(m[1]), std::stoll(m[2]));
@@ -187,10 +197,12 @@ void Track(const TrackArgs& a) {
   if (a.reference < 0) throw Error(fmt::format("track: --reference {} must be >= 0", a.reference));
   const auto [rows, cols] = a.grid.empty() ? std::pair{0, 0} : ParseGrid(a.grid);
   const auto rest = ParseRanges(a.rest_frames);
+  if (!a.out.empty()) CheckOutputFile(a.out, "--out", {}, {a.source});
   if (!a.overlay.empty()) MakeDirectory(a.overlay);
   // A folder's images may be of any size (OpenFrameSource bounds them by a camera's).
+  std::error_code ec;
   std::unique_ptr<FrameSource> source =
-      std::filesystem::is_directory(a.source) ? OpenImageFolder(a.source) : OpenFrameSource(a.source);
+      std::filesystem::is_directory(a.source, ec) ? OpenImageFolder(a.source) : OpenFrameSource(a.source);
 
   // Frames before the reference are read and skipped.
   Frame frame;

@@ -29,7 +29,7 @@ void RegisterImportVendor(CLI::App& app) {
       ->required();
   cmd->add_option("--out", args->out, "sensor YAML to write")->capture_default_str();
   cmd->callback([args] {
-    CheckOutputFile(args->out, "--out", {".yaml", ".yml"});
+    CheckOutputFile(args->out, "--out", {".yaml", ".yml"}, {args->folder});
     const SensorConfig config = ImportVendorSensor(args->folder);
     SaveSensorConfig(config, args->out);
     const DomeFitConfig& dome = config.vendor_camera->dome;

@@ -103,6 +103,14 @@ def test_specs_are_checked_when_made():
         tac3d.SensorSpec("S", "camera:0", udp_items="all")
     with pytest.raises(tac3d.Error, match="max_frames"):
         tac3d.run([spec], max_frames=-1)
+    # As strict as the command line whatever the source: a frame rate of NaN, a config that is
+    # not there, a speed that would wait for ever.
+    with pytest.raises(tac3d.Error, match="fps = nan must be in"):
+        tac3d.SensorSpec("S", "vendor:rec", fps=float("nan"))
+    with pytest.raises(tac3d.Error, match="sensor config '/nonexistent.yaml' does not exist"):
+        tac3d.SensorSpec("S", "vendor:rec", config="/nonexistent.yaml")
+    with pytest.raises(tac3d.Error, match="replay speed 1e-308 must be 0"):
+        tac3d.SensorSpec("S", "vendor:rec", speed=1e-308)
 
 
 def test_an_exception_in_on_frame_stops_every_sensor_and_is_raised(tmp_path):

@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include "tac3d/scene/ply.h"
+#include "tac3d/scene/scene.h"
 #include "tac3d/sensor/default_sensor.h"
 #include "tac3d/sensor/yaml_reader.h"
 #include "tac3d/util/error.h"
@@ -211,7 +212,10 @@ const std::map<std::string, Bound>& ConditionBounds() {
 
 void ReadSensorConditions(YamlReader r, double poisson_ratio, DatasetSpec* spec) {
   spec->youngs_modulus_factor =
-      ReadDistribution(r, "youngs_modulus_factor", Bound{0, 2, true}, 1.0);
+      ReadDistribution(r,
+                       "youngs_modulus_factor",
+                       Bound{TwinDeviation::kMinYoungsModulusFactor, TwinDeviation::kMaxYoungsModulusFactor},
+                       1.0);
   // The twin's nu = nu x factor must stay < 0.5 (an incompressible body has no FEM model here).
   spec->poisson_ratio_factor =
       ReadDistribution(r, "poisson_ratio_factor", Bound{0, 0.4999 / poisson_ratio, true}, 1.0);

@@ -9,6 +9,7 @@
 
 #include "tac3d/scene/ply.h"
 #include "tac3d/scene/scene.h"
+#include "tac3d/sensor/test_yaml_mutator.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
 
@@ -221,11 +222,31 @@ TEST(DatasetSpec, RefusesBadInputNamingTheLine) {
                                               "poisson_ratio_factor: {uniform: [0.9, 1.0]}")),
             "spec.yaml: line 9: sensor_conditions.poisson_ratio_factor: each value is a body "
             "model: draw it with choice, not uniform");
+  // Far below a tenth of E the solver's tolerance swallowed the forces, or it never ended.
+  EXPECT_EQ(DatasetSpecErrorOf(ReplacedInSpec(kMixedSpec,
+                                              "youngs_modulus_factor: \\{choice: \\[0.9, 1.0, 1.1\\]\\}",
+                                              "youngs_modulus_factor: 1e-200")),
+            "spec.yaml: line 8: sensor_conditions.youngs_modulus_factor: 1e-200 is out of range: must "
+            "be in [0.1, 2]");
+  // An integer past an int's range is out of range, not "not an integer".
+  EXPECT_EQ(DatasetSpecErrorOf(ReplacedInSpec(kMixedSpec, "steps: 20", "steps: 1000000000000")),
+            "spec.yaml: line 4: steps: 1000000000000 is out of range: must be an integer in "
+            "[-2147483648, 2147483647]");
   EXPECT_THAT(DatasetSpecErrorOf(ReplacedInSpec(kMixedSpec, "seed: 11", "seed: -1")),
               HasSubstr("line 2: seed: must be >= 0"));
   EXPECT_THAT(DatasetSpecErrorOf(ReplacedInSpec(
                   kMixedSpec, "  - \\{shape: sphere.*\n", "  - {shape: mesh, folder: nowhere}\n")),
               HasSubstr("line 13: objects[0].folder: '"));
+}
+
+// Seeded fuzzing, as of the run file: a mutated spec parses or throws tac3d::Error (naming
+// its line), never a crash, a hang or an allocation without bound.
+TEST(DatasetSpecFuzz, AMutatedSpecParsesOrThrowsError) {
+  const testing::FuzzCounts counts = testing::FuzzYamlReader(
+      kMixedSpec, [](const std::string& text) { ParseDatasetSpec(text, "fuzz.yaml", "."); }, "dataset specs");
+  EXPECT_GT(counts.iterations, 500) << "too few iterations in the time bound: a slow path?";
+  EXPECT_GT(counts.refused, counts.iterations / 4);
+  EXPECT_GT(counts.loaded, 0);
 }
 
 }  // namespace

@@ -123,6 +123,15 @@ void TactileFrame::Validate() const {
     throw Error(fmt::format(
         "TactileFrame {}: flags 0x{:x} has unknown bits 0x{:x}", index, flags, flags & ~known));
   }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (valid[i] && !(positions_mm[i].allFinite() && displacements_mm[i].allFinite() &&
+                      forces_n[i].allFinite())) {
+      throw Error(fmt::format("TactileFrame {}: marker {} is valid but its position, displacement "
+                              "or force is not finite",
+                              index,
+                              i));
+    }
+  }
   if (static_cast<int>(slip.state) >= kNumSlipStates) {
     throw Error(fmt::format(
         "TactileFrame {}: slip state {} is not a SlipState", index, static_cast<int>(slip.state)));

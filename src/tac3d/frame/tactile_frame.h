@@ -104,7 +104,8 @@ struct TactileFrame {
 
   /// @throws Error naming the field when a per-marker vector is not rows * cols long,
   /// rows or cols outside 1..kMaxGridSide, initialize_progress is outside 0..100, the timestamp is not finite, or
-  /// flags holds an unknown bit, or slip's state is not a SlipState.
+  /// flags holds an unknown bit, or slip's state is not a SlipState, or a valid marker's position, displacement
+  /// or force is not finite (a marker measured as NaN is lost: valid false; a normal may be NaN, "not measured").
   void Validate() const;
 
   bool operator==(const TactileFrame&) const = default;

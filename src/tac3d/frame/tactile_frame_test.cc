@@ -82,6 +82,24 @@ TEST(TactileFrame, ValidateNamesTheBrokenField) {
   EXPECT_THAT(ErrorOf(frame), HasSubstr("grid 0 x 20 must be within 1 x 1 .. 100 x 100"));
 }
 
+// A NaN on a valid marker reached the friction map's reconstruction (a crash); a lost marker
+// may carry anything.
+TEST(TactileFrame, AValidMarkerMustBeFiniteALostOneNeedNot) {
+  TactileFrame frame = TactileFrame::Sized(20, 20);
+  frame.positions_mm[7].x() = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THAT(ErrorOf(frame), HasSubstr("marker 7 is valid but its position, displacement or force "
+                                        "is not finite"));
+  frame.valid[7] = false;
+  EXPECT_NO_THROW(frame.Validate());
+  frame = TactileFrame::Sized(20, 20);
+  frame.forces_n[3].z() = std::numeric_limits<double>::infinity();
+  EXPECT_THAT(ErrorOf(frame), HasSubstr("marker 3 is valid"));
+  // Normals not sent over UDP are NaN, "not measured", on a valid marker.
+  frame = TactileFrame::Sized(20, 20);
+  frame.normals[3].setConstant(std::numeric_limits<double>::quiet_NaN());
+  EXPECT_NO_THROW(frame.Validate());
+}
+
 TEST(TactileFrame, EqualityComparesEveryField) {
   const TactileFrame a = TactileFrame::Sized(2, 2);
   TactileFrame b = a;

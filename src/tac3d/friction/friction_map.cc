@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <nlohmann/json.hpp>
+#include <thread>
 #include <unordered_map>
 
 #include "tac3d/util/error.h"
@@ -20,6 +21,11 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
+// The largest pose coordinate (mm): 1 km. Far beyond any scan, and small enough that the
+// resampling's voxel indices and the reconstruction's octree stay finite and in range
+// (a pose of 1e300 mm crashed the reconstruction).
+constexpr double kMaxWorldCoordinateMm = 1e6;
+
 using Clock = std::chrono::steady_clock;
 
 void Require(bool ok, const char* field, const char* bound, double value) {
@@ -27,6 +33,13 @@ void Require(bool ok, const char* field, const char* bound, double value) {
     throw Error(
         fmt::format("FrictionMapOptions.{} = {} is out of range: must be {}", field, value, bound));
   }
+}
+
+// Open3D's Poisson with more threads than cores crashed (SIGSEGV with 3 on 2 cores): at most
+// one a core.
+int ReconstructionThreads(int requested) {
+  const int cores = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  return requested == 0 ? cores : std::min(requested, cores);
 }
 
 // The cloud resampled on voxels (points and normals averaged, normals renormalised).
@@ -169,7 +182,10 @@ void FrictionMapOptions::Validate() const {
           voxel_size_mm);
   Require(poisson_depth >= 4 && poisson_depth <= 12, "poisson_depth", "in [4, 12]", poisson_depth);
   Require(poisson_scale >= 1 && poisson_scale <= 2, "poisson_scale", "in [1, 2]", poisson_scale);
-  Require(num_threads >= 0, "num_threads", ">= 0 (0: one a core)", num_threads);
+  Require(num_threads >= 0 && num_threads <= kMaxThreads,
+          "num_threads",
+          "in [0, 1024] (0: one a core)",
+          num_threads);
   Require(trim_distance_mm > 0 && std::isfinite(trim_distance_mm),
           "trim_distance_mm",
           "> 0 and finite",
@@ -352,6 +368,14 @@ void FrictionMapBuilder::AddFrame(const TactileFrame& frame, const Rigid3& world
                             frame.index,
                             frame.timestamp_s));
   }
+  if (!(world_from_sensor.translation().cwiseAbs().maxCoeff() <= kMaxWorldCoordinateMm)) {
+    throw Error(fmt::format("frame {} (t = {} s): world_from_sensor's translation {} mm is over the "
+                            "{} mm a friction map spans (a pose in other units?)",
+                            frame.index,
+                            frame.timestamp_s,
+                            world_from_sensor.translation().cwiseAbs().maxCoeff(),
+                            kMaxWorldCoordinateMm));
+  }
   if (frame.initialize_progress < 100) {
     ++frames_skipped_;
     BreakStroke();
@@ -493,7 +517,7 @@ FrictionMapResult FrictionMapBuilder::Build(const ProgressCallback& progress) co
       0.0f,
       static_cast<float>(options_.poisson_scale),
       false,
-      options_.num_threads == 0 ? -1 : options_.num_threads);
+      ReconstructionThreads(options_.num_threads));
   s.poisson_time_s = SecondsSince(t);
   s.poisson_vertices = static_cast<long>(mesh->vertices_.size());
   report(2);

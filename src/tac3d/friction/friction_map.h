@@ -93,9 +93,11 @@ struct FrictionMapOptions {
   int poisson_depth = 8;
   /// Ratio of the reconstruction's cube to the cloud's bounding box (in [1, 2]).
   double poisson_scale = 1.1;
-  /// Threads for the reconstruction (>= 0; 0: one a core). The machine's cores are shared,
-  /// so 1 by default; set OMP_WAIT_POLICY=PASSIVE in the environment (DESIGN.md).
+  /// Threads for the reconstruction (in [0, kMaxThreads]; 0: one a core). More than the
+  /// machine's cores are run as one a core (Open3D's Poisson crashed with more). The cores are
+  /// shared, so 1 by default; set OMP_WAIT_POLICY=PASSIVE in the environment.
   int num_threads = 1;
+  static constexpr int kMaxThreads = 1024;
   /// Mesh vertices farther than this from every resampled point are dropped (mm, > 0): the
   /// Poisson surface closes the open patch, and only where there were points is it measured.
   /// 1 mm is a little over half the diagonal of the marker grid's cell (1.27 mm pitch: 0.9

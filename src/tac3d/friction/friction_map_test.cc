@@ -4,6 +4,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <thread>
+
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -237,7 +239,9 @@ TEST(FrictionMapOptions, DefaultsAreValidAndEveryBoundThrows) {
        "poisson_scale = 0.9 is out of range: must be in [1, 2]"},
       {[](auto& o) { o.poisson_scale = 2.5; }, "poisson_scale = 2.5"},
       {[](auto& o) { o.num_threads = -1; },
-       "num_threads = -1 is out of range: must be >= 0 (0: one a core)"},
+       "num_threads = -1 is out of range: must be in [0, 1024] (0: one a core)"},
+      {[](auto& o) { o.num_threads = 1025; },
+       "num_threads = 1025 is out of range: must be in [0, 1024] (0: one a core)"},
       {[](auto& o) { o.trim_distance_mm = 0; },
        "trim_distance_mm = 0 is out of range: must be > 0 and finite"},
       {[](auto& o) { o.radius_mm = -1; }, "radius_mm = -1 is out of range: must be > 0 and finite"},
@@ -748,8 +752,28 @@ TEST(FrictionMapBuilder, RefusesBadFramesAndPoses) {
     EXPECT_THAT(e.what(),
                 HasSubstr("frame 7 (t = 0.25 s): world_from_sensor is not a rigid transform"));
   }
+  // A pose far beyond any scan (it crashed the reconstruction), and a valid marker at NaN.
+  Rigid3 far = Rigid3::Identity();
+  far.translation() = Eigen::Vector3d(1e300, 0, 0);
+  try {
+    builder.AddFrame(frame, far);
+    ADD_FAILURE() << "a pose 1e300 mm away was accepted";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("translation 1e+300 mm is over the 1000000 mm a friction map spans"));
+  }
+  frame.positions_mm[5].y() = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(builder.AddFrame(frame, Rigid3::Identity()), Error);
   frame.forces_n.pop_back();
   EXPECT_THROW(builder.AddFrame(frame, Rigid3::Identity()), Error);
+}
+
+// More threads than cores crashed Open3D's Poisson: they are run as one a core.
+TEST_F(FrictionMapTwoRegions, MoreThreadsThanCoresBuildTheSameMap) {
+  FrictionMapOptions options;
+  options.num_threads = 2 * static_cast<int>(std::thread::hardware_concurrency()) + 1;
+  const FrictionMapResult many = BuilderFor(*scan_, options).Build();
+  EXPECT_EQ(many.summary.status, FrictionMapStatus::kOk) << many.summary.BriefReport();
+  EXPECT_GT(many.summary.vertices, 1000);
 }
 
 }  // namespace

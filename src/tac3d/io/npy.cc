@@ -297,7 +297,7 @@ void WriteNpy(const std::string& path,
 }
 
 NpyArray ReadNpy(const std::string& path) {
-  const std::string bytes = ReadFileCapped(path, kMaxNpyFileBytes, ".npy file");
+  std::string bytes = ReadFileCapped(path, kMaxNpyFileBytes, ".npy file");
   if (bytes.size() < kPreambleBytes || bytes.compare(0, 6, kMagic, 6) != 0) {
     throw Error(fmt::format("'{}' is not an .npy file (no \\x93NUMPY magic)", path));
   }
@@ -332,7 +332,8 @@ NpyArray ReadNpy(const std::string& path) {
                             ShapeTuple(array.shape), NpyDescr(array.type), expected,
                             held < expected ? " (truncated)" : ""));
   }
-  array.data = bytes.substr(data_begin);
+  bytes.erase(0, data_begin);  // in place: a copy would hold the file twice
+  array.data = std::move(bytes);
   return array;
 }
 

@@ -12,6 +12,7 @@
 
 #include "tac3d/io/npy.h"
 #include "tac3d/util/error.h"
+#include "tac3d/util/file_io.h"
 
 namespace tac3d {
 namespace {
@@ -32,10 +33,12 @@ constexpr const char* kNpyNames[] = {"positions_mm.npy",
                                      "resultant_moment_nmm.npy"};
 constexpr const char* kCsvNames[] = {"frames.csv", "markers.csv"};
 
-std::string TempPath(const std::string& path) { return path + ".tmp"; }
-
-// Creates the folder if needed and refuses to replace files unless told to.
-void CheckFolder(const std::string& folder, const std::vector<std::string>& names, bool overwrite) {
+// Creates the folder if needed and refuses to replace files unless told to, and anything the
+// output rule refuses (CheckOutputFile: the recording itself, a device, a symbolic link).
+void CheckFolder(const std::string& folder,
+                 const std::vector<std::string>& names,
+                 bool overwrite,
+                 const std::string& recording) {
   std::error_code ec;
   if (fs::exists(folder, ec) && !fs::is_directory(folder, ec)) {
     throw Error(fmt::format("export folder '{}' is a file, not a folder", folder));
@@ -44,39 +47,47 @@ void CheckFolder(const std::string& folder, const std::vector<std::string>& name
   if (ec) throw Error(fmt::format("cannot create export folder '{}': {}", folder, ec.message()));
   for (const std::string& name : names) {
     const fs::path path = fs::path(folder) / name;
-    if (!overwrite && fs::exists(path, ec)) {
+    if (!overwrite && fs::exists(fs::symlink_status(path, ec))) {
       throw Error(fmt::format("'{}' already exists (`tac3d recording export --overwrite`, "
                               "RecordingExportOptions::overwrite, replaces it)", path.string()));
     }
+    CheckOutputFile(path.string(), "export file", {}, {recording});
   }
 }
 
-// The temporary files of an export: removed unless Commit() renamed them into place.
+// The temporary files of an export (CreateTemporaryFile): removed unless Commit() renamed them
+// into place.
 class TempFiles {
  public:
   TempFiles(const std::string& folder, const std::vector<std::string>& names) {
-    for (const std::string& name : names) finals_.push_back((fs::path(folder) / name).string());
+    for (const std::string& name : names) {
+      finals_.push_back((fs::path(folder) / name).string());
+      try {
+        temps_.push_back(CreateTemporaryFile(finals_.back()));
+      } catch (...) {
+        Remove();
+        throw;
+      }
+    }
   }
   ~TempFiles() {
-    if (committed_) return;
-    std::error_code ec;
-    for (const std::string& path : finals_) fs::remove(TempPath(path), ec);
+    if (!committed_) Remove();
   }
-  std::string temp(std::size_t i) const { return TempPath(finals_[i]); }
+  const std::string& temp(std::size_t i) const { return temps_[i]; }
   const std::vector<std::string>& finals() const { return finals_; }
   void Commit() {
-    for (const std::string& path : finals_) {
-      std::error_code ec;
-      fs::rename(TempPath(path), path, ec);
-      if (ec)
-        throw Error(
-            fmt::format("cannot rename '{}' to '{}': {}", TempPath(path), path, ec.message()));
-    }
+    for (std::size_t i = 0; i < finals_.size(); ++i) ReplaceWithTemporary(temps_[i], finals_[i]);
     committed_ = true;
   }
 
  private:
+  void Remove() {
+    std::error_code ec;
+    for (const std::string& temp : temps_) fs::remove(temp, ec);
+  }
+
   std::vector<std::string> finals_;
+  std::vector<std::string> temps_;
   bool committed_ = false;
 };
 
@@ -268,7 +279,7 @@ RecordingExportResult ExportRecording(const std::string& recording,
                                       const RecordingExportOptions& options) {
   RecordingReader reader(recording);
   const std::vector<std::string> names = RecordingExportFileNames(options.format);
-  CheckFolder(folder, names, options.overwrite);
+  CheckFolder(folder, names, options.overwrite, recording);
 
   std::optional<RecordedFrame> recorded = reader.Next();
   if (!recorded) {

@@ -118,8 +118,10 @@ std::uint32_t Crc32(std::uint32_t crc, const void* data, std::size_t size) {
 
 RecordingWriter::RecordingWriter(const std::string& path, const RecordingWriterOptions& options)
     : path_(path), sync_every_frame_(options.sync_every_frame) {
-  CheckOutputFile(path, "recording");  // a folder, or a missing folder to write in
-  const int flags = O_WRONLY | O_CREAT | O_CLOEXEC | (options.overwrite ? O_TRUNC : O_EXCL);
+  CheckOutputFile(path, "recording");  // a folder, a device, a link, a missing folder
+  // O_NOFOLLOW: a link planted after the check is refused, not written through.
+  const int flags =
+      O_WRONLY | O_CREAT | O_CLOEXEC | O_NOFOLLOW | (options.overwrite ? O_TRUNC : O_EXCL);
   fd_ = ::open(path.c_str(), flags, 0644);
   if (fd_ < 0) {
     throw Error(fmt::format("cannot create recording '{}': {}{}",
@@ -343,8 +345,15 @@ bool ReplayPacer::Wait(double timestamp_s, const std::atomic<bool>* stop) {
   const double elapsed_s = std::chrono::duration<double>(now - start_).count();
   const double delay_s = ReplayDelay(*first_timestamp_s_, timestamp_s, elapsed_s, speed_);
   if (delay_s <= 0.0) return true;
-  const bool due = SleepUnlessStopped(delay_s, stop);
+  const bool shortened = delay_s > max_wait_s_;
+  const bool due = SleepUnlessStopped(shortened ? max_wait_s_ : delay_s, stop);
   waited_s_ += SecondsSince(now);
+  if (shortened) {
+    // The pace goes on from this frame, shown now.
+    ++waits_shortened_;
+    first_timestamp_s_ = timestamp_s;
+    start_ = std::chrono::steady_clock::now();
+  }
   return due;
 }
 

@@ -118,21 +118,32 @@ class RecordingReader {
 /// have passed since its first frame was shown. speed <= 0 means as fast as possible (0 s).
 double ReplayDelay(double first_timestamp_s, double timestamp_s, double elapsed_s, double speed);
 
-/// Replays frames at a recorded pace: call Wait(frame.timestamp_s) before each frame.
+/// Replays frames at a recorded pace: call Wait(frame.timestamp_s) before each frame. A frame
+/// due more than max_wait_s after the call (a pause in the recording, or a timestamp jumping
+/// by 1e9 s in a damaged one) is shown after max_wait_s, and the frames after it keep their
+/// pace from it: a replay never stalls for ever.
 class ReplayPacer {
  public:
+  static constexpr double kMaxWaitS = 10.0;
+
   /// @param speed 1: recorded speed; 2: twice as fast; <= 0: as fast as possible.
-  explicit ReplayPacer(double speed = 1.0) : speed_(speed) {}
+  /// @param max_wait_s the longest wait for one frame (s, > 0).
+  explicit ReplayPacer(double speed = 1.0, double max_wait_s = kMaxWaitS)
+      : speed_(speed), max_wait_s_(max_wait_s) {}
   void Wait(double timestamp_s) { Wait(timestamp_s, nullptr); }
   /// As Wait, but gives up (returns false) as soon as `stop` is set, checked every 10 ms of
   /// the wait; true when the frame is due. `stop` may be null.
   bool Wait(double timestamp_s, const std::atomic<bool>* stop);
   /// Seconds spent waiting so far (0 at speed <= 0).
   double waited_s() const { return waited_s_; }
+  /// Waits cut to max_wait_s so far.
+  int waits_shortened() const { return waits_shortened_; }
 
  private:
   double speed_;
+  double max_wait_s_;
   double waited_s_ = 0.0;
+  int waits_shortened_ = 0;
   std::optional<double> first_timestamp_s_;
   std::chrono::steady_clock::time_point start_;
 };

@@ -9,11 +9,12 @@
 namespace tac3d {
 
 void RecordingReplayOptions::Validate() const {
-  if (!std::isfinite(speed) || speed < 0.0) {
-    throw Error(
-        fmt::format("replay speed {} must be finite and >= 0 (1: recorded pace, 0: as "
-                    "fast as possible)",
-                    speed));
+  if (!(speed == 0.0 || (speed >= kMinSpeed && speed <= kMaxSpeed))) {
+    throw Error(fmt::format("replay speed {} must be 0 (as fast as possible) or in [{}, {}] (1: the "
+                            "recorded pace)",
+                            speed,
+                            kMinSpeed,
+                            kMaxSpeed));
   }
 }
 

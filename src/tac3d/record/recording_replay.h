@@ -9,10 +9,13 @@
 namespace tac3d {
 
 struct RecordingReplayOptions {
-  /// 1: the recorded pace; 2: twice as fast; 0: as fast as possible. Finite, >= 0.
+  /// 1: the recorded pace; 2: twice as fast; 0: as fast as possible. 0 or in [kMinSpeed,
+  /// kMaxSpeed]: 1e-308 made a replay of a few seconds wait for ever.
   double speed = 1.0;
+  static constexpr double kMinSpeed = 1e-3;
+  static constexpr double kMaxSpeed = 1e3;
 
-  /// @throws Error naming `speed` when it is negative or not finite.
+  /// @throws Error naming `speed` when it is neither 0 nor in [kMinSpeed, kMaxSpeed].
   void Validate() const;
 };
 

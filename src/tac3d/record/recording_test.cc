@@ -337,5 +337,18 @@ TEST(Replay, DelayFollowsTheRecordedClockAtTheChosenSpeed) {
   EXPECT_DOUBLE_EQ(ReplayDelay(10.0, 11.0, 0.0, 0.0), 0.0);  // as fast as possible
 }
 
+// A timestamp jumping by 1e9 s (or 1e300) made a replay wait for ever after a few frames: the
+// wait is cut to the pacer's bound, and the pace goes on from that frame.
+TEST(ReplayPacer, AJumpInTheClockIsWaitedOutForTheBoundOnly) {
+  ReplayPacer pacer(1.0, 0.05);
+  EXPECT_TRUE(pacer.Wait(0.0, nullptr));
+  for (const double jump : {1e9, 1e300}) {
+    EXPECT_TRUE(pacer.Wait(jump, nullptr));
+    EXPECT_TRUE(pacer.Wait(jump + 0.01, nullptr));  // 10 ms after the jump, at its pace
+  }
+  EXPECT_EQ(pacer.waits_shortened(), 2);
+  EXPECT_GE(pacer.waited_s(), 0.1);
+}
+
 }  // namespace
 }  // namespace tac3d

@@ -1,5 +1,6 @@
 #include "tac3d/runtime/sensor_stream.h"
 
+#include <algorithm>
 #include <cstdio>
 
 #include <fmt/format.h>
@@ -55,8 +56,11 @@ class PipelineStream final : public SensorStream {
       std::fprintf(stderr, "%sskipped a bad frame: %s\n", log_prefix_.c_str(), last_skip_.c_str());
       return Produced::kSkipped;
     }
+    // Paced on the run's clock (sensors in step), each wait at most a pacer's bound.
     if (spec_.speed && *spec_.speed > 0 &&
-        !SleepUnlessStopped(frame_.timestamp_s / *spec_.speed - SecondsSince(clock_.epoch), &stop)) {
+        !SleepUnlessStopped(std::min(frame_.timestamp_s / *spec_.speed - SecondsSince(clock_.epoch),
+                                     ReplayPacer::kMaxWaitS),
+                            &stop)) {
       return Produced::kEnd;
     }
     if (clock_.common) frame_.timestamp_s = SecondsSince(clock_.epoch);
@@ -241,11 +245,22 @@ void SensorRunSpec::Validate() const {
   if (speed && !IsPacedSource(source)) {
     throw Error(fmt::format("sensor {}: speed applies to recording:FILE, vendor:DIR or dataset:DIR only", sn));
   }
-  if (speed && !(*speed >= 0)) throw Error(fmt::format("sensor {}: speed must be >= 0", sn));
   try {
+    if (speed) RecordingReplayOptions{.speed = *speed}.Validate();
+    // Checked whatever the source, as the command line does: a file named but missing, or a
+    // frame rate of NaN, is a mistake even where this source would not use it.
+    if (!config.empty()) RequireRegularFile(config, "sensor config");
+    ValidateFrameRate(camera.fps, "camera");
     ValidatePixelFormat(camera.pixel_format);
     ToPipelineOptions().Validate();
     outputs.Validate();
+    if (!outputs.record.empty()) {
+      // The source's file or folder, past its scheme (recording:FILE, vendor:DIR, dataset:DIR).
+      const std::size_t colon = source.find(':');
+      const std::string source_path =
+          IsPacedSource(source) ? source.substr(colon + 1) : source;
+      CheckOutputFile(outputs.record, "--record", {}, {source_path, config});
+    }
   } catch (const Error& e) {
     throw Error(fmt::format("sensor {}: {}", sn, e.what()));
   }

@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "tac3d/util/error.h"
+#include "tac3d/util/file_io.h"
 
 namespace tac3d {
 namespace {
@@ -97,18 +98,30 @@ class BodyReader {
 }  // namespace
 
 TriangleMesh ReadPly(const std::string& path) {
+  // A device or a FIFO never ends (/dev/zero was read to 2 GB before its magic was checked).
+  const std::uintmax_t file_bytes = RequireRegularFile(path, "PLY file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(fmt::format("PLY file '{}' cannot be opened", path));
   auto fail = [&](const std::string& what) -> void {
     throw Error(fmt::format("PLY file '{}': {}", path, what));
   };
+  // Header lines are short: a longer one is not a PLY header.
+  constexpr std::streamsize kMaxHeaderLine = 4096;
   std::string line;
-  if (!std::getline(in, line) || line.substr(0, 3) != "ply") fail("not a PLY file (no 'ply' magic)");
+  const auto header_line = [&]() -> bool {
+    line.resize(kMaxHeaderLine);
+    in.getline(line.data(), kMaxHeaderLine);
+    if (in.fail() && in.gcount() == kMaxHeaderLine - 1) fail("a header line is over 4096 bytes: not a PLY header");
+    if (in.fail() && in.gcount() == 0) return false;
+    line.resize(static_cast<std::size_t>(in.gcount()) - (in.eof() ? 0 : 1));
+    return true;
+  };
+  if (!header_line() || line.substr(0, 3) != "ply") fail("not a PLY file (no 'ply' magic)");
   Format format = Format::kAscii;
   bool has_format = false;
   std::vector<Element> elements;
   while (true) {
-    if (!std::getline(in, line)) fail("the header has no end_header");
+    if (!header_line()) fail("the header has no end_header");
     if (!line.empty() && line.back() == '\r') line.pop_back();
     std::istringstream words(line);
     std::string keyword;
@@ -126,6 +139,10 @@ TriangleMesh ReadPly(const std::string& path) {
     } else if (keyword == "element") {
       Element e;
       if (!(words >> e.name >> e.count) || e.count < 0) fail(fmt::format("bad element line '{}'", line));
+      // Each element takes a byte at least: a larger count is a lie that would reserve memory.
+      if (static_cast<std::uintmax_t>(e.count) > file_bytes) {
+        fail(fmt::format("element '{}' counts {}, more than the file's {} bytes", e.name, e.count, file_bytes));
+      }
       elements.push_back(e);
     } else if (keyword == "property") {
       if (elements.empty()) fail("a property before any element");

@@ -1,5 +1,7 @@
 #include "tac3d/scene/ply.h"
 
+#include <sys/stat.h>
+
 #include <cmath>
 #include <cstring>
 #include <iterator>
@@ -161,7 +163,21 @@ TEST(Ply, MalformedFilesAreRefusedWithTheReason) {
   EXPECT_THAT(PlyErrorOf(Write("f.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n0\n")),
               HasSubstr("lacks x, y or z"));
   EXPECT_THAT(PlyErrorOf(Write("g.ply", "ply\nformat ascii 1.0\nelement vertex 0\n")), HasSubstr("no end_header"));
-  EXPECT_THAT(PlyErrorOf("/no/such/file.ply"), HasSubstr("cannot be opened"));
+  EXPECT_THAT(PlyErrorOf("/no/such/file.ply"), HasSubstr("does not exist"));
+}
+
+// /dev/zero was read to 2 GB before its magic was checked, and a FIFO hung for ever; a header's
+// counts are bounded by the file.
+TEST(Ply, DevicesPipesAndHeadersThatLieAreRefusedBeforeReading) {
+  EXPECT_EQ(PlyErrorOf("/dev/zero"), "PLY file '/dev/zero' is not a regular file (a device or a pipe?)");
+  const std::string fifo = testing::MakeTempDir("ply_fifo") + "/mesh.ply";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  EXPECT_THAT(PlyErrorOf(fifo), HasSubstr("is not a regular file"));
+  EXPECT_THAT(PlyErrorOf(Write("h.ply", "ply\nformat ascii 1.0\nelement vertex 1000000000000\nproperty float x\n"
+                                        "property float y\nproperty float z\nend_header\n0 0 0\n")),
+              HasSubstr("element 'vertex' counts 1000000000000, more than the file's"));
+  EXPECT_THAT(PlyErrorOf(Write("i.ply", "ply\n" + std::string(10000, 'x') + "\n")),
+              HasSubstr("a header line is over 4096 bytes"));
 }
 
 }  // namespace

@@ -406,8 +406,11 @@ void Scene::Validate() const {
   sensor.Validate();
   Require(deviation.mesh_refinement >= 1 && deviation.mesh_refinement <= 4, "deviation.mesh_refinement",
           "in [1, 4]", deviation.mesh_refinement);
-  Require(deviation.youngs_modulus_factor > 0 && deviation.youngs_modulus_factor <= 2,
-          "deviation.youngs_modulus_factor", "in (0, 2]", deviation.youngs_modulus_factor);
+  Require(deviation.youngs_modulus_factor >= TwinDeviation::kMinYoungsModulusFactor &&
+              deviation.youngs_modulus_factor <= TwinDeviation::kMaxYoungsModulusFactor,
+          "deviation.youngs_modulus_factor",
+          fmt::format("in [{}, {}]", TwinDeviation::kMinYoungsModulusFactor, TwinDeviation::kMaxYoungsModulusFactor),
+          deviation.youngs_modulus_factor);
   const double nu = sensor.elastic_body.poisson_ratio * deviation.poisson_ratio_factor;
   Require(deviation.poisson_ratio_factor > 0 && nu < 0.5, "deviation.poisson_ratio_factor",
           "> 0 with the twin's nu below 0.5", deviation.poisson_ratio_factor);

@@ -149,7 +149,12 @@ struct TwinDeviation {
   /// default dome is still factored directly (559,482 free DOFs, ~7 GB), which the
   /// simulation's ~1,200 solves need (TwinBody refuses a larger model).
   double mesh_refinement = 1.5;
+  /// The twin's E over the sensor's, in [kMinYoungsModulusFactor, kMaxYoungsModulusFactor]: a
+  /// silicone a tenth as stiff is already no fingertip, and far below it the contact solver's
+  /// force tolerance swallows the forces (zero at 1e-100, no end at 1e-200).
   double youngs_modulus_factor = 1.1;
+  static constexpr double kMinYoungsModulusFactor = 0.1;
+  static constexpr double kMaxYoungsModulusFactor = 2.0;
   double poisson_ratio_factor = 0.99;
 };
 

@@ -48,6 +48,29 @@ void RequirePosition(const Eigen::Vector3d& p, const std::string& field) {
   }
 }
 
+// The lens model holds where its distortion is one-to-one: every pixel of the image (a 9 x 9
+// grid of them, corners included) undistorts to a point that distorts back onto it. Far-off
+// coefficients (k1 = 1e160) fail this; tac3d would otherwise triangulate as if the lens had
+// no distortion at all.
+void RequireInvertibleDistortion(const CameraIntrinsics& c, const std::string& field) {
+  constexpr int kSamples = 9;
+  for (int i = 0; i < kSamples; ++i) {
+    for (int j = 0; j < kSamples; ++j) {
+      const Eigen::Vector2d pixel(i * (c.width - 1.0) / (kSamples - 1), j * (c.height - 1.0) / (kSamples - 1));
+      const Eigen::Vector2d distorted((pixel.x() - c.cx) / c.fx, (pixel.y() - c.cy) / c.fy);
+      const Eigen::Vector2d undistorted = c.Undistort(distorted);
+      const Eigen::Vector2d back = c.Distort(undistorted);
+      if (!back.allFinite() || !((back - distorted).norm() <= 1e-6 * (1.0 + distorted.norm()))) {
+        throw Error(fmt::format(
+            "sensor config: {}.distortion [{}, {}, {}, {}, {}] is not one-to-one over the image: pixel ({}, {}) "
+            "does not undistort (the coefficients are outside where the lens model holds)",
+            field, c.distortion[0], c.distortion[1], c.distortion[2], c.distortion[3], c.distortion[4],
+            pixel.x(), pixel.y()));
+      }
+    }
+  }
+}
+
 void ValidateIntrinsics(const CameraIntrinsics& c, const std::string& field) {
   const std::string side_bound = fmt::format("> 1 and <= {}", SensorLimits::kMaxImageSidePx);
   Require(c.width > 1 && c.width <= SensorLimits::kMaxImageSidePx, field + ".width", side_bound, c.width);
@@ -62,6 +85,7 @@ void ValidateIntrinsics(const CameraIntrinsics& c, const std::string& field) {
     Require(std::isfinite(c.distortion[i]), fmt::format("{}.distortion[{}]", field, i), "finite",
             c.distortion[i]);
   }
+  RequireInvertibleDistortion(c, field);
 }
 
 void ValidateRectangle(const Rectangle3& r, const std::string& field) {
@@ -228,6 +252,8 @@ class Writer {
   YAML::Emitter out_;
 };
 
+constexpr double kMaxPositionNoiseMm = 1.0;
+
 void RequireFiniteVector(const Eigen::Vector3d& v, const std::string& field, bool non_negative) {
   for (int i = 0; i < 3; ++i) {
     Require(std::isfinite(v(i)) && (!non_negative || v(i) >= 0), fmt::format("{}[{}]", field, i),
@@ -277,7 +303,13 @@ void ValidateVendorCamera(const VendorCameraModelConfig& v, const CameraIntrinsi
   Require(d.max_mm <= SensorLimits::kMaxLengthMm, "camera_model.dome_fit.max_mm",
           fmt::format("<= {} mm", SensorLimits::kMaxLengthMm), d.max_mm);
   const VendorDatasheetConfig& s = v.datasheet;
-  RequireFiniteVector(s.position_noise_mm, "camera_model.datasheet.position_noise_mm", true);
+  // The noise the force inverse's weight is chosen for (the discrepancy principle): 0 would
+  // leave it unregularised, 1e308 regularise every force away. A Tac3D's is about 0.001 mm.
+  for (int i = 0; i < 3; ++i) {
+    Require(s.position_noise_mm(i) > 0 && s.position_noise_mm(i) <= kMaxPositionNoiseMm,
+            fmt::format("camera_model.datasheet.position_noise_mm[{}]", i),
+            fmt::format("in (0, {}] mm", kMaxPositionNoiseMm), s.position_noise_mm(i));
+  }
   RequireFiniteVector(s.marker_force_noise_n, "camera_model.datasheet.marker_force_noise_n", true);
   RequireFiniteVector(s.resultant_force_noise_n, "camera_model.datasheet.resultant_force_noise_n", true);
   RequireFiniteVector(s.position_drift_mm_per_min, "camera_model.datasheet.position_drift_mm_per_min", false);

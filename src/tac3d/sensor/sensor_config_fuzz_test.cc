@@ -54,6 +54,7 @@ std::string SeedVendorConfigYaml() {
     v.reference_pixels[1].emplace_back(400 + i, 200);
   }
   v.dome = {Eigen::Vector3d(0, 0, -23.75), 33.3, 0.038, 0.1, 1.016};
+  v.datasheet.position_noise_mm = Eigen::Vector3d(0.001, 0.001, 0.004);
   v.datasheet.resultant_relative_error_pct = Eigen::Vector3d(2.3, 1.9, 4.9);
   c.vendor_camera = v;
   return SensorConfigToYaml(c);

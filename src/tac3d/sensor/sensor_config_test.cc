@@ -128,6 +128,11 @@ TEST(SensorConfig, RefusesOutOfRangeValues) {
   ExpectRefused("poisson_ratio: 0.48", "poisson_ratio: 0.5", "elastic_body.poisson_ratio");
   ExpectRefused("youngs_modulus_mpa: 1.0", "youngs_modulus_mpa: 0.0", "youngs_modulus_mpa");
   ExpectRefused("dot_diameter_mm: 0.6", "dot_diameter_mm: 1.5", "markers.dot_diameter_mm");
+  // A k1 of 1e160 was accepted and the distortion silently dropped (no pixel undistorts).
+  ExpectRefused("distortion: \\[[^\\]]*\\]", "distortion: [1e160, 0, 0, 0, 0]",
+                "camera.distortion [1e+160, 0, 0, 0, 0] is not one-to-one over the image: pixel (0, 0) "
+                "does not undistort");
+  ExpectRefused("distortion: \\[[^\\]]*\\]", "distortion: [-5, 0, 0, 0, 0]", "is not one-to-one over the image");
 }
 
 TEST(SensorConfig, RefusesAMarkerGridLargerThanTheFingertip) {

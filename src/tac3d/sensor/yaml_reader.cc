@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <exception>
+#include <limits>
 #include <map>
 #include <optional>
 #include <sstream>
@@ -200,8 +201,19 @@ int YamlReader::Int(const std::string& key) {
   try {
     return n.as<int>();
   } catch (const YAML::Exception&) {
+  }
+  // An integer too large for an int is out of range, not "not an integer".
+  double value = 0.0;
+  try {
+    value = n.as<double>();
+  } catch (const YAML::Exception&) {
     FailAt(n, Join(key), "must be an integer");
   }
+  if (std::isfinite(value) && value == std::floor(value)) {
+    FailAt(n, Join(key), fmt::format("{} is out of range: must be an integer in [{}, {}]", n.Scalar(),
+                                     std::numeric_limits<int>::min(), std::numeric_limits<int>::max()));
+  }
+  FailAt(n, Join(key), "must be an integer");
 }
 
 bool YamlReader::Bool(const std::string& key) {

@@ -102,12 +102,14 @@ void SimulationOptions::Validate() const {
 }
 
 void StepLoads::Validate() const {
-  if (!(normal_force_n >= 0.0 && std::isfinite(normal_force_n))) {
-    throw Error(fmt::format("StepLoads.normal_force_n must be finite and >= 0, got {}",
+  if (!(normal_force_n >= 0.0 && normal_force_n <= kMaxForceN)) {
+    throw Error(fmt::format("StepLoads.normal_force_n must be in [0, {}] N, got {}",
+                            kMaxForceN,
                             normal_force_n));
   }
-  if (!tangential_force_n.allFinite()) {
-    throw Error(fmt::format("StepLoads.tangential_force_n must be finite, got ({}, {})",
+  if (!(tangential_force_n.allFinite() && tangential_force_n.norm() <= kMaxForceN)) {
+    throw Error(fmt::format("StepLoads.tangential_force_n must be at most {} N long, got ({}, {})",
+                            kMaxForceN,
                             tangential_force_n.x(),
                             tangential_force_n.y()));
   }

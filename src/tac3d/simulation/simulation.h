@@ -59,7 +59,11 @@ struct StepLoads {
   /// friction capacity the contact slides as a whole (ContactStatus::kGrossSliding).
   Eigen::Vector2d tangential_force_n = Eigen::Vector2d::Zero();
 
-  /// @throws tac3d::Error naming the field: P finite >= 0, Q finite.
+  /// The largest P or |Q| (N): a hundred times a fingertip's range, far past where its linear
+  /// elastic model holds; 1e160 N made the solver's arithmetic overflow into a zero force.
+  static constexpr double kMaxForceN = 1000.0;
+
+  /// @throws tac3d::Error naming the field: P in [0, kMaxForceN], |Q| <= kMaxForceN.
   void Validate() const;
 };
 

@@ -349,7 +349,7 @@ TEST(TwinSimulation, CallersLoadsAreChecked) {
         try {
           sim.Step(StepLoads{-1.0, {0.0, 0.0}});
         } catch (const Error& e) {
-          EXPECT_THAT(e.what(), HasSubstr("StepLoads.normal_force_n must be finite and >= 0"));
+          EXPECT_THAT(e.what(), HasSubstr("StepLoads.normal_force_n must be in [0, 1000] N, got -1"));
           throw;
         }
       },
@@ -359,11 +359,15 @@ TEST(TwinSimulation, CallersLoadsAreChecked) {
         try {
           sim.Step(StepLoads{1.0, {std::nan(""), 0.0}});
         } catch (const Error& e) {
-          EXPECT_THAT(e.what(), HasSubstr("StepLoads.tangential_force_n must be finite"));
+          EXPECT_THAT(e.what(), HasSubstr("StepLoads.tangential_force_n must be at most 1000 N long"));
           throw;
         }
       },
       Error);
+  // 1e160 N overflowed into a zero tangential force and no slip.
+  EXPECT_THAT([&] { sim.Step(StepLoads{1.0, {1e160, 0.0}}); },
+              ::testing::ThrowsMessage<Error>(
+                  HasSubstr("StepLoads.tangential_force_n must be at most 1000 N long, got (1e+160, 0)")));
   scene.trajectory.tangential_load = TangentialLoadRamp{};
   TwinSimulation ramped(scene, SmallModel(), NoImages());
   EXPECT_THROW(

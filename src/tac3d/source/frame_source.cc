@@ -21,9 +21,7 @@ namespace fs = std::filesystem;
 
 // A camera's driver is given this long to deliver each frame before the source fails.
 constexpr double kCameraTimeoutS = 2.0;
-// The highest frame rate of a camera or an image folder: a tactile camera runs at 30-90 fps;
-// 1e300 gave every image of a folder the timestamp 0.
-constexpr double kMaxFps = 1000.0;
+constexpr double kMaxFps = 1000.0;  // ValidateFrameRate's bound
 
 std::string Lower(std::string s) {
   std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
@@ -129,9 +127,7 @@ class ImageFolderSource : public FrameSource {
       : folder_(folder), files_(ListImageFiles(folder)), fps_(fps), max_width_(max_width),
         max_height_(max_height) {
     if (files_.empty()) throw Error(fmt::format("image folder '{}' holds no image file", folder));
-    if (!(fps > 0 && fps <= kMaxFps)) {
-      throw Error(fmt::format("image folder: fps = {} must be in (0, {}]", fps, kMaxFps));
-    }
+    ValidateFrameRate(fps, "image folder");
     if (max_width < 1 || max_height < 1) {
       throw Error(fmt::format("image folder: the largest image {} x {} must be at least 1 x 1", max_width,
                               max_height));
@@ -183,13 +179,17 @@ void CameraSourceOptions::Validate() const {
     throw Error(fmt::format("camera: width x height = {} x {} must be within 16..{}", width, height,
                             kMaxImageSidePx));
   }
-  if (!(fps > 0 && fps <= kMaxFps)) {
-    throw Error(fmt::format("camera: fps = {} must be in (0, {}]", fps, kMaxFps));
-  }
+  ValidateFrameRate(fps, "camera");
   if (exposure && !(*exposure > 0)) {
     throw Error(fmt::format("camera: exposure = {} must be > 0 (omit it for automatic)", *exposure));
   }
   ValidatePixelFormat(pixel_format);
+}
+
+void ValidateFrameRate(double fps, std::string_view what) {
+  if (!(fps > 0 && fps <= kMaxFps)) {
+    throw Error(fmt::format("{}: fps = {} must be in (0, {}]", what, fps, kMaxFps));
+  }
 }
 
 void ValidatePixelFormat(const std::string& code) {

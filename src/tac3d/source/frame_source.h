@@ -4,6 +4,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -63,6 +64,10 @@ struct CameraSourceOptions {
 
 /// @throws Error unless `code` is empty or a V4L2 four-character code (four letters or digits).
 void ValidatePixelFormat(const std::string& code);
+
+/// @throws Error naming `what` ("camera", "image folder") unless `fps` is in (0, 1000]: a
+/// tactile camera runs at 30-90 fps, and 1e300 gave every image of a folder the timestamp 0.
+void ValidateFrameRate(double fps, std::string_view what);
 
 /// @throws Error (naming the device and what went wrong) if the camera cannot be opened
 ///   or does not deliver the requested resolution.

@@ -123,8 +123,10 @@ BlobOptions SizeBlobOptionsToDots(const BlobOptions& options, double spread_px) 
 }
 
 MarkerGrid FindMarkerGrid(const cv::Mat& image, int rows, int cols, const BlobOptions& blob_options) {
-  if (rows < 0 || cols < 0) {
-    throw Error(fmt::format("marker grid: {} x {} markers (0 finds the size from the image)", rows, cols));
+  if (rows < 0 || cols < 0 || rows > kMaxMarkerGridSide || cols > kMaxMarkerGridSide) {
+    throw Error(fmt::format("marker grid: {} x {} markers must be within 0 .. {} a side (0 finds the size from "
+                            "the image)",
+                            rows, cols, kMaxMarkerGridSide));
   }
   if (image.empty() || image.type() != CV_8UC1) {
     throw Error("marker grid: the reference frame must be a non-empty 8-bit single channel image");
@@ -190,6 +192,13 @@ MarkerGrid FindMarkerGrid(const cv::Mat& image, int rows, int cols, const BlobOp
         best_c0 = c0;
       }
     }
+  }
+  // A grid given larger than the image shows would leave most of its markers lost (a wrong
+  // --grid), not measured.
+  if (2 * best_count < grid.rows * grid.cols) {
+    throw Error(fmt::format("marker grid: the {} x {} grid given holds only {} markers of the reference frame's "
+                            "lattice, which spans {} x {}: is the grid right?",
+                            grid.rows, grid.cols, best_count, r_max - r_min + 1, c_max - c_min + 1));
   }
   grid.dot_radius_px = 2 * Median(spreads);
   grid.blob = sized;

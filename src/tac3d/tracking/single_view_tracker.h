@@ -46,7 +46,11 @@ BlobOptions SizeBlobOptionsToDots(const BlobOptions& options, double spread_px);
 /// @param rows, cols the grid's size, or 0 for the extent of the lattice's blobs. Given, the
 /// window of that size holding the most blobs is taken.
 /// @pre image is CV_8UC1. The grid's axes lie within about 30 deg of the image's.
-/// @throws Error if fewer than 4 blobs are on a lattice, or rows / cols is negative.
+/// @throws Error if fewer than 4 blobs are on a lattice, rows / cols is negative or over
+/// kMaxMarkerGridSide, or a given grid holds under half as many blobs as it has markers.
+/// The most markers a side FindMarkerGrid takes (a TactileFrame's kMaxGridSide).
+inline constexpr int kMaxMarkerGridSide = 100;
+
 MarkerGrid FindMarkerGrid(const cv::Mat& image, int rows, int cols, const BlobOptions& blob = {});
 
 /// Tracks the markers of a single-view sensor (one camera looking at a marked gel, such as

@@ -4,6 +4,8 @@
 #include <filesystem>
 #include <random>
 
+#include <fmt/format.h>
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -164,6 +166,16 @@ TEST(SingleViewTracker, NoGridOrABadImageThrows) {
   EXPECT_THROW(SingleViewTracker(blank, 0, 0), Error);
   const cv::Mat reference = RenderFrame(GridCentres({25.3, 17.8}), 0);
   EXPECT_THROW(SingleViewTracker(reference, -1, 0), Error);
+  // A grid far larger than the image's: refused at once (it took minutes and all memory), and
+  // one twice the image's lattice a side, which would leave most markers lost.
+  using ::testing::HasSubstr;
+  using ::testing::ThrowsMessage;
+  EXPECT_THAT([&] { SingleViewTracker(reference, 1000, 1000); },
+              ThrowsMessage<Error>(HasSubstr("1000 x 1000 markers must be within 0 .. 100 a side")));
+  EXPECT_THAT([&] { SingleViewTracker(reference, 2 * kRows, 2 * kCols); },
+              ThrowsMessage<Error>(HasSubstr(fmt::format("grid given holds only {} markers of the reference "
+                                                         "frame's lattice, which spans {} x {}",
+                                                         kRows * kCols, kRows, kCols))));
   EXPECT_THROW(SingleViewTracker(cv::Mat(), 0, 0), Error);
   SingleViewTracker tracker(reference, 0, 0);
   GridObservation o;

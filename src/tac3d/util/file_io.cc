@@ -1,11 +1,15 @@
 #include "tac3d/util/file_io.h"
 
+#include <fcntl.h>
 #include <fmt/format.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
+#include <cerrno>
 #include <cctype>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <system_error>
@@ -15,17 +19,26 @@
 namespace tac3d {
 namespace fs = std::filesystem;
 
-std::string ReadFileCapped(const std::string& path, std::size_t max_bytes, std::string_view what) {
+std::uintmax_t RequireRegularFile(const std::string& path, std::string_view what) {
   std::error_code ec;
   const fs::file_status status = fs::status(path, ec);
-  if (ec || !fs::exists(status)) throw Error(fmt::format("{} '{}' does not exist", what, path));
+  if (ec && ec != std::errc::no_such_file_or_directory) {
+    throw Error(fmt::format("{} '{}' cannot be opened: {}", what, path, ec.message()));  // a link loop
+  }
+  if (!fs::exists(status)) throw Error(fmt::format("{} '{}' does not exist", what, path));
   if (fs::is_directory(status))
     throw Error(fmt::format("{} '{}' is a directory, not a file", what, path));
   if (!fs::is_regular_file(status)) {
     throw Error(fmt::format("{} '{}' is not a regular file (a device or a pipe?)", what, path));
   }
   const std::uintmax_t size = fs::file_size(path, ec);
-  if (!ec && size > max_bytes) {
+  if (ec) throw Error(fmt::format("{} '{}': {}", what, path, ec.message()));
+  return size;
+}
+
+std::string ReadFileCapped(const std::string& path, std::size_t max_bytes, std::string_view what) {
+  const std::uintmax_t size = RequireRegularFile(path, what);
+  if (size > max_bytes) {
     throw Error(fmt::format(
         "{} '{}' is {} bytes, more than the limit of {} bytes", what, path, size, max_bytes));
   }
@@ -34,7 +47,7 @@ std::string ReadFileCapped(const std::string& path, std::size_t max_bytes, std::
   // Read at most one byte past the cap, in case the file grew since its size was taken; in
   // chunks, so a small file under a large cap costs its size, not the cap's.
   std::string text;
-  if (!ec) text.reserve(static_cast<std::size_t>(std::min<std::uintmax_t>(size, max_bytes)) + 1);
+  text.reserve(static_cast<std::size_t>(std::min<std::uintmax_t>(size, max_bytes)) + 1);
   char chunk[1 << 16];
   while (in && text.size() <= max_bytes) {
     in.read(chunk, static_cast<std::streamsize>(std::min(sizeof(chunk), max_bytes + 1 - text.size())));
@@ -63,15 +76,60 @@ void CheckParentFolder(const fs::path& path, std::string_view what) {
   }
 }
 
+// Refuses an output that is one of `inputs` or would replace a file inside an input folder.
+void CheckNotAnInput(const fs::path& path,
+                     std::string_view what,
+                     const std::vector<std::string>& inputs) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) return;  // a new file replaces nothing
+  const fs::path output = fs::canonical(path, ec);
+  if (ec) return;
+  for (const std::string& input : inputs) {
+    std::error_code input_ec;
+    if (input.empty() || !fs::exists(input, input_ec)) continue;
+    if (fs::equivalent(path, input, input_ec)) {
+      throw Error(fmt::format(
+          "{} '{}' is the input '{}': write the output elsewhere", what, path.string(), input));
+    }
+    if (!fs::is_directory(input, input_ec)) continue;
+    const fs::path folder = fs::canonical(input, input_ec);
+    if (input_ec) continue;
+    const auto [folder_end, unused] =
+        std::mismatch(folder.begin(), folder.end(), output.begin(), output.end());
+    if (folder_end == folder.end()) {
+      throw Error(fmt::format("{} '{}' would replace a file inside the input folder '{}': write "
+                              "the output elsewhere",
+                              what,
+                              path.string(),
+                              input));
+    }
+  }
+}
+
 }  // namespace
 
 void CheckOutputFile(const std::string& path,
                      std::string_view what,
-                     std::initializer_list<std::string_view> extensions) {
+                     std::initializer_list<std::string_view> extensions,
+                     const std::vector<std::string>& inputs) {
   if (path.empty()) throw Error(fmt::format("{}: empty output path", what));
   const fs::path p(path);
   std::error_code ec;
-  if (fs::is_directory(p, ec)) throw Error(fmt::format("{} '{}' is a directory", what, path));
+  const fs::file_status status = fs::symlink_status(p, ec);
+  if (!ec && fs::is_symlink(status)) {
+    throw Error(fmt::format(
+        "{} '{}' is a symbolic link: name the file itself (tac3d replaces only regular files)",
+        what,
+        path));
+  }
+  if (!ec && fs::is_directory(status))
+    throw Error(fmt::format("{} '{}' is a directory", what, path));
+  if (!ec && fs::exists(status) && !fs::is_regular_file(status)) {
+    throw Error(fmt::format(
+        "{} '{}' is not a regular file (a device or a pipe?): tac3d writes only regular files",
+        what,
+        path));
+  }
   if (extensions.size() > 0) {
     std::string ext = p.extension().string();
     std::transform(
@@ -84,6 +142,7 @@ void CheckOutputFile(const std::string& path,
     }
   }
   CheckParentFolder(p, what);
+  CheckNotAnInput(p, what, inputs);
 }
 
 void CheckOutputFolder(const std::string& path, std::string_view what) {
@@ -112,21 +171,49 @@ void MakeCacheDirectory(const std::string& dir) {
   if (ec) throw Error(fmt::format("cannot create the cache folder '{}': {}", dir, ec.message()));
 }
 
-void WriteFileAtomically(const std::string& path,
-                         const std::function<void(const std::string&)>& write) {
-  const std::string temporary = fmt::format("{}.tmp{}", path, ::getpid());
+std::string CreateTemporaryFile(const std::string& path) {
+  // Unique within the process (threads write beside one another) and across processes (pid);
+  // O_EXCL refuses any name that exists, a planted symbolic link included.
+  static std::atomic<unsigned> counter{0};
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    const std::string temporary = fmt::format("{}.tmp{}-{}", path, ::getpid(), counter++);
+    const int fd =
+        ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0666);
+    if (fd >= 0) {
+      ::close(fd);
+      return temporary;
+    }
+    if (errno != EEXIST) {
+      throw Error(fmt::format(
+          "cannot create a temporary file beside '{}': {}", path, std::strerror(errno)));
+    }
+  }
+  throw Error(fmt::format("cannot create a temporary file beside '{}': 100 names taken", path));
+}
+
+void ReplaceWithTemporary(const std::string& temporary, const std::string& path) {
   std::error_code ec;
-  try {
-    write(temporary);
-  } catch (...) {
-    fs::remove(temporary, ec);
-    throw;
+  const fs::file_status status = fs::symlink_status(path, ec);
+  if (!ec && fs::exists(status) && !fs::is_regular_file(status)) {
+    throw Error(fmt::format(
+        "'{}' exists and is not a regular file (a device, a pipe, a folder or a symbolic link): "
+        "tac3d does not replace it",
+        path));
   }
   fs::rename(temporary, path, ec);
-  if (ec) {
+  if (ec) throw Error(fmt::format("cannot rename '{}' to '{}': {}", temporary, path, ec.message()));
+}
+
+void WriteFileAtomically(const std::string& path,
+                         const std::function<void(const std::string&)>& write) {
+  const std::string temporary = CreateTemporaryFile(path);
+  try {
+    write(temporary);
+    ReplaceWithTemporary(temporary, path);
+  } catch (...) {
     std::error_code ignored;
     fs::remove(temporary, ignored);
-    throw Error(fmt::format("cannot rename '{}' to '{}': {}", temporary, path, ec.message()));
+    throw;
   }
 }
 

@@ -1,11 +1,13 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <cstdio>
 #include <functional>
 #include <initializer_list>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace tac3d {
 
@@ -14,18 +16,31 @@ namespace tac3d {
 /// fails at once instead of filling memory.
 inline constexpr std::size_t kMaxConfigFileBytes = 4u << 20;
 
+/// Checks that `path` is a regular file (following links) before anything reads it: /dev/zero
+/// never ends, a FIFO blocks for ever. @returns its size in bytes.
+/// @param what what the file is for the messages ("PLY file").
+/// @throws Error naming the file when it does not exist, is a directory or is not a regular
+///   file (a device, a pipe).
+std::uintmax_t RequireRegularFile(const std::string& path, std::string_view what);
+
 /// Reads a whole regular file of at most `max_bytes`.
 /// @param what what the file is for the messages ("sensor config").
 /// @throws Error naming the file when it does not exist, is a directory or not a regular
 ///   file (a device, a pipe), cannot be read, or is larger than max_bytes.
 std::string ReadFileCapped(const std::string& path, std::size_t max_bytes, std::string_view what);
 
-/// Checks, before any work, that an output file can be created: its folder exists and is a
-/// folder, the path is not a folder, and (if `extensions` is not empty) it ends in one of them
-/// (".png"; compared case-insensitively). @throws Error naming the path and the problem.
+/// The one rule for every file tac3d writes, checked before any work: the path is not empty
+/// and not a folder; if it exists it is a regular file (not a device, a pipe or a symbolic
+/// link, which a write would replace or write through); it is none of `inputs` and does not
+/// replace a file inside an input folder (so `--out` never destroys what the command reads);
+/// its folder exists and is writable; and (if `extensions` is not empty) it ends in one of them
+/// (".png"; compared case-insensitively).
+/// @param inputs the files and folders the command reads (missing ones are skipped).
+/// @throws Error naming the path and the problem.
 void CheckOutputFile(const std::string& path,
                      std::string_view what,
-                     std::initializer_list<std::string_view> extensions = {});
+                     std::initializer_list<std::string_view> extensions = {},
+                     const std::vector<std::string>& inputs = {});
 
 /// Checks, before any work, that an output folder can be made or used: the path is not a file,
 /// and the folder it goes in exists and is writable (so a typo in a parent is refused, not
@@ -42,10 +57,21 @@ std::string DefaultCacheDir();
 /// @throws Error naming the folder if it cannot be made.
 void MakeCacheDirectory(const std::string& dir);
 
-/// Writes a file through a temporary name in the same folder and renames it, so the final
-/// name only ever holds a whole file. `write` writes to the temporary path it is given and
-/// throws on failure; the temporary is removed if it or the rename fails.
-/// @throws Error naming the file.
+/// Creates an empty temporary file beside `path` (in the same folder, so it can be renamed
+/// over it) under a name no other file has, exclusively: a file or a symbolic link planted at
+/// a predictable temporary name is never opened or written through. @returns its path.
+/// @throws Error naming `path` if it cannot be created.
+std::string CreateTemporaryFile(const std::string& path);
+
+/// Renames the temporary `temporary` over `path`, unless `path` exists and is not a regular
+/// file (a device, a pipe, a symbolic link): those are refused, never replaced.
+/// @throws Error naming the file; the temporary is left for the caller to remove.
+void ReplaceWithTemporary(const std::string& temporary, const std::string& path);
+
+/// Writes a file through a temporary (CreateTemporaryFile) and renames it into place
+/// (ReplaceWithTemporary), so the final name only ever holds a whole file. `write` writes to
+/// the temporary path it is given and throws on failure; the temporary is removed if it or the
+/// rename fails. @throws Error naming the file.
 void WriteFileAtomically(const std::string& path,
                          const std::function<void(const std::string&)>& write);
 

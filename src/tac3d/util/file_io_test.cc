@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 #include <poll.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <filesystem>
@@ -55,6 +56,74 @@ TEST(CheckOutputFile, RefusesAMissingFolderAWrongExtensionAndAFolder) {
             fmt::format("--svg '{0}/missing/d.svg': the folder '{0}/missing' does not exist", dir));
   EXPECT_EQ(MessageOf([&] { CheckOutputFile(dir, "--out"); }),
             fmt::format("--out '{}' is a directory", dir));
+}
+
+std::string Contents(const std::string& path) {
+  std::ifstream in(path);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+// The one output rule: a write never replaces a device or a pipe, never goes through a link,
+// and never destroys what the command reads.
+TEST(CheckOutputFile, RefusesADeviceAPipeALinkAndAnInput) {
+  const std::string dir = testing::MakeTempDir("check_rule");
+  EXPECT_EQ(MessageOf([] { CheckOutputFile("/dev/null", "--out"); }),
+            "--out '/dev/null' is not a regular file (a device or a pipe?): tac3d writes only "
+            "regular files");
+  ASSERT_EQ(::mkfifo((dir + "/fifo").c_str(), 0600), 0);
+  EXPECT_EQ(MessageOf([&] { CheckOutputFile(dir + "/fifo", "--record"); }),
+            fmt::format("--record '{}/fifo' is not a regular file (a device or a pipe?): tac3d "
+                        "writes only regular files",
+                        dir));
+  std::ofstream(dir + "/target.csv") << "keep";
+  fs::create_symlink(dir + "/target.csv", dir + "/link.csv");
+  EXPECT_EQ(MessageOf([&] { CheckOutputFile(dir + "/link.csv", "--out", {".csv"}); }),
+            fmt::format("--out '{}/link.csv' is a symbolic link: name the file itself (tac3d "
+                        "replaces only regular files)",
+                        dir));
+  // The input itself, by another name, and a file inside an input folder.
+  EXPECT_EQ(MessageOf([&] {
+              CheckOutputFile(dir + "/./target.csv", "--out", {}, {"", dir + "/target.csv"});
+            }),
+            fmt::format("--out '{0}/./target.csv' is the input '{0}/target.csv': write the "
+                        "output elsewhere",
+                        dir));
+  fs::create_directory(dir + "/vendor");
+  std::ofstream(dir + "/vendor/sensor.yaml") << "sn: A";
+  EXPECT_EQ(MessageOf([&] {
+              CheckOutputFile(dir + "/vendor/sensor.yaml", "--out", {".yaml"}, {dir + "/vendor"});
+            }),
+            fmt::format("--out '{0}/vendor/sensor.yaml' would replace a file inside the input "
+                        "folder '{0}/vendor': write the output elsewhere",
+                        dir));
+  // A new file beside the inputs replaces nothing; a missing input is none.
+  EXPECT_NO_THROW(CheckOutputFile(dir + "/vendor/new.yaml", "--out", {}, {dir + "/vendor"}));
+  EXPECT_NO_THROW(CheckOutputFile(dir + "/out.yaml", "--out", {}, {dir + "/missing", dir + "/vendor"}));
+  EXPECT_EQ(Contents(dir + "/target.csv"), "keep");
+}
+
+TEST(WriteFileAtomically, NeverWritesThroughALinkPlantedAtItsTemporaryOrItsName) {
+  const std::string dir = testing::MakeTempDir("atomic_links");
+  const std::string victim = dir + "/victim.txt";
+  std::ofstream(victim) << "keep";
+  const std::string path = dir + "/out.txt";
+  // The temporaries' names are path.tmpPID-N: plant links at the next few.
+  const std::string first = CreateTemporaryFile(path);
+  fs::remove(first);
+  const std::string stem = first.substr(0, first.rfind('-') + 1);
+  const int next = std::stoi(first.substr(first.rfind('-') + 1)) + 1;
+  for (int k = next; k < next + 3; ++k) fs::create_symlink(victim, stem + std::to_string(k));
+  WriteTextFileAtomically(path, "written");
+  EXPECT_EQ(Contents(path), "written");
+  EXPECT_EQ(Contents(victim), "keep");
+  // A link or a device at the final name is refused, not replaced.
+  fs::create_symlink(victim, dir + "/link.txt");
+  EXPECT_EQ(MessageOf([&] { WriteTextFileAtomically(dir + "/link.txt", "x"); }),
+            fmt::format("'{}/link.txt' exists and is not a regular file (a device, a pipe, a "
+                        "folder or a symbolic link): tac3d does not replace it",
+                        dir));
+  EXPECT_TRUE(fs::is_symlink(dir + "/link.txt"));
+  EXPECT_EQ(Contents(victim), "keep");
 }
 
 // Issue 22, defect 10: Python's simulate() and cache_dir made missing parents the CLI refuses

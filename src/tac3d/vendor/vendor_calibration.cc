@@ -264,6 +264,37 @@ double MeanGridPitch(const std::vector<Eigen::Vector3d>& points, int rows, int c
   return sum / count;
 }
 
+namespace {
+
+// A quarter of the pitch: three times HDL1-0001's worst ray gap and twice its worst distance off
+// the dome, and far under a marker named for its neighbour (a pitch).
+constexpr double kMaxMarkerDisagreementPitches = 0.25;
+
+// The two views' reference pixels name the same markers: each marker's two rays meet (HDL1-0001:
+// at most 0.08 mm apart) and the markers lie on the dome (at most 0.13 mm off its sphere). A
+// folder whose right-view pixels belong to other markers triangulates them up to millimetres
+// off it, and every position tac3d measured with it would be that far off.
+void CheckMarkersAgree(const std::string& folder, const std::vector<Triangulation>& triangulated,
+                       const DomeFitConfig& dome) {
+  const double bound_mm = kMaxMarkerDisagreementPitches * dome.pitch_mm;
+  const std::string markers_file = PathIn(folder, kVendorMarkersFile);
+  for (size_t i = 0; i < triangulated.size(); ++i) {
+    if (triangulated[i].residual > bound_mm) {
+      throw Error(fmt::format("{}: marker {} (lines {} and {}): its two reference pixels' rays pass {:.3f} mm apart, "
+                              "over {:.3f} mm ({} of the {:.3f} mm pitch): do both views' lines name the same markers?",
+                              markers_file, i, i + 1, i + 1 + triangulated.size(), triangulated[i].residual, bound_mm,
+                              kMaxMarkerDisagreementPitches, dome.pitch_mm));
+    }
+  }
+  if (dome.max_mm > bound_mm) {
+    throw Error(fmt::format("{}: the triangulated markers lie up to {:.3f} mm off the sphere fitted to them, over "
+                            "{:.3f} mm ({} of the {:.3f} mm pitch): do both views' lines name the same markers?",
+                            markers_file, dome.max_mm, bound_mm, kMaxMarkerDisagreementPitches, dome.pitch_mm));
+  }
+}
+
+}  // namespace
+
 SensorConfig ImportVendorSensor(const std::string& folder) {
   const VendorCalibration calibration = ReadVendorCalibration(folder);
   SensorConfig config;
@@ -291,6 +322,7 @@ SensorConfig ImportVendorSensor(const std::string& folder) {
   dome.rms_mm = sphere.rms;
   dome.max_mm = sphere.max_error;
   dome.pitch_mm = MeanGridPitch(reference, calibration.grid_rows, calibration.grid_cols);
+  CheckMarkersAgree(folder, triangulated, dome);
 
   // The twin's axisymmetric dome from the fit: the markers' sphere is depth_mm under the outer
   // surface (the vendor states no depth: tac3d's default is kept), the base is the refracting

@@ -1,10 +1,12 @@
 #include "tac3d/vendor/vendor_calibration.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <regex>
 #include <sstream>
 
+#include <fmt/format.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -17,6 +19,7 @@ namespace {
 
 namespace fs = std::filesystem;
 namespace fixture = testing::hdl1_0001;
+using ::testing::AllOf;
 using ::testing::HasSubstr;
 using ::testing::MatchesRegex;
 
@@ -170,6 +173,43 @@ TEST(VendorCalibration, RefusesACorruptedFolderNamingFileAndLine) {
   const std::string folder = testing::WriteFixtureVendorFolder("vendor");
   fs::remove(fs::path(folder) / kVendorDatasheetFile);
   EXPECT_THAT(CalibrationRefusalOf(folder), HasSubstr("datasheet.yaml"));
+}
+
+// Files each well formed that do not agree: the import refuses them, naming the file, instead
+// of a sensor whose every position would be millimetres off.
+TEST(VendorCalibration, ImportRefusesViewsNamingOtherMarkersAndAnImplausibleNoise) {
+  const auto import_refusal = [](const std::string& folder) -> std::string {
+    try {
+      ImportVendorSensor(folder);
+    } catch (const Error& e) {
+      return e.what();
+    }
+    return "accepted";
+  };
+  std::string folder = testing::WriteFixtureVendorFolder("vendor");
+  ASSERT_EQ(import_refusal(folder), "accepted");
+  // Two neighbours' right-view lines swapped, in the middle of a row: each ray pair still meets,
+  // but at the other marker's depth.
+  const fs::path markers = fs::path(folder) / kVendorMarkersFile;
+  std::vector<std::string> lines;
+  {
+    std::ifstream in(markers);
+    for (std::string line; std::getline(in, line);) lines.push_back(line);
+  }
+  ASSERT_EQ(lines.size(), 800u);
+  std::swap(lines[400 + 210], lines[400 + 211]);
+  {
+    std::ofstream out(markers);
+    for (const std::string& line : lines) out << line << "\n";
+  }
+  EXPECT_THAT(import_refusal(folder), AllOf(HasSubstr("markers.txt"),
+                                            HasSubstr("do both views' lines name the same markers?")));
+  // The datasheet's position noise picks the force inverse's weight: 0 and 1e308 are refused.
+  for (const char* noise : {"0", "1e308"}) {
+    folder = testing::WriteFixtureVendorFolder("vendor");
+    EditVendorFile(folder, kVendorDatasheetFile, "Np: \\[[^,]+,", fmt::format("Np: [{},", noise));
+    EXPECT_THAT(import_refusal(folder), HasSubstr("camera_model.datasheet.position_noise_mm[0]")) << noise;
+  }
 }
 
 TEST(VendorCalibration, RefusesACorruptedCopyOfTheRealHdl1Folder) {

@@ -43,6 +43,7 @@ nlohmann::json Json(const VendorForceEvaluation& f) {
           {"vendor_marker_sum_error_pct", Json(f.vendor_marker_sum)},
           {"frames_compared", f.frames_compared},
           {"frames_support_refined", f.frames_support_refined},
+          {"frames_not_finite", f.frames_not_finite},
           {"min_resultant_n", f.options.min_resultant_n},
           {"median_recorded_resultant_n", {FiniteOrNull(r.x()), FiniteOrNull(r.y()), FiniteOrNull(r.z())}},
           {"position_noise_mm", {f.position_noise_mm.x(), f.position_noise_mm.y(), f.position_noise_mm.z()}},
@@ -134,6 +135,10 @@ VendorForceEvaluation EvaluateVendorForces(const SensorConfig& config, const Ven
   for (std::int64_t k = 0; k < recording.frames(); ++k) {
     const Eigen::Vector3d resultant = VendorRecording::Frame(recording.resultant_force, k).row(0).transpose();
     if (!(resultant.norm() > options.min_resultant_n)) continue;
+    if (!resultant.allFinite() || recording.FirstNonFiniteMarker(k) >= 0) {
+      ++f.frames_not_finite;
+      continue;
+    }
     recorded.push_back(resultant);
     marker_sums.push_back(VendorRecording::Frame(recording.forces, k).colwise().sum().transpose());
     displacements.push_back(PaperOrder(VendorRecording::Frame(recording.displacements, k)));
@@ -197,6 +202,10 @@ std::string VendorEvaluation::Report() const {
                         f.compliance.num_elements, f.compliance.num_free_dofs);
     text += fmt::format("{} frames with the recorded |resultant| over {} N", f.frames_compared,
                         f.options.min_resultant_n);
+    if (f.frames_not_finite > 0) {
+      text += fmt::format(" ({} more left out: a NaN or an infinity in a marker or the resultant)",
+                          f.frames_not_finite);
+    }
     if (f.frames_compared > 0) {
       const Eigen::Vector3d& r = f.median_recorded_resultant_n;
       text += fmt::format(" (median ({:.3f}, {:.3f}, {:.3f}) N)\n", r.x(), r.y(), r.z());
@@ -260,6 +269,11 @@ VendorEvaluation EvaluateVendorRecording(const SensorConfig& config, const Vendo
   e.frames = recording.frames();
   e.markers = markers;
   e.options = options;
+  if (const std::int64_t lost = recording.FirstNonFiniteMarker(options.reference_frame); lost >= 0) {
+    throw Error(fmt::format("reference frame {}: marker {}'s position, displacement or force is not a finite "
+                            "number; choose another --reference-frame",
+                            options.reference_frame, lost));
+  }
   const Eigen::MatrixX3d reference = recording.ReferencePositions(options.reference_frame);
   const std::vector<Triangulation> triangulated = stereo.TriangulateReference();
   std::vector<double> errors, gaps;

@@ -86,6 +86,8 @@ struct VendorForceEvaluation {
   /// ForceReconstructorOptions::max_support_markers).
   int frames_compared = 0;
   int frames_support_refined = 0;
+  /// Frames over min_resultant_n left out: a marker's or the resultant's value not finite.
+  int frames_not_finite = 0;
   /// The median over compared frames of the recorded R (N).
   Eigen::Vector3d median_recorded_resultant_n = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
   /// tac3d's inverse F = K D (the paper's eq. 3-4, what the check judges); beside it the same

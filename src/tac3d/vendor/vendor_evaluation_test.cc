@@ -133,6 +133,25 @@ TEST(VendorEvaluation, ForcesFailWhenTheDisplacementsAreHalvedAndNotApplicableWi
   EXPECT_THROW(EvaluateVendorRecording(config, FixtureForceRecording(), options), Error);
 }
 
+// A NaN displacement in the reference frame still gave 400 markers, all passing: the reference
+// must be whole, and force frames holding one are left out and counted.
+TEST(VendorEvaluation, ValuesThatAreNotNumbersAreNeverCompared) {
+  const SensorConfig config = testing::FixtureVendorSensor();
+  VendorRecording r = FixtureForceRecording();
+  auto* d = reinterpret_cast<double*>(r.displacements.data.data());
+  d[(400 + 5) * 3] = std::numeric_limits<double>::quiet_NaN();  // frame 1, marker 5, x
+  VendorEvaluationOptions options;
+  options.forces = TestForceOptions();
+  const VendorEvaluation e = EvaluateVendorRecording(config, r, options);
+  EXPECT_EQ(e.forces->frames_compared, 1);
+  EXPECT_EQ(e.forces->frames_not_finite, 1);
+  EXPECT_THAT(e.Report(), HasSubstr("(1 more left out: a NaN or an infinity in a marker or the resultant)"));
+  d[5 * 3] = std::numeric_limits<double>::quiet_NaN();  // frame 0, the reference
+  EXPECT_THAT([&] { EvaluateVendorRecording(config, r, options); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("reference frame 0: marker 5's position, displacement or "
+                                                        "force is not a finite number")));
+}
+
 TEST(VendorEvaluation, ReferencePositionsOfTheFixturePass) {
   const VendorEvaluation e = EvaluateVendorRecording(testing::FixtureVendorSensor(), FixtureRecording());
   EXPECT_TRUE(e.all_pass) << e.Report();

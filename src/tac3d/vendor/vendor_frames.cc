@@ -34,6 +34,11 @@ VendorFrames::VendorFrames(VendorRecording recording) : recording_(std::move(rec
   index_ = recording_.index.Int64Values();
   time_s_ = recording_.send_timestamp.Float64Values();
   if (frames() == 0) return;
+  if (const std::int64_t lost = recording_.FirstNonFiniteMarker(0); lost >= 0) {
+    throw Error(fmt::format("recording of '{}': frame 0, the reference, has a marker ({}) whose position, "
+                            "displacement or force is not a finite number",
+                            recording_.serial_number, lost));
+  }
   reference_ = recording_.ReferencePositions(0);
   std::vector<Eigen::Vector3d> rest(static_cast<std::size_t>(markers));
   for (std::int64_t i = 0; i < markers; ++i) rest[i] = reference_.row(i).transpose();
@@ -51,10 +56,19 @@ TactileFrame VendorFrames::Frame(std::int64_t f) const {
   frame.sn = recording_.serial_number;
   frame.index = index_[f];
   frame.timestamp_s = time_s_[f];
-  const Eigen::MatrixX3d positions = VendorRecording::Frame(recording_.positions, f);
-  const Eigen::MatrixX3d displacements = VendorRecording::Frame(recording_.displacements, f);
-  const Eigen::MatrixX3d forces = VendorRecording::Frame(recording_.forces, f);
+  Eigen::MatrixX3d positions = VendorRecording::Frame(recording_.positions, f);
+  Eigen::MatrixX3d displacements = VendorRecording::Frame(recording_.displacements, f);
+  Eigen::MatrixX3d forces = VendorRecording::Frame(recording_.forces, f);
   for (std::int64_t i = 0; i < markers; ++i) {
+    // A marker with a NaN or an infinity is lost this frame: at its reference, unloaded, so
+    // the frame's other markers and normals are computed as without it.
+    if (!(positions.row(i).allFinite() && displacements.row(i).allFinite() && forces.row(i).allFinite())) {
+      frame.valid[i] = false;
+      frame.set(FrameFlag::kMarkersLost);
+      positions.row(i) = reference_.row(i);
+      displacements.row(i).setZero();
+      forces.row(i).setZero();
+    }
     frame.positions_mm[i] = positions.row(i).transpose();
     frame.displacements_mm[i] = displacements.row(i).transpose();
     frame.forces_n[i] = forces.row(i).transpose();

@@ -67,6 +67,32 @@ TEST(VendorFrames, ASmallRecordingRoundTripsThroughATac3dRecording) {
   EXPECT_THROW(VendorRecordingOfFrames({}), Error);
 }
 
+// A NaN in a vendor .npy was imported as a valid marker (and crashed the friction map's
+// reconstruction): such a marker is lost in its frame; frame 0, the reference, must be whole.
+TEST(VendorFrames, AMarkerThatIsNotANumberIsLostAndTheReferenceMustBeWhole) {
+  std::vector<TactileFrame> frames(3, TactileFrame::Sized(2, 2));
+  for (int k = 0; k < 3; ++k) {
+    frames[k].sn = "NAN-1";
+    frames[k].index = k;
+    frames[k].timestamp_s = 0.1 * k;
+    for (int i = 0; i < 4; ++i) frames[k].positions_mm[i] = Eigen::Vector3d(i % 2, i / 2, 0.01 * k);
+  }
+  VendorRecording r = VendorRecordingOfFrames(frames);
+  double* displacements = reinterpret_cast<double*>(r.displacements.data.data());
+  displacements[(2 * 4 + 1) * 3 + 2] = std::numeric_limits<double>::quiet_NaN();  // frame 2, marker 1, z
+  const VendorFrames vendor(r);
+  const TactileFrame lost = vendor.Frame(2);
+  EXPECT_FALSE(lost.valid[1]);
+  EXPECT_TRUE(lost.valid[0] && lost.valid[2] && lost.valid[3]);
+  EXPECT_TRUE(lost.has(FrameFlag::kMarkersLost));
+  EXPECT_NO_THROW(lost.Validate());
+  EXPECT_TRUE(vendor.Frame(1).valid[1]);
+  displacements[1 * 3 + 2] = std::numeric_limits<double>::infinity();  // frame 0, marker 1
+  EXPECT_THAT([&] { VendorFrames{r}; },
+              ::testing::ThrowsMessage<Error>(::testing::HasSubstr(
+                  "frame 0, the reference, has a marker (1) whose position, displacement or force is not a finite")));
+}
+
 TEST(VendorFrames, RealRecordingsRoundTripThroughATac3dRecording) {
   TAC3D_REQUIRE_REALDATA(realdata);
   ExpectVendorRoundTrip(ReadVendorRecording(realdata + "/tac3d/HDL1-0001/recording/Tac3D_Record_20241227_161029"));

@@ -111,6 +111,15 @@ Eigen::MatrixX3d VendorRecording::ReferencePositions(std::int64_t frame) const {
   return Frame(positions, frame) - Frame(displacements, frame);
 }
 
+std::int64_t VendorRecording::FirstNonFiniteMarker(std::int64_t frame) const {
+  const Eigen::MatrixX3d p = Frame(positions, frame), d = Frame(displacements, frame),
+                         f = Frame(forces, frame);
+  for (std::int64_t i = 0; i < p.rows(); ++i) {
+    if (!(p.row(i).allFinite() && d.row(i).allFinite() && f.row(i).allFinite())) return i;
+  }
+  return -1;
+}
+
 double VendorRecording::MaxReferenceShiftMm() const {
   if (frames() == 0) return 0.0;
   const Eigen::MatrixX3d first = ReferencePositions(0);

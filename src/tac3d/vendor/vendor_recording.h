@@ -39,6 +39,9 @@ struct VendorRecording {
   /// 3D_Displacements (the vendor corrects its zero point while nothing touches the gel, so
   /// this drifts between frames).
   Eigen::MatrixX3d ReferencePositions(std::int64_t frame) const;
+  /// The first marker of a frame whose position, displacement or force holds a NaN or an
+  /// infinity (a marker the vendor's software lost, or a damaged file), or -1 if none.
+  std::int64_t FirstNonFiniteMarker(std::int64_t frame) const;
   /// How far the vendor's zero point moved over the recording: the largest distance of a
   /// marker's reference position (ReferencePositions) in a frame from its own in frame 0 (mm).
   double MaxReferenceShiftMm() const;
