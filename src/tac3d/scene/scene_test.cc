@@ -150,6 +150,9 @@ TEST(Scene, BadValuesNameTheFieldAndTheBound) {
   EXPECT_THAT(SceneErrorOf(Replace(kSlide, "ball_radius_mm: 2", "ball_radius_mm: 0")), HasSubstr("ball_radius_mm"));
   EXPECT_THAT(SceneErrorOf(Replace(kSlide, "youngs_modulus_factor: 1.1", "poisson_ratio_factor: 1.1")),
               HasSubstr("poisson_ratio_factor"));
+  // 1e-200 never ended, 1e-100 gave zero forces: E at a tenth of the sensor's at least.
+  EXPECT_THAT(SceneErrorOf(Replace(kSlide, "youngs_modulus_factor: 1.1", "youngs_modulus_factor: 1e-200")),
+              HasSubstr("deviation.youngs_modulus_factor = 1e-200 is out of range: must be in [0.1, 2]"));
   EXPECT_THAT(SceneErrorOf(Replace(kSlide, "name: block", "name: block\n    colour: red")), HasSubstr("unknown key"));
   EXPECT_THAT(SceneErrorOf(Replace(kSlide, "sensor: default", "sensor: nowhere.yaml")), HasSubstr("nowhere.yaml"));
   EXPECT_THAT(SceneErrorOf("name: [unclosed"), HasSubstr("not valid YAML"));
