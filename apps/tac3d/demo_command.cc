@@ -20,16 +20,13 @@
 #include "tac3d/design/light_path_drawing.h"
 #include "tac3d/friction_eval/friction_evaluation.h"
 #include "tac3d/eval/marker_evaluation.h"
+#include "tac3d/imagefile/image_write.h"
 #include "tac3d/io/marker_csv.h"
 #include "tac3d/twin/camera_renderer.h"
 #include "tac3d/util/error.h"
 
 namespace tac3d::cli {
 namespace {
-
-void WritePng(const cv::Mat& image, const std::string& path) {
-  if (!cv::imwrite(path, image)) throw Error(fmt::format("cannot write '{}'", path));
-}
 
 // A prescribed smooth dent (not a contact simulation): markers under a round pad pushed
 // in by depth_mm with a Gaussian profile, to show the renderer on a deformed layer.
@@ -121,7 +118,7 @@ class Demo {
     DrawForceField();
     WriteFrictionMap();
     report_["total_seconds"] = SecondsSince(t0);
-    std::ofstream(out_ + "/report.json") << report_.dump(2) << "\n";
+    WriteTextFileAtomically(out_ + "/report.json", report_.dump(2) + "\n");
     std::printf("done in %.1f s: %s/report.json\n", SecondsSince(t0), out_.c_str());
   }
 
@@ -165,11 +162,11 @@ class Demo {
     const double setup_ms = 1e3 * SecondsSince(t);
     const auto undeformed = config.MarkerPositions();
     t = std::chrono::steady_clock::now();
-    WritePng(renderer.Render(undeformed, 0), out_ + "/markers_undeformed.png");
+    WriteImageFile(out_ + "/markers_undeformed.png", renderer.Render(undeformed, 0));
     const double frame_ms = 1e3 * SecondsSince(t);
     const auto dented = Dent(undeformed, 0.8, 4.0);
     WriteMarkerPositionsCsv(dented, out_ + "/markers_dent.csv");
-    WritePng(renderer.Render(dented, 1), out_ + "/markers_dent.png");
+    WriteImageFile(out_ + "/markers_dent.png", renderer.Render(dented, 1));
     report_["render"] = {{"setup_ms", setup_ms}, {"frame_ms", frame_ms}};
     std::printf("      markers_undeformed.png, markers_dent.png (%.0f ms set-up, %.1f ms a frame)\n",
                 setup_ms, frame_ms);
@@ -177,8 +174,8 @@ class Demo {
     Step(3, "rendering a dot calibration board before the elastic body is mounted");
     const BoardImageRenderer board_renderer(config);
     DotBoard board;
-    WritePng(board_renderer.Render(board, board.SensorFromBoard({0, 0, 0}, {8, -5, 0})),
-             out_ + "/calibration_board.png");
+    WriteImageFile(out_ + "/calibration_board.png",
+                   board_renderer.Render(board, board.SensorFromBoard({0, 0, 0}, {8, -5, 0})));
     std::printf("      calibration_board.png\n");
   }
 
@@ -294,7 +291,7 @@ class Demo {
     for (const auto& [truth, frame] : kept_) {
       panels.push_back(ForcePanel(frame, truth, rest, pitch, max_normal, arrow_mm_per_n));
     }
-    WritePng(ForceFieldFigure(panels, max_normal, arrow_mm_per_n, pitch), out_ + "/force_field.png");
+    WriteImageFile(out_ + "/force_field.png", ForceFieldFigure(panels, max_normal, arrow_mm_per_n, pitch));
     std::printf("      %s/force_field.png\n", out_.c_str());
   }
 

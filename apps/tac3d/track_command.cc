@@ -20,6 +20,7 @@
 #include <CLI/CLI.hpp>
 
 #include "commands.h"
+#include "tac3d/imagefile/image_write.h"
 #include "tac3d/source/frame_source.h"
 #include "tac3d/tracking/single_view_tracker.h"
 #include "tac3d/util/error.h"
@@ -189,7 +190,7 @@ void WriteOverlay(const std::string& dir, std::int64_t index, const cv::Mat& ima
     cv::arrowedLine(picture, fixed(from), fixed(o.uv[i]), cv::Scalar(0, 230, 255), 1, cv::LINE_AA, kShift, 0.3);
   }
   const std::string path = fmt::format("{}/frame_{:05d}.png", dir, index);
-  if (!cv::imwrite(path, picture)) throw Error(fmt::format("track: cannot write the overlay '{}'", path));
+  WriteImageFile(path, picture);
 }
 
 void Track(const TrackArgs& a) {

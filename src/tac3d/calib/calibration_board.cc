@@ -8,6 +8,7 @@
 #include "tac3d/sensor/sensor_config.h"
 #include "tac3d/sensor/yaml_reader.h"
 #include "tac3d/util/error.h"
+#include "tac3d/util/file_io.h"
 
 namespace tac3d {
 
@@ -114,9 +115,7 @@ void SaveCalibrationBoardFile(const CalibrationBoardFile& file, const std::strin
     out << YAML::Flow << YAML::BeginSeq << r(i, 0) << r(i, 1) << r(i, 2) << YAML::EndSeq;
   }
   out << YAML::EndSeq << YAML::EndMap << YAML::EndMap << YAML::EndMap;
-  std::ofstream stream(path);
-  stream << out.c_str() << "\n";
-  if (!stream) throw Error(fmt::format("cannot write board file '{}'", path));
+  WriteTextFileAtomically(path, std::string(out.c_str()) + "\n");
 }
 
 }  // namespace tac3d

@@ -4,12 +4,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 
+#include "tac3d/imagefile/image_write.h"
 #include "tac3d/scene/ply.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/file_io.h"
@@ -112,11 +111,9 @@ void WriteFrictionMapPly(const FrictionMapResult& map, const std::string& path) 
 }
 
 void WriteSlipPointsCsv(const std::vector<SlipPoint>& slip_points, const std::string& path) {
-  std::ofstream out(path);
-  if (!out) throw Error(fmt::format("cannot write slip points CSV '{}'", path));
-  out << "x_mm,y_mm,z_mm,mu,normal_force_n,motion_mm,frame,marker\n";
+  std::string out = "x_mm,y_mm,z_mm,mu,normal_force_n,motion_mm,frame,marker\n";
   for (const SlipPoint& s : slip_points) {
-    out << fmt::format("{},{},{},{},{},{},{},{}\n",
+    out += fmt::format("{},{},{},{},{},{},{},{}\n",
                        s.p_in_world_mm.x(),
                        s.p_in_world_mm.y(),
                        s.p_in_world_mm.z(),
@@ -126,7 +123,7 @@ void WriteSlipPointsCsv(const std::vector<SlipPoint>& slip_points, const std::st
                        s.frame_index,
                        s.marker);
   }
-  if (!out) throw Error(fmt::format("writing slip points CSV '{}' failed", path));
+  WriteTextFileAtomically(path, out);
 }
 
 void RenderOptions::Validate() const {
@@ -208,13 +205,7 @@ RenderSummary WriteFrictionMapPng(const FrictionMapResult& map,
       ++summary.band_pixels[k];
     }
   }
-  bool written = false;
-  try {
-    written = cv::imwrite(path, image);
-  } catch (const cv::Exception& e) {
-    throw Error(fmt::format("friction map PNG '{}' cannot be written: {}", path, e.what()));
-  }
-  if (!written) throw Error(fmt::format("friction map PNG '{}' cannot be written", path));
+  WriteImageFile(path, image);
   return summary;
 }
 

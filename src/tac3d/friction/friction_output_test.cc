@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <nlohmann/json.hpp>
@@ -186,6 +187,30 @@ TEST(WriteFrictionMapOutputs, WritesTheFilesAndASummaryOfInputsOptionsAndMap) {
   WriteFrictionMapOutputs(map, options, bare, view, nlohmann::json::object());
   EXPECT_FALSE(ReadJson(bare + "/summary.json").at("files").contains("png"));
   EXPECT_TRUE(std::ifstream(bare + "/slip_points.csv").good());
+}
+
+// Links planted in the output folder, at a file's name, are refused, never written through:
+// every file of the map goes through the one output rule.
+TEST(WriteFrictionMapOutputs, NeverWritesThroughALinkPlantedInItsFolder) {
+  const std::string dir = tac3d::testing::MakeTempDir("friction_links");
+  const std::string folder = dir + "/friction_map";
+  std::filesystem::create_directories(folder);
+  std::ofstream(dir + "/victim.txt") << "keep";
+  RenderOptions view;
+  view.width = 64;
+  view.height = 48;
+  for (const char* file : {"slip_points.csv", "map.ply", "map.png", "summary.json"}) {
+    const std::string link = folder + "/" + file;
+    std::filesystem::create_symlink(dir + "/victim.txt", link);
+    FrictionMapResult map = BandedSheet();
+    map.summary.status = FrictionMapStatus::kOk;
+    EXPECT_THROW(WriteFrictionMapOutputs(map, FrictionMapOptions{}, folder, view, nlohmann::json::object()),
+                 Error)
+        << file;
+    std::ifstream victim(dir + "/victim.txt");
+    EXPECT_EQ(std::string(std::istreambuf_iterator<char>(victim), {}), "keep") << file;
+    std::filesystem::remove(link);
+  }
 }
 
 TEST(WriteFrictionMapPng, OptionsAndDegenerateMapsThrow) {

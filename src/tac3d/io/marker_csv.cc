@@ -73,10 +73,9 @@ std::vector<Eigen::Vector3d> ReadMarkerPositionsCsv(const std::string& path) {
 
 void WriteMarkerPositionsCsv(const std::vector<Eigen::Vector3d>& positions,
                              const std::string& path) {
-  std::ofstream out(path);
-  out << kHeader << "\n";
-  for (const auto& p : positions) out << fmt::format("{},{},{}\n", p.x(), p.y(), p.z());
-  if (!out) throw Error(fmt::format("cannot write marker positions '{}'", path));
+  std::string out = std::string(kHeader) + "\n";
+  for (const auto& p : positions) out += fmt::format("{},{},{}\n", p.x(), p.y(), p.z());
+  WriteTextFileAtomically(path, out);
 }
 
 }  // namespace tac3d

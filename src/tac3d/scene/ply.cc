@@ -314,28 +314,30 @@ void WritePly(const TriangleMesh& mesh, const std::string& path, const PlyWriteO
     return it == options.property_types.end() ? std::string("double") : it->second;
   };
   const bool binary = options.format == PlyFormat::kBinaryLittleEndian;
-  std::ofstream out(path, binary ? std::ios::binary : std::ios::out);
-  if (!out) throw Error(fmt::format("cannot write PLY file '{}'", path));
-  out << "ply\nformat " << (binary ? "binary_little_endian" : "ascii") << " 1.0\ncomment written by tac3d\n";
-  for (const std::string& comment : options.comments) out << "comment " << comment << "\n";
-  out << "element vertex " << mesh.vertices.size() << "\n";
-  for (const char* axis : {"x", "y", "z"}) out << "property " << options.coordinate_type << " " << axis << "\n";
-  for (const std::string& name : names) out << "property " << type_of(name) << " " << name << "\n";
-  out << "element face " << mesh.triangles.size() << "\nproperty list uchar int vertex_indices\nend_header\n";
-  BodyWriter writer(out, options.format);
-  std::vector<std::pair<std::string, const std::vector<double>*>> columns;
-  for (const std::string& name : names) columns.emplace_back(type_of(name), &mesh.vertex_properties.at(name));
-  for (size_t i = 0; i < mesh.vertices.size(); ++i) {
-    for (int k = 0; k < 3; ++k) writer.Write(options.coordinate_type, mesh.vertices[i][k], k == 0);
-    for (const auto& [type, values] : columns) writer.Write(type, (*values)[i], false);
-    writer.EndLine();
-  }
-  for (const Eigen::Vector3i& t : mesh.triangles) {
-    writer.Write("uchar", 3, true);
-    for (int k = 0; k < 3; ++k) writer.Write("int", t[k], false);
-    writer.EndLine();
-  }
-  if (!out) throw Error(fmt::format("writing PLY file '{}' failed", path));
+  WriteFileAtomically(path, [&](const std::string& temporary) {
+    std::ofstream out(temporary, binary ? std::ios::binary : std::ios::out);
+    if (!out) throw Error(fmt::format("cannot write PLY file '{}'", path));
+    out << "ply\nformat " << (binary ? "binary_little_endian" : "ascii") << " 1.0\ncomment written by tac3d\n";
+    for (const std::string& comment : options.comments) out << "comment " << comment << "\n";
+    out << "element vertex " << mesh.vertices.size() << "\n";
+    for (const char* axis : {"x", "y", "z"}) out << "property " << options.coordinate_type << " " << axis << "\n";
+    for (const std::string& name : names) out << "property " << type_of(name) << " " << name << "\n";
+    out << "element face " << mesh.triangles.size() << "\nproperty list uchar int vertex_indices\nend_header\n";
+    BodyWriter writer(out, options.format);
+    std::vector<std::pair<std::string, const std::vector<double>*>> columns;
+    for (const std::string& name : names) columns.emplace_back(type_of(name), &mesh.vertex_properties.at(name));
+    for (size_t i = 0; i < mesh.vertices.size(); ++i) {
+      for (int k = 0; k < 3; ++k) writer.Write(options.coordinate_type, mesh.vertices[i][k], k == 0);
+      for (const auto& [type, values] : columns) writer.Write(type, (*values)[i], false);
+      writer.EndLine();
+    }
+    for (const Eigen::Vector3i& t : mesh.triangles) {
+      writer.Write("uchar", 3, true);
+      for (int k = 0; k < 3; ++k) writer.Write("int", t[k], false);
+      writer.EndLine();
+    }
+    if (!out) throw Error(fmt::format("writing PLY file '{}' failed", path));
+  });
 }
 
 }  // namespace tac3d

@@ -6,6 +6,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "tac3d/imagefile/image_write.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/progress.h"
 
@@ -205,7 +206,7 @@ CalibrationSet WriteCalibrationSet(const SensorConfig& truth,
   const std::filesystem::path root(dir);
   const CalibrationSet set = RenderCalibrationSet(truth, options, [&](const CalibrationImage& image) {
     const std::string path = (root / image.name).string();
-    if (!cv::imwrite(path, image.image)) throw Error(fmt::format("cannot write '{}'", path));
+    WriteImageFile(path, image.image);
   });
   SaveCalibrationBoardFile(set.board_file, (root / "board.yaml").string());
   SaveSensorConfig(truth, (root / "truth.yaml").string());
