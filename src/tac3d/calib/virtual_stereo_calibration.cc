@@ -446,9 +446,12 @@ std::vector<CalibrationImage> LoadCalibrationImages(const std::string& dir, int 
   std::sort(paths.begin(), paths.end());
   std::vector<CalibrationImage> images;
   for (const fs::path& p : paths) {
-    std::ifstream in(p, std::ios::binary);
-    const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    DecodedImage decoded = DecodeGrayImage(bytes, max_width, max_height);
+    DecodedImage decoded;
+    try {
+      decoded = DecodeGrayImage(ReadImageFileBytes(p.string()), max_width, max_height);
+    } catch (const Error& e) {
+      decoded.refusal = e.what();
+    }
     images.push_back({p.filename().string(), std::move(decoded.image), std::move(decoded.refusal)});
   }
   return images;

@@ -10,6 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "tac3d/util/error.h"
+#include "tac3d/imagefile/image_decode.h"
 #include "tac3d/util/file_io.h"
 
 namespace tac3d {
@@ -23,11 +24,13 @@ constexpr char kSurfaceMagic[8] = {'T', 'A', 'C', '3', 'D', 'S', 'R', 'F'};
 
 std::string StepName(int step) { return fmt::format("{:06d}", step); }
 
+// A step's JSON holds a few thousand numbers (~100 kB); far more is not a step.
+constexpr std::size_t kMaxJsonFileBytes = std::size_t{64} << 20;
+
 nlohmann::json ReadJson(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw Error(fmt::format("cannot open '{}'", path));
+  const std::string text = ReadFileCapped(path, kMaxJsonFileBytes, "dataset file");
   try {
-    return nlohmann::json::parse(in);
+    return nlohmann::json::parse(text);
   } catch (const nlohmann::json::exception& e) {
     throw Error(fmt::format("'{}' is not valid JSON: {}", path, e.what()));
   }
@@ -67,6 +70,7 @@ void WriteSurface(const std::string& path, const SurfaceTractions& s) {
 }
 
 SurfaceTractions ReadSurface(const std::string& path) {
+  RequireRegularFile(path, "surface-traction file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(fmt::format("cannot open '{}'", path));
   char magic[8];
@@ -215,7 +219,8 @@ TwinStep TwinDatasetReader::Read(int step, bool with_surface) const {
     s.solver = j.at("solver");
     if (j.contains("conditions")) s.conditions = j.at("conditions");
     if (!j.at("image").is_null()) {
-      s.image = cv::imread(folder_ + "/" + j.at("image").get<std::string>(), cv::IMREAD_GRAYSCALE);
+      const std::string image = folder_ + "/" + j.at("image").get<std::string>();
+      s.image = cv::imdecode(ReadImageFileBytes(image), cv::IMREAD_GRAYSCALE);
       if (s.image.empty()) throw Error(fmt::format("'{}': its image does not decode", path));
     }
     if (with_surface && !j.at("surface").is_null()) {

@@ -6,6 +6,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "tac3d/imagefile/image_header.h"
+#include "tac3d/util/file_io.h"
 
 namespace tac3d {
 namespace {
@@ -27,6 +28,11 @@ bool IsTruncatedJpeg(const std::vector<std::uint8_t>& bytes) {
 }
 
 }  // namespace
+
+std::vector<std::uint8_t> ReadImageFileBytes(const std::string& path) {
+  const std::string bytes = ReadFileCapped(path, kMaxImageFileBytes, "image file");
+  return std::vector<std::uint8_t>(bytes.begin(), bytes.end());
+}
 
 DecodedImage DecodeGrayImage(const std::vector<std::uint8_t>& bytes, int max_width, int max_height) {
   DecodedImage decoded;

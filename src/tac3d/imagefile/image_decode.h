@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -10,6 +11,13 @@ namespace tac3d {
 
 /// The largest image side tac3d reads or writes, in pixels (cameras, renders, image files).
 inline constexpr int kMaxImageSidePx = 8192;
+
+/// The largest image file tac3d reads (bytes): an uncompressed 8192 x 8192 colour BMP is 201 MB.
+inline constexpr std::size_t kMaxImageFileBytes = std::size_t{256} << 20;
+
+/// The bytes of an image file, for DecodeGrayImage: a regular file (a FIFO would block, a device
+/// never end) of at most kMaxImageFileBytes. @throws Error naming the file otherwise.
+std::vector<std::uint8_t> ReadImageFileBytes(const std::string& path);
 
 /// An image file decoded, or the reason it was refused.
 struct DecodedImage {

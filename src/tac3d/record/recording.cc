@@ -209,8 +209,9 @@ const char* RecordingStatusName(RecordingStatus status) {
   TAC3D_DEMAND(false);
 }
 
-RecordingReader::RecordingReader(const std::string& path)
-    : path_(path), in_(path, std::ios::binary) {
+RecordingReader::RecordingReader(const std::string& path) : path_(path) {
+  RequireRegularFile(path, "recording");  // a FIFO would block the open, a device never end
+  in_.open(path, std::ios::binary);
   if (!in_) throw Error(fmt::format("cannot open recording '{}'", path));
   char header[kFileHeaderBytes];
   in_.read(header, sizeof(header));

@@ -1,7 +1,9 @@
 #include "tac3d/record/recording.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -147,6 +149,12 @@ TEST(Recording, RefusesWhatItCannotWriteOrRead) {
 
   EXPECT_THROW(RecordingReader(dir + "/missing"), Error);
   EXPECT_THROW(RecordingReader(WriteBytes(dir + "/text", "hello, world")), Error);
+  // A FIFO blocked the reader's open for ever; refused, as a device is, before opening.
+  ASSERT_EQ(::mkfifo((dir + "/fifo").c_str(), 0600), 0);
+  EXPECT_THAT([&] { RecordingReader reader(dir + "/fifo"); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("is not a regular file (a device or a pipe?)")));
+  EXPECT_THAT([&] { RecordingReader reader("/dev/zero"); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("recording '/dev/zero' is not a regular file")));
   std::string future = FileBytes(path);
   future[8] = 4;
   try {

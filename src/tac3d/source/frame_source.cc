@@ -142,10 +142,10 @@ class ImageFolderSource : public FrameSource {
     frame.index = static_cast<std::int64_t>(next_);
     frame.timestamp_s = static_cast<double>(next_) / fps_;
     ++next_;
-    std::ifstream in(file, std::ios::binary);
-    bytes_.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-    if (!in.good() && !in.eof()) {
-      last_error_ = fmt::format("'{}' cannot be read", file);
+    try {
+      bytes_ = ReadImageFileBytes(file);
+    } catch (const Error& e) {
+      last_error_ = e.what();
       return ReadStatus::kBadFrame;
     }
     DecodedImage decoded = DecodeGrayImage(bytes_, max_width_, max_height_);

@@ -171,6 +171,7 @@ void WriteCacheRecord(const std::string& path,
 CacheRecord ReadCacheRecord(const std::string& path,
                             const std::string& magic,
                             std::uint32_t format_version) {
+  RequireRegularFile(path, "cache file");  // a FIFO planted in the cache would block the open
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(fmt::format("{}: cannot open", path));
   const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -188,6 +189,7 @@ CacheRecord ReadCacheRecord(const std::string& path,
 MappedCacheRecord MapCacheRecord(const std::string& path,
                                  const std::string& magic,
                                  std::uint32_t format_version) {
+  RequireRegularFile(path, "cache file");
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) throw Error(fmt::format("{}: cannot open", path));
   struct stat info {};
