@@ -1,6 +1,8 @@
 #include "tac3d/util/cache_file.h"
 
 #include <bit>
+#include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <ctime>
 #include <filesystem>
@@ -9,6 +11,7 @@
 #include <string_view>
 
 #include <fcntl.h>
+#include <sys/file.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -224,6 +227,21 @@ const char* Describe(CacheStatus status) {
     case CacheStatus::kRebuiltCorrupt: return "rebuilt (the cached file was corrupt)";
   }
   return "?";
+}
+
+CacheBuildLock::CacheBuildLock(const std::string& path) {
+  const std::string lock_path = path + ".lock";
+  fd_ = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0666);
+  if (fd_ < 0) return;
+  if (::flock(fd_, LOCK_EX | LOCK_NB) == 0) return;
+  waited_ = true;
+  std::fprintf(stderr, "tac3d: another process is building %s; waiting for it to finish\n", path.c_str());
+  while (::flock(fd_, LOCK_EX) != 0 && errno == EINTR) {
+  }
+}
+
+CacheBuildLock::~CacheBuildLock() {
+  if (fd_ >= 0) ::close(fd_);  // releases the lock
 }
 
 }  // namespace tac3d

@@ -84,9 +84,28 @@ enum class CacheStatus {
 /// A phrase for messages: "loaded from the cache", "built (not cached yet)", ...
 const char* Describe(CacheStatus status);
 
+/// An exclusive lock on building the cache file `path` (a flock on `path`.lock, released when
+/// this goes): a second process (or thread) that needs the same model waits for the first to
+/// finish building it, saying so on stderr, instead of building it too (minutes and gigabytes).
+/// Where the lock file cannot be made (a read-only folder), nothing is locked.
+class CacheBuildLock {
+ public:
+  explicit CacheBuildLock(const std::string& path);
+  ~CacheBuildLock();
+  CacheBuildLock(const CacheBuildLock&) = delete;
+  CacheBuildLock& operator=(const CacheBuildLock&) = delete;
+  /// Whether another holder had it, so the file may have been built meanwhile.
+  bool waited() const { return waited_; }
+
+ private:
+  int fd_ = -1;
+  bool waited_ = false;
+};
+
 /// The policy of every cached model: the file at `path` is used only if it reads back whole and
 /// its key is `key`; otherwise the model is built and saved over it (its folder created), so a
-/// stale or corrupt file is never used.
+/// stale or corrupt file is never used. The build holds a CacheBuildLock: a process that waited
+/// for another's build loads what it saved.
 /// @param read read(path) returns an object with members `key` and `model`; it throws
 ///   tac3d::Error if the file is unreadable, truncated or fails its checksum.
 /// @param build build() returns the model; save(model, path) writes it.
@@ -101,13 +120,15 @@ CacheStatus LoadOrBuildCacheFile(const std::string& path,
                                  Model* model,
                                  std::string* reason) {
   CacheStatus status = CacheStatus::kBuiltMissing;
-  reason->clear();
-  if (std::filesystem::exists(path)) {
+  // Loads the file if it is there, whole and of this key; else says why not.
+  const auto load = [&]() -> bool {
+    reason->clear();
+    if (!std::filesystem::exists(path)) return false;
     try {
       auto cached = read(path);
       if (cached.key == key) {
         *model = std::move(cached.model);
-        return CacheStatus::kLoaded;
+        return true;
       }
       status = CacheStatus::kRebuiltStale;
       *reason = fmt::format("key {:016x}, expected {:016x} (other inputs or code)", cached.key, key);
@@ -115,12 +136,16 @@ CacheStatus LoadOrBuildCacheFile(const std::string& path,
       status = CacheStatus::kRebuiltCorrupt;
       *reason = e.what();
     }
-  }
-  *model = build();
+    return false;
+  };
+  if (load()) return CacheStatus::kLoaded;
   const std::filesystem::path folder = std::filesystem::path(path).parent_path();
   std::error_code error;
   if (!folder.empty()) std::filesystem::create_directories(folder, error);
   if (error) throw Error(fmt::format("cannot create the cache directory {}", folder.string()));
+  const CacheBuildLock lock(path);
+  if (lock.waited() && load()) return CacheStatus::kLoaded;
+  *model = build();
   save(*model, path);
   return status;
 }
