@@ -22,6 +22,11 @@ a user sees it; progress-bar lines are left out of the comparison (they carry ti
 Expected output matches line by line (trailing spaces ignored); a line `...` matches any
 number of lines, `...` inside a line any text on that line.
 
+A page is for users, who have only the repository: before its examples run, a page that names an
+internal issue ("issue 26"), cites DESIGN.md, CONVENTIONS.md or wire-protocol.md, or links to a
+file the repository does not hold (`](../shared/x.md)` from docs/) fails, naming the file and
+line.
+
 Usage: doc_examples.py [--build DIR] [--long] [--list] [--keep] PAGE.md ...
        doc_examples.py --prepare [--build DIR]   builds the models the examples share
 Exits non-zero when a block fails or prints something other than its page says.
@@ -278,9 +283,63 @@ def page_name(page):
     return os.path.relpath(path, REPO) if path.startswith(REPO + os.sep) else page
 
 
+# What a user's clone cannot follow: the project's own issue numbers, and notes that live
+# beside the repository, not in it. (docs/design.md is a page: the names are case-sensitive.)
+ISSUE_REFERENCE = re.compile(r"(?i)\bissues?\s+#?\d+")
+OUTSIDE_NOTE = re.compile(r"\b(?:DESIGN|CONVENTIONS|wire-protocol)\.md\b")
+LINK_TARGET = re.compile(r"\]\(\s*<?([^)\s>]+)|^\s*\[[^\]]+\]:\s*<?([^\s>]+)", re.MULTILINE)
+
+
+def without_code(text):
+    """The text with fenced blocks and inline code blanked, every offset kept (code such as
+    `[&](int i)` is not a link)."""
+    lines, fence = [], None
+    for line in text.split("\n"):
+        match = FENCE.match(line.strip())
+        if fence is None and match:
+            fence = match.group(1)
+        elif fence is not None and line.strip().startswith(fence):
+            fence = None
+        elif fence is None:
+            lines.append(re.sub(r"`[^`]*`", lambda m: " " * len(m.group()), line))
+            continue
+        lines.append(" " * len(line))
+    return "\n".join(lines)
+
+
+def guide_problems(page, text, folder="docs"):
+    """Why a page is not fit for a user's clone, each as "page:line: reason": an internal
+    issue number, a mention of a note kept outside the repository, or a Markdown link to no
+    file of the repository. `folder` is the page's folder relative to the repository."""
+    found = []  # (offset, reason)
+    for m in ISSUE_REFERENCE.finditer(text):
+        found.append((m.start(), f"an internal issue reference ('{' '.join(m.group().split())}'):"
+                                 " say what it meant instead"))
+    for m in OUTSIDE_NOTE.finditer(text):
+        found.append((m.start(), f"cites {m.group()}, which is not in the repository"))
+    for m in LINK_TARGET.finditer(without_code(text)):
+        target = (m.group(1) or m.group(2)).split("#", 1)[0]
+        if not target or re.match(r"[a-zA-Z][a-zA-Z0-9+.-]*:", target):  # an anchor, a URL
+            continue
+        resolved = os.path.normpath(os.path.join(folder, target))
+        if os.path.isabs(target) or resolved.split(os.sep)[0] == os.pardir:
+            found.append((m.start(), f"the link to {target} leaves the repository"))
+        elif not os.path.exists(os.path.join(REPO, resolved)):
+            found.append((m.start(), f"the link to {target} names no file of the repository"))
+    return [f"{page}:{text.count(chr(10), 0, offset) + 1}: {reason}"
+            for offset, reason in sorted(found)]
+
+
 def run_page(page, build_dir, run_long, keep):
     with open(page) as f:
-        blocks = parse_blocks(page_name(page), f.read())
+        text = f.read()
+    folder = os.path.relpath(os.path.dirname(os.path.abspath(page)), REPO)
+    if folder == os.pardir or folder.startswith(os.pardir + os.sep):
+        folder = "docs"  # a page outside the repository (a test's) is read as one of docs/
+    problems = guide_problems(page_name(page), text, folder)
+    if problems:
+        return problems
+    blocks = parse_blocks(page_name(page), text)
     scratch, env = make_scratch(build_dir)
     problems = []
     ran = skipped = 0

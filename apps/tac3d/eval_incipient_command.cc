@@ -80,7 +80,7 @@ void RegisterEvalIncipient(CLI::App& eval) {
   auto args = std::make_shared<Args>();
   CLI::App* cmd = eval.add_subcommand(
       "incipient",
-      "The live friction and margin to slip before gross slip (issue 26): the incipient-slip scenes "
+      "The live friction and margin to slip before gross slip: the incipient-slip scenes "
       "(indenter x mu x load x ramp) simulated by the twin, their images through the pipeline, each "
       "frame's estimate against the twin's truth. Without --gains or --calibration the gains are "
       "fitted on DATASETS/force_calibration (simulated if missing)");

@@ -136,6 +136,7 @@ void Export(const ExportArgs& a) {
     const auto slash = file.find_last_of('/');
     std::printf(" %s", slash == std::string::npos ? file.c_str() : file.c_str() + slash + 1);
   }
+  if (result.images > 0) std::printf(", and %lld images in images/", static_cast<long long>(result.images));
   std::printf("\n");
   ReportEnd(result.status,
             result.message,

@@ -81,6 +81,26 @@ struct Recording {
     return out;
   }
 
+  // T x N bools of a per-marker flag (valid, contact).
+  py::array_t<bool> StackBools(std::vector<bool> TactileFrame::*field) const {
+    const int n = markers();
+    py::array_t<bool> out({static_cast<py::ssize_t>(frames.size()), static_cast<py::ssize_t>(n)});
+    bool* p = out.mutable_data();
+    for (const FramePtr& f : frames) {
+      for (int i = 0; i < n; ++i) *p++ = ((*f).*field)[i];
+    }
+    return out;
+  }
+
+  // One value a frame, as `get` reads it.
+  template <typename T, typename Get>
+  py::array_t<T> PerFrame(const Get& get) const {
+    std::vector<T> values;
+    values.reserve(frames.size());
+    for (const FramePtr& f : frames) values.push_back(get(*f));
+    return VectorOwned(std::move(values));
+  }
+
   py::array_t<double> StackVector(Eigen::Vector3d TactileFrame::*field) const {
     py::array_t<double> out({static_cast<py::ssize_t>(frames.size()), py::ssize_t{3}});
     double* p = out.mutable_data();
@@ -338,7 +358,8 @@ TactileFrames, or call read() for (frame, image-or-None).
   py::class_<Recording, std::shared_ptr<Recording>>(m, "Recording", R"doc(
 A whole recording in memory (tac3d.open_recording): len(), indexing, iteration over
 TactileFrames, and whole arrays: positions, displacements, forces, normals (T x N x 3),
-resultant_forces, resultant_moments (T x 3), timestamps, indices (T,).
+valid, contact (T x N bool), resultant_forces, resultant_moments (T x 3), timestamps,
+indices, flags (T,), slip (a dict of T arrays), and each frame's image(i).
 )doc")
       .def("__len__", [](const Recording& r) { return r.frames.size(); })
       .def("__getitem__", &Recording::At, py::arg("i"))
@@ -371,16 +392,38 @@ resultant_forces, resultant_moments (T x 3), timestamps, indices (T,).
           [](const Recording& r) { return r.StackVector(&TactileFrame::resultant_moment_nmm); })
       .def_property_readonly("timestamps",
                              [](const Recording& r) {
-                               std::vector<double> t;
-                               for (const FramePtr& f : r.frames) t.push_back(f->timestamp_s);
-                               return VectorOwned(std::move(t));
+                               return r.PerFrame<double>([](const TactileFrame& f) { return f.timestamp_s; });
                              })
       .def_property_readonly("indices",
                              [](const Recording& r) {
-                               std::vector<std::int64_t> t;
-                               for (const FramePtr& f : r.frames) t.push_back(f->index);
-                               return VectorOwned(std::move(t));
+                               return r.PerFrame<std::int64_t>([](const TactileFrame& f) { return f.index; });
                              })
+      .def_property_readonly("valid", [](const Recording& r) { return r.StackBools(&TactileFrame::valid); })
+      .def_property_readonly("contact", [](const Recording& r) { return r.StackBools(&TactileFrame::contact); })
+      .def_property_readonly(
+          "flags",
+          [](const Recording& r) { return r.PerFrame<std::uint32_t>([](const TactileFrame& f) { return f.flags; }); })
+      .def_property_readonly(
+          "slip",
+          [](const Recording& r) {
+            py::dict slip;
+            slip["state"] = r.PerFrame<std::uint32_t>(
+                [](const TactileFrame& f) { return static_cast<std::uint32_t>(f.slip.state); });
+            const std::pair<const char*, double FrameSlip::*> fields[] = {
+                {"fraction", &FrameSlip::fraction},
+                {"friction", &FrameSlip::friction},
+                {"friction_sigma", &FrameSlip::friction_sigma},
+                {"margin", &FrameSlip::margin},
+                {"margin_sigma", &FrameSlip::margin_sigma},
+                {"least_normal_force_n", &FrameSlip::least_normal_force_n}};
+            for (const auto& [name, field] : fields) {
+              slip[name] = r.PerFrame<double>([field = field](const TactileFrame& f) { return f.slip.*field; });
+            }
+            return slip;
+          },
+          "The slip estimate of every frame: {state (T uint32: 0 unknown, 1 none, 2 stick, 3 partial\n"
+          "slip, 4 gross slip), fraction, friction, friction_sigma, margin, margin_sigma,\n"
+          "least_normal_force_n (T float64, NaN where there is none)}.")
       .def_property_readonly(
           "status",
           [](const Recording& r) { return std::string(RecordingStatusName(r.status)); },

@@ -259,7 +259,7 @@ Each frame is a dict: SN (str), index (int), sendTimestamp (float, the sender's 
 recvTimestamp (float, s since this Sensor was created), message (str), and every item the
 sender sent by name: 3D_Displacements, 3D_Positions, 3D_Forces (float64 N x 3),
 3D_ResultantForce, 3D_ResultantMoment (float64 1 x 3; tac3d sends the moment in N mm),
-InitializeProgress (float as the vendor and tac3d send it; int from a tac3d before issue 22);
+InitializeProgress (float as the vendor and tac3d send it; int from earlier versions of tac3d);
 when the sender adds them (`tac3d run --udp-items`), 3D_Normals (float64 N x 3) and tac3d's
 SlipState (int), SlipFraction, Friction, FrictionSigma (float) and SlipMargin (float64 1 x 3:
 the margin to gross slip, its 1-sigma, the least normal force in N). An item not sent is absent.

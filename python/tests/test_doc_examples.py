@@ -138,3 +138,30 @@ def test_realdata_examples_run_only_where_the_real_data_is(tmp_path, monkeypatch
     assert run(page(tmp_path, text)) == []
     (data / "marker.txt").rename(data / "other.txt")
     assert any("output differs" in p for p in run(page(tmp_path, text)))
+
+
+@pytest.mark.parametrize("text, message", [
+    ("Measured for issue 12, as asked.\n", "page.md:1: an internal issue reference ('issue 12')"),
+    ("As Issue\n12 asked.\n", "page.md:1: an internal issue reference ('Issue 12')"),
+    ("Intro.\n\nSee [the notes](../shared/x.md).\n", "page.md:3: the link to ../shared/x.md"),
+    ("See [that](../../x.md).\n", "page.md:1: the link to ../../x.md leaves the repository"),
+    ("The rule (DESIGN.md, \"Honest testing\").\n", "page.md:1: cites DESIGN.md"),
+])
+def test_a_page_users_cannot_follow_fails(tmp_path, text, message):
+    problems = run(page(tmp_path, text))
+    assert any(message in p for p in problems), problems
+
+
+def test_a_clean_page_passes_the_check(tmp_path):
+    text = textwrap.dedent("""\
+        # A page
+
+        The target (median error 0.05, p90 0.1) is not met; see [the glossary](glossary.md#twin),
+        [design.md](design.md), the [README](../README.md) and https://example.com/issue/12.
+
+        '''cpp
+        std::sort(v.begin(), v.end(), [](int a, int b) { return a < b; });
+        '''
+        """).replace("'''", FENCE)
+    assert doc_examples.guide_problems("page.md", text) == []
+    assert run(page(tmp_path, text)) == []

@@ -81,6 +81,34 @@ def test_recording_round_trip_streamed_and_whole(tmp_path):
     assert [f.index for f in rec] == list(range(30))
 
 
+def test_open_recording_returns_every_recorded_field(tmp_path):
+    path = str(tmp_path / "fields.tac3drec")
+    frames = []
+    with tac3d.RecordingWriter(path) as w:
+        for k in range(3):
+            f = synthetic_frame(k)
+            valid = np.ones(400, bool)
+            valid[k] = False
+            contact = np.zeros(400, bool)
+            contact[10 + k] = True
+            f.valid, f.contact, f.flags = valid, contact, 1
+            f.friction, f.friction_sigma = 0.4 + 0.1 * k, 0.02
+            f.slip_margin, f.slip_margin_sigma, f.least_normal_force_n = 0.5, 0.1, 2.0 + k
+            w.write(f)
+            frames.append(f)
+    rec = tac3d.open_recording(path)
+    assert rec.valid.shape == (3, 400) and rec.valid.dtype == np.bool_
+    np.testing.assert_array_equal(rec.valid, np.stack([f.valid for f in frames]))
+    np.testing.assert_array_equal(rec.contact, np.stack([f.contact for f in frames]))
+    np.testing.assert_array_equal(rec.flags, [1, 1, 1])
+    slip = rec.slip
+    np.testing.assert_array_equal(slip["state"], [0, 0, 0])  # unknown: the writer's frames had no estimate
+    np.testing.assert_allclose(slip["friction"], [0.4, 0.5, 0.6])
+    np.testing.assert_allclose(slip["least_normal_force_n"], [2.0, 3.0, 4.0])
+    np.testing.assert_allclose(slip["margin"], [0.5] * 3)
+    assert np.isnan(slip["fraction"]).all()
+
+
 def test_recording_with_images(tmp_path):
     path = str(tmp_path / "img.tac3drec")
     image = (np.arange(48 * 64) % 251).astype(np.uint8).reshape(48, 64)

@@ -1,6 +1,7 @@
 #include "tac3d/io/recording_export.h"
 
 #include <fmt/format.h>
+#include <unistd.h>
 
 #include <cerrno>
 #include <cstring>
@@ -10,6 +11,7 @@
 #include <memory>
 #include <optional>
 
+#include "tac3d/imagefile/image_write.h"
 #include "tac3d/io/npy.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/file_io.h"
@@ -30,8 +32,26 @@ constexpr const char* kNpyNames[] = {"positions_mm.npy",
                                      "flags.npy",
                                      "initialize_progress.npy",
                                      "resultant_force_n.npy",
-                                     "resultant_moment_nmm.npy"};
+                                     "resultant_moment_nmm.npy",
+                                     "slip_state.npy",
+                                     "slip_fraction.npy",
+                                     "friction.npy",
+                                     "friction_sigma.npy",
+                                     "margin.npy",
+                                     "margin_sigma.npy",
+                                     "least_normal_force_n.npy",
+                                     "has_image.npy"};
 constexpr const char* kCsvNames[] = {"frames.csv", "markers.csv"};
+// Both formats write each recorded camera image as a PNG in this folder.
+constexpr const char* kImagesFolder = "images";
+
+// Frame k's image file in the images folder.
+std::string ImageFileName(std::int64_t frame_number) { return fmt::format("frame_{:06d}.png", frame_number); }
+
+// Frame k's exported image, relative to the export folder (frames.csv's `image`).
+std::string ExportedImageName(std::int64_t frame_number) {
+  return fmt::format("{}/{}", kImagesFolder, ImageFileName(frame_number));
+}
 
 // Creates the folder if needed and refuses to replace files unless told to, and anything the
 // output rule refuses (CheckOutputFile: the recording itself, a device, a symbolic link).
@@ -53,7 +73,56 @@ void CheckFolder(const std::string& folder,
     }
     CheckOutputFile(path.string(), "export file", {}, {recording});
   }
+  const fs::path images = fs::path(folder) / kImagesFolder;
+  const fs::file_status status = fs::symlink_status(images, ec);
+  if (fs::exists(status)) {
+    if (!fs::is_directory(status)) {
+      throw Error(fmt::format("'{}' is not a folder (a file or a symbolic link): the export's images go there",
+                              images.string()));
+    }
+    if (!overwrite) {
+      throw Error(fmt::format("'{}' already exists (`tac3d recording export --overwrite`, "
+                              "RecordingExportOptions::overwrite, replaces it)", images.string()));
+    }
+  }
 }
+
+// The recorded camera images, written into a temporary folder beside images/ and moved into
+// place by Commit() (an earlier export's images/ replaced), so a failed export leaves none.
+class ExportImages {
+ public:
+  explicit ExportImages(const std::string& folder)
+      : final_(fs::path(folder) / kImagesFolder),
+        temp_(fs::path(folder) / fmt::format("{}.tmp{}", kImagesFolder, ::getpid())) {}
+  ~ExportImages() {
+    std::error_code ec;
+    if (created_ && !committed_) fs::remove_all(temp_, ec);
+  }
+  void Write(std::int64_t frame_number, const cv::Mat& image) {
+    if (!created_) {
+      std::error_code ec;
+      if (!fs::create_directory(temp_, ec)) {
+        throw Error(fmt::format("cannot create the folder '{}'{}", temp_.string(), ec ? ": " + ec.message() : ""));
+      }
+      created_ = true;
+    }
+    WriteImageFile((temp_ / ImageFileName(frame_number)).string(), image);
+  }
+  void Commit() {
+    std::error_code ec;
+    fs::remove_all(final_, ec);  // checked up front to be a folder, replaced only with overwrite
+    if (created_) {
+      fs::rename(temp_, final_, ec);
+      if (ec) throw Error(fmt::format("cannot rename '{}' to '{}': {}", temp_.string(), final_.string(), ec.message()));
+    }
+    committed_ = true;
+  }
+
+ private:
+  fs::path final_, temp_;
+  bool created_ = false;
+  bool committed_ = false;
+};
 
 // The temporary files of an export (CreateTemporaryFile): removed unless Commit() renamed them
 // into place.
@@ -115,7 +184,15 @@ class NpyExporter : public FrameExporter {
         {NpyType::kUint32, {}},
         {NpyType::kInt64, {}},
         {NpyType::kFloat64, {3}},
-        {NpyType::kFloat64, {3}}};
+        {NpyType::kFloat64, {3}},
+        {NpyType::kUint32, {}},
+        {NpyType::kFloat64, {}},
+        {NpyType::kFloat64, {}},
+        {NpyType::kFloat64, {}},
+        {NpyType::kFloat64, {}},
+        {NpyType::kFloat64, {}},
+        {NpyType::kFloat64, {}},
+        {NpyType::kBool, {}}};
     for (std::size_t i = 0; i < layout.size(); ++i) {
       writers_.push_back(
           std::make_unique<NpyWriter>(files.temp(i), layout[i].first, layout[i].second));
@@ -137,6 +214,16 @@ class NpyExporter : public FrameExporter {
     writers_[9]->Append(&progress);
     writers_[10]->Append(f.resultant_force_n.data());
     writers_[11]->Append(f.resultant_moment_nmm.data());
+    const std::uint32_t state = static_cast<std::uint32_t>(f.slip.state);
+    writers_[12]->Append(&state);
+    writers_[13]->Append(&f.slip.fraction);
+    writers_[14]->Append(&f.slip.friction);
+    writers_[15]->Append(&f.slip.friction_sigma);
+    writers_[16]->Append(&f.slip.margin);
+    writers_[17]->Append(&f.slip.margin_sigma);
+    writers_[18]->Append(&f.slip.least_normal_force_n);
+    const std::uint8_t has_image = recorded.image.empty() ? 0 : 1;
+    writers_[19]->Append(&has_image);
   }
 
   void Close() override {
@@ -165,7 +252,8 @@ class CsvExporter : public FrameExporter {
  public:
   static constexpr const char* kFramesHeader =
       "frame,index,timestamp_s,sn,rows,cols,initialize_progress,flags,flag_names,valid_markers,"
-      "contact_markers,image_rows,image_cols,fx_n,fy_n,fz_n,mx_nmm,my_nmm,mz_nmm\n";
+      "contact_markers,image_rows,image_cols,fx_n,fy_n,fz_n,mx_nmm,my_nmm,mz_nmm,slip_state,"
+      "slip_fraction,friction,friction_sigma,margin,margin_sigma,least_normal_force_n,image\n";
   static constexpr const char* kMarkersHeader =
       "frame,index,timestamp_s,marker,row,col,valid,contact,x_mm,y_mm,z_mm,dx_mm,dy_mm,dz_mm,"
       "fx_n,fy_n,fz_n,nx,ny,nz\n";
@@ -188,7 +276,7 @@ class CsvExporter : public FrameExporter {
     // {} prints the shortest text that reads back as the same double.
     buffer_.clear();
     fmt::format_to(std::back_inserter(buffer_),
-                   "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+                   "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
                    frame_number,
                    f.index,
                    f.timestamp_s,
@@ -207,7 +295,15 @@ class CsvExporter : public FrameExporter {
                    f.resultant_force_n.z(),
                    f.resultant_moment_nmm.x(),
                    f.resultant_moment_nmm.y(),
-                   f.resultant_moment_nmm.z());
+                   f.resultant_moment_nmm.z(),
+                   SlipStateName(f.slip.state),
+                   f.slip.fraction,
+                   f.slip.friction,
+                   f.slip.friction_sigma,
+                   f.slip.margin,
+                   f.slip.margin_sigma,
+                   f.slip.least_normal_force_n,
+                   recorded.image.empty() ? std::string() : ExportedImageName(frame_number));
     frames_.write(buffer_.data(), static_cast<std::streamsize>(buffer_.size()));
     buffer_.clear();
     for (int i = 0; i < f.num_markers(); ++i) {
@@ -289,6 +385,7 @@ RecordingExportResult ExportRecording(const std::string& recording,
   result.rows = recorded->frame.rows;
   result.cols = recorded->frame.cols;
   TempFiles files(folder, names);
+  ExportImages images(folder);
   std::unique_ptr<FrameExporter> exporter;
   if (options.format == RecordingExportFormat::kNpy) {
     exporter = std::make_unique<NpyExporter>(files, result.rows * result.cols);
@@ -311,10 +408,15 @@ RecordingExportResult ExportRecording(const std::string& recording,
           result.cols));
     }
     exporter->Add(result.frames, *recorded);
+    if (!recorded->image.empty()) {
+      images.Write(result.frames, recorded->image);
+      ++result.images;
+    }
     ++result.frames;
   }
   exporter->Close();
   files.Commit();
+  images.Commit();
   result.files = files.finals();
   result.status = reader.status();
   result.message = reader.message();

@@ -10,6 +10,10 @@
 #include <limits>
 #include <sstream>
 
+#include <gmock/gmock.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
 #include "tac3d/frame/synthetic_frame.h"
 #include "tac3d/testing/npy_reader.h"
 #include "tac3d/testing/testing.h"
@@ -37,6 +41,16 @@ TactileFrame ExportFrame(int t) {
     f.set(FrameFlag::kInitializing);
   }
   if (t == 3) f.set(FrameFlag::kForceOutOfRange);
+  // A slip estimate on the frames after the first (the first keeps "unknown", NaNs).
+  if (t > 0) {
+    f.slip.state = t % 2 == 0 ? SlipState::kGrossSlip : SlipState::kPartialSlip;
+    f.slip.fraction = 0.1 * t;
+    f.slip.friction = 0.5 + 0.01 * t;
+    f.slip.friction_sigma = 0.02;
+    f.slip.margin = 0.3 - 0.01 * t;
+    f.slip.margin_sigma = 0.05;
+    f.slip.least_normal_force_n = 1.5 + t;
+  }
   return f;
 }
 
@@ -98,8 +112,10 @@ TEST(RecordingExport, NpyHoldsEveryFieldExactly) {
   EXPECT_EQ(result.rows, kExportRows);
   EXPECT_EQ(result.cols, kExportCols);
   EXPECT_EQ(result.status, RecordingStatus::kComplete);
-  ASSERT_EQ(result.files.size(), 12u);
+  ASSERT_EQ(result.files.size(), 20u);
+  EXPECT_EQ(result.images, 4);  // the even frames'
   auto names = RecordingExportFileNames(RecordingExportFormat::kNpy);
+  names.push_back("images");
   std::sort(names.begin(), names.end());
   EXPECT_EQ(Listing(dir + "/out"), names);  // and no .tmp left
 
@@ -144,6 +160,32 @@ TEST(RecordingExport, NpyHoldsEveryFieldExactly) {
       EXPECT_EQ(moment.at<double>(t * 3 + k), f.resultant_moment_nmm[k]);
     }
   }
+  // The slip estimate and the images, every recorded field.
+  const auto state = LoadNpy(out + "slip_state.npy");
+  const auto has_image = LoadNpy(out + "has_image.npy");
+  EXPECT_EQ(state.descr, "<u4");
+  EXPECT_EQ(has_image.descr, "|b1");
+  const std::pair<const char*, double FrameSlip::*> slip_fields[] = {
+      {"slip_fraction.npy", &FrameSlip::fraction},   {"friction.npy", &FrameSlip::friction},
+      {"friction_sigma.npy", &FrameSlip::friction_sigma}, {"margin.npy", &FrameSlip::margin},
+      {"margin_sigma.npy", &FrameSlip::margin_sigma}, {"least_normal_force_n.npy", &FrameSlip::least_normal_force_n}};
+  for (int t = 0; t < 7; ++t) {
+    const TactileFrame f = ExportFrame(t);
+    EXPECT_EQ(state.at<std::uint32_t>(t), static_cast<std::uint32_t>(f.slip.state)) << t;
+    for (const auto& [file, field] : slip_fields) {
+      const auto a = LoadNpy(out + file);
+      ASSERT_EQ(a.shape, (std::vector<std::int64_t>{7})) << file;
+      EXPECT_TRUE(Same(a.at<double>(t), f.slip.*field)) << file << " " << t;
+    }
+    EXPECT_EQ(has_image.data[t], t % 2 == 0 ? 1 : 0) << t;
+    const std::string png = fmt::format("{}images/frame_{:06d}.png", out, t);
+    EXPECT_EQ(fs::exists(png), t % 2 == 0) << png;
+    if (t % 2 == 0) {
+      const cv::Mat image = cv::imread(png, cv::IMREAD_UNCHANGED);
+      ASSERT_EQ(image.size(), cv::Size(8, 6));
+      EXPECT_EQ(cv::countNonZero(image != t), 0) << png;
+    }
+  }
   // Some marker is out of contact and some in, so the bools are not all one value.
   EXPECT_NE(contact.data.find('\x01'), std::string::npos);
   EXPECT_NE(contact.data.find('\x00'), std::string::npos);
@@ -153,7 +195,7 @@ TEST(RecordingExport, CsvHasOneRowPerFrameAndPerFrameAndMarker) {
   const std::string dir = testing::MakeTempDir("export");
   const std::string rec = WriteExportRecording(dir + "/rec.tac3d", 3);
   const auto result = ExportRecording(rec, dir + "/csv", {.format = RecordingExportFormat::kCsv});
-  EXPECT_EQ(Listing(dir + "/csv"), (std::vector<std::string>{"frames.csv", "markers.csv"}));
+  EXPECT_EQ(Listing(dir + "/csv"), (std::vector<std::string>{"frames.csv", "images", "markers.csv"}));
   EXPECT_EQ(result.frames, 3);
 
   const auto frames = Lines(dir + "/csv/frames.csv");
@@ -161,9 +203,10 @@ TEST(RecordingExport, CsvHasOneRowPerFrameAndPerFrameAndMarker) {
   EXPECT_EQ(frames[0],
             "frame,index,timestamp_s,sn,rows,cols,initialize_progress,flags,flag_names,"
             "valid_markers,contact_markers,image_rows,image_cols,fx_n,fy_n,fz_n,mx_nmm,my_nmm,"
-            "mz_nmm");
+            "mz_nmm,slip_state,slip_fraction,friction,friction_sigma,margin,margin_sigma,"
+            "least_normal_force_n,image");
   const auto f0 = Split(frames[1]);
-  ASSERT_EQ(f0.size(), 19u);
+  ASSERT_EQ(f0.size(), 27u);
   const TactileFrame first = ExportFrame(0);
   EXPECT_EQ(f0[0], "0");
   EXPECT_EQ(f0[1], "100");
@@ -174,6 +217,20 @@ TEST(RecordingExport, CsvHasOneRowPerFrameAndPerFrameAndMarker) {
   EXPECT_EQ(f0[9], std::to_string(kExportMarkers - 1));
   EXPECT_EQ(f0[11], "6");  // image 6 x 8 on even frames
   EXPECT_EQ(Split(frames[2])[11], "0");
+  EXPECT_EQ(f0[19], "unknown");
+  EXPECT_EQ(f0[21], "nan");
+  EXPECT_EQ(f0[26], "images/frame_000000.png");
+  const auto f1 = Split(frames[2]);
+  const TactileFrame second = ExportFrame(1);
+  EXPECT_EQ(f1[19], "partial_slip");
+  EXPECT_EQ(std::stod(f1[20]), second.slip.fraction);
+  EXPECT_EQ(std::stod(f1[21]), second.slip.friction);
+  EXPECT_EQ(std::stod(f1[22]), second.slip.friction_sigma);
+  EXPECT_EQ(std::stod(f1[23]), second.slip.margin);
+  EXPECT_EQ(std::stod(f1[24]), second.slip.margin_sigma);
+  EXPECT_EQ(std::stod(f1[25]), second.slip.least_normal_force_n);
+  EXPECT_EQ(f1.size(), 26u);  // no image: the last field empty
+  EXPECT_TRUE(fs::exists(dir + "/csv/images/frame_000002.png"));
   for (int k = 0; k < 3; ++k) {
     EXPECT_EQ(std::stod(f0[13 + k]), first.resultant_force_n[k]);
     EXPECT_EQ(std::stod(f0[16 + k]), first.resultant_moment_nmm[k]);
@@ -240,7 +297,20 @@ TEST(RecordingExport, ChecksTheFolderBeforeWritingAndLeavesNoPartialFile) {
   }
   EXPECT_EQ(Listing(dir + "/out"), std::vector<std::string>{"flags.npy"});
   EXPECT_EQ(ExportRecording(rec, dir + "/out", {.overwrite = true}).frames, 2);
-  EXPECT_EQ(Listing(dir + "/out").size(), 12u);
+  EXPECT_EQ(Listing(dir + "/out").size(), 21u);  // 20 arrays and images/
+  // An images/ folder is the export's too: refused without overwrite, and never a link.
+  try {
+    ExportRecording(rec, dir + "/out", {.format = RecordingExportFormat::kCsv});
+    ADD_FAILURE() << "replaced an earlier export's images";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("images' already exists"));
+  }
+  fs::create_directories(dir + "/elsewhere");
+  fs::create_symlink(dir + "/elsewhere", dir + "/linked_images");
+  fs::create_directories(dir + "/linked");
+  fs::rename(dir + "/linked_images", dir + "/linked/images");
+  EXPECT_THROW(ExportRecording(rec, dir + "/linked", {.overwrite = true}), Error);
+  EXPECT_TRUE(fs::is_symlink(dir + "/linked/images"));
   // The output is a file.
   EXPECT_THROW(ExportRecording(rec, rec), Error);
   // No good frame: nothing written.
