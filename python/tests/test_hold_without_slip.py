@@ -35,8 +35,11 @@ def test_twin_simulation_steps_under_the_callers_forces(small_sensor_yaml, cache
     assert slid["total_force"][0] == pytest.approx(0.3 * -slid["total_force"][2], rel=1e-2)
     with pytest.raises(tac3d.Error, match="needs a normal_force_n"):
         sim.step(tangential_force_n=(0.1, 0.0))
-    with pytest.raises(tac3d.Error, match="normal_force_n must be finite and >= 0"):
+    with pytest.raises(tac3d.Error, match=r"normal_force_n must be in \[0, 1000\] N, got -1"):
         sim.step(normal_force_n=-1.0)
+    # 1e160 N overflowed into a zero tangential force and no slip: refused.
+    with pytest.raises(tac3d.Error, match="tangential_force_n must be at most 1000 N long"):
+        sim.step(normal_force_n=1.0, tangential_force_n=(1e160, 0.0))
     sim.step()  # the trajectory's own step: the sphere only touches
     with pytest.raises(tac3d.Error, match="all 4 steps"):
         sim.step()

@@ -1,8 +1,10 @@
 """`tac3d dataset generate`: one Dask task an episode, on a local cluster of K worker
 processes or on an existing cluster (a `dask-scheduler` address)."""
 import contextlib
+import os
 import pathlib
 import shutil
+import stat
 import sys
 import time
 
@@ -40,26 +42,45 @@ class Progress:
 
 def prepare_folder(spec_path, out):
     """Creates out (its parent must exist) with its episodes/ folder and the spec's copy; a
-    folder made from another spec is refused. Removes temporary folders left by a run that
+    folder made from another spec is refused, as is a symbolic link or a file where a folder
+    or the spec's copy goes (never written through). Removes temporaries left by a run that
     was killed (one run a folder at a time)."""
     out = pathlib.Path(out)
-    if not out.parent.is_dir():
-        raise _core.Error(f"dataset folder '{out}': the folder '{out.parent}' does not exist")
-    (out / store.EPISODES).mkdir(parents=True, exist_ok=True)
-    text = pathlib.Path(spec_path).read_text()
+    with store.named_errors(f"dataset folder '{out}'"):
+        if not out.parent.is_dir():
+            raise _core.Error(f"dataset folder '{out}': the folder '{out.parent}' does not exist")
+    for folder in (out, out / store.EPISODES):
+        with store.named_errors(folder):
+            with contextlib.suppress(FileExistsError):
+                os.mkdir(folder)
+            if not stat.S_ISDIR(os.lstat(folder).st_mode):
+                raise _core.Error(f"dataset folder '{out}': '{folder}' is not a folder "
+                                  f"(a file or a symbolic link)")
+    text = pathlib.Path(spec_path).read_bytes()
     copy = out / store.SPEC_COPY
-    if copy.exists() and copy.read_text() != text:
-        raise _core.Error(f"dataset folder '{out}' was generated from another spec "
-                          f"({copy} differs from {spec_path})")
-    copy.write_text(text)
+    with store.named_errors(copy):
+        if not store.regular_file_exists(copy):
+            store.replace_file(copy, text)
+        else:
+            with store.open_regular(copy) as f:
+                if f.read(len(text) + 1) != text:
+                    raise _core.Error(f"dataset folder '{out}' was generated from another spec "
+                                      f"({copy} differs from {spec_path})")
     remove_temporaries(out)
 
 
 def remove_temporaries(out):
-    folder = pathlib.Path(out) / store.EPISODES
-    for entry in folder.iterdir():
-        if entry.name.startswith(".episode_"):
-            shutil.rmtree(entry, ignore_errors=True)
+    """Removes the .*.tmp files and folders of out and out/episodes (never following a link)."""
+    for folder in (pathlib.Path(out), pathlib.Path(out) / store.EPISODES):
+        with store.named_errors(folder):
+            entries = list(os.scandir(folder))
+        for entry in entries:
+            if entry.name.startswith(".") and entry.name.endswith(".tmp"):
+                if entry.is_dir(follow_symlinks=False):
+                    shutil.rmtree(entry.path, ignore_errors=True)
+                else:
+                    with contextlib.suppress(OSError):
+                        os.unlink(entry.path)
 
 
 def prepare_models(spec_path, todo, cache_dir):
@@ -78,6 +99,35 @@ def prepare_models(spec_path, todo, cache_dir):
     return len(prepared)
 
 
+def max_workers():
+    """The most worker processes of a local cluster: twice the cores this process may use. A
+    worker is one thread busy on one core holding ~0.5 GB (docs/datasets.md, "Memory"), so past
+    the cores workers add memory, not speed; twice leaves room to oversubscribe a little (two
+    workers on one core)."""
+    return 2 * len(os.sched_getaffinity(0))
+
+
+# Seconds to connect to --scheduler: an address that does not answer is reported in seconds
+# (distributed waits 30 s by default).
+SCHEDULER_CONNECT_S = 5
+
+
+def check_arguments(episodes, workers, scheduler):
+    """@raises tac3d.Error for a count out of its bounds or an address no Dask transport takes,
+    before anything is written or started."""
+    if not 1 <= episodes <= store.MAX_EPISODES:
+        raise _core.Error(f"--episodes must be in [1, {store.MAX_EPISODES}], got {episodes}")
+    if scheduler:
+        from distributed.comm import parse_address
+        from distributed.comm.registry import get_backend
+
+        with store.named_errors(f"--scheduler {scheduler}"):
+            get_backend(parse_address(scheduler)[0])
+    elif not 1 <= workers <= max_workers():
+        raise _core.Error(f"--workers must be in [1, {max_workers()}] (twice this machine's cores), "
+                          f"got {workers}")
+
+
 @contextlib.contextmanager
 def dask_client(workers, scheduler, stream):
     """A Dask client: of the cluster at `scheduler`, else of a local cluster of `workers`
@@ -85,7 +135,9 @@ def dask_client(workers, scheduler, stream):
     from distributed import Client, LocalCluster
 
     if scheduler:
-        with Client(scheduler) as client:
+        with store.named_errors(f"--scheduler {scheduler}"):
+            client = Client(scheduler, timeout=SCHEDULER_CONNECT_S)
+        with client:
             yield client
         return
     try:
@@ -103,13 +155,10 @@ def dask_client(workers, scheduler, stream):
 def generate(spec, out, episodes, workers=1, scheduler=None, cache_dir="", stream=sys.stderr):
     """Generates episodes 0 .. episodes - 1 of `spec` into `out`, skipping complete ones.
     Returns {episodes (complete in out), skipped, generated, seconds, workers}.
-    Raises tac3d.Error for a bad spec or folder, before any cluster starts."""
+    Raises tac3d.Error for a bad spec, count or folder, before any cluster starts."""
     spec_path = str(pathlib.Path(spec).resolve())
     out = str(pathlib.Path(out).resolve())
-    if episodes < 1:
-        raise _core.Error(f"--episodes must be >= 1, got {episodes}")
-    if not scheduler and workers < 1:
-        raise _core.Error(f"--workers must be >= 1, got {workers}")
+    check_arguments(episodes, workers, scheduler)
     _core.load_dataset_spec(str(spec))  # a bad spec is refused here, named as the user gave it
     prepare_folder(spec_path, out)
     records = store.complete_episodes(out)  # any id: a run of fewer episodes keeps the others

@@ -228,6 +228,9 @@ TEST(DatasetSpec, RefusesBadInputNamingTheLine) {
                                               "youngs_modulus_factor: 1e-200")),
             "spec.yaml: line 8: sensor_conditions.youngs_modulus_factor: 1e-200 is out of range: must "
             "be in [0.1, 2]");
+  // An episode is held and stored whole: its steps are bounded by what fits.
+  EXPECT_EQ(DatasetSpecErrorOf(ReplacedInSpec(kMixedSpec, "steps: 20", "steps: 10001")),
+            "spec.yaml: line 4: steps: must be in [2, 10000]");
   // An integer past an int's range is out of range, not "not an integer".
   EXPECT_EQ(DatasetSpecErrorOf(ReplacedInSpec(kMixedSpec, "steps: 20", "steps: 1000000000000")),
             "spec.yaml: line 4: steps: 1000000000000 is out of range: must be an integer in "

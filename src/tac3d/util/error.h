@@ -11,8 +11,17 @@ namespace tac3d {
 /// wrong and where (the field, the bound, the file).
 class Error : public std::runtime_error {
  public:
-  using std::runtime_error::runtime_error;
+  /// Bytes of `message` that are not printable UTF-8 (a binary file's, echoed from what it
+  /// held) are written as \xNN, so the message always prints (Python's str of it too).
+  explicit Error(const std::string& message);
+  explicit Error(const char* message) : Error(std::string(message)) {}
 };
+
+namespace internal {
+/// `text` with each byte that is not part of a printable UTF-8 character (control characters
+/// but newline and tab, stray or overlong sequences) written as \xNN.
+std::string PrintableUtf8(const std::string& text);
+}  // namespace internal
 
 /// The check an options struct's Validate() makes of each number, for the options named `what`:
 /// require(ok, field, bound, value) throws Error("<what>: <field> = <value> must be <bound>")
