@@ -231,12 +231,16 @@ void EvalForceOptions::Validate() const {
   if (!(noise_mm >= 0.0 && std::isfinite(noise_mm))) {
     throw Error(fmt::format("EvalForceOptions.noise_mm must be >= 0, got {}", noise_mm));
   }
-  if (static_frames < 2) {
-    throw Error(fmt::format("EvalForceOptions.static_frames must be >= 2, got {}", static_frames));
+  // Counts bounded where a run would take hours, not by memory alone: each press is a solve.
+  constexpr int kMaxCount = 10000;
+  if (static_frames < 2 || static_frames > kMaxCount) {
+    throw Error(fmt::format("EvalForceOptions.static_frames must be in [2, {}], got {}", kMaxCount, static_frames));
   }
   for (const auto& [value, field] : {std::pair{calibration_presses, "calibration_presses"},
                                      std::pair{test_presses, "test_presses"}}) {
-    if (value < 3) throw Error(fmt::format("EvalForceOptions.{} must be >= 3, got {}", field, value));
+    if (value < 3 || value > kMaxCount) {
+      throw Error(fmt::format("EvalForceOptions.{} must be in [3, {}], got {}", field, kMaxCount, value));
+    }
   }
   for (const auto& [value, field] : {std::pair{full_scale_normal_n, "full_scale_normal_n"},
                                      std::pair{full_scale_tangential_n, "full_scale_tangential_n"}}) {

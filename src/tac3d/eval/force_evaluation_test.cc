@@ -56,6 +56,10 @@ TEST(EvalForceOptions, EveryBoundIsChecked) {
   expect_throw([](EvalForceOptions& o) { o.static_frames = 1; });
   expect_throw([](EvalForceOptions& o) { o.calibration_presses = 2; });
   expect_throw([](EvalForceOptions& o) { o.test_presses = 2; });
+  // A billion presses were accepted: hours of solves before any output.
+  expect_throw([](EvalForceOptions& o) { o.calibration_presses = 1000000000; });
+  expect_throw([](EvalForceOptions& o) { o.test_presses = 10001; });
+  expect_throw([](EvalForceOptions& o) { o.static_frames = 10001; });
   expect_throw([](EvalForceOptions& o) { o.full_scale_normal_n = 0.0; });
   expect_throw([](EvalForceOptions& o) { o.full_scale_tangential_n = -5.0; });
   expect_throw([](EvalForceOptions& o) { o.body.thickness_mm = -1.0; });
