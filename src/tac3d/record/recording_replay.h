@@ -38,6 +38,8 @@ class RecordingReplay {
   std::int64_t frames_read() const { return reader_.frames_read(); }
   /// Seconds spent waiting for frames to be due (0 at speed 0).
   double waited_s() const { return pacer_.waited_s(); }
+  /// ReplayPacer::TakeShortenedWait of the last Next.
+  std::optional<double> TakeShortenedWait() { return pacer_.TakeShortenedWait(); }
   /// "recording FILE at 1x" or "... as fast as possible".
   std::string Describe() const;
 

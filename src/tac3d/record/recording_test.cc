@@ -352,7 +352,12 @@ TEST(ReplayPacer, AJumpInTheClockIsWaitedOutForTheBoundOnly) {
   EXPECT_TRUE(pacer.Wait(0.0, nullptr));
   for (const double jump : {1e9, 1e300}) {
     EXPECT_TRUE(pacer.Wait(jump, nullptr));
+    const std::optional<double> cut = pacer.TakeShortenedWait();  // said once
+    ASSERT_TRUE(cut.has_value());
+    EXPECT_GT(*cut, 0.5 * jump);
+    EXPECT_FALSE(pacer.TakeShortenedWait().has_value());
     EXPECT_TRUE(pacer.Wait(jump + 0.01, nullptr));  // 10 ms after the jump, at its pace
+    EXPECT_FALSE(pacer.TakeShortenedWait().has_value());
   }
   EXPECT_EQ(pacer.waits_shortened(), 2);
   EXPECT_GE(pacer.waited_s(), 0.1);

@@ -110,6 +110,13 @@ void NoteIgnoredZero(const std::string& log_prefix, bool* noted) {
   *noted = true;
 }
 
+// Says that a replay cut a pause of its recording (ReplayPacer::kMaxWaitS), if it did.
+void NoteShortenedWait(const std::string& log_prefix, std::optional<double> wait_s) {
+  if (!wait_s) return;
+  std::fprintf(stderr, "%sa pause of %.4g s in the recording was replayed as %g s\n", log_prefix.c_str(), *wait_s,
+               ReplayPacer::kMaxWaitS);
+}
+
 // A recording's frames as they were computed, at its recorded pace times `speed`.
 class RecordingStream final : public SensorStream {
  public:
@@ -124,6 +131,7 @@ class RecordingStream final : public SensorStream {
   // A recording holds no marker pixels: its images (when recorded) are shown without markers.
   Produced Next(const std::atomic<bool>& stop, ProducedFrame& out) override {
     current_ = replay_.Next(&stop);
+    NoteShortenedWait(log_prefix_, replay_.TakeShortenedWait());
     if (!current_) return Produced::kEnd;
     if (sn_) current_->frame.sn = *sn_;
     if (clock_.common) current_->frame.timestamp_s = SecondsSince(clock_.epoch);
@@ -197,7 +205,9 @@ class VendorStream final : public SensorStream {
     }
     if (!due) return Produced::kEnd;
     current_ = sensors_[*due].Frame(next_[*due]++);
-    if (!pacer_.Wait(current_.timestamp_s, &stop)) return Produced::kEnd;
+    const bool due_now = pacer_.Wait(current_.timestamp_s, &stop);
+    NoteShortenedWait(log_prefix_, pacer_.TakeShortenedWait());
+    if (!due_now) return Produced::kEnd;
     if (sn_) current_.sn = *sn_;
     if (clock_.common) current_.timestamp_s = SecondsSince(clock_.epoch);
     out.frame = &current_;
