@@ -184,7 +184,7 @@ void FrictionMapOptions::Validate() const {
   Require(poisson_scale >= 1 && poisson_scale <= 2, "poisson_scale", "in [1, 2]", poisson_scale);
   Require(num_threads >= 0 && num_threads <= kMaxThreads,
           "num_threads",
-          "in [0, 1024] (0: one a core)",
+          fmt::format("in [0, {}] (0: one a core)", kMaxThreads).c_str(),
           num_threads);
   Require(trim_distance_mm > 0 && std::isfinite(trim_distance_mm),
           "trim_distance_mm",

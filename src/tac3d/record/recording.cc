@@ -351,7 +351,6 @@ bool ReplayPacer::Wait(double timestamp_s, const std::atomic<bool>* stop) {
   waited_s_ += SecondsSince(now);
   if (shortened) {
     // The pace goes on from this frame, shown now.
-    ++waits_shortened_;
     shortened_wait_s_ = delay_s;
     first_timestamp_s_ = timestamp_s;
     start_ = std::chrono::steady_clock::now();

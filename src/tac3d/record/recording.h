@@ -137,8 +137,6 @@ class ReplayPacer {
   bool Wait(double timestamp_s, const std::atomic<bool>* stop);
   /// Seconds spent waiting so far (0 at speed <= 0).
   double waited_s() const { return waited_s_; }
-  /// Waits cut to max_wait_s so far.
-  int waits_shortened() const { return waits_shortened_; }
   /// The wait the last Wait cut to max_wait_s (s, at the replay's speed), once: then nullopt
   /// until another is cut. For a note to the user that the replay skipped a pause.
   std::optional<double> TakeShortenedWait() { return std::exchange(shortened_wait_s_, std::nullopt); }
@@ -147,7 +145,6 @@ class ReplayPacer {
   double speed_;
   double max_wait_s_;
   double waited_s_ = 0.0;
-  int waits_shortened_ = 0;
   std::optional<double> shortened_wait_s_;
   std::optional<double> first_timestamp_s_;
   std::chrono::steady_clock::time_point start_;

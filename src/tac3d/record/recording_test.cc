@@ -359,7 +359,6 @@ TEST(ReplayPacer, AJumpInTheClockIsWaitedOutForTheBoundOnly) {
     EXPECT_TRUE(pacer.Wait(jump + 0.01, nullptr));  // 10 ms after the jump, at its pace
     EXPECT_FALSE(pacer.TakeShortenedWait().has_value());
   }
-  EXPECT_EQ(pacer.waits_shortened(), 2);
   EXPECT_GE(pacer.waited_s(), 0.1);
 }
 
