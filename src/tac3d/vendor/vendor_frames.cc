@@ -62,7 +62,7 @@ TactileFrame VendorFrames::Frame(std::int64_t f) const {
   for (std::int64_t i = 0; i < markers; ++i) {
     // A marker with a NaN or an infinity is lost this frame: at its reference, unloaded, so
     // the frame's other markers and normals are computed as without it.
-    if (!(positions.row(i).allFinite() && displacements.row(i).allFinite() && forces.row(i).allFinite())) {
+    if (!VendorRecording::MarkerIsFinite(positions, displacements, forces, i)) {
       frame.valid[i] = false;
       frame.set(FrameFlag::kMarkersLost);
       positions.row(i) = reference_.row(i);

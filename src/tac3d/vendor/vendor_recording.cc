@@ -115,7 +115,7 @@ std::int64_t VendorRecording::FirstNonFiniteMarker(std::int64_t frame) const {
   const Eigen::MatrixX3d p = Frame(positions, frame), d = Frame(displacements, frame),
                          f = Frame(forces, frame);
   for (std::int64_t i = 0; i < p.rows(); ++i) {
-    if (!(p.row(i).allFinite() && d.row(i).allFinite() && f.row(i).allFinite())) return i;
+    if (!MarkerIsFinite(p, d, f, i)) return i;
   }
   return -1;
 }

@@ -42,6 +42,13 @@ struct VendorRecording {
   /// The first marker of a frame whose position, displacement or force holds a NaN or an
   /// infinity (a marker the vendor's software lost, or a damaged file), or -1 if none.
   std::int64_t FirstNonFiniteMarker(std::int64_t frame) const;
+  /// Whether marker i of one frame's fields (Frame of each) is finite in all three.
+  static bool MarkerIsFinite(const Eigen::MatrixX3d& positions,
+                             const Eigen::MatrixX3d& displacements,
+                             const Eigen::MatrixX3d& forces,
+                             Eigen::Index i) {
+    return positions.row(i).allFinite() && displacements.row(i).allFinite() && forces.row(i).allFinite();
+  }
   /// How far the vendor's zero point moved over the recording: the largest distance of a
   /// marker's reference position (ReferencePositions) in a frame from its own in frame 0 (mm).
   double MaxReferenceShiftMm() const;
