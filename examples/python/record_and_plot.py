@@ -10,6 +10,7 @@ TactileFrame (tac3d.RecordingWriter), crash-safe frame by frame, then read back 
 """
 import argparse
 import math
+import sys
 import time
 
 import matplotlib
@@ -54,6 +55,7 @@ def main():
             writer.write(to_tactile_frame(frame))
 
         with tac3d.Sensor(recvCallback=on_frame, port=args.port) as sensor:
+            print(f"listening on port {args.port}", file=sys.stderr, flush=True)  # a sender may start
             if not sensor.waitForFrame(timeout=30):
                 raise SystemExit("no Tac3D stream on port %d" % args.port)
             time.sleep(args.seconds)
