@@ -24,7 +24,7 @@
 #include "tac3d/protocol/udp_sender.h"
 #include "tac3d/protocol/udp_socket.h"
 #include "tac3d/twin/camera_renderer.h"
-#include "tac3d/vendor/test_hdl1_0001_folder.h"
+#include "tac3d/vendor_formats/test_hdl1_0001_folder.h"
 
 namespace tac3d {
 namespace {

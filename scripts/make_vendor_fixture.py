@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Writes src/tac3d/vendor/test_hdl1_0001.h, the vendor tests' fixture, from the real sensor
+"""Writes src/tac3d/vendor_formats/test_hdl1_0001.h, the vendor tests' fixture, from the real sensor
 HDL1-0001's files in ../shared/realdata (docs/real-sensors.md): the calibration values, the 800
 reference pixels, the recording's reference positions (frame 0's 3D_Positions -
 3D_Displacements, rounded to 1e-6 mm), and two of its frames (the first and the last: their

@@ -13,7 +13,7 @@
 #include "tac3d/util/eval_check.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/progress.h"
-#include "tac3d/vendor/vendor_gel.h"
+#include "tac3d/vendor_formats/vendor_gel.h"
 
 namespace tac3d::cli {
 namespace {

@@ -5,7 +5,7 @@
 
 #include "commands.h"
 #include "tac3d/fem/body_model.h"
-#include "tac3d/vendor/vendor_gel.h"
+#include "tac3d/vendor_formats/vendor_gel.h"
 
 namespace tac3d::cli {
 

@@ -16,8 +16,8 @@
 #include "tac3d/reference_log/reference_log.h"
 #include "tac3d/util/file_io.h"
 #include "tac3d/util/error.h"
-#include "tac3d/vendor/vendor_frames.h"
-#include "tac3d/vendor/vendor_recording.h"
+#include "tac3d/vendor_formats/vendor_frames.h"
+#include "tac3d/vendor_formats/vendor_recording.h"
 
 namespace tac3d::cli {
 namespace {

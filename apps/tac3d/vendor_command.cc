@@ -9,9 +9,9 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
-#include "tac3d/vendor/vendor_calibration.h"
-#include "tac3d/vendor/vendor_evaluation.h"
-#include "tac3d/vendor/vendor_recording.h"
+#include "tac3d/vendor_formats/vendor_calibration.h"
+#include "tac3d/vendor_formats/vendor_evaluation.h"
+#include "tac3d/vendor_formats/vendor_recording.h"
 
 namespace tac3d::cli {
 

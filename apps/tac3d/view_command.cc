@@ -13,7 +13,7 @@
 #include "tac3d/runtime/run_outputs.h"
 #include "tac3d/runtime/sensor_stream.h"
 #include "tac3d/util/error.h"
-#include "tac3d/vendor/vendor_recording.h"
+#include "tac3d/vendor_formats/vendor_recording.h"
 #include "view_data.h"
 
 namespace tac3d::cli {

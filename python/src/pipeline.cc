@@ -20,7 +20,7 @@
 #include "tac3d/sensor/default_sensor.h"
 #include "tac3d/sensor/sensor_config.h"
 #include "tac3d/source/frame_source.h"
-#include "tac3d/vendor/vendor_gel.h"
+#include "tac3d/vendor_formats/vendor_gel.h"
 #include "twin_common.h"
 
 namespace tac3d::python {

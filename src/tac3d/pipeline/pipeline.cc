@@ -8,7 +8,7 @@
 
 #include "tac3d/force/regularization.h"
 #include "tac3d/util/error.h"
-#include "tac3d/vendor/vendor_stereo.h"
+#include "tac3d/vendor_formats/vendor_stereo.h"
 
 namespace tac3d {
 namespace {

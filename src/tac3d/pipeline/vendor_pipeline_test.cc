@@ -10,8 +10,8 @@
 #include "tac3d/stereo/marker_field.h"
 #include "tac3d/tracking/marker_tracker.h"
 #include "tac3d/twin/camera_renderer.h"
-#include "tac3d/vendor/test_vendor_folder.h"
-#include "tac3d/vendor/vendor_stereo.h"
+#include "tac3d/vendor_formats/test_vendor_folder.h"
+#include "tac3d/vendor_formats/vendor_stereo.h"
 
 // The chain on twin images of a vendor-calibrated sensor: HDL1-0001 as the fixture's calibration
 // imports it (1920 x 1080, two views in the one image, refraction at z = h0), rendered by the twin

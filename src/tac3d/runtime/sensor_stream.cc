@@ -13,8 +13,8 @@
 #include "tac3d/util/file_io.h"
 #include "tac3d/util/seconds_since.h"
 #include "tac3d/util/stoppable_sleep.h"
-#include "tac3d/vendor/vendor_frames.h"
-#include "tac3d/vendor/vendor_gel.h"
+#include "tac3d/vendor_formats/vendor_frames.h"
+#include "tac3d/vendor_formats/vendor_gel.h"
 
 namespace tac3d::runtime {
 namespace {

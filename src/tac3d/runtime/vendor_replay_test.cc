@@ -11,8 +11,8 @@
 #include "tac3d/runtime/sensor_stream.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
-#include "tac3d/vendor/test_vendor_folder.h"
-#include "tac3d/vendor/vendor_recording.h"
+#include "tac3d/vendor_formats/test_vendor_folder.h"
+#include "tac3d/vendor_formats/vendor_recording.h"
 
 namespace tac3d::runtime {
 namespace {

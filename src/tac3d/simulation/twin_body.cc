@@ -8,7 +8,7 @@
 #include "tac3d/util/cache_file.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/seconds_since.h"
-#include "tac3d/vendor/vendor_gel.h"
+#include "tac3d/vendor_formats/vendor_gel.h"
 
 namespace tac3d::simulation {
 namespace {

@@ -12,7 +12,7 @@
 #include "tac3d/sensor/default_sensor.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
-#include "tac3d/vendor/test_vendor_folder.h"
+#include "tac3d/vendor_formats/test_vendor_folder.h"
 
 namespace tac3d::simulation {
 namespace {

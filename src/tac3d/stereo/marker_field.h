@@ -39,7 +39,7 @@ struct MarkerTriangulatorOptions {
 /// Triangulates a frame's tracked markers (both halves' pixels, paired by index) into a
 /// MarkerField: the seam between tracking and a sensor's camera model. A marker is valid only if
 /// both halves saw it and its two rays agree. The twin's mirror rig is MarkerTriangulator; a
-/// vendor's pinhole-and-refraction model is VendorMarkerTriangulator (vendor/vendor_stereo.h).
+/// vendor's pinhole-and-refraction model is VendorMarkerTriangulator (vendor_formats/vendor_stereo.h).
 class StereoTriangulator {
  public:
   virtual ~StereoTriangulator() = default;

@@ -14,7 +14,7 @@
 #include "tac3d/source/frame_source.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
-#include "tac3d/vendor/test_vendor_folder.h"
+#include "tac3d/vendor_formats/test_vendor_folder.h"
 
 // A named namespace: the test program compiles test files together (unity batches), where
 // another file's anonymous-namespace helpers would clash with these.

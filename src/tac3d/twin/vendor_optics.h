@@ -4,7 +4,7 @@
 #include <utility>
 
 #include "tac3d/twin/ray_field.h"
-#include "tac3d/vendor/vendor_stereo.h"
+#include "tac3d/vendor_formats/vendor_stereo.h"
 
 namespace tac3d {
 

@@ -5,7 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "tac3d/twin/camera_renderer.h"
-#include "tac3d/vendor/test_vendor_folder.h"
+#include "tac3d/vendor_formats/test_vendor_folder.h"
 
 namespace tac3d {
 namespace {

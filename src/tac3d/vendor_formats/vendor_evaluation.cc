@@ -1,4 +1,4 @@
-#include "tac3d/vendor/vendor_evaluation.h"
+#include "tac3d/vendor_formats/vendor_evaluation.h"
 
 #include <algorithm>
 #include <cmath>

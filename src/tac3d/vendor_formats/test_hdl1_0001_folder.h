@@ -10,8 +10,8 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
-#include "tac3d/vendor/test_hdl1_0001.h"
-#include "tac3d/vendor/vendor_calibration.h"
+#include "tac3d/vendor_formats/test_hdl1_0001.h"
+#include "tac3d/vendor_formats/vendor_calibration.h"
 
 namespace tac3d::testing {
 

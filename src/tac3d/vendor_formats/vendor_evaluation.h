@@ -13,9 +13,9 @@
 #include "tac3d/force/regularization.h"
 #include "tac3d/sensor/sensor_config.h"
 #include "tac3d/util/eval_check.h"
-#include "tac3d/vendor/vendor_gel.h"
-#include "tac3d/vendor/vendor_recording.h"
-#include "tac3d/vendor/vendor_stereo.h"
+#include "tac3d/vendor_formats/vendor_gel.h"
+#include "tac3d/vendor_formats/vendor_recording.h"
+#include "tac3d/vendor_formats/vendor_stereo.h"
 
 namespace tac3d {
 

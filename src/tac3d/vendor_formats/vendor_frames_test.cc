@@ -1,4 +1,4 @@
-#include "tac3d/vendor/vendor_frames.h"
+#include "tac3d/vendor_formats/vendor_frames.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -6,7 +6,7 @@
 #include "tac3d/record/recording.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
-#include "tac3d/vendor/test_vendor_folder.h"
+#include "tac3d/vendor_formats/test_vendor_folder.h"
 
 namespace tac3d {
 namespace {

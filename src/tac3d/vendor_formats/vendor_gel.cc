@@ -1,4 +1,4 @@
-#include "tac3d/vendor/vendor_gel.h"
+#include "tac3d/vendor_formats/vendor_gel.h"
 
 #include <cmath>
 
@@ -6,7 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "tac3d/util/error.h"
-#include "tac3d/vendor/vendor_stereo.h"
+#include "tac3d/vendor_formats/vendor_stereo.h"
 
 namespace tac3d {
 

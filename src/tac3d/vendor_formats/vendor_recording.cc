@@ -1,4 +1,4 @@
-#include "tac3d/vendor/vendor_recording.h"
+#include "tac3d/vendor_formats/vendor_recording.h"
 
 #include <algorithm>
 #include <charconv>

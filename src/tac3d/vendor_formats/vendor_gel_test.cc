@@ -1,12 +1,12 @@
-#include "tac3d/vendor/vendor_gel.h"
+#include "tac3d/vendor_formats/vendor_gel.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "tac3d/fem/compliance.h"
 #include "tac3d/util/error.h"
-#include "tac3d/vendor/test_vendor_folder.h"
-#include "tac3d/vendor/vendor_stereo.h"
+#include "tac3d/vendor_formats/test_vendor_folder.h"
+#include "tac3d/vendor_formats/vendor_stereo.h"
 
 namespace tac3d {
 namespace {

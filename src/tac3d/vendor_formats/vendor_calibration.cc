@@ -1,4 +1,4 @@
-#include "tac3d/vendor/vendor_calibration.h"
+#include "tac3d/vendor_formats/vendor_calibration.h"
 
 #include <charconv>
 #include <cmath>
@@ -12,7 +12,7 @@
 #include "tac3d/sensor/yaml_reader.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/file_io.h"
-#include "tac3d/vendor/vendor_stereo.h"
+#include "tac3d/vendor_formats/vendor_stereo.h"
 
 namespace tac3d {
 namespace {

@@ -1,4 +1,4 @@
-#include "tac3d/vendor/vendor_frames.h"
+#include "tac3d/vendor_formats/vendor_frames.h"
 
 #include <cmath>
 #include <cstring>

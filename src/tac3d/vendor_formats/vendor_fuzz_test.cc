@@ -18,10 +18,10 @@
 #include "tac3d/testing/csv_fuzz.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
-#include "tac3d/vendor/test_vendor_folder.h"
-#include "tac3d/vendor/vendor_calibration.h"
-#include "tac3d/vendor/vendor_frames.h"
-#include "tac3d/vendor/vendor_recording.h"
+#include "tac3d/vendor_formats/test_vendor_folder.h"
+#include "tac3d/vendor_formats/vendor_calibration.h"
+#include "tac3d/vendor_formats/vendor_frames.h"
+#include "tac3d/vendor_formats/vendor_recording.h"
 
 namespace tac3d {
 namespace {

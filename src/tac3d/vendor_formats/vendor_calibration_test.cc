@@ -1,4 +1,4 @@
-#include "tac3d/vendor/vendor_calibration.h"
+#include "tac3d/vendor_formats/vendor_calibration.h"
 
 #include <algorithm>
 #include <filesystem>
@@ -12,7 +12,7 @@
 
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
-#include "tac3d/vendor/test_vendor_folder.h"
+#include "tac3d/vendor_formats/test_vendor_folder.h"
 
 namespace tac3d {
 namespace {

@@ -1,4 +1,4 @@
-#include "tac3d/vendor/vendor_stereo.h"
+#include "tac3d/vendor_formats/vendor_stereo.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,8 +8,8 @@
 
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
-#include "tac3d/vendor/test_vendor_folder.h"
-#include "tac3d/vendor/vendor_evaluation.h"
+#include "tac3d/vendor_formats/test_vendor_folder.h"
+#include "tac3d/vendor_formats/vendor_evaluation.h"
 
 namespace tac3d {
 namespace {

@@ -13,8 +13,8 @@
 
 #include "tac3d/sensor/sensor_config.h"
 #include "tac3d/testing/testing.h"
-#include "tac3d/vendor/test_hdl1_0001_folder.h"
-#include "tac3d/vendor/vendor_calibration.h"
+#include "tac3d/vendor_formats/test_hdl1_0001_folder.h"
+#include "tac3d/vendor_formats/vendor_calibration.h"
 
 namespace tac3d::testing {
 

@@ -1,4 +1,4 @@
-#include "tac3d/vendor/vendor_stereo.h"
+#include "tac3d/vendor_formats/vendor_stereo.h"
 
 #include <fmt/format.h>
 

@@ -7,7 +7,7 @@
 
 #include "tac3d/force/marker_surface.h"
 #include "tac3d/frame/tactile_frame.h"
-#include "tac3d/vendor/vendor_recording.h"
+#include "tac3d/vendor_formats/vendor_recording.h"
 
 namespace tac3d {
 
