@@ -28,6 +28,8 @@ struct RunArgs {
   std::string run_file;
   std::string cache_dir = DefaultCacheDir();
   std::vector<double> gains = {1.0, 1.0, 1.0};
+  double weight = 0.0;          // with --weight
+  std::string support_resolve;  // on or off, with --support-resolve
   long max_frames = 0;
   double speed = 1.0;
   bool json = false;
@@ -45,28 +47,34 @@ FrameOutputArgs OutputArgs(const RunArgs& a) {
   return args;
 }
 
+// The inverse's flags given (--weight, --support-resolve, --gains) into the sensor's spec.
+void SetForceOptions(RunArgs& a, const CLI::App& cmd) {
+  if (a.gains.size() != 3) throw Error("--gains takes three numbers: Cx Cy Cz");
+  a.sensor.gains = Eigen::Vector3d(a.gains[0], a.gains[1], a.gains[2]);
+  if (cmd.count("--weight") > 0) a.sensor.weight = a.weight;
+  if (cmd.count("--support-resolve") > 0) a.sensor.support_resolve = a.support_resolve == "on";
+}
+
 // `sn_given`: --sn was on the command line; without it an imported sensor streams under its own SN.
 void Run(RunArgs a, bool sn_given) {
   if (!sn_given) a.sensor.sn = DefaultSerialNumber(LoadSensorOrDefault(a.sensor.config));
   // Checked before the compliance model is loaded (or built, ~1 min).
   OutputArgs(a).Validate();
-  if (a.gains.size() != 3) throw Error("--gains takes three numbers: Cx Cy Cz");
-  SensorRunSpec spec = a.sensor;
-  spec.gains = Eigen::Vector3d(a.gains[0], a.gains[1], a.gains[2]);
   const std::unique_ptr<runtime::SensorStream> stream =
-      runtime::OpenSensorStream(spec, runtime::CachedModelLoader(a.cache_dir));
+      runtime::OpenSensorStream(a.sensor, runtime::CachedModelLoader(a.cache_dir));
   runtime::RunSingleSensor(*stream, OutputArgs(a), a.max_frames, "processed");
 }
 
-// `tac3d run --source recording:FILE` or `vendor:DIR`: the frames as they were computed, with
-// --sn's SN if given.
+// `tac3d run --source recording:FILE` or `vendor:DIR`: the frames as they were computed (or
+// with --recompute-forces, their forces anew), with --sn's SN if given.
 void RunReplay(const RunArgs& a, bool replace_sn) {
   SensorRunSpec spec = a.sensor;
   spec.speed = a.speed;
   const std::optional<std::string> recording = runtime::RecordingSourcePath(spec.source);
+  const runtime::ModelLoader load_model = runtime::CachedModelLoader(a.cache_dir);
   const std::unique_ptr<runtime::SensorStream> stream =
-      recording ? runtime::OpenRecordingStream(*recording, spec, replace_sn)
-                : runtime::OpenVendorStream(*runtime::VendorSourcePath(spec.source), spec, replace_sn);
+      recording ? runtime::OpenRecordingStream(*recording, spec, replace_sn, load_model)
+                : runtime::OpenVendorStream(*runtime::VendorSourcePath(spec.source), spec, replace_sn, load_model);
   FrameOutputArgs outputs = OutputArgs(a);
   if (!replace_sn) outputs.sn = {};
   runtime::RunSingleSensor(*stream, outputs, a.max_frames,
@@ -98,8 +106,9 @@ void RunFile(const RunArgs& a) {
 // The one-sensor flags that a run file replaces.
 constexpr std::initializer_list<const char*> kSensorFlags = {
     "--source", "--config", "--sn", "--udp", "--udp-items", "--udp-progress", "--allow-zero-under-load", "--record",
-    "--record-images", "--overwrite", "--reference-frames", "--weight", "--gains", "--drift", "--drift-time-constant-s", "--width",
-    "--height", "--fps", "--exposure", "--pixel-format", "--speed"};
+    "--record-images", "--overwrite", "--reference-frames", "--weight", "--support-resolve", "--gains",
+    "--recompute-forces", "--drift", "--drift-time-constant-s", "--width", "--height", "--fps", "--exposure",
+    "--pixel-format", "--speed"};
 
 }  // namespace
 
@@ -141,8 +150,16 @@ void RegisterRun(CLI::App& app) {
   cmd->add_flag("--json", a->json, "print each frame's summary as a JSON line");
   cmd->add_option("--reference-frames", sensor.reference_frames, "static frames taken as the reference")
       ->capture_default_str();
-  cmd->add_option("--weight", sensor.weight, "Tikhonov weight w, (mm/N)^2")->capture_default_str();
+  cmd->add_option("--weight", a->weight,
+                  "Tikhonov weight w of the force inverse, (mm/N)^2 (default: the sensor's; 0.05)");
+  cmd->add_option("--support-resolve", a->support_resolve,
+                  "re-solve the forces on the contact's support: on or off (default: on for the built-in "
+                  "prototype, off for an imported sensor, as `tac3d eval vendor` checks it)")
+      ->check(CLI::IsMember({"on", "off"}));
   cmd->add_option("--gains", a->gains, "force gains Cx Cy Cz")->expected(3);
+  cmd->add_flag("--recompute-forces", sensor.recompute_forces,
+                "with recording:FILE or vendor:DIR: compute the forces anew from the recorded displacements "
+                "through the inverse of --config's sensor (e.g. after a recalibration)");
   AddDriftOption(cmd, &sensor.drift.mode,
                  "drift at rest: off, flag (the default: drift_at_rest) or rezero (tracked out of "
                  "the reference; docs/pipeline.md)");
@@ -173,13 +190,20 @@ void RegisterRun(CLI::App& app) {
       return RunFile(*a);
     }
     if (a->sensor.source.empty()) throw Error("run: --source or --run-file is required");
+    SetForceOptions(*a, *cmd);
     if (runtime::RecordingSourcePath(a->sensor.source) || runtime::VendorSourcePath(a->sensor.source)) {
       RefuseOptions(*cmd,
-                    {"--config", "--cache", "--reference-frames", "--weight", "--gains", "--drift",
-                     "--drift-time-constant-s", "--width", "--height", "--fps", "--exposure", "--pixel-format"},
+                    {"--reference-frames", "--drift", "--drift-time-constant-s", "--width", "--height", "--fps",
+                     "--exposure", "--pixel-format"},
                     "does not apply to a recording: its frames were computed when it was recorded");
+      if (!a->sensor.recompute_forces) {
+        RefuseOptions(*cmd, {"--config", "--cache", "--weight", "--support-resolve", "--gains"},
+                      "applies to a recording with --recompute-forces only: without it its frames are "
+                      "replayed as they were computed");
+      }
       return RunReplay(*a, /*replace_sn=*/cmd->count("--sn") > 0);
     }
+    RefuseOptions(*cmd, {"--recompute-forces"}, "applies to --source recording:FILE or vendor:DIR only");
     if (a->sensor.source.rfind("dataset:", 0) == 0) {
       if (cmd->count("--speed") > 0) a->sensor.speed = a->speed;
     } else {

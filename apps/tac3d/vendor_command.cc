@@ -10,7 +10,7 @@
 
 #include "commands.h"
 #include "tac3d/vendor_formats/vendor_calibration.h"
-#include "tac3d/vendor_formats/vendor_evaluation.h"
+#include "tac3d/eval/vendor_evaluation.h"
 #include "tac3d/vendor_formats/vendor_recording.h"
 
 namespace tac3d::cli {
@@ -54,6 +54,8 @@ void RegisterEvalVendor(CLI::App& eval) {
     bool no_distortion = false;
     bool no_refraction = false;
     bool json = false;
+    double weight = 0.0;
+    std::string support_resolve;
   };
   auto args = std::make_shared<Args>();
   CLI::App* cmd = eval.add_subcommand(
@@ -81,8 +83,15 @@ void RegisterEvalVendor(CLI::App& eval) {
                   "compare the frames whose recorded |resultant| exceeds this (N)")
       ->capture_default_str();
   cmd->add_option("--cache,--cache-dir", args->forces.cache_dir, "directory of cached compliance models")->capture_default_str();
+  cmd->add_option("--weight", args->weight,
+                  "the inverse's Tikhonov weight w, (mm/N)^2, as `tac3d run --weight` (default: the sensor's)");
+  cmd->add_option("--support-resolve", args->support_resolve,
+                  "the contact-support re-solve, on or off, as `tac3d run --support-resolve` (default: the sensor's)")
+      ->check(CLI::IsMember({"on", "off"}));
   cmd->add_flag("--json", args->json, "print JSON");
-  cmd->callback([args] {
+  cmd->callback([args, cmd] {
+    if (cmd->count("--weight") > 0) args->forces.weight = args->weight;
+    if (cmd->count("--support-resolve") > 0) args->forces.support_resolve = args->support_resolve == "on";
     args->options.stereo.undistort = !args->no_distortion;
     args->options.stereo.refract = !args->no_refraction;
     args->forces.show_progress = ShowProgress(args->json);

@@ -28,8 +28,9 @@ using runtime::SensorReport;
 using runtime::SensorRunSpec;
 
 SensorRunSpec MakeSpec(const std::string& sn, const std::string& source, const std::string& config,
-                       int reference_frames, double weight, const py::object& gains,
-                       const std::string& drift, double drift_time_constant_s,
+                       int reference_frames, std::optional<double> weight,
+                       std::optional<bool> support_resolve, const py::object& gains,
+                       bool recompute_forces, const std::string& drift, double drift_time_constant_s,
                        std::optional<double> speed, double fps, double exposure,
                        const std::string& pixel_format,
                        const std::string& udp, const std::string& udp_items, bool udp_progress,
@@ -41,7 +42,9 @@ SensorRunSpec MakeSpec(const std::string& sn, const std::string& source, const s
   s.config = config;
   s.reference_frames = reference_frames;
   s.weight = weight;
+  s.support_resolve = support_resolve;
   s.gains = ToVector3d(gains, "gains");
+  s.recompute_forces = recompute_forces;
   s.drift.mode = DriftModeArg(drift);
   s.drift.time_constant_s = drift_time_constant_s;
   s.speed = speed;
@@ -135,8 +138,9 @@ naming the field).
       .def(py::init(&MakeSpec), py::arg("sn"), py::arg("source"), py::kw_only(),
            // The defaults are SensorRunSpec's, as `tac3d run`'s and the run file's.
            py::arg("config") = d.config, py::arg("reference_frames") = d.reference_frames,
-           py::arg("weight") = d.weight,
+           py::arg("weight") = d.weight, py::arg("support_resolve") = d.support_resolve,
            py::arg("gains") = std::vector<double>(d.gains.begin(), d.gains.end()),
+           py::arg("recompute_forces") = d.recompute_forces,
            py::arg("drift") = runtime::DriftModeName(d.drift.mode),
            py::arg("drift_time_constant_s") = d.drift.time_constant_s,
            py::arg("speed") = d.speed, py::arg("fps") = d.camera.fps, py::arg("exposure") = d.exposure,
@@ -150,7 +154,10 @@ naming the field).
            "sn: the serial number in the stream, recording and frames; source: camera:N,\n"
            "/dev/videoN, a video file, an image folder, dataset:DIR, recording:FILE or vendor:DIR\n"
            "(a vendor recording's <SN> folder); config: a sensor YAML ('' the built-in\n"
-           "prototype); speed: pace of dataset:/recording:/vendor:\n"
+           "prototype); weight (Tikhonov w, (mm/N)^2) and support_resolve (the contact-support\n"
+           "re-solve): None for the sensor's defaults (w 0.05; the re-solve on for the built-in\n"
+           "prototype, off for an imported sensor); recompute_forces: a recording's forces computed\n"
+           "anew from its displacements through config's sensor; speed: pace of dataset:/recording:/vendor:\n"
            "(None: a recording at its recorded pace, a dataset as fast as possible); pixel_format:\n"
            "a camera's V4L2 pixel format, e.g. 'MJPG' ('' the driver's choice); udp:\n"
            "HOST:PORT of a Tac3D client; udp_items: tac3d's extra items after the vendor's six\n"
@@ -163,6 +170,8 @@ naming the field).
       .def_readonly("config", &SensorRunSpec::config)
       .def_readonly("reference_frames", &SensorRunSpec::reference_frames)
       .def_readonly("weight", &SensorRunSpec::weight)
+      .def_readonly("support_resolve", &SensorRunSpec::support_resolve)
+      .def_readonly("recompute_forces", &SensorRunSpec::recompute_forces)
       .def_property_readonly("gains", [](const SensorRunSpec& s) { return std::vector<double>(s.gains.begin(), s.gains.end()); })
       .def_property_readonly("drift", [](const SensorRunSpec& s) { return runtime::DriftModeName(s.drift.mode); })
       .def_property_readonly("drift_time_constant_s", [](const SensorRunSpec& s) { return s.drift.time_constant_s; })

@@ -120,17 +120,17 @@ std::vector<LoadCase> MakePresses(int count, const EvalForceOptions& options, st
 }
 
 // The largest and RMS resultant error over the test presses, per axis, in % of full scale.
-struct ResultantErrors {
+struct PressResultantErrors {
   Eigen::Vector3d max_pct_fs = Eigen::Vector3d::Zero();
   Eigen::Vector3d rms_pct_fs = Eigen::Vector3d::Zero();
   nlohmann::json presses = nlohmann::json::array();
 };
 
-ResultantErrors MeasureResultantErrors(ForceReconstructor& reconstructor,
+PressResultantErrors MeasureResultantErrors(ForceReconstructor& reconstructor,
                                        const std::vector<Eigen::VectorXd>& test_frames,
                                        const std::vector<LoadCase>& test,
                                        const Eigen::Vector3d& full_scale_n) {
-  ResultantErrors errors;
+  PressResultantErrors errors;
   Eigen::Vector3d sum_squares = Eigen::Vector3d::Zero();
   for (size_t k = 0; k < test.size(); ++k) {
     const Eigen::Vector3d measured = reconstructor.Reconstruct(test_frames[k]).resultant_force_n;
@@ -166,7 +166,7 @@ ForceMaterialFigures CalibrateMaterialOnPresses(const EvalForceOptions& options,
                                           ForceReconstructor* reconstructor,
                                           nlohmann::json* timing) {
   const auto start = std::chrono::steady_clock::now();
-  const ResultantErrors gains_only =
+  const PressResultantErrors gains_only =
       MeasureResultantErrors(*reconstructor, test.frames, test.loads, test.full_scale_n);
   std::vector<CalibrationPress> presses;
   for (size_t k = 0; k < calibration.size(); ++k) {
@@ -667,7 +667,7 @@ ForceEvaluation EvaluateOnResponses(const EvalForceOptions& options,
                                                      &timing);
     result.gains = result.material->fit.gains;
   }
-  const ResultantErrors errors =
+  const PressResultantErrors errors =
       MeasureResultantErrors(reconstructor, test_frames, cases.test, full_scale);
   const MarkerSurface surface(options.body.marker_rows, options.body.marker_cols, markers,
                               options.contact);

@@ -25,6 +25,19 @@ std::unique_ptr<StereoTriangulator> MakeTriangulator(const SensorConfig& config,
 
 }  // namespace
 
+ForceReconstructorOptions DefaultForceOptions(const SensorConfig& config) {
+  ForceReconstructorOptions force = PipelineOptions{}.force;
+  if (config.vendor_camera) force.support_refinement = false;
+  return force;
+}
+
+PipelineOptions DefaultPipelineOptions(const SensorConfig& config) {
+  PipelineOptions options;
+  options.sn = DefaultSerialNumber(config);
+  options.force = DefaultForceOptions(config);
+  return options;
+}
+
 std::string DefaultSerialNumber(const SensorConfig& config) {
   if (config.vendor_camera && !config.vendor_camera->serial_number.empty()) return config.vendor_camera->serial_number;
   return PipelineOptions{}.sn;
@@ -187,28 +200,52 @@ void Pipeline::Process(const Frame& frame, TactileFrame& out) {
 
   reference_.Apply(field_);
   out.set(FrameFlag::kDriftAtRest, drift_.Update(frame.timestamp_s, field_, reference_).flagged);
-  double max_displacement = 0.0;
+  int lost = 0;
   for (int i = 0; i < n; ++i) {
     const bool valid = field_.valid[i] != 0;
+    lost += valid ? 0 : 1;
+    out.valid[i] = valid;
+    out.positions_mm[i] = valid ? field_.positions[i] : Eigen::Vector3d::Constant(kNaN);
+    out.displacements_mm[i] = valid ? field_.displacements[i] : Eigen::Vector3d::Constant(kNaN);
+  }
+  out.set(FrameFlag::kMarkersLost, lost > 0);
+  ComputeForces(out);
+}
+
+void Pipeline::RecomputeForces(TactileFrame& frame) {
+  const int n = rows_ * cols_;
+  if (frame.num_markers() != n) {
+    throw Error(fmt::format("recomputing forces: the frame has {} markers, the sensor {} x {}", frame.num_markers(),
+                            rows_, cols_));
+  }
+  for (int i = 0; i < n; ++i) {
+    if (frame.valid[i] && !(frame.positions_mm[i].allFinite() && frame.displacements_mm[i].allFinite())) {
+      throw Error(fmt::format("recomputing forces: frame {}: valid marker {} has a position or displacement that "
+                              "is not finite",
+                              frame.index, i));
+    }
+  }
+  ComputeForces(frame);
+}
+
+void Pipeline::ComputeForces(TactileFrame& out) {
+  const int n = rows_ * cols_;
+  double max_displacement = 0.0;
+  for (int i = 0; i < n; ++i) {
+    const bool valid = out.valid[i];
     valid_[i] = valid;
-    for (int a = 0; a < 3; ++a) d_[a * n + i] = valid ? field_.displacements[i][a] : kNaN;
-    if (valid) max_displacement = std::max(max_displacement, field_.displacements[i].norm());
+    for (int a = 0; a < 3; ++a) d_[a * n + i] = valid ? out.displacements_mm[i][a] : kNaN;
+    if (valid) max_displacement = std::max(max_displacement, out.displacements_mm[i].norm());
   }
   reconstructor_.Reconstruct(d_, valid_, &force_);
   const ForceDecomposition parts = surface_.Decompose(d_, valid_, force_.forces_n);
-  int lost = 0;
   for (int i = 0; i < n; ++i) {
-    out.valid[i] = valid_[i];
-    lost += valid_[i] ? 0 : 1;
-    out.positions_mm[i] = valid_[i] ? field_.positions[i] : Eigen::Vector3d::Constant(kNaN);
-    out.displacements_mm[i] = valid_[i] ? field_.displacements[i] : Eigen::Vector3d::Constant(kNaN);
     out.forces_n[i] = force_.MarkerForce(i);
     out.normals[i] = parts.normals.col(i);
     out.contact[i] = parts.contact[i];
   }
   out.resultant_force_n = force_.resultant_force_n;
   out.resultant_moment_nmm = force_.resultant_moment_nmm;
-  out.set(FrameFlag::kMarkersLost, lost > 0);
   out.set(FrameFlag::kDisplacementOutOfRange, max_displacement > options_.displacement_range_mm);
   out.set(FrameFlag::kForceOutOfRange, force_.resultant_force_n.norm() > options_.force_range_n);
   out.slip = slip_.Estimate(out);

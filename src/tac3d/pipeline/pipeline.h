@@ -25,9 +25,8 @@ struct PipelineOptions {
   /// Static frames averaged into the reference (the undeformed state) at start and after
   /// a zeroing request; the displacement noise is estimated from them too.
   int reference_frames = 20;
-  /// The inverse's weight w and gains. The default w is what the discrepancy principle chose
-  /// for 0.005 mm displacement noise on the twin (docs/force.md); a force calibration
-  /// (`tac3d calibrate-force`) gives the sensor's own.
+  /// The inverse's weight w, gains and contact-support re-solve: the built-in prototype's
+  /// defaults here; DefaultPipelineOptions gives each sensor its own.
   ForceReconstructorOptions force = {.weight = 0.05, .gains = Eigen::Vector3d::Ones()};
   ContactOptions contact;
   /// The contact's slip state and friction estimate (docs/slip.md); its force and
@@ -56,6 +55,19 @@ struct PipelineOptions {
 /// column 0 at +x for HDL1-0001).
 std::vector<Eigen::Vector3d> RestMarkerPositions(const SensorConfig& config);
 
+/// The inverse a sensor runs with unless told otherwise.
+/// - The built-in prototype (a mirror model): w = 0.05 (mm/N)^2, what the discrepancy principle
+///   chose for 0.005 mm displacement noise on its twin, and the contact-support re-solve, tuned
+///   on that twin (docs/force.md).
+/// - An imported sensor (a vendor camera model): the paper's F = K D alone, without the re-solve
+///   (tuned on the prototype's twin, it reads a real gel high), at the same w: the inverse
+///   `tac3d eval vendor` checks against the vendor's recorded resultant (docs/real-sensors.md).
+ForceReconstructorOptions DefaultForceOptions(const SensorConfig& config);
+
+/// PipelineOptions with the sensor's serial number (DefaultSerialNumber) and inverse
+/// (DefaultForceOptions).
+PipelineOptions DefaultPipelineOptions(const SensorConfig& config);
+
 /// The serial number a sensor's frames carry when none is given: an imported sensor's own
 /// (camera_model.serial_number), else PipelineOptions' default.
 std::string DefaultSerialNumber(const SensorConfig& config);
@@ -83,6 +95,14 @@ class Pipeline {
   ///   or the image is empty or not the camera's size and type.
   void Process(const Frame& frame, TactileFrame& out);
 
+  /// Recomputes a recorded frame's forces, normals, contact, resultants and slip from its
+  /// markers (valid, positions_mm, displacements_mm) through this pipeline's inverse, in place:
+  /// to re-process a recording after a recalibration, or one of the vendor's software. The
+  /// force and displacement range flags are set anew; the other flags are kept.
+  /// @throws Error if the frame has another number of markers than the sensor, or a valid
+  ///   marker's position or displacement is not finite.
+  void RecomputeForces(TactileFrame& frame);
+
   /// The tracker's markers in the image the last Process call was given (both halves' pixels,
   /// states and estimates): for a caller that draws them (the viewer), read after Process and
   /// valid until the next call; no copy is made for it.
@@ -98,6 +118,9 @@ class Pipeline {
  private:
   // A frame while the reference is being taken: markers as measured, no forces.
   void FillInitializing(int progress, TactileFrame& out) const;
+  // Forces, normals, contact, resultants, range flags and slip of `out` from d_ and valid_ (the
+  // positions and displacements already in `out`).
+  void ComputeForces(TactileFrame& out);
   // Adds this frame to the reference being taken; true once it is complete (else `out` is
   // an initializing frame).
   bool CollectReference(TactileFrame& out);

@@ -37,7 +37,12 @@ SensorRunSpec ReadSensor(YamlReader r, const std::string& base_dir) {
   s.source = ResolveSource(base_dir, r.String("source"));
   s.config = FromBase(base_dir, r.String("config", ""));
   s.gains = r.Vector<3>("gains", s.gains);
-  s.weight = r.Double("weight", s.weight);
+  if (r.Has("weight")) s.weight = r.Double("weight");
+  if (r.Has("support_resolve")) s.support_resolve = r.Bool("support_resolve");
+  s.recompute_forces = r.Bool("recompute_forces", false);
+  if (s.recompute_forces && !RecordingSourcePath(s.source) && !VendorSourcePath(s.source)) {
+    r.FailAt(r.Required("recompute_forces"), r.Join("recompute_forces"), "applies to recording:FILE and vendor:DIR only");
+  }
   s.reference_frames = r.Int("reference_frames", s.reference_frames);
   if (r.Has("drift")) {
     const std::optional<DriftMode> mode = ParseDriftMode(r.String("drift"));

@@ -11,7 +11,8 @@
 namespace tac3d::runtime {
 
 /// Parses a run file: a mapping with one key, `sensors`, a list of sensors, each with `sn`
-/// and `source` (required) and optionally `config`, `gains`, `weight`, `reference_frames`,
+/// and `source` (required) and optionally `config`, `gains`, `weight`, `support_resolve`,
+/// `recompute_forces`, `reference_frames`,
 /// `speed`, `udp`, `udp_items`, `udp_progress`, `record`, `record_images`, `overwrite`, `fps`,
 /// `exposure`. Relative paths (config, record, a source's file or folder) are taken from
 /// `base_dir`.

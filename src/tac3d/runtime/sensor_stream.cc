@@ -28,6 +28,19 @@ std::unique_ptr<FrameSource> OpenImageSource(const SensorRunSpec& spec, const Se
   return OpenFrameSource(spec.source, camera);
 }
 
+// The sensor's pipeline, its options checked before the model is loaded (or built: minutes);
+// says which inverse it runs.
+std::unique_ptr<Pipeline> MakePipeline(const SensorRunSpec& spec, const SensorConfig& config,
+                                       const ModelLoader& load_model, const std::string& log_prefix) {
+  const PipelineOptions options = spec.ToPipelineOptions(config);
+  options.Validate();
+  std::fprintf(stderr, "%sinverse: weight %g (mm/N)^2, contact-support re-solve %s%s\n", log_prefix.c_str(),
+               options.force.weight, options.force.support_refinement ? "on" : "off",
+               spec.weight || spec.support_resolve ? "" : " (the sensor's defaults)");
+  const std::shared_ptr<const fem::ComplianceModel> model = load_model(config);
+  return std::make_unique<Pipeline>(config, model->h, model->marker_positions, options);
+}
+
 // Camera images through the Pipeline.
 class PipelineStream final : public SensorStream {
  public:
@@ -36,10 +49,7 @@ class PipelineStream final : public SensorStream {
     const SensorConfig config = LoadSensorOrDefault(spec.config);
     source_ = OpenImageSource(spec, config);
     std::fprintf(stderr, "%ssource: %s\n", log_prefix_.c_str(), source_->Describe().c_str());
-    const PipelineOptions options = spec.ToPipelineOptions();
-    options.Validate();  // before the model is loaded (or built, minutes)
-    const std::shared_ptr<const fem::ComplianceModel> model = load_model(config);
-    pipeline_.emplace(config, model->h, model->marker_positions, options);
+    pipeline_ = MakePipeline(spec, config, load_model, log_prefix_);
   }
 
   void Start(const StreamClock& clock) override { clock_ = clock; }
@@ -93,7 +103,7 @@ class PipelineStream final : public SensorStream {
   SensorRunSpec spec_;
   std::string log_prefix_;
   std::unique_ptr<FrameSource> source_;
-  std::optional<Pipeline> pipeline_;
+  std::unique_ptr<Pipeline> pipeline_;
   StreamClock clock_;
   Frame frame_;
   TactileFrame out_;
@@ -117,13 +127,34 @@ void NoteShortenedWait(const std::string& log_prefix, std::optional<double> wait
                ReplayPacer::kMaxWaitS);
 }
 
+// With spec.recompute_forces: a recording's frames get their forces anew from their recorded
+// displacements, through the pipeline `spec` gives the sensor of `spec.config`.
+class ForceRecomputation {
+ public:
+  ForceRecomputation(const SensorRunSpec& spec, const ModelLoader& load_model, const std::string& log_prefix) {
+    if (!spec.recompute_forces) return;
+    if (!load_model) throw Error("recomputing forces needs the sensor's compliance model: none was given");
+    pipeline_ = MakePipeline(spec, LoadSensorOrDefault(spec.config), load_model, log_prefix);
+  }
+
+  void Apply(TactileFrame& frame) {
+    if (pipeline_) pipeline_->RecomputeForces(frame);
+  }
+
+ private:
+  std::unique_ptr<Pipeline> pipeline_;
+};
+
 // A recording's frames as they were computed, at its recorded pace times `speed`.
 class RecordingStream final : public SensorStream {
  public:
-  RecordingStream(const std::string& path, const SensorRunSpec& spec, bool replace_sn, const std::string& log_prefix)
+  RecordingStream(const std::string& path, const SensorRunSpec& spec, bool replace_sn, const ModelLoader& load_model,
+                  const std::string& log_prefix)
       : path_(path), log_prefix_(log_prefix), replay_(path, {.speed = spec.speed.value_or(1.0)}) {
     if (replace_sn) sn_ = spec.sn;
-    std::fprintf(stderr, "%ssource: %s\n", log_prefix_.c_str(), replay_.Describe().c_str());
+    std::fprintf(stderr, "%ssource: %s%s\n", log_prefix_.c_str(), replay_.Describe().c_str(),
+                 spec.recompute_forces ? ", forces recomputed from its displacements" : "");
+    recompute_.emplace(spec, load_model, log_prefix_);
   }
 
   void Start(const StreamClock& clock) override { clock_ = clock; }
@@ -133,6 +164,7 @@ class RecordingStream final : public SensorStream {
     current_ = replay_.Next(&stop);
     NoteShortenedWait(log_prefix_, replay_.TakeShortenedWait());
     if (!current_) return Produced::kEnd;
+    recompute_->Apply(current_->frame);
     if (sn_) current_->frame.sn = *sn_;
     if (clock_.common) current_->frame.timestamp_s = SecondsSince(clock_.epoch);
     out.frame = &current_->frame;
@@ -159,6 +191,7 @@ class RecordingStream final : public SensorStream {
   std::string path_;
   std::string log_prefix_;
   RecordingReplay replay_;
+  std::optional<ForceRecomputation> recompute_;
   std::optional<std::string> sn_;
   StreamClock clock_;
   std::optional<RecordedFrame> current_;
@@ -168,7 +201,8 @@ class RecordingStream final : public SensorStream {
 // A vendor recording's sensors, their frames interleaved in the order of their sendTimestamps.
 class VendorStream final : public SensorStream {
  public:
-  VendorStream(const std::string& path, const SensorRunSpec& spec, bool replace_sn, const std::string& log_prefix)
+  VendorStream(const std::string& path, const SensorRunSpec& spec, bool replace_sn, const ModelLoader& load_model,
+               const std::string& log_prefix)
       : path_(path), log_prefix_(log_prefix), speed_(spec.speed.value_or(1.0)), pacer_(speed_) {
     RecordingReplayOptions{.speed = speed_}.Validate();
     std::vector<std::string> described;
@@ -188,10 +222,31 @@ class VendorStream final : public SensorStream {
     }
     if (replace_sn) sn_ = spec.sn;
     next_.assign(sensors_.size(), 0);
-    std::fprintf(stderr, "%ssource: %s\n", log_prefix_.c_str(),
+    std::fprintf(stderr, "%ssource: %s%s\n", log_prefix_.c_str(),
                  fmt::format("vendor recording {}: {} {}", path_, fmt::join(described, ", "),
                              speed_ > 0 ? fmt::format("at {}x", speed_) : "as fast as possible")
-                     .c_str());
+                     .c_str(),
+                 spec.recompute_forces ? ", forces recomputed from its displacements" : "");
+    if (spec.recompute_forces) {
+      if (spec.config.empty()) {
+        throw Error("recomputing a vendor recording's forces needs its sensor's config (`tac3d import-vendor`)");
+      }
+      if (sensors_.size() > 1) {
+        throw Error(fmt::format("vendor recording '{}' holds {} sensors: recompute one at a time (vendor:{}/<SN>, "
+                                "with that sensor's config)",
+                                path, sensors_.size(), path));
+      }
+      // The forces of a sensor come from its own gel's model: checked before it is loaded.
+      const SensorConfig config = LoadSensorConfig(spec.config);
+      const std::string& recorded_sn = sensors_.front().recording().serial_number;
+      if (config.vendor_camera && !config.vendor_camera->serial_number.empty() &&
+          config.vendor_camera->serial_number != recorded_sn) {
+        throw Error(fmt::format("the recording is of sensor {}, the config '{}' of {}: its forces would come from "
+                                "another gel",
+                                recorded_sn, spec.config, config.vendor_camera->serial_number));
+      }
+    }
+    recompute_.emplace(spec, load_model, log_prefix_);
   }
 
   void Start(const StreamClock& clock) override { clock_ = clock; }
@@ -205,6 +260,7 @@ class VendorStream final : public SensorStream {
     }
     if (!due) return Produced::kEnd;
     current_ = sensors_[*due].Frame(next_[*due]++);
+    recompute_->Apply(current_);
     const bool due_now = pacer_.Wait(current_.timestamp_s, &stop);
     NoteShortenedWait(log_prefix_, pacer_.TakeShortenedWait());
     if (!due_now) return Produced::kEnd;
@@ -231,6 +287,7 @@ class VendorStream final : public SensorStream {
   ReplayPacer pacer_;
   std::vector<VendorFrames> sensors_;
   std::vector<std::int64_t> next_;  // each sensor's next frame
+  std::optional<ForceRecomputation> recompute_;
   std::optional<std::string> sn_;
   StreamClock clock_;
   TactileFrame current_;
@@ -239,11 +296,12 @@ class VendorStream final : public SensorStream {
 
 }  // namespace
 
-PipelineOptions SensorRunSpec::ToPipelineOptions() const {
-  PipelineOptions options;
+PipelineOptions SensorRunSpec::ToPipelineOptions(const SensorConfig& config) const {
+  PipelineOptions options = DefaultPipelineOptions(config);
   options.sn = sn;
   options.reference_frames = reference_frames;
-  options.force.weight = weight;
+  if (weight) options.force.weight = *weight;
+  if (support_resolve) options.force.support_refinement = *support_resolve;
   options.drift = drift;
   options.force.gains = gains;
   return options;
@@ -262,7 +320,10 @@ void SensorRunSpec::Validate() const {
     if (!config.empty()) RequireRegularFile(config, "sensor config");
     ValidateFrameRate(camera.fps, "camera");
     ValidatePixelFormat(camera.pixel_format);
-    ToPipelineOptions().Validate();
+    ToPipelineOptions(SensorConfig{}).Validate();
+    if (recompute_forces && !RecordingSourcePath(source) && !VendorSourcePath(source)) {
+      throw Error("recompute_forces applies to recording:FILE and vendor:DIR only");
+    }
     outputs.Validate();
     if (!outputs.record.empty()) {
       // The source's file or folder, past its scheme (recording:FILE, vendor:DIR, dataset:DIR).
@@ -309,25 +370,27 @@ CameraSourceOptions CameraWithSensorResolution() {
 std::unique_ptr<SensorStream> OpenRecordingStream(const std::string& path,
                                                   const SensorRunSpec& spec,
                                                   bool replace_sn,
+                                                  const ModelLoader& load_model,
                                                   const std::string& log_prefix) {
-  return std::make_unique<RecordingStream>(path, spec, replace_sn, log_prefix);
+  return std::make_unique<RecordingStream>(path, spec, replace_sn, load_model, log_prefix);
 }
 
 std::unique_ptr<SensorStream> OpenVendorStream(const std::string& path,
                                                const SensorRunSpec& spec,
                                                bool replace_sn,
+                                               const ModelLoader& load_model,
                                                const std::string& log_prefix) {
-  return std::make_unique<VendorStream>(path, spec, replace_sn, log_prefix);
+  return std::make_unique<VendorStream>(path, spec, replace_sn, load_model, log_prefix);
 }
 
 std::unique_ptr<SensorStream> OpenSensorStream(const SensorRunSpec& spec,
                                                const ModelLoader& load_model,
                                                const std::string& log_prefix) {
   if (const std::optional<std::string> path = RecordingSourcePath(spec.source)) {
-    return OpenRecordingStream(*path, spec, /*replace_sn=*/true, log_prefix);
+    return OpenRecordingStream(*path, spec, /*replace_sn=*/true, load_model, log_prefix);
   }
   if (const std::optional<std::string> path = VendorSourcePath(spec.source)) {
-    return OpenVendorStream(*path, spec, /*replace_sn=*/true, log_prefix);
+    return OpenVendorStream(*path, spec, /*replace_sn=*/true, load_model, log_prefix);
   }
   return std::make_unique<PipelineStream>(spec, load_model, log_prefix);
 }

@@ -33,8 +33,14 @@ struct SensorRunSpec {
   std::string source;
   std::string config;  ///< sensor YAML; "" the built-in prototype
   int reference_frames = PipelineOptions{}.reference_frames;
-  double weight = PipelineOptions{}.force.weight;  ///< Tikhonov weight w, (mm/N)^2
+  /// Tikhonov weight w, (mm/N)^2, and the contact-support re-solve; unset: the sensor's
+  /// (DefaultForceOptions).
+  std::optional<double> weight;
+  std::optional<bool> support_resolve;
   Eigen::Vector3d gains = Eigen::Vector3d::Ones();  ///< force gains Cx, Cy, Cz
+  /// recording:FILE and vendor:DIR: the forces computed anew from the recorded displacements
+  /// through the pipeline's inverse for `config` (Pipeline::RecomputeForces), not replayed.
+  bool recompute_forces = false;
   DriftOptions drift = PipelineOptions{}.drift;     ///< drift at rest: flag, rezero or off
   /// recording:FILE and vendor:DIR: replay speed (unset: 1, the recorded pace; 0 as fast as
   /// possible);
@@ -45,8 +51,9 @@ struct SensorRunSpec {
   /// udp, record, record_images, overwrite, json; sn is set from `sn` for pipelines.
   FrameOutputArgs outputs;
 
-  /// The pipeline's options: sn, reference_frames, weight, gains, drift.
-  PipelineOptions ToPipelineOptions() const;
+  /// The pipeline's options for this sensor: DefaultPipelineOptions(config) with sn,
+  /// reference_frames, weight, support_resolve, gains and drift as given.
+  PipelineOptions ToPipelineOptions(const SensorConfig& config) const;
   /// Checks what can be checked before any work.
   /// @throws Error naming the field: an empty sn or source, a negative speed or one for a
   ///   source that is not paced (IsPacedSource), the pipeline's options, the outputs'.
@@ -108,11 +115,14 @@ std::unique_ptr<SensorStream> OpenSensorStream(const SensorRunSpec& spec,
                                                const std::string& log_prefix = "");
 
 /// A recording's frames as they were computed, replayed at spec.speed (unset: 1) times the
-/// recorded pace, with spec.sn when `replace_sn`, else the recorded SN.
-/// @throws Error if the file is not a recording.
+/// recorded pace, with spec.sn when `replace_sn`, else the recorded SN. With
+/// spec.recompute_forces, their forces are computed anew (Pipeline::RecomputeForces) for the
+/// sensor of spec.config, whose model `load_model` gives.
+/// @throws Error if the file is not a recording, or recompute_forces has no model loader.
 std::unique_ptr<SensorStream> OpenRecordingStream(const std::string& path,
                                                   const SensorRunSpec& spec,
                                                   bool replace_sn,
+                                                  const ModelLoader& load_model = {},
                                                   const std::string& log_prefix = "");
 
 /// A vendor recording's frames (docs/real-sensors.md): `path` is its `<SN>` folder or the
@@ -121,12 +131,16 @@ std::unique_ptr<SensorStream> OpenRecordingStream(const std::string& path,
 /// as recorded, normals and contact as tac3d makes them) keep its SN and sendTimestamp; several
 /// sensors' frames come interleaved in the order of their timestamps (one clock, the vendor's),
 /// at spec.speed (unset: 1) times that pace. With `replace_sn`, spec.sn replaces the SN. A `$C`
-/// is noted and ignored.
-/// @throws Error naming the file of a missing, malformed or truncated field, or for
-///   `replace_sn` with several sensors.
+/// is noted and ignored. With spec.recompute_forces, the forces are computed anew from the
+/// recorded displacements (Pipeline::RecomputeForces) for the sensor of spec.config (required),
+/// one sensor at a time.
+/// @throws Error naming the file of a missing, malformed or truncated field, for `replace_sn`
+///   or recompute_forces with several sensors, or recompute_forces without a config, with
+///   another sensor's config or without a model loader.
 std::unique_ptr<SensorStream> OpenVendorStream(const std::string& path,
                                                const SensorRunSpec& spec,
                                                bool replace_sn,
+                                               const ModelLoader& load_model = {},
                                                const std::string& log_prefix = "");
 
 /// The compliance model from `cache_dir`, built there the first time (~1 min).

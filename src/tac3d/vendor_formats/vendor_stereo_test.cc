@@ -9,7 +9,7 @@
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
 #include "tac3d/vendor_formats/test_vendor_folder.h"
-#include "tac3d/vendor_formats/vendor_evaluation.h"
+#include "tac3d/eval/vendor_evaluation.h"
 
 namespace tac3d {
 namespace {

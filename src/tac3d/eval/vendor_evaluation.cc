@@ -1,4 +1,4 @@
-#include "tac3d/vendor_formats/vendor_evaluation.h"
+#include "tac3d/eval/vendor_evaluation.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "tac3d/force/force_reconstructor.h"
+#include "tac3d/pipeline/pipeline.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/json_number.h"
 
@@ -39,7 +40,10 @@ nlohmann::json Json(const ResultantErrors& e) {
 nlohmann::json Json(const VendorForceEvaluation& f) {
   const Eigen::Vector3d& r = f.median_recorded_resultant_n;
   return {{"resultant_error_pct", Json(f.tac3d)},
+          {"inverse", {{"weight", f.inverse.weight}, {"support_resolve", f.inverse.support_refinement},
+                       {"sensor_defaults", !f.options.weight && !f.options.support_resolve}}},
           {"support_resolve_error_pct", Json(f.tac3d_support_resolve)},
+          {"discrepancy_weight_error_pct", Json(f.tac3d_discrepancy_weight)},
           {"vendor_marker_sum_error_pct", Json(f.vendor_marker_sum)},
           {"frames_compared", f.frames_compared},
           {"frames_support_refined", f.frames_support_refined},
@@ -47,7 +51,7 @@ nlohmann::json Json(const VendorForceEvaluation& f) {
           {"min_resultant_n", f.options.min_resultant_n},
           {"median_recorded_resultant_n", {FiniteOrNull(r.x()), FiniteOrNull(r.y()), FiniteOrNull(r.z())}},
           {"position_noise_mm", {f.position_noise_mm.x(), f.position_noise_mm.y(), f.position_noise_mm.z()}},
-          {"weight", ToJson(f.weight)},
+          {"discrepancy_weight", ToJson(f.discrepancy_weight)},
           {"gel",
            {{"assumptions", ToJson(f.options.gel)},
             {"description", f.gel_description},
@@ -94,10 +98,13 @@ ResultantErrors CompareResultants(const std::vector<Eigen::Vector3d>& estimated,
   return e;
 }
 
-// D in the paper's ordering (dx^1..dx^N, dy^1..dy^N, dz^1..dz^N) from one marker a row.
-Eigen::VectorXd PaperOrder(const Eigen::MatrixX3d& per_marker) {
-  Eigen::VectorXd d(3 * per_marker.rows());
-  for (int c = 0; c < 3; ++c) d.segment(c * per_marker.rows(), per_marker.rows()) = per_marker.col(c);
+// A frame's D in the paper's ordering (dx^1..dx^N, dy^1..dy^N, dz^1..dz^N).
+Eigen::VectorXd PaperOrder(const TactileFrame& frame) {
+  const int n = frame.num_markers();
+  Eigen::VectorXd d(3 * n);
+  for (int i = 0; i < n; ++i) {
+    for (int a = 0; a < 3; ++a) d[a * n + i] = frame.displacements_mm[i][a];
+  }
   return d;
 }
 
@@ -123,15 +130,22 @@ VendorForceEvaluation EvaluateVendorForces(const SensorConfig& config, const Ven
     throw Error(fmt::format("the recording has {} markers, the config {}", recording.markers(), f.body.num_markers()));
   }
   f.gel_description = DescribeVendorGel(f.body, options.gel);
+  PipelineOptions run = DefaultPipelineOptions(config);
+  if (options.weight) run.force.weight = *options.weight;
+  if (options.support_resolve) run.force.support_refinement = *options.support_resolve;
+  run.Validate();
+  f.inverse = run.force;
   const fem::ComplianceModel model =
       options.cache_dir.empty()
           ? fem::CalcComplianceModel(f.body, options.show_progress)
           : fem::LoadOrBuildComplianceModel(f.body, options.cache_dir, options.show_progress).model;
   f.compliance = model.provenance;
 
-  // The compared frames: D and the recorded resultant and per-marker sum.
-  std::vector<Eigen::VectorXd> displacements;
+  // The compared frames, as `tac3d run --recompute-forces` reads them: the recorded markers.
+  const int n = config.markers.rows * config.markers.cols;
+  std::vector<TactileFrame> frames;
   std::vector<Eigen::Vector3d> recorded, marker_sums;
+  const std::vector<double> times_s = recording.send_timestamp.Float64Values();
   for (std::int64_t k = 0; k < recording.frames(); ++k) {
     const Eigen::Vector3d resultant = VendorRecording::Frame(recording.resultant_force, k).row(0).transpose();
     if (!(resultant.norm() > options.min_resultant_n)) continue;
@@ -141,33 +155,64 @@ VendorForceEvaluation EvaluateVendorForces(const SensorConfig& config, const Ven
     }
     recorded.push_back(resultant);
     marker_sums.push_back(VendorRecording::Frame(recording.forces, k).colwise().sum().transpose());
-    displacements.push_back(PaperOrder(VendorRecording::Frame(recording.displacements, k)));
+    TactileFrame frame = TactileFrame::Sized(config.markers.rows, config.markers.cols);
+    frame.index = k;
+    frame.timestamp_s = times_s[k];
+    const Eigen::MatrixX3d positions = VendorRecording::Frame(recording.positions, k);
+    const Eigen::MatrixX3d displacements = VendorRecording::Frame(recording.displacements, k);
+    for (int i = 0; i < n; ++i) {
+      frame.valid[i] = true;
+      frame.positions_mm[i] = positions.row(i).transpose();
+      frame.displacements_mm[i] = displacements.row(i).transpose();
+    }
+    frames.push_back(std::move(frame));
   }
   f.frames_compared = static_cast<int>(recorded.size());
   if (recorded.empty()) return f;
 
+  // The run's inverse, through the pipeline's own code (Pipeline::RecomputeForces); beside it
+  // the same weight with the contact-support re-solve on.
+  const auto resultants = [&](const PipelineOptions& options, int* support_refined) {
+    Pipeline pipeline(config, model.h, model.marker_positions, options);
+    std::vector<Eigen::Vector3d> estimated;
+    for (TactileFrame frame : frames) {
+      pipeline.RecomputeForces(frame);
+      estimated.push_back(frame.resultant_force_n);
+    }
+    if (support_refined) {
+      // The pipeline does not say which frames it re-solved: the reconstructor does.
+      ForceReconstructor inverse(model.h, model.marker_positions, options.force);
+      for (const TactileFrame& frame : frames) {
+        *support_refined += inverse.Reconstruct(PaperOrder(frame)).support_refined ? 1 : 0;
+      }
+    }
+    return estimated;
+  };
+  PipelineOptions with_resolve = run;
+  with_resolve.force.support_refinement = true;
+  f.tac3d = CompareResultants(resultants(run, nullptr), recorded);
+  f.tac3d_support_resolve = CompareResultants(resultants(with_resolve, &f.frames_support_refined), recorded);
+
+  // For reference: F = K D at the weight the discrepancy principle picks for the datasheet's
+  // position noise on these frames' displacements (never their forces).
   f.position_noise_mm = config.vendor_camera->datasheet.position_noise_mm;
   DisplacementNoise noise;
   noise.variance_mm2 = f.position_noise_mm.cwiseAbs2();
-  const ComplianceSpectrum spectrum(model.h);
-  f.weight = SelectRegularizationWeight(spectrum, displacements, noise,
-                                        {.rule = WeightRule::kDiscrepancy, .discrepancy_factor = options.discrepancy_factor});
-  ForceReconstructor inverse(model.h, model.marker_positions,
-                             {.weight = f.weight.weight, .support_refinement = false});
-  ForceReconstructor support_resolve(model.h, model.marker_positions,
-                                     {.weight = f.weight.weight, .support_refinement = true});
-  std::vector<Eigen::Vector3d> estimated, estimated_on_support;
+  std::vector<Eigen::VectorXd> displacements;
+  for (const TactileFrame& frame : frames) displacements.push_back(PaperOrder(frame));
+  f.discrepancy_weight = SelectRegularizationWeight(
+      ComplianceSpectrum(model.h), displacements, noise,
+      {.rule = WeightRule::kDiscrepancy, .discrepancy_factor = options.discrepancy_factor});
+  PipelineOptions at_discrepancy = run;
+  at_discrepancy.force.weight = f.discrepancy_weight.weight;
+  at_discrepancy.force.support_refinement = false;
+  f.tac3d_discrepancy_weight = CompareResultants(resultants(at_discrepancy, nullptr), recorded);
+
   std::array<std::vector<double>, 3> recorded_components;
-  for (size_t k = 0; k < displacements.size(); ++k) {
-    estimated.push_back(inverse.Reconstruct(displacements[k]).resultant_force_n);
-    const ForceFrame frame = support_resolve.Reconstruct(displacements[k]);
-    estimated_on_support.push_back(frame.resultant_force_n);
-    f.frames_support_refined += frame.support_refined ? 1 : 0;
-    for (int a = 0; a < 3; ++a) recorded_components[a].push_back(recorded[k](a));
+  for (const Eigen::Vector3d& r : recorded) {
+    for (int a = 0; a < 3; ++a) recorded_components[a].push_back(r(a));
   }
   for (int a = 0; a < 3; ++a) f.median_recorded_resultant_n(a) = ErrorSummary::Of(recorded_components[a]).median;
-  f.tac3d = CompareResultants(estimated, recorded);
-  f.tac3d_support_resolve = CompareResultants(estimated_on_support, recorded);
   f.vendor_marker_sum = CompareResultants(marker_sums, recorded);
   return f;
 }
@@ -209,14 +254,21 @@ std::string VendorEvaluation::Report() const {
     if (f.frames_compared > 0) {
       const Eigen::Vector3d& r = f.median_recorded_resultant_n;
       text += fmt::format(" (median ({:.3f}, {:.3f}, {:.3f}) N)\n", r.x(), r.y(), r.z());
-      text += fmt::format("inverse: Tikhonov weight {:.4g} (mm/N)^2 ({}; datasheet position noise {:.4f} / {:.4f} / "
-                          "{:.4f} mm), no gains\n",
-                          f.weight.weight, f.weight.summary.message, f.position_noise_mm.x(), f.position_noise_mm.y(),
-                          f.position_noise_mm.z());
-      text += FormatResultantErrors("tac3d's inverse F = K D", f.tac3d);
-      text += FormatResultantErrors(fmt::format("with the contact-support re-solve (ran on {} of {} frames)",
+      text += fmt::format("inverse: tac3d run's for this sensor{}: Tikhonov weight {:.4g} (mm/N)^2, contact-support "
+                          "re-solve {}, no gains\n",
+                          f.options.weight || f.options.support_resolve ? " with the options given" : " (its defaults)",
+                          f.inverse.weight, f.inverse.support_refinement ? "on" : "off");
+      text += FormatResultantErrors("tac3d's forces", f.tac3d);
+      text += FormatResultantErrors(fmt::format("the same weight, with the contact-support re-solve (ran on {} of {} "
+                                                "frames)",
                                                 f.frames_support_refined, f.frames_compared),
                                     f.tac3d_support_resolve);
+      text += FormatResultantErrors(
+          fmt::format("F = K D at the discrepancy principle's weight {:.4g} (mm/N)^2 for the datasheet's position noise "
+                      "{:.4f} / {:.4f} / {:.4f} mm",
+                      f.discrepancy_weight.weight, f.position_noise_mm.x(), f.position_noise_mm.y(),
+                      f.position_noise_mm.z()),
+          f.tac3d_discrepancy_weight);
       text += FormatResultantErrors("vendor's per-marker forces summed (reference)", f.vendor_marker_sum);
     } else {
       text += "\n";

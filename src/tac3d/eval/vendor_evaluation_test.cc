@@ -1,4 +1,4 @@
-#include "tac3d/vendor_formats/vendor_evaluation.h"
+#include "tac3d/eval/vendor_evaluation.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -14,66 +14,8 @@ namespace {
 namespace fixture = testing::hdl1_0001;
 using ::testing::HasSubstr;
 
-// A recording of the fixture's sensor whose frame 0 holds the fixture's reference positions
-// (as positions - displacements) and frame 1 the same moved 1 mm in z.
-VendorRecording FixtureRecording() {
-  VendorRecording r;
-  r.serial_number = "HDL1-0001";
-  std::vector<double> positions, displacements;
-  for (int frame = 0; frame < 2; ++frame) {
-    for (const auto& p : fixture::kReferencePositionsMm) {
-      for (int k = 0; k < 3; ++k) {
-        const double d = frame == 1 && k == 2 ? -1.0 : 0.01 * k;
-        positions.push_back(p[k] + d);
-        displacements.push_back(d);
-      }
-    }
-  }
-  const auto array = [](std::vector<std::int64_t> shape, const std::vector<double>& values) {
-    NpyArray a;
-    a.shape = std::move(shape);
-    a.data.assign(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(double));
-    return a;
-  };
-  r.positions = array({2, 400, 3}, positions);
-  r.displacements = array({2, 400, 3}, displacements);
-  r.forces = array({2, 400, 3}, std::vector<double>(2400, 0.0));
-  r.resultant_force = array({2, 1, 3}, std::vector<double>(6, 0.0));
-  r.resultant_moment = r.resultant_force;
-  r.send_timestamp = array({2}, {0.0, 0.033});
-  r.index.type = NpyType::kInt64;
-  r.index.shape = {2};
-  r.index.data.assign(16, '\0');
-  return r;
-}
-
-NpyArray DoubleArray(std::vector<std::int64_t> shape, const std::vector<double>& values) {
-  NpyArray a;
-  a.shape = std::move(shape);
-  a.data.assign(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(double));
-  return a;
-}
-
-// The fixture's two recorded frames of HDL1-0001 (a press of about 5.37 N held).
-VendorRecording FixtureForceRecording() {
-  VendorRecording r = FixtureRecording();
-  std::vector<double> positions, displacements, forces, resultants;
-  for (const fixture::RecordedFrame& frame : fixture::kRecordedFrames) {
-    for (int i = 0; i < 400; ++i) {
-      for (int k = 0; k < 3; ++k) {
-        positions.push_back(fixture::kReferencePositionsMm[i][k] + frame.displacements_mm[i][k]);
-        displacements.push_back(frame.displacements_mm[i][k]);
-        forces.push_back(frame.forces_n[i][k]);
-      }
-    }
-    resultants.insert(resultants.end(), frame.resultant_force_n.begin(), frame.resultant_force_n.end());
-  }
-  r.positions = DoubleArray({2, 400, 3}, positions);
-  r.displacements = DoubleArray({2, 400, 3}, displacements);
-  r.forces = DoubleArray({2, 400, 3}, forces);
-  r.resultant_force = DoubleArray({2, 1, 3}, resultants);
-  return r;
-}
+using testing::FixtureForceRecording;
+using testing::FixtureRecording;
 
 // The force part's options in these tests: a coarse mesh (the CLI's default refinement is 1),
 // built once and cached for the other tests.
@@ -101,15 +43,22 @@ TEST(VendorEvaluation, ForcesOfTheFixtureFramesWithinTenPercent) {
   // The vendor's per-marker forces sum to 1.23 x its resultant (docs/real-sensors.md).
   EXPECT_NEAR(f.vendor_marker_sum.median_magnitude_ratio, 1.227, 0.005);
   EXPECT_NEAR(f.vendor_marker_sum.median_resultant_n.z(), -6.59, 0.02);
-  EXPECT_GT(f.weight.weight, 0.0);
-  EXPECT_TRUE(f.weight.summary.converged) << f.weight.summary.message;
+  // The inverse checked is `tac3d run`'s for an imported sensor: F = K D at w 0.05.
+  EXPECT_EQ(f.inverse.weight, 0.05);
+  EXPECT_FALSE(f.inverse.support_refinement);
+  EXPECT_GT(f.discrepancy_weight.weight, 0.0);
+  EXPECT_TRUE(f.discrepancy_weight.summary.converged) << f.discrepancy_weight.summary.message;
   const nlohmann::json json = ToJson(e);
   EXPECT_EQ(json["resultant_error_pct"]["magnitude"]["median"], f.tac3d.magnitude_pct.median);
   EXPECT_EQ(json["resultant_error_pct"]["z"]["count"], 2);
   EXPECT_EQ(json["vendor_marker_sum_error_pct"]["magnitude"]["median"], f.vendor_marker_sum.magnitude_pct.median);
   EXPECT_EQ(json["gel"]["body"]["thickness_mm"], f.body.thickness_mm);
   EXPECT_EQ(json["frames_compared"], 2);
-  EXPECT_THAT(e.Report(), HasSubstr("tac3d's inverse F = K D: median |F| / |R|"));
+  EXPECT_EQ(json["inverse"]["weight"], 0.05);
+  EXPECT_EQ(json["inverse"]["support_resolve"], false);
+  EXPECT_EQ(json["inverse"]["sensor_defaults"], true);
+  EXPECT_THAT(e.Report(), HasSubstr("tac3d's forces: median |F| / |R|"));
+  EXPECT_THAT(e.Report(), HasSubstr("(its defaults): Tikhonov weight 0.05 (mm/N)^2, contact-support re-solve off"));
 }
 
 TEST(VendorEvaluation, ForcesFailWhenTheDisplacementsAreHalvedAndNotApplicableWithoutLoad) {

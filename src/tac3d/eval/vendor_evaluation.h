@@ -10,6 +10,7 @@
 #include <nlohmann/json_fwd.hpp>
 
 #include "tac3d/fem/compliance.h"
+#include "tac3d/force/force_reconstructor.h"
 #include "tac3d/force/regularization.h"
 #include "tac3d/sensor/sensor_config.h"
 #include "tac3d/util/eval_check.h"
@@ -26,8 +27,14 @@ struct VendorForceOptions {
   VendorGelOptions gel = {};
   /// Frames whose recorded resultant |3D_ResultantForce| exceeds this (N) are compared.
   double min_resultant_n = 1.0;
-  /// Morozov's tau: the Tikhonov weight is the discrepancy principle's for the datasheet's
-  /// position noise (SelectRegularizationWeight, kDiscrepancy) on the compared frames.
+  /// The inverse checked: `tac3d run`'s for the sensor (DefaultPipelineOptions), with the
+  /// weight w ((mm/N)^2) and the contact-support re-solve given here, as `tac3d run --weight
+  /// --support-resolve` takes them; unset: the sensor's defaults.
+  std::optional<double> weight;
+  std::optional<bool> support_resolve;
+  /// Morozov's tau of the figure given for reference: F = K D at the discrepancy principle's
+  /// weight for the datasheet's position noise (SelectRegularizationWeight, kDiscrepancy) on
+  /// the compared frames.
   double discrepancy_factor = 1.0;
   /// Where compliance models are cached (fem::LoadOrBuildComplianceModel); empty: built, not
   /// cached.
@@ -78,9 +85,12 @@ struct VendorForceEvaluation {
   fem::BodyModelOptions body;
   std::string gel_description;
   fem::ComplianceProvenance compliance;
-  /// The datasheet's position noise (1 sigma per axis, mm) the weight was chosen for.
+  /// The inverse checked (`tac3d run`'s: its weight and re-solve; no gains).
+  ForceReconstructorOptions inverse;
+  /// The datasheet's position noise (1 sigma per axis, mm) and the weight the discrepancy
+  /// principle picks for it on the compared frames.
   Eigen::Vector3d position_noise_mm = Eigen::Vector3d::Zero();
-  WeightSelection weight;
+  WeightSelection discrepancy_weight;
   /// Frames compared (recorded |R| over min_resultant_n), and of them the ones the
   /// contact-support re-solve ran on (the others keep F = K D: no support, or one over
   /// ForceReconstructorOptions::max_support_markers).
@@ -90,18 +100,19 @@ struct VendorForceEvaluation {
   int frames_not_finite = 0;
   /// The median over compared frames of the recorded R (N).
   Eigen::Vector3d median_recorded_resultant_n = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
-  /// tac3d's inverse F = K D (the paper's eq. 3-4, what the check judges); beside it the same
-  /// with the contact-support re-solve (ForceReconstructorOptions::support_refinement, the
-  /// pipeline's default, tuned on the prototype), and the sum of the vendor's per-marker
-  /// 3D_Forces.
+  /// tac3d's forces as `tac3d run --recompute-forces` computes them (Pipeline::RecomputeForces
+  /// with `inverse`: what the check judges); beside it, for reference, the same weight with the
+  /// contact-support re-solve on, F = K D at the discrepancy principle's weight, and the sum of
+  /// the vendor's per-marker 3D_Forces.
   ResultantErrors tac3d;
   ResultantErrors tac3d_support_resolve;
+  ResultantErrors tac3d_discrepancy_weight;
   ResultantErrors vendor_marker_sum;
 };
 
 /// What EvaluateVendorRecording measured.
 struct VendorEvaluation {
-  /// In this order (issue 23's acceptance): reference_position_error_median_mm <= 0.06 mm,
+  /// In this order: reference_position_error_median_mm <= 0.06 mm,
   /// reference_position_error_max_mm <= 0.15 mm, untriangulated_markers <= 0; with the force
   /// part, resultant_magnitude_error_median_pct <= 10 % (n/a without a frame over the limit).
   std::vector<EvalCheck> checks;
@@ -129,11 +140,12 @@ struct VendorEvaluation {
 ///  "reference_position_median_abs_error_mm" {"x", "y", "z"}, "ray_gap_mm" {...},
 ///  "untriangulated_markers", "acceptance" ({check name: tolerance}), and with the force part
 ///  "resultant_error_pct" {"x", "y", "z", "magnitude", "vector": {"median", "p95", "max",
-///  "count"}, "median_magnitude_ratio", "median_resultant_n"}, "vendor_marker_sum_error_pct"
-///  (the same), "support_resolve_error_pct" (the same), "frames_compared",
+///  "count"}, "median_magnitude_ratio", "median_resultant_n"}, "inverse" {"weight",
+///  "support_resolve", "sensor_defaults"}, "vendor_marker_sum_error_pct", "support_resolve_error_pct"
+///  and "discrepancy_weight_error_pct" (each as "resultant_error_pct"), "frames_compared",
 ///  "frames_support_refined", "min_resultant_n", "median_recorded_resultant_n",
-///  "position_noise_mm", "weight" (WeightSelection), "gel" {"assumptions", "description",
-///  "body", "compliance"}}.
+///  "position_noise_mm", "discrepancy_weight" (WeightSelection), "gel" {"assumptions",
+///  "description", "body", "compliance"}}.
 nlohmann::json ToJson(const VendorEvaluation& evaluation);
 
 /// `tac3d eval vendor`: the imported calibration's reference pixels triangulated (VendorStereo)
@@ -145,10 +157,11 @@ VendorEvaluation EvaluateVendorRecording(const SensorConfig& config, const Vendo
                                          const VendorEvaluationOptions& options = {});
 
 /// The force part: the gel's compliance H (VendorBodyModelOptions, loaded or built and cached)
-/// and tac3d's inverse F = K D (ForceReconstructor, Tikhonov weight by the discrepancy principle
-/// for the datasheet's position noise, no gains: nothing is fitted to the recorded forces) on
-/// each compared frame's 3D_Displacements, against its 3D_ResultantForce; beside it the same
-/// with the contact-support re-solve, and the sum of the vendor's 3D_Forces.
+/// and `tac3d run --recompute-forces`'s forces (Pipeline::RecomputeForces: the sensor's default
+/// inverse unless options.weight or support_resolve say otherwise; no gains, nothing fitted to
+/// the recorded forces) on each compared frame's recorded markers, against its
+/// 3D_ResultantForce; beside them the same weight with the re-solve on, F = K D at the
+/// discrepancy principle's weight, and the sum of the vendor's 3D_Forces.
 /// @throws Error if the options or the gel are invalid, or the recording is of another marker
 ///   count than the config.
 VendorForceEvaluation EvaluateVendorForces(const SensorConfig& config, const VendorRecording& recording,
