@@ -7,6 +7,7 @@
 #include "commands.h"
 #include "model_args.h"
 #include "tac3d/eval/force_evaluation.h"
+#include "tac3d/eval/vendor_evaluation.h"
 #include "tac3d/fem/compliance_family.h"
 #include "tac3d/force/force_gains.h"
 #include "tac3d/material_calibration/material_calibration.h"
@@ -136,6 +137,8 @@ void PrintGains(const ForceGainFit& fit) {
 struct CalibrateForceArgs {
   std::string pairs;
   std::string presses;
+  std::string vendor_recording;
+  double min_resultant_n = VendorForceOptions{}.min_resultant_n;
   ModelArgs model;
   std::vector<double> poisson_nodes = EvalForceOptions{}.poisson_nodes;
   double noise_mm = 0.0;
@@ -178,13 +181,56 @@ nlohmann::json CalibrateOnPresses(const CalibrateForceArgs& args) {
   return ToJson(fit);
 }
 
+// --vendor-recording: the gains that make tac3d's resultant the vendor's, on the axes the
+// recording determines.
+nlohmann::json CalibrateOnVendorRecording(const CalibrateForceArgs& args) {
+  if (args.model.config.empty()) {
+    throw Error("calibrate-force --vendor-recording needs the sensor's --config (`tac3d import-vendor`)");
+  }
+  const SensorConfig config = LoadSensorConfig(args.model.config);
+  if (!config.vendor_camera) {
+    throw Error(fmt::format("--config '{}' has no vendor camera model: --vendor-recording adopts an imported "
+                            "sensor's factory calibration (`tac3d import-vendor`)",
+                            args.model.config));
+  }
+  const VendorRecording recording = ReadVendorRecording(args.vendor_recording);
+  if (recording.serial_number != config.vendor_camera->serial_number) {
+    throw Error(fmt::format("the recording is of sensor '{}', the config of sensor '{}'", recording.serial_number,
+                            config.vendor_camera->serial_number));
+  }
+  MakeCacheDirectory(args.model.cache_dir);
+  VendorForceOptions options = {.min_resultant_n = args.min_resultant_n, .cache_dir = args.model.cache_dir,
+                                .show_progress = !args.model.json};
+  options.gel.refinement = args.model.refinement;
+  const VendorGainCalibration c =
+      CalibrateGainsOnVendorRecording(config, recording, options, args.material.gain_fit);
+  if (!args.model.json) {
+    std::printf("%d frames of %s with the recorded |resultant| over %g N; inverse: weight %g (mm/N)^2, "
+                "contact-support re-solve %s\n",
+                c.frames_compared, recording.serial_number.c_str(), args.min_resultant_n, c.inverse.weight,
+                c.inverse.support_refinement ? "on" : "off");
+    PrintGains(c.fit);
+    for (int axis = 0; axis < 3; ++axis) {
+      if (!c.fit.left_at_one[axis].empty()) {
+        std::printf("C%c left at 1: %s\n", "xyz"[axis], c.fit.left_at_one[axis].c_str());
+      }
+    }
+  }
+  nlohmann::json j = ToJson(c.fit);
+  j["frames_compared"] = c.frames_compared;
+  j["frames_not_finite"] = c.frames_not_finite;
+  j["inverse"] = {{"weight", c.inverse.weight}, {"support_resolve", c.inverse.support_refinement}};
+  return j;
+}
+
 }  // namespace
 
 void RegisterCalibrateForce(CLI::App& app) {
   auto args = std::make_shared<CalibrateForceArgs>();
   CLI::App* cmd = app.add_subcommand(
       "calibrate-force",
-      "Fit the per-axis force gains Cx, Cy, Cz to a reference force sensor, and with --presses "
+      "Fit the per-axis force gains Cx, Cy, Cz to a reference force sensor (or with --vendor-recording to "
+      "the vendor's recorded resultant), and with --presses "
       "the silicone's E and nu first (docs/force.md)");
   CLI::Option* pairs =
       cmd->add_option("--pairs",
@@ -194,7 +240,17 @@ void RegisterCalibrateForce(CLI::App& app) {
       "--presses",
       args->presses,
       "CSV of presses (reference reading, marker displacements): fit E and nu, then the gains");
+  CLI::Option* vendor = cmd->add_option(
+      "--vendor-recording", args->vendor_recording,
+      "a recording of the vendor's software (its <SN> folder or the folder holding it), with --config the "
+      "sensor's imported YAML: fit the gains that make tac3d's resultant the recorded one, on the axes "
+      "the recording determines (the others are left at 1)");
+  cmd->add_option("--min-resultant-n", args->min_resultant_n,
+                  "with --vendor-recording: the frames whose recorded |resultant| exceeds this (N)")
+      ->capture_default_str();
   pairs->excludes(presses);
+  vendor->excludes(pairs);
+  vendor->excludes(presses);
   cmd->add_option("--poisson-nodes",
                   args->poisson_nodes,
                   "with --presses: nu at which H is built (cached), interpolated between")
@@ -219,7 +275,9 @@ void RegisterCalibrateForce(CLI::App& app) {
   args->model.Add(cmd);
   cmd->add_option("--out", args->out, "also write the fit as JSON to this file");
   cmd->callback([args] {
-    if (!args->out.empty()) CheckOutputFile(args->out, "--out", {}, {args->pairs, args->presses});
+    if (!args->out.empty()) {
+      CheckOutputFile(args->out, "--out", {}, {args->pairs, args->presses, args->vendor_recording, args->model.config});
+    }
     nlohmann::json j;
     if (!args->pairs.empty()) {
       args->material.gain_fit.Validate();  // before the file is read
@@ -228,8 +286,10 @@ void RegisterCalibrateForce(CLI::App& app) {
       if (!args->model.json) PrintGains(fit);
     } else if (!args->presses.empty()) {
       j = CalibrateOnPresses(*args);
+    } else if (!args->vendor_recording.empty()) {
+      j = CalibrateOnVendorRecording(*args);
     } else {
-      throw Error("calibrate-force needs --pairs or --presses");
+      throw Error("calibrate-force needs --pairs, --presses or --vendor-recording");
     }
     if (!args->out.empty()) WriteTextFileAtomically(args->out, j.dump(2) + "\n");
     if (args->model.json) std::printf("%s\n", j.dump(2).c_str());

@@ -158,12 +158,20 @@ class Pipeline:
         cache_dir: str = "",
         sn: Optional[str] = None,
         reference_frames: int = 20,
-        weight: float = 0.05,
+        weight: Optional[float] = None,
+        support_resolve: Optional[bool] = None,
         gains: ArrayLike = (1.0, 1.0, 1.0),
         drift: str = "flag",
         drift_time_constant_s: float = 10.0,
     ) -> None: ...
     def process(self, image: U8, timestamp: float = 0.0) -> TactileFrame: ...
+    def recompute_forces(
+        self,
+        displacements: ArrayLike,
+        positions: Optional[ArrayLike] = None,
+        valid: Optional[ArrayLike] = None,
+        timestamps: Optional[ArrayLike] = None,
+    ) -> list[TactileFrame]: ...
     def zero(self) -> None: ...
     @property
     def initializing(self) -> bool: ...
@@ -176,8 +184,10 @@ class SensorSpec:
         *,
         config: str = "",
         reference_frames: int = 20,
-        weight: float = 0.05,
+        weight: Optional[float] = None,
+        support_resolve: Optional[bool] = None,
         gains: ArrayLike = (1.0, 1.0, 1.0),
+        recompute_forces: bool = False,
         drift: str = "flag",
         drift_time_constant_s: float = 10.0,
         speed: Optional[float] = None,
@@ -196,7 +206,9 @@ class SensorSpec:
     source: str
     config: str
     reference_frames: int
-    weight: float
+    weight: Optional[float]
+    support_resolve: Optional[bool]
+    recompute_forces: bool
     gains: list[float]
     drift: str
     drift_time_constant_s: float

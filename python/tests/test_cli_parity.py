@@ -74,7 +74,7 @@ def test_sensor_spec_and_pipeline_take_tac3d_runs_options_with_its_defaults(tac3
         else:
             assert float(printed) == value, name
         compared += 1
-    assert compared >= 4  # reference_frames, weight, drift_time_constant_s, fps at least
+    assert compared >= 3  # reference_frames, drift_time_constant_s, fps at least
 
     # tac3d.Pipeline, one image at a time, takes the pipeline's options of both, alike.
     signature = tac3d.Pipeline.__init__.__doc__.splitlines()[0]
@@ -82,8 +82,12 @@ def test_sensor_spec_and_pipeline_take_tac3d_runs_options_with_its_defaults(tac3
         r"(\w+): [\w.\[\]]+ = ('[^']*'|\[[^\]]*\]|[-\d.e]+)", signature)}
     # Neither prints an SN: without one, an imported sensor's own is taken from its config.
     assert cli["sn"] is None and "sn: Optional[str] = None" in signature
-    for name in ("reference_frames", "weight", "gains", "drift", "drift_time_constant_s"):
+    for name in ("reference_frames", "gains", "drift", "drift_time_constant_s"):
         assert pipeline[name] == getattr(spec, name), name
+    # The inverse's weight and re-solve: unset, each sensor's own (the CLI prints no default).
+    for name, kind in (("weight", "float"), ("support_resolve", "bool")):
+        assert f"{name}: Optional[{kind}] = None" in signature and getattr(spec, name) is None, name
+        assert cli[name] is None, name
     with pytest.raises(tac3d.Error, match="drift 'sideways': must be off, flag or rezero"):
         tac3d.Pipeline(drift="sideways")
 

@@ -139,6 +139,38 @@ def test_friction_map_reports_no_contact_and_checks_its_input():
         tac3d.friction_map(frames, poses, {"radius": -1.0})
 
 
+def test_recompute_forces_gives_the_pipelines_forces_from_recorded_displacements(
+        simulated, small_sensor_yaml, cache_dir):
+    out, _, _ = simulated
+    frames = []
+    spec = tac3d.SensorSpec("PY-PIPE", f"dataset:{out}", config=str(small_sensor_yaml),
+                            reference_frames=3)
+    tac3d.run([spec], cache_dir=cache_dir, on_frame=frames.append)
+    measured = frames[3:]  # past the reference
+    d = np.stack([f.displacements for f in measured])
+    pipeline = tac3d.Pipeline(config=str(small_sensor_yaml), cache_dir=cache_dir)
+    again = pipeline.recompute_forces(d, positions=np.stack([f.positions for f in measured]),
+                                      timestamps=[f.timestamp for f in measured])
+    assert len(again) == len(measured)
+    for old, new in zip(measured, again):
+        np.testing.assert_allclose(new.resultant_force, old.resultant_force, rtol=1e-6, atol=1e-9)
+        np.testing.assert_allclose(new.forces, old.forces, rtol=1e-6, atol=1e-9)
+        np.testing.assert_array_equal(new.contact, old.contact)
+    assert abs(measured[-1].resultant_force[2]) > 0.01  # a press, not zeros compared
+    # Another weight is another inverse: a far larger one shrinks the forces.
+    heavier = tac3d.Pipeline(config=str(small_sensor_yaml), cache_dir=cache_dir, weight=50.0)
+    assert abs(heavier.recompute_forces(d)[-1].resultant_force[2]) < \
+        0.9 * abs(measured[-1].resultant_force[2])
+    # A lost marker (NaN) is lost, not a NaN force.
+    d[-1, 4] = np.nan
+    lost = pipeline.recompute_forces(d)[-1]
+    assert not lost.valid[4] and np.isfinite(lost.forces).all() and lost.has("markers_lost")
+    with pytest.raises(tac3d.Error, match=r"T x 9 x 3"):
+        pipeline.recompute_forces(np.zeros((2, 10, 3)))
+    with pytest.raises(tac3d.Error, match="timestamps must hold 2 values"):
+        pipeline.recompute_forces(np.zeros((2, 9, 3)), timestamps=[0.0])
+
+
 def test_pipeline_in_process_on_the_twin_images(simulated, small_sensor_yaml, cache_dir):
     out, _, _ = simulated
     truth = tac3d.Dataset(str(out)).truth()

@@ -120,41 +120,34 @@ void VendorForceOptions::Validate() const {
   }
 }
 
-VendorForceEvaluation EvaluateVendorForces(const SensorConfig& config, const VendorRecording& recording,
-                                           const VendorForceOptions& options) {
-  options.Validate();
-  VendorForceEvaluation f;
-  f.options = options;
-  f.body = VendorBodyModelOptions(config, options.gel);
-  if (recording.markers() != f.body.num_markers()) {
-    throw Error(fmt::format("the recording has {} markers, the config {}", recording.markers(), f.body.num_markers()));
-  }
-  f.gel_description = DescribeVendorGel(f.body, options.gel);
-  PipelineOptions run = DefaultPipelineOptions(config);
-  if (options.weight) run.force.weight = *options.weight;
-  if (options.support_resolve) run.force.support_refinement = *options.support_resolve;
-  run.Validate();
-  f.inverse = run.force;
-  const fem::ComplianceModel model =
-      options.cache_dir.empty()
-          ? fem::CalcComplianceModel(f.body, options.show_progress)
-          : fem::LoadOrBuildComplianceModel(f.body, options.cache_dir, options.show_progress).model;
-  f.compliance = model.provenance;
+namespace {
 
-  // The compared frames, as `tac3d run --recompute-forces` reads them: the recorded markers.
-  const int n = config.markers.rows * config.markers.cols;
+// The frames a force comparison takes, as `tac3d run --recompute-forces` reads them: the recorded
+// markers of each frame whose recorded |resultant| is over the limit and whose every value is
+// finite, with the recorded resultant and the sum of the vendor's per-marker forces.
+struct ComparedFrames {
   std::vector<TactileFrame> frames;
   std::vector<Eigen::Vector3d> recorded, marker_sums;
+  int not_finite = 0;  // over the limit but holding a NaN or an infinity: left out
+};
+
+ComparedFrames SelectComparedFrames(const SensorConfig& config, const VendorRecording& recording,
+                                    double min_resultant_n) {
+  const int n = config.markers.rows * config.markers.cols;
+  if (recording.markers() != n) {
+    throw Error(fmt::format("the recording has {} markers, the config {}", recording.markers(), n));
+  }
+  ComparedFrames c;
   const std::vector<double> times_s = recording.send_timestamp.Float64Values();
   for (std::int64_t k = 0; k < recording.frames(); ++k) {
     const Eigen::Vector3d resultant = VendorRecording::Frame(recording.resultant_force, k).row(0).transpose();
-    if (!(resultant.norm() > options.min_resultant_n)) continue;
+    if (!(resultant.norm() > min_resultant_n)) continue;
     if (!resultant.allFinite() || recording.FirstNonFiniteMarker(k) >= 0) {
-      ++f.frames_not_finite;
+      ++c.not_finite;
       continue;
     }
-    recorded.push_back(resultant);
-    marker_sums.push_back(VendorRecording::Frame(recording.forces, k).colwise().sum().transpose());
+    c.recorded.push_back(resultant);
+    c.marker_sums.push_back(VendorRecording::Frame(recording.forces, k).colwise().sum().transpose());
     TactileFrame frame = TactileFrame::Sized(config.markers.rows, config.markers.cols);
     frame.index = k;
     frame.timestamp_s = times_s[k];
@@ -165,33 +158,69 @@ VendorForceEvaluation EvaluateVendorForces(const SensorConfig& config, const Ven
       frame.positions_mm[i] = positions.row(i).transpose();
       frame.displacements_mm[i] = displacements.row(i).transpose();
     }
-    frames.push_back(std::move(frame));
+    c.frames.push_back(std::move(frame));
   }
+  return c;
+}
+
+// `tac3d run`'s options for the sensor, with the inverse the options give.
+PipelineOptions RunOptions(const SensorConfig& config, const VendorForceOptions& options) {
+  PipelineOptions run = DefaultPipelineOptions(config);
+  if (options.weight) run.force.weight = *options.weight;
+  if (options.support_resolve) run.force.support_refinement = *options.support_resolve;
+  run.Validate();
+  return run;
+}
+
+fem::ComplianceModel GelModel(const fem::BodyModelOptions& body, const VendorForceOptions& options) {
+  return options.cache_dir.empty()
+             ? fem::CalcComplianceModel(body, options.show_progress)
+             : fem::LoadOrBuildComplianceModel(body, options.cache_dir, options.show_progress).model;
+}
+
+// The frames' resultants through the pipeline's own code (Pipeline::RecomputeForces).
+std::vector<Eigen::Vector3d> RecomputedResultants(const SensorConfig& config, const fem::ComplianceModel& model,
+                                                  const PipelineOptions& options,
+                                                  const std::vector<TactileFrame>& frames) {
+  Pipeline pipeline(config, model.h, model.marker_positions, options);
+  std::vector<Eigen::Vector3d> resultants;
+  for (TactileFrame frame : frames) {
+    pipeline.RecomputeForces(frame);
+    resultants.push_back(frame.resultant_force_n);
+  }
+  return resultants;
+}
+
+}  // namespace
+
+VendorForceEvaluation EvaluateVendorForces(const SensorConfig& config, const VendorRecording& recording,
+                                           const VendorForceOptions& options) {
+  options.Validate();
+  VendorForceEvaluation f;
+  f.options = options;
+  f.body = VendorBodyModelOptions(config, options.gel);
+  f.gel_description = DescribeVendorGel(f.body, options.gel);
+  const PipelineOptions run = RunOptions(config, options);
+  f.inverse = run.force;
+  const ComparedFrames compared = SelectComparedFrames(config, recording, options.min_resultant_n);
+  const fem::ComplianceModel model = GelModel(f.body, options);
+  f.compliance = model.provenance;
+  const std::vector<TactileFrame>& frames = compared.frames;
+  const std::vector<Eigen::Vector3d>& recorded = compared.recorded;
+  f.frames_not_finite = compared.not_finite;
   f.frames_compared = static_cast<int>(recorded.size());
   if (recorded.empty()) return f;
 
-  // The run's inverse, through the pipeline's own code (Pipeline::RecomputeForces); beside it
-  // the same weight with the contact-support re-solve on.
-  const auto resultants = [&](const PipelineOptions& options, int* support_refined) {
-    Pipeline pipeline(config, model.h, model.marker_positions, options);
-    std::vector<Eigen::Vector3d> estimated;
-    for (TactileFrame frame : frames) {
-      pipeline.RecomputeForces(frame);
-      estimated.push_back(frame.resultant_force_n);
-    }
-    if (support_refined) {
-      // The pipeline does not say which frames it re-solved: the reconstructor does.
-      ForceReconstructor inverse(model.h, model.marker_positions, options.force);
-      for (const TactileFrame& frame : frames) {
-        *support_refined += inverse.Reconstruct(PaperOrder(frame)).support_refined ? 1 : 0;
-      }
-    }
-    return estimated;
-  };
+  // `tac3d run`'s forces; beside them the same weight with the contact-support re-solve on (the
+  // pipeline does not say which frames it re-solved: the reconstructor does).
   PipelineOptions with_resolve = run;
   with_resolve.force.support_refinement = true;
-  f.tac3d = CompareResultants(resultants(run, nullptr), recorded);
-  f.tac3d_support_resolve = CompareResultants(resultants(with_resolve, &f.frames_support_refined), recorded);
+  f.tac3d = CompareResultants(RecomputedResultants(config, model, run, frames), recorded);
+  f.tac3d_support_resolve = CompareResultants(RecomputedResultants(config, model, with_resolve, frames), recorded);
+  ForceReconstructor support_resolve(model.h, model.marker_positions, with_resolve.force);
+  for (const TactileFrame& frame : frames) {
+    f.frames_support_refined += support_resolve.Reconstruct(PaperOrder(frame)).support_refined ? 1 : 0;
+  }
 
   // For reference: F = K D at the weight the discrepancy principle picks for the datasheet's
   // position noise on these frames' displacements (never their forces).
@@ -206,15 +235,40 @@ VendorForceEvaluation EvaluateVendorForces(const SensorConfig& config, const Ven
   PipelineOptions at_discrepancy = run;
   at_discrepancy.force.weight = f.discrepancy_weight.weight;
   at_discrepancy.force.support_refinement = false;
-  f.tac3d_discrepancy_weight = CompareResultants(resultants(at_discrepancy, nullptr), recorded);
+  f.tac3d_discrepancy_weight = CompareResultants(RecomputedResultants(config, model, at_discrepancy, frames), recorded);
 
   std::array<std::vector<double>, 3> recorded_components;
   for (const Eigen::Vector3d& r : recorded) {
     for (int a = 0; a < 3; ++a) recorded_components[a].push_back(r(a));
   }
   for (int a = 0; a < 3; ++a) f.median_recorded_resultant_n(a) = ErrorSummary::Of(recorded_components[a]).median;
-  f.vendor_marker_sum = CompareResultants(marker_sums, recorded);
+  f.vendor_marker_sum = CompareResultants(compared.marker_sums, recorded);
   return f;
+}
+
+VendorGainCalibration CalibrateGainsOnVendorRecording(const SensorConfig& config, const VendorRecording& recording,
+                                                      const VendorForceOptions& options,
+                                                      ForceGainFitOptions fit_options) {
+  options.Validate();
+  fit_options.on_poor_fit = PoorGainFit::kLeaveAtOne;
+  fit_options.Validate();
+  VendorGainCalibration c;
+  c.inverse = RunOptions(config, options).force;
+  const ComparedFrames compared = SelectComparedFrames(config, recording, options.min_resultant_n);
+  c.frames_compared = static_cast<int>(compared.frames.size());
+  c.frames_not_finite = compared.not_finite;
+  if (c.frames_compared < kMinForcePairs) {
+    throw Error(fmt::format("{} frame(s) of the recording hold a recorded |resultant| over {} N (and finite values); "
+                            "fitting gains needs at least {}",
+                            c.frames_compared, options.min_resultant_n, kMinForcePairs));
+  }
+  const fem::ComplianceModel model = GelModel(VendorBodyModelOptions(config, options.gel), options);
+  const std::vector<Eigen::Vector3d> measured =
+      RecomputedResultants(config, model, RunOptions(config, options), compared.frames);
+  std::vector<ForcePair> pairs;
+  for (size_t k = 0; k < measured.size(); ++k) pairs.push_back({.measured_n = measured[k], .reference_n = compared.recorded[k]});
+  c.fit = FitForceGains(pairs, fit_options);
+  return c;
 }
 
 ErrorSummary ErrorSummary::Of(std::vector<double> values) {

@@ -10,6 +10,7 @@
 #include <nlohmann/json_fwd.hpp>
 
 #include "tac3d/fem/compliance.h"
+#include "tac3d/force/force_gains.h"
 #include "tac3d/force/force_reconstructor.h"
 #include "tac3d/force/regularization.h"
 #include "tac3d/sensor/sensor_config.h"
@@ -166,5 +167,29 @@ VendorEvaluation EvaluateVendorRecording(const SensorConfig& config, const Vendo
 ///   count than the config.
 VendorForceEvaluation EvaluateVendorForces(const SensorConfig& config, const VendorRecording& recording,
                                            const VendorForceOptions& options);
+
+/// What CalibrateGainsOnVendorRecording fitted.
+struct VendorGainCalibration {
+  /// The gains (PoorGainFit::kLeaveAtOne: an axis the recording does not determine is left at
+  /// 1, ForceGainFit::left_at_one says why), over the compared frames' (tac3d's resultant with
+  /// unit gains, the recorded resultant) pairs.
+  ForceGainFit fit;
+  /// The inverse the resultants came from (`tac3d run`'s for the sensor, as the options say).
+  ForceReconstructorOptions inverse;
+  int frames_compared = 0;
+  int frames_not_finite = 0;
+};
+
+/// `tac3d calibrate-force --vendor-recording`: adopts the vendor's factory calibration of the
+/// resultant. Each compared frame's forces are recomputed from its recorded displacements as
+/// `tac3d run --recompute-forces` does (EvaluateVendorForces' frames, unit gains), and per-axis
+/// gains are fitted to the recorded 3D_ResultantForce (FitForceGains), only on the axes the
+/// recording determines (R^2 >= fit_options.min_r_squared, a positive gain): the others are
+/// left at 1.
+/// @throws Error if the options are invalid, the recording is of another marker count, or
+///   fewer than kMinForcePairs frames are over options.min_resultant_n.
+VendorGainCalibration CalibrateGainsOnVendorRecording(const SensorConfig& config, const VendorRecording& recording,
+                                                      const VendorForceOptions& options,
+                                                      ForceGainFitOptions fit_options = {});
 
 }  // namespace tac3d

@@ -61,6 +61,54 @@ TEST(VendorEvaluation, ForcesOfTheFixtureFramesWithinTenPercent) {
   EXPECT_THAT(e.Report(), HasSubstr("(its defaults): Tikhonov weight 0.05 (mm/N)^2, contact-support re-solve off"));
 }
 
+// The fixture's pressed frame at four depths (displacements and recorded resultant scaled
+// alike, as a linear gel would): the recording determines Cz, whose gain makes tac3d's
+// resultant the recorded one.
+TEST(VendorEvaluation, GainsFromAVendorRecordingOnTheAxesItDetermines) {
+  const SensorConfig config = testing::FixtureVendorSensor();
+  const VendorRecording two = FixtureForceRecording();
+  VendorRecording r = two;
+  const std::vector<double> scales = {0.5, 0.75, 1.0, 1.25};
+  std::vector<double> positions, displacements, forces, resultants, times;
+  const Eigen::MatrixX3d p1 = VendorRecording::Frame(two.positions, 1), d1 = VendorRecording::Frame(two.displacements, 1);
+  const Eigen::MatrixX3d f1 = VendorRecording::Frame(two.forces, 1);
+  const Eigen::Vector3d r1 = VendorRecording::Frame(two.resultant_force, 1).row(0).transpose();
+  for (size_t k = 0; k < scales.size(); ++k) {
+    for (int i = 0; i < 400; ++i) {
+      for (int a = 0; a < 3; ++a) {
+        positions.push_back(p1(i, a) - d1(i, a) + scales[k] * d1(i, a));
+        displacements.push_back(scales[k] * d1(i, a));
+        forces.push_back(scales[k] * f1(i, a));
+      }
+    }
+    for (int a = 0; a < 3; ++a) resultants.push_back(scales[k] * r1(a));
+    times.push_back(0.1 * k);
+  }
+  const std::int64_t t = static_cast<std::int64_t>(scales.size());
+  r.positions = testing::DoubleArray({t, 400, 3}, positions);
+  r.displacements = testing::DoubleArray({t, 400, 3}, displacements);
+  r.forces = testing::DoubleArray({t, 400, 3}, forces);
+  r.resultant_force = testing::DoubleArray({t, 1, 3}, resultants);
+  r.resultant_moment = r.resultant_force;
+  r.send_timestamp = testing::DoubleArray({t}, times);
+  r.index.shape = {t};
+  r.index.data.assign(static_cast<size_t>(t) * 8, '\0');
+  const VendorGainCalibration c = CalibrateGainsOnVendorRecording(config, r, TestForceOptions());
+  EXPECT_EQ(c.frames_compared, 4);
+  EXPECT_FALSE(c.inverse.support_refinement);
+  // Cz: the recorded over tac3d's (0.945 of it on these frames, as the check above measures).
+  EXPECT_EQ(c.fit.left_at_one[2], "");
+  EXPECT_GT(c.fit.gains.z(), 1.03);
+  EXPECT_LT(c.fit.gains.z(), 1.09);
+  EXPECT_GT(c.fit.r_squared.z(), 0.999);
+  // tac3d's fx has the other sign than the recorded -0.02 N: left at 1, saying so.
+  EXPECT_EQ(c.fit.gains.x(), 1.0);
+  EXPECT_THAT(c.fit.left_at_one[0], HasSubstr("disagree in sign"));
+  // Two frames are too few to fit anything.
+  EXPECT_THAT([&] { CalibrateGainsOnVendorRecording(config, two, TestForceOptions()); },
+              ::testing::ThrowsMessage<Error>(HasSubstr("fitting gains needs at least 3")));
+}
+
 TEST(VendorEvaluation, ForcesFailWhenTheDisplacementsAreHalvedAndNotApplicableWithoutLoad) {
   const SensorConfig config = testing::FixtureVendorSensor();
   // Half the displacements for the same recorded resultant: a linear model's forces halve.

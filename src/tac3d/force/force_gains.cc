@@ -99,8 +99,9 @@ std::string ForcePairsToCsv(const std::vector<ForcePair>& pairs) {
 void ForceGainFitOptions::Validate() const {
   const OptionCheck require("force gain fit");
   require(min_r_squared <= 1.0, "min_r_squared", "<= 1 (R^2 never exceeds 1)", min_r_squared);
-  require(on_poor_fit == PoorGainFit::kRefuse || on_poor_fit == PoorGainFit::kFlag, "on_poor_fit",
-          "refuse or flag", static_cast<int>(on_poor_fit));
+  require(on_poor_fit == PoorGainFit::kRefuse || on_poor_fit == PoorGainFit::kFlag ||
+              on_poor_fit == PoorGainFit::kLeaveAtOne,
+          "on_poor_fit", "refuse, flag or leave at one", static_cast<int>(on_poor_fit));
 }
 
 std::string ForceGainFit::PoorFitMessage() const {
@@ -122,12 +123,17 @@ std::string ForceGainFit::PoorFitMessage() const {
 
 nlohmann::json ToJson(const ForceGainFit& fit) {
   const auto vec = [](const Eigen::Vector3d& v) { return nlohmann::json{v.x(), v.y(), v.z()}; };
+  nlohmann::json left = nlohmann::json::object();
+  for (int axis = 0; axis < 3; ++axis) {
+    if (!fit.left_at_one[axis].empty()) left[std::string(1, "xyz"[axis])] = fit.left_at_one[axis];
+  }
   nlohmann::json j = {{"gains", vec(fit.gains)},
                       {"r_squared", vec(fit.r_squared)},
                       {"residual_rms_n", vec(fit.residual_rms_n)},
                       {"num_pairs", fit.num_pairs},
                       {"min_r_squared", fit.min_r_squared},
-                      {"usable", fit.usable()}};
+                      {"usable", fit.usable()},
+                      {"left_at_one", left}};
   if (!fit.usable()) j["warning"] = fit.PoorFitMessage();
   return j;
 }
@@ -149,16 +155,23 @@ ForceGainFit FitForceGains(const std::vector<ForcePair>& pairs, const ForceGainF
       mr += pair.measured_n(axis) * pair.reference_n(axis);
       mean_ref += pair.reference_n(axis) / count;
     }
+    const bool leave = options.on_poor_fit == PoorGainFit::kLeaveAtOne;
     if (!(mm > 0.0)) {
-      throw Error(fmt::format("FitForceGains: every measured f{} is zero; the calibration must "
-                              "load that axis",
-                              "xyz"[axis]));
+      const std::string why = fmt::format("every measured f{} is zero", "xyz"[axis]);
+      if (!leave) throw Error(fmt::format("FitForceGains: {}; the calibration must load that axis", why));
+      fit.left_at_one[axis] = why;
+      continue;
     }
     const double gain = mr / mm;
     if (!(gain > 0.0)) {
-      throw Error(fmt::format("FitForceGains: the f{} gain is {} <= 0; measured and reference "
-                              "forces disagree in sign (axes or frames swapped?)",
-                              "xyz"[axis], gain));
+      const std::string why = fmt::format("the f{} gain is {:.4g} <= 0", "xyz"[axis], gain);
+      if (!leave) {
+        throw Error(fmt::format("FitForceGains: {}; measured and reference forces disagree in sign (axes or frames "
+                                "swapped?)",
+                                why));
+      }
+      fit.left_at_one[axis] = why + ": measured and reference disagree in sign";
+      continue;
     }
     double ss_res = 0.0, ss_tot = 0.0;
     for (const ForcePair& pair : pairs) {
@@ -168,6 +181,12 @@ ForceGainFit FitForceGains(const std::vector<ForcePair>& pairs, const ForceGainF
     fit.gains(axis) = gain;
     fit.residual_rms_n(axis) = std::sqrt(ss_res / count);
     fit.r_squared(axis) = ss_tot > 0.0 ? 1.0 - ss_res / ss_tot : (ss_res == 0.0 ? 1.0 : 0.0);
+    if (leave && fit.r_squared(axis) < options.min_r_squared) {
+      fit.left_at_one[axis] = fmt::format("R^2 {:.4g} under {:g}: the pairs do not determine it (a fit {:.4g} would "
+                                          "fit noise)",
+                                          fit.r_squared(axis), options.min_r_squared, gain);
+      fit.gains(axis) = 1.0;
+    }
   }
   fit.min_r_squared = options.min_r_squared;
   if (options.on_poor_fit == PoorGainFit::kRefuse && !fit.usable()) {

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <array>
 #include <optional>
 #include <string>
 #include <vector>
@@ -87,6 +88,9 @@ inline constexpr double kDefaultMinGainRSquared = 0.9;
 enum class PoorGainFit {
   kRefuse,  ///< throw: the gains are the product (`tac3d calibrate-force`)
   kFlag,    ///< return them marked unusable (ForceGainFit::usable): an evaluation reports them
+  /// fit the axes the pairs determine, leave the others at 1 and say why
+  /// (ForceGainFit::left_at_one): pairs from recordings that load some axes only.
+  kLeaveAtOne,
 };
 
 struct ForceGainFitOptions {
@@ -110,25 +114,29 @@ struct ForceGainFit {
   int num_pairs = 0;
   /// The floor the fit was judged against (ForceGainFitOptions::min_r_squared).
   double min_r_squared = kDefaultMinGainRSquared;
+  /// PoorGainFit::kLeaveAtOne: why each axis left at gain 1 was not fitted ("" where it was).
+  std::array<std::string, 3> left_at_one;
 
-  /// Whether the axis' (0 x, 1 y, 2 z) R^2 reaches min_r_squared.
-  bool usable(int axis) const { return r_squared(axis) >= min_r_squared; }
-  /// Whether every axis' does.
-  bool usable() const { return (r_squared.array() >= min_r_squared).all(); }
+  /// Whether the axis' (0 x, 1 y, 2 z) gain can be used: its R^2 reaches min_r_squared, or it
+  /// was left at 1 (PoorGainFit::kLeaveAtOne).
+  bool usable(int axis) const { return r_squared(axis) >= min_r_squared || !left_at_one[axis].empty(); }
+  /// Whether every axis' can.
+  bool usable() const { return usable(0) && usable(1) && usable(2); }
   /// Why the gains are unusable, naming each axis under the floor with its R^2, and what to
   /// do; "" when usable.
   std::string PoorFitMessage() const;
 };
 
-/// gains, r_squared, residual_rms_n, num_pairs, min_r_squared, usable and, when unusable,
-/// "warning" (PoorFitMessage).
+/// gains, r_squared, residual_rms_n, num_pairs, min_r_squared, usable, "left_at_one" ({axis
+/// name: why} of the axes left at 1) and, when unusable, "warning" (PoorFitMessage).
 nlohmann::json ToJson(const ForceGainFit& fit);
 
 /// Least squares through the origin per axis (paper section V.A):
 /// C_a = sum(meas_a ref_a) / sum(meas_a^2).
-/// @throws tac3d::Error if there is no pair, or an axis' measured values are all zero (the
-///   calibration did not excite it), or a gain comes out <= 0 (the axis' sign is wrong), or
-///   the options are invalid, or (PoorGainFit::kRefuse) an axis' R^2 is under
+/// @throws tac3d::Error if there are fewer than kMinForcePairs pairs, or the options are
+///   invalid; unless PoorGainFit::kLeaveAtOne (which leaves such an axis at 1 instead), if an
+///   axis' measured values are all zero (the calibration did not excite it) or its gain comes
+///   out <= 0 (the axis' sign is wrong); with PoorGainFit::kRefuse, if an axis' R^2 is under
 ///   options.min_r_squared (the message is PoorFitMessage's).
 ForceGainFit FitForceGains(const std::vector<ForcePair>& pairs,
                            const ForceGainFitOptions& options = {});

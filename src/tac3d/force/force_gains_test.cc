@@ -121,6 +121,30 @@ TEST(FitForceGains, AFitOnNoiseIsRefusedNamingTheAxesAndTheFloor) {
   EXPECT_TRUE(FitForceGains(pairs, {.min_r_squared = -10.0}).usable());
 }
 
+TEST(FitForceGains, LeftAtOneFitsTheDeterminedAxesAndSaysWhyTheOthersAreNot) {
+  // z well loaded at gain 1.2; x and y noise only: the pairs determine z alone.
+  std::vector<ForcePair> pairs = NoiseInXAndY(30);
+  for (ForcePair& pair : pairs) pair.measured_n.z() = pair.reference_n.z() / 1.2;
+  const ForceGainFit fit = FitForceGains(pairs, {.on_poor_fit = PoorGainFit::kLeaveAtOne});
+  EXPECT_NEAR(fit.gains.z(), 1.2, 1e-12);
+  EXPECT_EQ(fit.left_at_one[2], "");
+  EXPECT_EQ(fit.gains.x(), 1.0);
+  EXPECT_EQ(fit.gains.y(), 1.0);
+  EXPECT_THAT(fit.left_at_one[0], ::testing::HasSubstr("under 0.9: the pairs do not determine it"));
+  EXPECT_TRUE(fit.usable());
+  EXPECT_EQ(ToJson(fit).at("left_at_one").size(), 2u);
+  // An axis never loaded, or one whose sign disagrees, is left at 1 too instead of refused.
+  for (ForcePair& pair : pairs) {
+    pair.measured_n.x() = 0.0;
+    pair.measured_n.y() = -pair.reference_n.y();
+  }
+  const ForceGainFit odd = FitForceGains(pairs, {.on_poor_fit = PoorGainFit::kLeaveAtOne});
+  EXPECT_EQ(odd.gains, Eigen::Vector3d(1.0, 1.0, odd.gains.z()));
+  EXPECT_EQ(odd.left_at_one[0], "every measured fx is zero");
+  EXPECT_THAT(odd.left_at_one[1], ::testing::HasSubstr("disagree in sign"));
+  EXPECT_THROW(FitForceGains(pairs), Error);
+}
+
 TEST(FitForceGains, AGoodFitPassesTheFloor) {
   const ForceGainFit fit = FitForceGains(RandomPairs(Eigen::Vector3d(1.1, 0.9, 1.2), 0.05, 30));
   EXPECT_TRUE(fit.usable());
