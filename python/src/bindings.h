@@ -15,6 +15,7 @@ void RegisterPipeline(pybind11::module_& m);  // frame sources, the in-process p
 void RegisterTwin(pybind11::module_& m);      // scenes, simulation, datasets, design, friction
 void RegisterRuntime(pybind11::module_& m);   // several sensors with their outputs: tac3d.run
 void RegisterDatasetSpec(pybind11::module_& m);  // dataset specs: tac3d.datasets
+void RegisterTracking(pybind11::module_& m);     // single-view marker tracking: tac3d.track
 
 /// The drift mode named by a `drift` argument (off, flag, rezero: --drift's and the run file's
 /// names), for SensorSpec and Pipeline. @throws tac3d::Error naming it otherwise.

@@ -18,4 +18,5 @@ PYBIND11_MODULE(_core, m) {
   tac3d::python::RegisterTwin(m);
   tac3d::python::RegisterRuntime(m);
   tac3d::python::RegisterDatasetSpec(m);
+  tac3d::python::RegisterTracking(m);
 }

@@ -10,6 +10,8 @@
   ``tac3d.TwinSimulation``: the twin stepped a step a call, under a controller's loads.
 - ``tac3d.datasets``: randomized twin datasets generated on Dask and stored as zarr
   (``tac3d.datasets.open(DIR)``; imported on first use, so ``import tac3d`` needs neither).
+- ``tac3d.track``, ``tac3d.SingleViewTracker``: a single-view marker sensor's (GelSight-type)
+  markers tracked through a video, an image folder or a camera, as ``tac3d track``.
 - ``tac3d.design_light_path``, ``tac3d.friction_map``: the design solver and friction map
   (``friction_map_defaults()``: its options, those of ``tac3d friction-map``).
 
@@ -28,7 +30,9 @@ from ._core import (  # noqa: F401
     Sensor,
     SensorReport,
     SensorSpec,
+    SingleViewTracker,
     TactileFrame,
+    TrackedFrame,
     TwinSimulation,
     builtin_scenes,
     default_sensor_yaml,
@@ -44,6 +48,7 @@ from ._core import (  # noqa: F401
     simulate,
     simulate_arrays,
 )
+from .tracking import TrackResult, track  # noqa: F401
 
 
 
@@ -61,8 +66,8 @@ PYTAC3D_VERSION = "3.3.0 (tac3d)"
 
 __all__ = [
     "Dataset", "Error", "FrameSource", "Pipeline", "Recording", "RecordingReader",
-    "RecordingWriter", "Scene", "Sensor", "SensorReport", "SensorSpec", "TactileFrame",
-    "TwinSimulation", "builtin_scenes", "default_sensor_yaml", "design_light_path",
+    "RecordingWriter", "Scene", "Sensor", "SensorReport", "SensorSpec", "SingleViewTracker", "TactileFrame",
+    "TrackedFrame", "TrackResult", "TwinSimulation", "builtin_scenes", "default_sensor_yaml", "design_light_path",
     "friction_map", "friction_map_defaults", "load_run_file", "load_scene", "open_recording", "open_source",
-    "parse_scene", "run", "simulate", "simulate_arrays", "PYTAC3D_VERSION",
+    "parse_scene", "run", "simulate", "simulate_arrays", "track", "PYTAC3D_VERSION",
 ]

@@ -176,9 +176,11 @@ Seed FindDarkestPixel(const cv::Mat& image,
   const int roi_x1 = roi.x + roi.width - 1, roi_y1 = roi.y + roi.height - 1;
   const double qx = predicted.x(), qy = predicted.y();
   Seed seed;
-  const int y0 = std::max(roi.y, static_cast<int>(std::ceil(qy - s)));
+  int y0 = std::max(roi.y, static_cast<int>(std::ceil(qy - s)));
   const int y1 = std::min(roi_y1, static_cast<int>(std::floor(qy + s)));
   const int row_step = s >= kLargeDiskPx ? kSearchRowStep : 1;
+  // A dot cut by the roi's last row may be a row or two tall there: that row is scanned.
+  if (y1 == roi_y1 && y0 > roi.y) y0 += (y1 - y0) % row_step;
   // The rows' spans come first, a block at a time, so their square roots do not sit in the
   // scanning loop (a separate loop also vectorises).
   std::array<int, kBlockRows> span_x0, span_x1;
@@ -503,16 +505,16 @@ BlobStatus MeasureBlob(const cv::Mat& image,
   const Shape shape = CalcShape(m);
   int core_count = 0;
   const double core = CoreDarkness(image, roi, shape.center, background, core_count);
-  if (shape.spread < options.min_spread_px || shape.spread > options.max_spread_px ||
-      shape.elongation > options.max_elongation || shape.fill < options.min_fill ||
-      core < options.min_core_darkness * contrast * core_count) {
-    return BlobStatus::kBadShape;
-  }
   blob.center = shape.center;
   blob.background_dn = background;
   blob.contrast_dn = contrast;
   blob.spread_px = shape.spread;
   blob.elongation = shape.elongation;
+  if (shape.spread < options.min_spread_px || shape.spread > options.max_spread_px ||
+      shape.elongation > options.max_elongation || shape.fill < options.min_fill ||
+      core < options.min_core_darkness * contrast * core_count) {
+    return BlobStatus::kBadShape;
+  }
   return BlobStatus::kFound;
 }
 
@@ -530,10 +532,10 @@ void PrefetchDisk(const cv::Mat& image, const cv::Rect& roi, const Eigen::Vector
   }
 }
 
-bool BlobReachesBorder(const cv::Mat& image,
-                       const cv::Rect& roi,
-                       const Blob& blob,
-                       double blob_radius_px) {
+std::uint8_t BlobReachesBorder(const cv::Mat& image,
+                               const cv::Rect& roi,
+                               const Blob& blob,
+                               double blob_radius_px) {
   TAC3D_DEMAND(image.type() == CV_8UC1);
   const double level = blob.background_dn - 0.5 * blob.contrast_dn;
   const double cx = blob.center.x(), cy = blob.center.y(), r2 = blob_radius_px * blob_radius_px;
@@ -541,7 +543,7 @@ bool BlobReachesBorder(const cv::Mat& image,
   // Most dots' disks reach no border: nothing to read.
   if (cx - blob_radius_px > x0 && cx + blob_radius_px < x1 && cy - blob_radius_px > y0 &&
       cy + blob_radius_px < y1) {
-    return false;
+    return 0;
   }
   auto weighted = [&](int x, int y) {
     return (x - cx) * (x - cx) + (y - cy) * (y - cy) <= r2 && image.at<std::uint8_t>(y, x) < level;
@@ -550,13 +552,14 @@ bool BlobReachesBorder(const cv::Mat& image,
   const int xb = std::min(x1, static_cast<int>(std::ceil(cx + blob_radius_px)));
   const int ya = std::max(y0, static_cast<int>(std::floor(cy - blob_radius_px)));
   const int yb = std::min(y1, static_cast<int>(std::ceil(cy + blob_radius_px)));
-  for (int x = xa; x <= xb; ++x) {
-    if (weighted(x, y0) || weighted(x, y1)) return true;
+  std::uint8_t sides = 0;
+  for (int x = xa; x <= xb && !(sides & kBorderRows); ++x) {
+    if (weighted(x, y0) || weighted(x, y1)) sides |= kBorderRows;
   }
-  for (int y = ya; y <= yb; ++y) {
-    if (weighted(x0, y) || weighted(x1, y)) return true;
+  for (int y = ya; y <= yb && !(sides & kBorderColumns); ++y) {
+    if (weighted(x0, y) || weighted(x1, y)) sides |= kBorderColumns;
   }
-  return false;
+  return sides;
 }
 
 std::vector<Blob> DetectBlobs(const cv::Mat& image, const cv::Rect& roi, const BlobOptions& options) {

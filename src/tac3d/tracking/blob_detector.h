@@ -71,7 +71,9 @@ struct Blob {
 /// `predicted`) and again about the centroid while it may cut the dot. Uses only pixels inside
 /// `roi`; allocates nothing.
 /// @param image CV_8UC1. @param roi the part of the image that may be read (one half).
-/// @param blob receives the measurement when the status is kFound (else untouched).
+/// @param blob receives the measurement when the status is kFound, and when it is kBadShape (a
+/// dark blob measured, implausible as one whole dot: merged, smeared, or cut by roi's border);
+/// else untouched.
 /// @pre image is CV_8UC1, roi lies in it, radii > 0 (checked by the callers' Validate).
 BlobStatus MeasureBlob(const cv::Mat& image,
                        const cv::Rect& roi,
@@ -87,16 +89,21 @@ BlobStatus MeasureBlob(const cv::Mat& image,
 /// @pre image is CV_8UC1, roi lies in it.
 void PrefetchDisk(const cv::Mat& image, const cv::Rect& roi, const Eigen::Vector2d& center, double radius_px);
 
-/// Whether a measured blob's dot reaches the border of `roi`: a pixel of the roi's outermost
-/// rows or columns within `blob_radius_px` of its centre is darker than halfway from its
-/// background to its darkest pixel (the dot's edge; its blurred rim and the vignetting at an
-/// image's edge stay above that). The dot's pixels beyond the border are then missing from
-/// its centroid, which is pulled inward.
+/// BlobReachesBorder's sides: the dot reaches the roi's first or last column, its first or last row.
+inline constexpr std::uint8_t kBorderColumns = 1;
+inline constexpr std::uint8_t kBorderRows = 2;
+
+/// Which borders of `roi` a measured blob's dot reaches (kBorderColumns | kBorderRows, 0 for
+/// none): a pixel of the roi's outermost rows or columns within `blob_radius_px` of its centre
+/// is darker than halfway from its background to its darkest pixel (the dot's edge; its
+/// blurred rim and the vignetting at an image's edge stay above that). The dot's pixels beyond
+/// the border are then missing from its centroid, which is pulled inward across that border
+/// (and only across it: along the border the cut is symmetric about the dot's centre).
 /// @pre image is CV_8UC1, roi lies in it, blob as MeasureBlob found it.
-bool BlobReachesBorder(const cv::Mat& image,
-                       const cv::Rect& roi,
-                       const Blob& blob,
-                       double blob_radius_px);
+std::uint8_t BlobReachesBorder(const cv::Mat& image,
+                               const cv::Rect& roi,
+                               const Blob& blob,
+                               double blob_radius_px);
 
 /// Finds every plausible dark blob in `roi` (for grid acquisition, not the per-frame
 /// path): the film's brightness by a grey closing and a box blur, darkness = film - image,

@@ -116,6 +116,7 @@ GridTracker::GridTracker(int rows, int cols, const cv::Rect& roi, std::vector<Ei
   levels_.assign(n, Eigen::Vector2d::Zero());
   state_.assign(n, MarkerState::kGridLost);
   accepted_.assign(n, 0);
+  cut_.assign(n, 0);
   queued_.assign(n, 0);
   tries_.assign(n, 0);
   queue_.assign(kMaxTries * n, 0);
@@ -137,12 +138,21 @@ Eigen::Vector2d GridTracker::Predict(int i) const {
   return support > 0 ? Eigen::Vector2d(base_[i] + surprise / support) : base_[i];
 }
 
-MarkerState GridTracker::Judge(const cv::Mat& image, int i, const Blob& blob,
-                               const Eigen::Vector2d& prediction) const {
-  const double pitch = pitch_[i];
-  if (BlobReachesBorder(image, roi_, blob, options_.blob_radius * pitch)) {
-    return MarkerState::kPartlyOutside;
+MarkerState GridTracker::JudgeCut(int i, const Blob& blob, std::uint8_t sides, const Eigen::Vector2d& prediction) {
+  // Only the coordinate along the border is the dot's own; across it the centroid is pulled
+  // inward, and a dot cut at a corner has none.
+  const Eigen::Vector2d off = blob.center - prediction;
+  const double gate = options_.gate * pitch_[i];
+  if ((!(sides & kBorderColumns) && std::abs(off.x()) > gate) || (!(sides & kBorderRows) && std::abs(off.y()) > gate)) {
+    return MarkerState::kInconsistent;
   }
+  found_[i] = blob.center;
+  cut_[i] = sides;
+  return MarkerState::kPartlyOutside;
+}
+
+MarkerState GridTracker::Judge(int i, const Blob& blob, const Eigen::Vector2d& prediction) const {
+  const double pitch = pitch_[i];
   const double gate = options_.gate * pitch;
   if ((blob.center - prediction).squaredNorm() > gate * gate) return MarkerState::kInconsistent;
   const double separation2 = std::pow(options_.min_separation * pitch, 2);
@@ -177,11 +187,21 @@ void GridTracker::Grow(const cv::Mat& image, int head, int tail) {
       Blob blob;
       const BlobStatus status = MeasureBlob(image, roi_, prediction, options_.search_radius * pitch,
                                             options_.blob_radius * pitch, options_.blob, blob);
-      if (status != BlobStatus::kFound) {
-        state_[i] = status == BlobStatus::kNoBlob ? MarkerState::kNotFound : MarkerState::kBadShape;
+      if (status == BlobStatus::kNoBlob) {
+        state_[i] = MarkerState::kNotFound;
         continue;
       }
-      state_[i] = Judge(image, i, blob, prediction);
+      // A dot cut by the border fails the shape checks too, so the border is checked first.
+      const std::uint8_t sides = BlobReachesBorder(image, roi_, blob, options_.blob_radius * pitch);
+      if (sides != 0) {
+        state_[i] = JudgeCut(i, blob, sides, prediction);
+        continue;
+      }
+      if (status == BlobStatus::kBadShape) {
+        state_[i] = MarkerState::kBadShape;
+        continue;
+      }
+      state_[i] = Judge(i, blob, prediction);
       if (state_[i] != MarkerState::kValid) continue;
       accepted_[i] = 1;
       found_[i] = blob.center;
@@ -226,6 +246,11 @@ void GridTracker::Commit() {
     // With no measured neighbour it stays where it was looked for.
     estimate_[i] = support > 0 ? Eigen::Vector2d(nominal_[i] + displacement / support) : base_[i];
     supported_[i] = support > 0;
+    if (state_[i] != MarkerState::kPartlyOutside) continue;
+    // A dot cut by the border: along the border, where its own blob is.
+    if (!(cut_[i] & kBorderColumns)) estimate_[i].x() = found_[i].x();
+    if (!(cut_[i] & kBorderRows)) estimate_[i].y() = found_[i].y();
+    supported_[i] = 1;
   }
 }
 
@@ -233,7 +258,7 @@ void GridTracker::TrackGrid(const cv::Mat& image) {
   const int n = rows_ * cols_;
   for (int i = 0; i < n; ++i) {
     base_[i] = estimate_[i];
-    accepted_[i] = queued_[i] = tries_[i] = 0;
+    accepted_[i] = queued_[i] = tries_[i] = cut_[i] = 0;
     state_[i] = MarkerState::kNotFound;
   }
   // Seeds: the outer ring, walked around so each seed after the first has a neighbour.
@@ -342,19 +367,20 @@ void GridTracker::Acquire(const cv::Mat& image) {
   int best_valid = -1;
   std::vector<Eigen::Vector2d> best_base, best_found, best_levels;
   std::vector<MarkerState> best_state;
-  std::vector<std::uint8_t> best_accepted;
+  std::vector<std::uint8_t> best_accepted, best_cut;
   for (const GridIndex& index : IndexGrid(centers, nominal_, pitch_, options_.index)) {
     std::fill(state_.begin(), state_.end(), MarkerState::kNotFound);
     std::fill(accepted_.begin(), accepted_.end(), 0);
     std::fill(queued_.begin(), queued_.end(), 0);
     std::fill(tries_.begin(), tries_.end(), 0);
+    std::fill(cut_.begin(), cut_.end(), 0);
     for (int i = 0; i < n; ++i) {
       base_[i] = index.Map(nominal_[i]);
       const int j = index.detection_of_marker[i];
       if (j < 0) continue;
       tries_[i] = 1;
-      if (BlobReachesBorder(image, roi_, blobs[j], options_.blob_radius * pitch_[i])) {
-        state_[i] = MarkerState::kPartlyOutside;
+      if (const std::uint8_t sides = BlobReachesBorder(image, roi_, blobs[j], options_.blob_radius * pitch_[i])) {
+        state_[i] = JudgeCut(i, blobs[j], sides, base_[i]);
         continue;
       }
       accepted_[i] = 1;
@@ -381,6 +407,7 @@ void GridTracker::Acquire(const cv::Mat& image) {
     best_levels = levels_;
     best_state = state_;
     best_accepted = accepted_;
+    best_cut = cut_;
     if (valid == n) break;
   }
   tracking_ = false;
@@ -393,6 +420,7 @@ void GridTracker::Acquire(const cv::Mat& image) {
   levels_ = std::move(best_levels);
   state_ = std::move(best_state);
   accepted_ = std::move(best_accepted);
+  cut_ = std::move(best_cut);
   Commit();
   tracking_ = best_valid >= options_.min_valid_fraction * n;
 }

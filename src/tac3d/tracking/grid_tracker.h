@@ -50,7 +50,8 @@ enum class MarkerState : std::uint8_t {
   kConflict,      ///< the blob is already a grid neighbour's
   kGridLost,      ///< the grid was not found: nothing measured in it
   kPartlyOutside, ///< the dot reaches the image's (or half's) border: its centroid would be biased
-                  ///< (BlobReachesBorder)
+                  ///< across the border (BlobReachesBorder), so it is not valid; its estimate_uv
+                  ///< is its blob's centroid along the border, its neighbours' placement across it
 };
 inline constexpr int kMarkerStateCount = 7;
 std::string_view ToString(MarkerState state);
@@ -66,8 +67,9 @@ struct GridObservation {
   /// put it (else where it was looked for), or the nominal grid's pixel while the grid is
   /// lost.
   std::vector<Eigen::Vector2d> estimate_uv;
-  /// Per marker, whether `estimate_uv` is backed by this frame: valid, or predicted from at
-  /// least one grid neighbour measured in it (else the marker's last position, or nominal).
+  /// Per marker, whether `estimate_uv` is backed by this frame: valid, cut by the border and
+  /// measured along it (kPartlyOutside), or predicted from at least one grid neighbour measured
+  /// in it (else the marker's last position, or nominal).
   std::vector<std::uint8_t> supported;
   /// Per marker, its blob's local background (the film around it) and contrast (DN,
   /// MeasureBlob), NaN unless valid: the lighting where the markers are.
@@ -152,7 +154,11 @@ class GridTracker {
   // Grows the accepted set breadth-first from the queue: see the class comment.
   void Grow(const cv::Mat& image, int head, int tail);
   // The state a found blob gives marker i: kValid, or why it is refused.
-  MarkerState Judge(const cv::Mat& image, int i, const Blob& blob, const Eigen::Vector2d& prediction) const;
+  MarkerState Judge(int i, const Blob& blob, const Eigen::Vector2d& prediction) const;
+  // The state a blob cut by the roi's `sides` (BlobReachesBorder) gives marker i: kPartlyOutside,
+  // its blob kept for the coordinate along the border (found_, cut_), or kInconsistent if that
+  // coordinate is off the prediction by more than the gate.
+  MarkerState JudgeCut(int i, const Blob& blob, std::uint8_t sides, const Eigen::Vector2d& prediction);
   // Prediction of marker i: its base, moved by the mean unexpected motion (found - base)
   // of its accepted neighbours.
   Eigen::Vector2d Predict(int i) const;
@@ -177,10 +183,11 @@ class GridTracker {
   std::vector<std::uint8_t> supported_;    // estimate_ backed by this frame
   // Scratch.
   std::vector<Eigen::Vector2d> base_;      // prediction before the neighbours' correction
-  std::vector<Eigen::Vector2d> found_;
+  std::vector<Eigen::Vector2d> found_;     // accepted markers' centroids, and cut ones' (cut_)
   std::vector<Eigen::Vector2d> levels_;    // found blob's (background, contrast), DN
   std::vector<MarkerState> state_;
   std::vector<std::uint8_t> accepted_, queued_, tries_;
+  std::vector<std::uint8_t> cut_;           // a kPartlyOutside marker's BlobReachesBorder sides
   std::vector<int> queue_;
 };
 

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <set>
+#include <tuple>
 #include <utility>
 
 #include <Eigen/Dense>
@@ -102,6 +104,44 @@ void WalkLattice(const std::vector<Eigen::Vector2d>& centers, double nearest_px,
   }
 }
 
+// The lattice's pixel at (row, col): an affine map fitted to the whole blobs.
+struct LatticeMap {
+  Eigen::Matrix<double, 3, 2> affine;
+  Eigen::Vector2d operator()(int r, int c) const { return (Eigen::RowVector3d(c, r, 1.0) * affine).transpose(); }
+};
+
+LatticeMap FitLattice(const std::map<std::pair<int, int>, int>& whole_at, const std::vector<Eigen::Vector2d>& centers) {
+  Eigen::MatrixXd design(whole_at.size(), 3);
+  Eigen::MatrixXd target(whole_at.size(), 2);
+  int k = 0;
+  for (const auto& [at, i] : whole_at) {
+    design.row(k) << at.second, at.first, 1.0;
+    target.row(k++) = centers[i].transpose();
+  }
+  return {design.colPivHouseholderQr().solve(target)};
+}
+
+// Whether a dot cut by the image's border lies at a lattice node `p` that has no detected
+// blob: its disk reaches into the image, and a dark blob there (whatever its shape: detection
+// refuses most cut dots) reaches the border, along which it lies where the lattice puts it.
+bool CutDotAt(const cv::Mat& image, const Eigen::Vector2d& p, double nearest_px, double disk_px,
+              const BlobOptions& options) {
+  const double r = disk_px - kDiskMarginPx;  // the dot's radius
+  if (p.x() + r < -0.5 || p.y() + r < -0.5 || p.x() - r > image.cols - 0.5 || p.y() - r > image.rows - 0.5) {
+    return false;
+  }
+  const cv::Rect whole(0, 0, image.cols, image.rows);
+  Blob blob;
+  if (MeasureBlob(image, whole, p, kStepGate * nearest_px + r, disk_px, options, blob) == BlobStatus::kNoBlob) {
+    return false;
+  }
+  const std::uint8_t sides = BlobReachesBorder(image, whole, blob, disk_px);
+  const Eigen::Vector2d off = blob.center - p;
+  const double gate = kStepGate * nearest_px;
+  return sides != 0 && ((sides & kBorderColumns) || std::abs(off.x()) <= gate) &&
+         ((sides & kBorderRows) || std::abs(off.y()) <= gate);
+}
+
 // The tracker's options for the grid's dots: its blob options sized to them, and where the
 // dots are smaller than the pitch fraction assumes, the centroid's disk narrowed to them (the
 // dots' radius plus 2.5 px of blur and margin).
@@ -164,51 +204,11 @@ MarkerGrid FindMarkerGrid(const cv::Mat& image, int rows, int cols, const BlobOp
                             blobs.size()));
   }
 
-  // The extent: the lattice's, or the window of the given size holding the most blobs (the
-  // most centred of equals).
-  int r_min = 0, r_max = 0, c_min = 0, c_max = 0;
-  for (const auto& [at, i] : lattice.blob_at) {
-    r_min = std::min(r_min, at.first);
-    r_max = std::max(r_max, at.first);
-    c_min = std::min(c_min, at.second);
-    c_max = std::max(c_max, at.second);
-  }
   MarkerGrid grid;
-  grid.rows = rows > 0 ? rows : r_max - r_min + 1;
-  grid.cols = cols > 0 ? cols : c_max - c_min + 1;
-  int best_r0 = r_min, best_c0 = c_min, best_count = -1, best_offcentre = 0;
-  for (int r0 = std::min(r_min, r_max - grid.rows + 1); r0 <= std::max(r_min, r_max - grid.rows + 1); ++r0) {
-    for (int c0 = std::min(c_min, c_max - grid.cols + 1); c0 <= std::max(c_min, c_max - grid.cols + 1); ++c0) {
-      int count = 0;
-      for (const auto& [at, i] : lattice.blob_at) {
-        count += at.first >= r0 && at.first < r0 + grid.rows && at.second >= c0 && at.second < c0 + grid.cols;
-      }
-      const int offcentre = std::abs(2 * r0 + grid.rows - 1 - r_min - r_max) +
-                            std::abs(2 * c0 + grid.cols - 1 - c_min - c_max);
-      if (count > best_count || (count == best_count && offcentre < best_offcentre)) {
-        best_count = count;
-        best_offcentre = offcentre;
-        best_r0 = r0;
-        best_c0 = c0;
-      }
-    }
-  }
-  // A grid given larger than the image shows would leave most of its markers lost (a wrong
-  // --grid), not measured.
-  if (2 * best_count < grid.rows * grid.cols) {
-    throw Error(fmt::format("marker grid: the {} x {} grid given holds only {} markers of the reference frame's "
-                            "lattice, which spans {} x {}: is the grid right?",
-                            grid.rows, grid.cols, best_count, r_max - r_min + 1, c_max - c_min + 1));
-  }
   grid.dot_radius_px = 2 * Median(spreads);
   grid.blob = sized;
   grid.column_step_px = lattice.column_step;
   grid.row_step_px = lattice.row_step;
-
-  // Markers with a whole blob sit at it; the others (no blob, or one cut by the border,
-  // whose centroid is pulled inward) where an affine map of the lattice's whole blobs puts
-  // them, moved by their detected neighbours' mean residual from it (a local distortion).
-  const int n = grid.rows * grid.cols;
   const double disk_px = grid.dot_radius_px + kDiskMarginPx;  // as the tracker's
   std::map<std::pair<int, int>, int> whole_at;
   for (const auto& [at, i] : lattice.blob_at) {
@@ -217,15 +217,67 @@ MarkerGrid FindMarkerGrid(const cv::Mat& image, int rows, int cols, const BlobOp
   if (whole_at.size() < 3) {
     throw Error(fmt::format("marker grid: only {} blobs of the lattice are whole", whole_at.size()));
   }
-  Eigen::MatrixXd design(whole_at.size(), 3);
-  Eigen::MatrixXd target(whole_at.size(), 2);
-  int k = 0;
-  for (const auto& [at, i] : whole_at) {
-    design.row(k) << at.second, at.first, 1.0;
-    target.row(k++) = centers[i].transpose();
+  const LatticeMap map = FitLattice(whole_at, centers);
+  // The markers seen: the lattice's blobs, and the dots cut by the border that detection's
+  // shape checks refused, around it as far as a given grid could reach.
+  int r_min = 0, r_max = 0, c_min = 0, c_max = 0;
+  for (const auto& [at, i] : lattice.blob_at) {
+    r_min = std::min(r_min, at.first);
+    r_max = std::max(r_max, at.first);
+    c_min = std::min(c_min, at.second);
+    c_max = std::max(c_max, at.second);
   }
-  const Eigen::MatrixXd affine = design.colPivHouseholderQr().solve(target);  // 3 x 2
-  auto map = [&](int r, int c) -> Eigen::Vector2d { return (Eigen::RowVector3d(c, r, 1.0) * affine).transpose(); };
+  const int reach_r = std::max(1, rows - (r_max - r_min + 1)), reach_c = std::max(1, cols - (c_max - c_min + 1));
+  std::set<std::pair<int, int>> seen;
+  for (const auto& [at, i] : lattice.blob_at) seen.insert(at);
+  for (int r = r_min - reach_r; r <= r_max + reach_r; ++r) {
+    for (int c = c_min - reach_c; c <= c_max + reach_c; ++c) {
+      if (!seen.count({r, c}) && CutDotAt(image, map(r, c), nearest_px, disk_px, sized)) seen.insert({r, c});
+    }
+  }
+  for (const auto& [r, c] : seen) {
+    r_min = std::min(r_min, r);
+    r_max = std::max(r_max, r);
+    c_min = std::min(c_min, c);
+    c_max = std::max(c_max, c);
+  }
+  // The extent: the markers seen, or the window of the given size holding the most of them;
+  // of equals, the one with the most whole dots (a sliver of a dot at one edge against whole
+  // ones at the other), then the most centred.
+  grid.rows = rows > 0 ? rows : r_max - r_min + 1;
+  grid.cols = cols > 0 ? cols : c_max - c_min + 1;
+  int best_r0 = r_min, best_c0 = c_min, best_seen = -1, best_whole = -1, best_offcentre = 0;
+  for (int r0 = std::min(r_min, r_max - grid.rows + 1); r0 <= std::max(r_min, r_max - grid.rows + 1); ++r0) {
+    for (int c0 = std::min(c_min, c_max - grid.cols + 1); c0 <= std::max(c_min, c_max - grid.cols + 1); ++c0) {
+      auto inside = [&](const std::pair<int, int>& at) {
+        return at.first >= r0 && at.first < r0 + grid.rows && at.second >= c0 && at.second < c0 + grid.cols;
+      };
+      const int count = static_cast<int>(std::count_if(seen.begin(), seen.end(), inside));
+      int whole_count = 0;
+      for (const auto& [at, i] : whole_at) whole_count += inside(at);
+      const int offcentre = std::abs(2 * r0 + grid.rows - 1 - r_min - r_max) +
+                            std::abs(2 * c0 + grid.cols - 1 - c_min - c_max);
+      if (std::tie(count, whole_count, best_offcentre) > std::tie(best_seen, best_whole, offcentre)) {
+        best_seen = count;
+        best_whole = whole_count;
+        best_offcentre = offcentre;
+        best_r0 = r0;
+        best_c0 = c0;
+      }
+    }
+  }
+  // A grid given larger than the image shows would leave most of its markers lost (a wrong
+  // --grid), not measured.
+  if (2 * best_seen < grid.rows * grid.cols) {
+    throw Error(fmt::format("marker grid: the {} x {} grid given holds only {} markers of the reference frame's "
+                            "lattice, which spans {} x {}: is the grid right?",
+                            grid.rows, grid.cols, best_seen, r_max - r_min + 1, c_max - c_min + 1));
+  }
+
+  // Markers with a whole blob sit at it; the others (no blob, or one cut by the border,
+  // whose centroid is pulled inward) where an affine map of the lattice's whole blobs puts
+  // them, moved by their detected neighbours' mean residual from it (a local distortion).
+  const int n = grid.rows * grid.cols;
   grid.uv.assign(n, Eigen::Vector2d::Zero());
   grid.detected.assign(n, 0);
   for (int r = 0; r < grid.rows; ++r) {

@@ -42,9 +42,14 @@ BlobOptions SizeBlobOptionsToDots(const BlobOptions& options, double spread_px);
 /// either image axis), each blob's lattice coordinates by walking from the blob nearest the
 /// image's centre one step at a time (a blob matches within 0.3 of the median nearest
 /// distance of where the step predicts it), and the grid's extent. Blobs off the lattice
-/// (specks, the object's texture) are left out.
-/// @param rows, cols the grid's size, or 0 for the extent of the lattice's blobs. Given, the
-/// window of that size holding the most blobs is taken.
+/// (specks, the object's texture) are left out. Dots cut by the image's border, which detection
+/// mostly refuses for their shape, are looked for at the lattice's nodes around it (an affine
+/// map of the whole blobs): a dark blob there that reaches the border and lies along it where
+/// the node is counts as a marker seen.
+/// @param rows, cols the grid's size, or 0 for the extent of the markers seen. Given, the
+/// window of that size holding the most markers seen is taken (of equals, the most whole dots,
+/// then the most centred): never a row or column wholly outside the image while one partly
+/// inside is left out.
 /// @pre image is CV_8UC1. The grid's axes lie within about 30 deg of the image's.
 /// @throws Error if fewer than 4 blobs are on a lattice, rows / cols is negative or over
 /// kMaxMarkerGridSide, or a given grid holds under half as many blobs as it has markers.

@@ -1,5 +1,7 @@
 #include "tac3d/tracking/single_view_tracker.h"
 
+#include <fstream>
+
 #include <cmath>
 #include <filesystem>
 #include <random>
@@ -12,6 +14,7 @@
 #include <opencv2/videoio.hpp>
 
 #include "tac3d/source/frame_source.h"
+#include "tac3d/tracking/single_view_track.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
 #include "tac3d/vendor_formats/test_vendor_folder.h"
@@ -161,6 +164,91 @@ TEST(SingleViewTracker, MarkerCutByTheBorderIsFlaggedNotMeasured) {
   }
 }
 
+// The grid placed so that its first or last row or column is cut by each border in turn: its
+// dots' centres 1 px inside the image's edge (more than half of each dot seen) or 2 px outside
+// it (a sliver of 2 px of a dot of 4 px radius), a blank lattice place beyond the opposite side
+// (where a grid registered to the whole dots alone could as well be placed). In the reference
+// frame and in a tracked frame moved by (0.6, -0.4) px: every whole dot measured within 0.1 px,
+// every cut one flagged kPartlyOutside and placed at its own dot, within 0.5 px (along the
+// border its own centroid, across it its neighbours' placement): none a pitch off.
+TEST(SingleViewTracker, EveryVisibleMarkerFoundWhenARowOrColumnIsCutAtEachBorder) {
+  const double right = kImageSize.width - 0.5 - (kCols - 1) * kPitchPx;
+  const double bottom = kImageSize.height - 0.5 - (kRows - 1) * kPitchPx;
+  for (const double inside : {1.0, -2.0}) {
+    const std::vector<std::pair<const char*, Eigen::Vector2d>> cases = {{"left", {-0.5 + inside, 17.8}},
+                                                                        {"right", {right - inside, 17.8}},
+                                                                        {"top", {25.3, -0.5 + inside}},
+                                                                        {"bottom", {25.3, bottom - inside}}};
+    for (const auto& [border, first] : cases) {
+      const std::string what = fmt::format("{} border, cut dots' centres {} px inside", border, inside);
+      const auto rest = GridCentres(first);
+      SingleViewTracker tracker(RenderFrame(rest, 0), kRows, kCols);
+      GridObservation o = tracker.reference();
+      for (int frame = 0; frame < 2; ++frame) {
+        std::vector<Eigen::Vector2d> truth = rest;
+        if (frame == 1) {
+          for (auto& p : truth) p += Eigen::Vector2d(0.6, -0.4);
+          tracker.Track(RenderFrame(truth, 1), o);
+        }
+        int cut = 0;
+        for (int i = 0; i < kRows * kCols; ++i) {
+          const Eigen::Vector2d& p = truth[i];
+          const bool whole = p.x() - kDotRadiusPx > 0.5 && p.y() - kDotRadiusPx > 0.5 &&
+                             p.x() + kDotRadiusPx < kImageSize.width - 1.5 &&
+                             p.y() + kDotRadiusPx < kImageSize.height - 1.5;
+          if (whole) {
+            EXPECT_TRUE(o.valid(i)) << what << ", frame " << frame << ", marker " << i << ": " << ToString(o.state[i]);
+            if (o.valid(i)) EXPECT_LT((o.uv[i] - p).norm(), kCentroidTolerancePx) << what << ", marker " << i;
+            continue;
+          }
+          ++cut;
+          EXPECT_EQ(o.state[i], MarkerState::kPartlyOutside) << what << ", frame " << frame << ", marker " << i << ": "
+                                                             << ToString(o.state[i]);
+          EXPECT_TRUE(o.supported[i]) << what << ", marker " << i;
+          EXPECT_LT((o.estimate_uv[i] - p).norm(), 0.5) << what << ", frame " << frame << ", marker " << i;
+        }
+        EXPECT_EQ(cut, std::string(border) == "left" || std::string(border) == "right" ? kRows : kCols) << what;
+      }
+    }
+  }
+}
+
+// A Tac3D half is a GridTracker over the half's columns: a column of dots cut by the half's
+// border (its centres 0.2 px inside it) is flagged kPartlyOutside, never valid (a stereo pair
+// must not triangulate a pulled centroid), and placed at its own dot within 0.5 px, in the
+// acquired frame and in a tracked one moved by (-0.5, 0.7) px.
+TEST(GridTracker, DotsCutByAHalfsBorderAreFlaggedAndPlacedAtTheirDots) {
+  const auto rest = GridCentres({25.3, 17.8});
+  constexpr int kHalfCols = 5;
+  const cv::Rect half(0, 0, static_cast<int>(std::lround(rest[kHalfCols - 1].x() + 0.2)), kImageSize.height);
+  std::vector<Eigen::Vector2d> nominal;
+  for (int i = 0; i < kRows * kCols; ++i) {
+    if (i % kCols < kHalfCols) nominal.push_back(rest[i]);
+  }
+  // Sized to these dots as the single-view tracker sizes them: a Tac3D dot spans nearly half
+  // its pitch, and the default disk of 0.45 pitch holds it as this one holds these.
+  MarkerTrackerOptions options;
+  options.blob = SizeBlobOptionsToDots(options.blob, kDotRadiusPx / 2);
+  options.blob_radius = (kDotRadiusPx + 2.5) / kPitchPx;
+  GridTracker tracker(kRows, kHalfCols, half, nominal, options, "the left half");
+  GridObservation o;
+  for (int frame = 0; frame < 2; ++frame) {
+    auto truth = rest;
+    for (auto& p : truth) p += frame * Eigen::Vector2d(-0.5, 0.7);
+    tracker.Track(RenderFrame(truth, frame), o);
+    for (int i = 0; i < kRows * kHalfCols; ++i) {
+      const Eigen::Vector2d& p = truth[i / kHalfCols * kCols + i % kHalfCols];
+      if (i % kHalfCols < kHalfCols - 1) {
+        EXPECT_TRUE(o.valid(i)) << "frame " << frame << ", marker " << i << ": " << ToString(o.state[i]);
+        continue;
+      }
+      EXPECT_EQ(o.state[i], MarkerState::kPartlyOutside) << "frame " << frame << ", marker " << i << ": "
+                                                         << ToString(o.state[i]);
+      EXPECT_LT((o.estimate_uv[i] - p).norm(), 0.5) << "frame " << frame << ", marker " << i;
+    }
+  }
+}
+
 TEST(SingleViewTracker, NoGridOrABadImageThrows) {
   const cv::Mat blank(kImageSize, CV_8UC1, cv::Scalar(150));
   EXPECT_THROW(SingleViewTracker(blank, 0, 0), Error);
@@ -181,6 +269,65 @@ TEST(SingleViewTracker, NoGridOrABadImageThrows) {
   GridObservation o;
   EXPECT_THROW(tracker.Track(cv::Mat(120, 160, CV_8UC1, cv::Scalar(150)), o), Error);
   EXPECT_THROW(tracker.Track(cv::Mat(kImageSize, CV_8UC3, cv::Scalar::all(150)), o), Error);
+}
+
+// A folder of rendered frames through SingleViewSourceTracker: frame 0 skipped (the reference is
+// frame 1), an unreadable file skipped and counted, rest frames with noise only, then a press of
+// 12 px and its release. The summary's figures against the truth: every marker tracked, no swap,
+// the deepest press in the frame rendered deepest with its largest displacement, and the jitter
+// of noise alone (well under the 0.05 px the real video meets, above 0).
+TEST(SingleViewSourceTracker, TracksAFolderFrameByFrameAndSummarisesTheRun) {
+  const std::string dir = testing::MakeTempDir("single_view_source");
+  const auto rest = GridCentres({25.3, 17.8});
+  const std::vector<double> depths = {0, 0, 0, 0, 0, 0, 4, 8, 12, 8, 4, 0};
+  std::vector<std::vector<Eigen::Vector2d>> truth;
+  for (size_t k = 0; k < depths.size(); ++k) {
+    truth.push_back(Pressed(rest, {160, 120}, depths[k]));
+    ASSERT_TRUE(cv::imwrite(fmt::format("{}/f{:02d}.png", dir, 2 * k), RenderFrame(truth.back(), k)));
+  }
+  std::ofstream(dir + "/f05.png") << "not a PNG";
+  SingleViewTrackOptions options;
+  options.reference_frame = 1;
+  options.rest_frames = {{1, 5}};
+  SingleViewSourceTracker tracker(OpenSingleViewSource(dir), options);
+  ASSERT_EQ(tracker.rows(), kRows);
+  ASSERT_EQ(tracker.cols(), kCols);
+  SingleViewTrackFrame frame;
+  std::vector<std::int64_t> indices;
+  int bad = 0;
+  for (ReadStatus status; (status = tracker.Next(frame)) != ReadStatus::kEnd;) {
+    if (status == ReadStatus::kBadFrame) {
+      ++bad;
+      EXPECT_THAT(tracker.last_error(), ::testing::HasSubstr("f05.png"));
+      continue;
+    }
+    ASSERT_EQ(status, ReadStatus::kOk);
+    indices.push_back(frame.index);
+    // Sorted by name, the corrupt f05.png is the folder's frame 3, between rendered frames 2 and 3.
+    const size_t rendered = frame.index < 3 ? frame.index : frame.index - 1;
+    EXPECT_LT(RmsError(frame.markers, truth[rendered]), kCentroidTolerancePx) << "frame " << frame.index;
+  }
+  EXPECT_EQ(bad, 1);
+  ASSERT_EQ(indices.size(), depths.size() - 1);
+  EXPECT_EQ(indices.front(), 1);
+  const SingleViewTrackSummary s = tracker.summary();
+  EXPECT_EQ(s.frames, static_cast<std::int64_t>(depths.size()) - 1);
+  EXPECT_EQ(s.bad_frames, 1);
+  EXPECT_EQ(s.reference_tracked, kRows * kCols);
+  EXPECT_EQ(s.inside_untracked, 0);
+  EXPECT_EQ(s.max_lost, 0);
+  EXPECT_EQ(s.swaps, 0);
+  EXPECT_EQ(s.reacquisitions, 0);
+  EXPECT_NEAR(s.pitch_px, kPitchPx, 0.1);
+  double deepest = 0;
+  for (size_t i = 0; i < rest.size(); ++i) deepest = std::max(deepest, (truth[8][i] - truth[1][i]).norm());
+  EXPECT_EQ(s.deepest_frame, 9);  // rendered frame 8 (12 px), after the corrupt file
+  EXPECT_NEAR(s.deepest_max_px, deepest, 0.15);
+  EXPECT_EQ(s.rest_frames, 4);    // 1, 2, 4 and 5: 3 is the corrupt file
+  EXPECT_GT(s.jitter_x_px, 0.0);
+  EXPECT_LT(s.jitter_x_px, 0.05);
+  EXPECT_LT(s.jitter_y_px, 0.05);
+  EXPECT_LT(s.jitter_max_px, 0.1);
 }
 
 // Frames of a GelSight Mini's video, converted to grey (the fixture's README names the

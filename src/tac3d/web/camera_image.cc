@@ -15,6 +15,7 @@ namespace {
 // BGR; the page's legend (page/viewer.css) shows the same.
 const cv::Scalar kTrackedBgr(0, 220, 0);
 const cv::Scalar kLostBgr(40, 40, 255);
+const cv::Scalar kDisplacementBgr(0, 230, 255);
 
 // cv::circle and cv::line take sub-pixel points as fixed point with this many fraction bits.
 constexpr int kShift = 4;
@@ -68,6 +69,20 @@ cv::Mat DrawCameraImage(const cv::Mat& image, const std::vector<ImageMarker>& ma
     }
   }
   return bgr;
+}
+
+cv::Mat DrawDisplacementImage(const cv::Mat& image, const GridObservation& view, const GridObservation& reference) {
+  TAC3D_DEMAND(reference.estimate_uv.size() == view.state.size());
+  std::vector<ImageMarker> markers;
+  AppendImageMarkers(view, markers);
+  cv::Mat picture = DrawCameraImage(image, markers, image.cols);
+  if (picture.channels() == 1) cv::cvtColor(picture, picture, cv::COLOR_GRAY2BGR);
+  for (size_t i = 0; i < view.state.size(); ++i) {
+    const Eigen::Vector2d& from = reference.estimate_uv[i];
+    if (!view.valid(static_cast<int>(i)) || (view.uv[i] - from).norm() < 0.5) continue;
+    cv::arrowedLine(picture, FixedPoint(from), FixedPoint(view.uv[i]), kDisplacementBgr, 1, cv::LINE_AA, kShift, 0.3);
+  }
+  return picture;
 }
 
 }  // namespace tac3d

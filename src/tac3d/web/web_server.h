@@ -127,6 +127,12 @@ void AppendImageMarkers(const GridObservation& view, std::vector<ImageMarker>& m
 /// @pre image is CV_8UC1 and not empty, width > 0.
 cv::Mat DrawCameraImage(const cv::Mat& image, const std::vector<ImageMarker>& markers, int width);
 
+/// DrawCameraImage's picture of one view at full size, with each tracked marker's
+/// displacement from its reference position (`reference.estimate_uv`) as a yellow arrow of true
+/// length (none under half a pixel): a single-view track's overlay.
+/// @pre image is CV_8UC1 and not empty; `view` and `reference` have the same markers.
+cv::Mat DrawDisplacementImage(const cv::Mat& image, const GridObservation& view, const GridObservation& reference);
+
 /// The camera image as the page's message: {"type":"image","sn","index","w","h","jpeg"
 /// (base64)}, DrawCameraImage's picture of `image` and `markers`. @pre as DrawCameraImage.
 std::string ImageToJson(const std::string& sn, std::int64_t index, const cv::Mat& image, int width,
