@@ -1,5 +1,5 @@
 // `tac3d eval friction`: the friction-map scenes simulated by the twin, their images run
-// through the pipeline, mapped and compared with the scenes' truth (issue 11).
+// through the pipeline, mapped and compared with the scenes' truth.
 #include <fmt/format.h>
 
 #include <chrono>

@@ -1,5 +1,5 @@
 // `tac3d eval incipient`: the incipient-slip scene family simulated by the twin, its images run
-// through the pipeline, the frames' live friction and margin against the twin's truth (issue 26).
+// through the pipeline, the frames' live friction and margin against the twin's truth.
 #include <fmt/format.h>
 
 #include <CLI/CLI.hpp>

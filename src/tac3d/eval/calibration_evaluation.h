@@ -22,7 +22,7 @@ struct TwinCalibrationOptions {
   CalibrationBoard board;
   bool progress = false;
 
-  /// @throws Error naming the field and the bound (views >= 15, the issue's acceptance).
+  /// @throws Error naming the field and the bound (views >= 15, the acceptance).
   void Validate() const;
 };
 
@@ -47,7 +47,7 @@ struct LeftRight {
 /// What EvaluateCalibration measured: the calibration's summary and each recovered virtual
 /// camera against the twin's true one, with the nominal design's errors beside them.
 struct CalibrationEvaluation {
-  /// In this order (issue 3's acceptance): reprojection_rms_px <= 0.1 px (the joint stereo
+  /// In this order (the acceptance): reprojection_rms_px <= 0.1 px (the joint stereo
   /// calibration), camera_position_error_mm <= 0.3 mm and camera_rotation_error_deg
   /// <= 0.1 deg (each the worse of the two cameras).
   std::vector<EvalCheck> checks;

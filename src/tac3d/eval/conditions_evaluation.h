@@ -13,7 +13,7 @@
 
 namespace tac3d {
 
-/// `tac3d eval conditions` (issue 15): a twin dataset replayed as if at the end of a session
+/// `tac3d eval conditions`: a twin dataset replayed as if at the end of a session
 /// under each nuisance alone, all together, and on a sensor built at tolerance.
 struct ConditionsEvaluationOptions {
   /// The replay (the pipeline's options: its drift mode, its lighting flag, its gains).

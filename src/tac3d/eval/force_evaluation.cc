@@ -34,7 +34,7 @@ constexpr int kSubdivisions = 8;
 // The probe (paper Fig. 7A, B: 2 mm end diameter) and the pins (Fig. 7C, D: 2.54 mm apart).
 constexpr double kProbeRadius = 1.0, kProbeForce = 3.0;
 constexpr double kPinRadius = 0.5, kPinSpacing = 2.54, kPinForce = 1.0;
-// Acceptance bounds of issue 4.
+// Acceptance bounds of `tac3d eval force`.
 constexpr double kMaxResultantErrorPctFs = 2.0;
 constexpr double kMaxPinsDipRatio = 0.7;
 

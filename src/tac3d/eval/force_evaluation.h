@@ -24,7 +24,7 @@ struct EvalForceOptions {
   /// Where the nominal H is cached (fem::LoadOrBuildComplianceModel); empty = build it.
   std::string cache_dir;
   /// The true sensor's mesh refinement relative to the nominal one; 2 halves every edge
-  /// (the acceptance asks for edges at most half as long). Above 600,000 free DOFs
+  /// (the acceptance asks for edges at most half as long). Above 600,000 free DOFs
   /// (the default dome at 2: 1,257,174) the fem module solves it by two-grid conjugate
   /// gradients instead of a Cholesky factor (fem::BodySolverOptions, docs/fem.md).
   double truth_refinement = 2.0;

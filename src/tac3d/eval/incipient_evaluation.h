@@ -13,7 +13,7 @@ namespace tac3d {
 
 struct TwinStep;
 
-/// The twin's truth of one step for incipient slip (issue 26): the resultant's normal and
+/// The twin's truth of one step for incipient slip: the resultant's normal and
 /// tangential parts, their ratio to the friction cone and the stuck part of the contact.
 struct IncipientTruth {
   static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -58,13 +58,13 @@ struct IncipientEvaluationOptions {
   double alarm_margin = 0.5;
   /// Coverage: |mu error| <= this many sigmas.
   double coverage_sigmas = 2.0;
-  /// The acceptance targets (issue 26).
+  /// The acceptance targets.
   double target_mu_error_median = 0.05;
   double target_mu_error_p90 = 0.1;
   double target_lead_s = 0.3;  ///< on every slow ramp
   double target_false_alarm_rate = 0.01;
   /// The 2-sigma band covers the true mu in at least this fraction of the frames with an
-  /// estimate (issue 26, item 8).
+  /// estimate.
   double target_coverage = 0.9;
 
   /// @throws Error naming the field: 0 <= window_from < window_to <= 1, target_coverage in

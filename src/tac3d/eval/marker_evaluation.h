@@ -19,7 +19,7 @@ struct MarkerEvaluationOptions {
   /// exactly (tracking and stereo alone, no calibration error: the fast test).
   bool calibrate = true;
   TwinCalibrationOptions calibration;
-  /// Known deformations of the marker layer (default: the issue's shear, dent and twist).
+  /// Known deformations of the marker layer (default: the shear, dent and twist).
   std::vector<MarkerMotion> motions = StandardMarkerMotions();
   /// Undeformed frames (independent noise) averaged into the displacement reference.
   int reference_frames = 5;
@@ -61,7 +61,7 @@ struct MarkerMotionErrors {
 
 /// What EvaluateMarkers measured.
 struct MarkerEvaluation {
-  /// In this order (issue 3's acceptance, polynomial compensation, over all frames):
+  /// In this order (the acceptance, polynomial compensation, over all frames):
   /// position_rmse_mm <= 0.02 mm, displacement_rmse_mm <= 0.01 mm.
   std::vector<EvalCheck> checks;
   bool all_pass = false;

@@ -104,7 +104,7 @@ SensorConfig DatasetSensor(const TwinDatasetReader& dataset);
 
 /// Replays a twin dataset's images through a Pipeline built on `config` and the nominal
 /// compliance (h, fem_markers_mm), and compares every frame after the reference with the
-/// truth (issue 6, paper section V).
+/// truth (paper section V).
 /// @param progress called after each step with (steps done, steps in all), may be empty.
 /// @param on_frame called with each frame after the reference and its truth, may be empty.
 /// @param alter changes to what the sensor sees (ReplayAlterations), may be empty.

@@ -2,7 +2,7 @@
 
 // The friction map's options as the commands take them: `tac3d friction-map`, `tac3d eval
 // friction` and Python's tac3d.friction_map register the same names with the same defaults
-// from this one list, so the CLI and Python cannot drift apart (issue 27).
+// from this one list, so the CLI and Python cannot drift apart.
 #include <string>
 #include <string_view>
 #include <variant>

@@ -17,7 +17,7 @@ struct SceneObject;
 struct TwinStep;
 class TwinDatasetReader;
 
-/// How a friction map is compared with a twin scene's truth (issue 11, item 6).
+/// How a friction map is compared with a twin scene's truth.
 struct FrictionEvaluationOptions {
   /// A touched point of the true surface is covered when a mesh vertex with a known mu lies
   /// within this distance of it (mm, > 0). The marker pitch is 1.27 mm; Poisson's vertices
@@ -158,7 +158,7 @@ struct FrictionEvaluation {
   std::string BriefReport() const;
 };
 
-/// The acceptance targets of issue 11.
+/// The acceptance targets of the friction-map evaluation.
 struct FrictionTargets {
   double mu_mae = 0.05;
   double band_agreement = 0.90;

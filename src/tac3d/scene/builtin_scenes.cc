@@ -1,4 +1,4 @@
-// The experiments (paper Fig. 5, 7, 8, 9) as scenes. Distances follow the world
+// The paper's experiments (Fig. 5, 7, 8, 9) as scenes. Distances follow the world
 // convention of Scene: the fingertip faces +z at the identity pose, objects sit above it
 // with a small clearance, and the sensor moves up into them.
 #include <algorithm>

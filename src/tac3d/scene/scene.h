@@ -203,7 +203,7 @@ std::vector<std::string> BuiltInSceneNames();
 /// @throws Error listing the names if `name` is not one.
 Scene BuiltInScene(const std::string& name);
 
-/// One scene of the incipient-slip family (issue 26; docs/slip.md, "Friction before it
+/// One scene of the incipient-slip family (docs/slip.md, "Friction before it
 /// slips"): an indenter on the fingertip's top, pressed to a depth, held, then slid along +x at
 /// constant speed far enough that the tangential load ramps through partial slip into gross
 /// slip (the twin is displacement-driven), and held sliding. Built-in name:

@@ -2,7 +2,7 @@
 
 // Seeded mutations of a YAML text for the fuzz tests of the readers (sensor config, run file):
 // nasty values, flipped bytes, deleted runs, duplicated lines, second documents, nested
-// aliases (issue 22, defect 7), punctuation.
+// aliases, punctuation.
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>

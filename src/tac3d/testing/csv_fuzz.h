@@ -19,7 +19,7 @@
 
 namespace tac3d::testing {
 
-/// Seeded fuzzing of a CSV file reader (issue 22): `seed_text` mutated line- and byte-wise
+/// Seeded fuzzing of a CSV file reader: `seed_text` mutated line- and byte-wise
 /// (fields replaced by huge, non-finite or non-numeric values, bytes flipped, runs deleted,
 /// lines duplicated many times, NUL bytes), written to a file and read with `read`, which must
 /// return or throw tac3d::Error within bounded time and memory (the address space is capped

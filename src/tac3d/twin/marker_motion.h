@@ -10,7 +10,7 @@
 namespace tac3d {
 
 /// Known motions of the marker layer for measuring tracking and stereo against truth
-/// (issue 3's `eval markers`). They are kinematic fields, not contact mechanics: the
+/// (`tac3d eval markers`). They are kinematic fields, not contact mechanics: the
 /// truth is the field itself.
 enum class MarkerMotionKind {
   kShear,  ///< every marker moved by the same vector (mm)
@@ -31,7 +31,7 @@ struct MarkerMotion {
   std::vector<Eigen::Vector3d> Apply(const std::vector<Eigen::Vector3d>& markers) const;
 };
 
-/// The issue's three fields: a 0.5 mm uniform shear along x, a 1 mm dent by a 10 mm
+/// The three fields `tac3d eval markers` uses: a 0.5 mm uniform shear along x, a 1 mm dent by a 10 mm
 /// sphere, a 5 deg twist.
 std::vector<MarkerMotion> StandardMarkerMotions();
 

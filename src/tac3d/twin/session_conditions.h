@@ -36,7 +36,7 @@ inline constexpr Nuisance kAllNuisances[] = {Nuisance::kIlluminationGain,
 /// snake_case, as the option's name ("illumination_gain", ..., "creep").
 std::string_view ToString(Nuisance nuisance);
 
-/// The twin's nuisances over a session (issue 15): what changes on a real sensor while it
+/// The twin's nuisances over a session: what changes on a real sensor while it
 /// runs. Each ramps linearly from nothing at t = 0 to its level at `session_s` and is held
 /// after it, so every frame has its own truth (At). The default is no nuisance;
 /// Realistic() gives the levels docs/render.md derives ("Session conditions").
