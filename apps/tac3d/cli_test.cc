@@ -11,6 +11,7 @@
 #include <fstream>
 #include <string>
 
+#include "tac3d/sensor/default_sensor.h"
 #include "tac3d/testing/testing.h"
 
 namespace tac3d {
@@ -65,7 +66,7 @@ TEST(Cli, DesignChecksEveryOutputBeforeWritingAny) {
 TEST(Cli, CalibrateForceSaysWhatItNeedsBeforeAnyWork) {
   Outcome o = RunCli("calibrate-force");
   EXPECT_EQ(o.exit_code, 1);
-  EXPECT_THAT(o.output, HasSubstr("calibrate-force needs --pairs or --presses"));
+  EXPECT_THAT(o.output, HasSubstr("calibrate-force needs --pairs, --presses or --vendor-recording"));
   // Checked before the compliance family is built (minutes on the default sensor).
   o = RunCli("calibrate-force --presses missing.csv --cache " + testing::MakeTempDir("cf"));
   EXPECT_EQ(o.exit_code, 1);
@@ -73,6 +74,15 @@ TEST(Cli, CalibrateForceSaysWhatItNeedsBeforeAnyWork) {
   o = RunCli("calibrate-force --presses a.csv --pairs b.csv");
   EXPECT_NE(o.exit_code, 0);  // CLI11's own code for a usage error
   EXPECT_THAT(o.output, HasSubstr("excludes"));
+  o = RunCli("calibrate-force --vendor-recording rec");
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("--vendor-recording needs the sensor's --config"));
+  // A config without a vendor camera model: the built-in prototype has no factory calibration.
+  const std::string dir = testing::MakeTempDir("cf_vendor");
+  SaveSensorConfig(DefaultSensorConfig(), dir + "/proto.yaml");
+  o = RunCli(fmt::format("calibrate-force --vendor-recording rec --config {}/proto.yaml", dir));
+  EXPECT_EQ(o.exit_code, 1);
+  EXPECT_THAT(o.output, HasSubstr("has no vendor camera model"));
 }
 
 // Issue 27: gains fitted to noise (R^2 -0.08 and -1.00) were printed as usable.
