@@ -19,6 +19,7 @@ Errors from C++ (bad files, arguments, sockets) are raised as ``tac3d.Error``.
 """
 
 from ._core import (  # noqa: F401
+    __version__,
     Dataset,
     Error,
     FrameSource,
