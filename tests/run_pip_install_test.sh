@@ -4,22 +4,19 @@
 # taken from BUILD_DIR (rebuilt there if out of date), imported from another folder, then
 # uninstalled. Usage: run_pip_install_test.sh SOURCE_DIR BUILD_DIR CLI
 set -euo pipefail
-source_dir=$1
-build_dir=$2
-cli=$3
+source_dir=$(realpath "$1")
+build_dir=$(realpath "$2")
+cli=$(realpath "$3")
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-cd "$work"  # neither the repository nor the build: `import tac3d` finds the installed package or nothing
+cd "$work"  # not the repository nor the build: `import tac3d` finds the install or nothing
 unset PYTHONPATH
 /usr/bin/python3 -m venv --system-site-packages venv
 python=$work/venv/bin/python
-# A tac3d already on the interpreter's path (`cmake --install` into dist-packages) would hide
-# both what the install put in the venv and what the uninstall removed.
-if "$python" -c "import tac3d" 2>/dev/null; then
-  echo "tac3d is importable before the install ($("$python" -c 'import tac3d; print(tac3d.__file__)')):" \
-    "this test needs a Python without it" >&2
-  exit 1
-fi
+where_tac3d() { "$python" -c "import tac3d; print(tac3d.__file__)" 2>/dev/null || echo nothing; }
+# Where `import tac3d` leads without the install: nothing, unless a `cmake --install` put the
+# package into dist-packages; the uninstall must lead back there.
+before=$(where_tac3d)
 TAC3D_BUILD_DIR=$build_dir "$python" -m pip install --no-build-isolation --no-index \
   --disable-pip-version-check --quiet "$source_dir"
 "$python" - "$cli" "$build_dir/python/tac3d" <<'PY'
@@ -54,8 +51,9 @@ assert files(package) == files(built), (files(package), files(built))
 print(f"installed {len(files(package))} files:", " ".join(files(package)))
 PY
 "$python" -m pip uninstall --yes --quiet tac3d
-if "$python" -c "import tac3d" 2>/dev/null; then
-  echo "tac3d still imports after pip uninstall" >&2
+after=$(where_tac3d)
+if [ "$after" != "$before" ]; then
+  echo "after pip uninstall, import tac3d finds $after; before the install, $before" >&2
   exit 1
 fi
 left=$(find venv/lib -path "*-packages/tac3d*")
@@ -63,4 +61,4 @@ if [ -n "$left" ]; then
   echo "pip uninstall left: $left" >&2
   exit 1
 fi
-echo "uninstalled: import tac3d fails, nothing of it left in the venv"
+echo "uninstalled: import tac3d finds $after, as before the install; nothing of it left in the venv"
