@@ -2,15 +2,18 @@
 #include <exception>
 #include <filesystem>
 #include <new>
+#include <string>
 
 #include <CLI/CLI.hpp>
 
 #include "commands.h"
 #include "tac3d/util/error.h"
+#include "tac3d/util/version.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"tac3d: software for mirror-stereo vision-based tactile sensors (Tac3D class)"};
   app.require_subcommand(1);
+  app.set_version_flag("--version", std::string("tac3d ") + tac3d::Version());
   tac3d::cli::RegisterDesign(app);
   tac3d::cli::RegisterRender(app);
   tac3d::cli::RegisterCalibrate(app);

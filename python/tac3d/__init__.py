@@ -16,9 +16,11 @@
   (``friction_map_defaults()``: its options, those of ``tac3d friction-map``).
 
 Errors from C++ (bad files, arguments, sockets) are raised as ``tac3d.Error``.
+``tac3d.__version__`` is the project's version, the one ``tac3d --version`` prints.
 """
 
 from ._core import (  # noqa: F401
+    __version__,
     Dataset,
     Error,
     FrameSource,

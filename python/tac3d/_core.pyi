@@ -10,6 +10,8 @@ U8 = npt.NDArray[np.uint8]
 Bools = npt.NDArray[np.bool_]
 ArrayLike = npt.ArrayLike
 
+__version__: str
+
 class Error(RuntimeError):
     """Bad input (a file, an argument, the network), with the C++ message."""
 

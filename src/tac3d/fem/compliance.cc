@@ -6,6 +6,7 @@
 #include "tac3d/util/cache_file.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/seconds_since.h"
+#include "tac3d/util/version.h"
 
 namespace tac3d::fem {
 namespace {
@@ -45,7 +46,7 @@ nlohmann::json ToJson(const ComplianceProvenance& p) {
 }
 
 std::string FemCodeVersion() {
-  return fmt::format("tac3d {}, fem model r{}", TAC3D_VERSION_STRING, kFemModelRevision);
+  return fmt::format("tac3d {}, fem model r{}", Version(), kFemModelRevision);
 }
 
 ComplianceModel CalcComplianceModel(const BodyModel& model, bool show_progress) {
