@@ -282,10 +282,11 @@ def main():
             fail("no frames arrived in the page in 5 loads: " + (received.group(0) if received else dom[:400]))
         if "TAC3D-TWIN" not in dom or 'id="connection" class="good"' not in dom:
             fail("the sensor's panel or the connection state is missing")
-        # The margin gauge (docs/viewer.md): its meter and its text, "-" or "0.42 +- 0.03, ...".
-        if not re.search(r'<meter class="margin"', dom) or not re.search(
+        # The margin estimate (docs/viewer.md): labelled with its measured error, no gauge; its
+        # text "-" or "0.42 +- 0.03, ...".
+        if re.search(r'<meter', dom) or "margin estimate (median error 0.2)" not in dom or not re.search(
                 r'class="margin-text">(-|\d\.\d\d)', dom):
-            fail("the margin gauge is missing or its text is not a margin")
+            fail("the margin estimate's label or text is missing, or a gauge is back")
         rect = re.search(r'data-canvas="([^"]+)"', dom)
         if not rect:
             fail("the page did not report its 3D canvas")

@@ -210,9 +210,6 @@ function onFrame(m) {
   $('fps').textContent = m.fps === null ? '-' : m.fps.toFixed(1);
   $('slip').textContent = m.slip;
   $('mu').textContent = m.mu === null ? '' : '\u03bc = ' + m.mu.toFixed(3) + (m.mu_sigma === null ? '' : ' \u00b1 ' + m.mu_sigma.toFixed(3));
-  // The margin gauge, hidden while mu is not known (stick, no contact).
-  $('margin').hidden = m.slip_margin === null;
-  if (m.slip_margin !== null) $('margin').value = Math.max(0, Math.min(1, m.slip_margin));
   $('margin-text').textContent = m.slip_margin === null ? '-' :
     m.slip_margin.toFixed(2) + (m.slip_margin_sigma === null ? '' : ' \u00b1 ' + m.slip_margin_sigma.toFixed(2)) +
     (m.least_normal_force_n === null ? '' : ', hold with ' + m.least_normal_force_n.toFixed(2) + ' N');
