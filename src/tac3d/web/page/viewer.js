@@ -352,6 +352,7 @@ async function showFrictionMap() {
   const map = await r.json();
   const section = document.getElementById('friction');
   section.hidden = false;
+  if (!replay) document.getElementById('mode').textContent = 'friction map';
   document.getElementById('friction-path').textContent = map.path;
   const panel = makeView(document.getElementById('friction-view'), 'canvas3d-friction');
   const geometry = bandRegions(map);
