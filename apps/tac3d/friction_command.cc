@@ -69,7 +69,7 @@ void FrictionMapArgs::Add(CLI::App* cmd) {
         o.field);
   }
   cmd->add_option(
-         "--view", view, "PNG view direction X Y Z, world (default: onto the mesh's outer side)")
+         "--view", view, "PNG view direction X Y Z, world (default: its mean normal, from above)")
       ->expected(3);
   cmd->add_option("--up", up, "PNG up direction X Y Z, world (default: y)")->expected(3);
 }
@@ -87,7 +87,9 @@ friction::RenderOptions FrictionMapArgs::View(const friction::FrictionMapResult&
   } else {
     Eigen::Vector3d mean = Eigen::Vector3d::Zero();
     for (const Eigen::Vector3d& n : map.vertex_normals) mean += n;
-    if (mean.norm() > 0) r.view_direction = -mean.normalized();
+    // Along the surface's mean normal, from above as the viewer looks (a surface facing down is
+    // seen from its back): from below the image would be the viewer's mirror image.
+    if (mean.norm() > 0) r.view_direction = (mean.z() > 0 ? -mean : mean).normalized();
   }
   if (!up.empty()) {
     r.up = Vector(up, "--up");

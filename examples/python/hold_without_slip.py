@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """Holding an object whose weight grows, with the least normal force that keeps it from slipping
-(issue 26, docs/grasping.md).
+(docs/grasping.md).
 
 A two-finger grasp, by symmetry one finger: the twin's fingertip presses a sphere (the object's
 surface) with the normal force a controller commands, and carries half the object's weight as a

@@ -248,7 +248,8 @@ change the frame. Assigning an array copies it in after a shape check.
       .def_property_readonly(
           "slip_state",
           [](const TactileFrame& f) { return std::string(SlipStateName(f.slip.state)); },
-          "unknown, none, stick, partial_slip or gross_slip.")
+          "unknown, none, stick, partial_slip or gross_slip (partial_slip: part of the contact "
+          "seen slipping, read under any sideways load; not a warning of sliding).")
       .def_property_readonly("slip_fraction", [](const TactileFrame& f) { return f.slip.fraction; })
       .def_property("friction",
                     SlipGetter<&FrameSlip::friction>(),
@@ -261,7 +262,8 @@ change the frame. Assigning an array copies it in after a shape check.
       .def_property("slip_margin",
                     SlipGetter<&FrameSlip::margin>(),
                     SlipSetter<&FrameSlip::margin>(),
-                    "Margin to gross slip, 1 - |Q| / (mu P) (NaN without a friction estimate).")
+                    "Estimated margin to gross slip, 1 - |Q| / (mu P), median error 0.2 on the "
+                    "twin (docs/incipient.md); NaN without a friction estimate.")
       .def_property("slip_margin_sigma",
                     SlipGetter<&FrameSlip::margin_sigma>(),
                     SlipSetter<&FrameSlip::margin_sigma>(),

@@ -541,9 +541,10 @@ TEST_F(FrictionMapTwoRegions, WritesPlyAndPngOfTheMap) {
       EXPECT_NEAR(mu, m.mu[v], 1e-6);
     }
   }
-  // From above: blue (x < 0), red (x > 0) and grey (the static press) are all there.
+  // From above: blue (x < 0), red (x > 0) and grey (the static press) are all there. The mesh
+  // fills its plot area, 586 x 504 of the 800 x 600 image beside the annotations.
   const RenderSummary png = WriteFrictionMapPng(m, dir + "/map.png");
-  EXPECT_GT(png.covered_pixels, 100000);
+  EXPECT_GT(png.covered_pixels, 60000);
   EXPECT_GT(png.band_pixels[static_cast<int>(FrictionBand::kLow)], 0.3 * png.covered_pixels);
   EXPECT_GT(png.band_pixels[static_cast<int>(FrictionBand::kHigh)], 0.3 * png.covered_pixels);
   EXPECT_GT(png.band_pixels[static_cast<int>(FrictionBand::kUnknown)], 0.05 * png.covered_pixels);

@@ -7,6 +7,7 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "tac3d/imagefile/image_write.h"
 #include "tac3d/scene/ply.h"
@@ -30,10 +31,26 @@ ViewBasis MakeViewBasis(const RenderOptions& options) {
   return b;
 }
 
-// The mesh in pixels (x, y) and depth along the view, scaled to fit the image's margins.
+// Where the mesh is drawn: the whole image, or inside the annotations' title (top), axes
+// (left, bottom) and colour bar (right).
+cv::Rect PlotArea(const RenderOptions& options) {
+  if (!options.annotate) return {0, 0, options.width, options.height};
+  constexpr int kLeft = 64, kTop = 40, kRight = 150, kBottom = 56;
+  return {kLeft, kTop, options.width - kLeft - kRight, options.height - kTop - kBottom};
+}
+
+// The orthographic projection: pixel = offset + scale * (right, down) . p.
+struct Projection {
+  double scale = 1.0;
+  Eigen::Vector2d offset = Eigen::Vector2d::Zero();
+};
+
+// The mesh in pixels (x, y) and depth along the view, scaled to fit the plot area's margins.
 std::vector<Eigen::Vector3d> Project(const FrictionMapResult& map,
                                      const RenderOptions& options,
-                                     const ViewBasis& b) {
+                                     const ViewBasis& b,
+                                     Projection* projection) {
+  const cv::Rect area = PlotArea(options);
   std::vector<Eigen::Vector3d> q(map.vertices_mm.size());
   Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
   Eigen::Vector2d hi = -lo;
@@ -43,16 +60,120 @@ std::vector<Eigen::Vector3d> Project(const FrictionMapResult& map,
     lo = lo.cwiseMin(q[i].head<2>());
     hi = hi.cwiseMax(q[i].head<2>());
   }
-  const double usable_w = options.width * (1 - 2 * options.margin);
-  const double usable_h = options.height * (1 - 2 * options.margin);
+  const double usable_w = area.width * (1 - 2 * options.margin);
+  const double usable_h = area.height * (1 - 2 * options.margin);
   const Eigen::Vector2d extent = (hi - lo).cwiseMax(1e-9);
-  const double scale = std::min(usable_w / extent.x(), usable_h / extent.y());
-  const Eigen::Vector2d centre = 0.5 * (lo + hi);
+  projection->scale = std::min(usable_w / extent.x(), usable_h / extent.y());
+  projection->offset = Eigen::Vector2d(area.x + 0.5 * area.width, area.y + 0.5 * area.height) -
+                       projection->scale * 0.5 * (lo + hi);
   for (Eigen::Vector3d& v : q) {
-    v.x() = 0.5 * options.width + scale * (v.x() - centre.x());
-    v.y() = 0.5 * options.height + scale * (v.y() - centre.y());
+    v.x() = projection->offset.x() + projection->scale * v.x();
+    v.y() = projection->offset.y() + projection->scale * v.y();
   }
   return q;
+}
+
+// A world direction as a label: "x", "-z", or its components when it is no axis.
+std::string DirectionName(const Eigen::Vector3d& d) {
+  for (int a = 0; a < 3; ++a) {
+    if (std::abs(std::abs(d[a]) - 1.0) < 1e-3)
+      return fmt::format("{}{}", d[a] < 0 ? "-" : "", "xyz"[a]);
+  }
+  return fmt::format("({:.2f}, {:.2f}, {:.2f})", d.x(), d.y(), d.z());
+}
+
+// A round tick step (1, 2 or 5 times a power of ten) giving about `target` ticks over `span`.
+double TickStep(double span, int target) {
+  const double raw = span / target, decade = std::pow(10.0, std::floor(std::log10(raw)));
+  for (const double m : {1.0, 2.0, 5.0}) {
+    if (m * decade >= raw) return m * decade;
+  }
+  return 10.0 * decade;
+}
+
+void PutText(cv::Mat& image, const std::string& text, cv::Point at, double size = 0.45) {
+  cv::putText(image, text, at, cv::FONT_HERSHEY_SIMPLEX, size, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+}
+
+// The title, the bands' colour bar with its mu scale, and the mm axes along the image's right
+// and up directions (world coordinates of the projection, so the ticks are the mesh's own).
+void Annotate(cv::Mat& image,
+              const RenderOptions& options,
+              const ViewBasis& b,
+              const Projection& p) {
+  const cv::Rect area = PlotArea(options);
+  PutText(image,
+          fmt::format("friction map: mu, seen along {}", DirectionName(b.view)),
+          cv::Point(area.x, 26),
+          0.6);
+  // The colour bar: one box a band, mu growing upwards, the band limits as ticks.
+  const int bar_x = area.x + area.width + 24, bar_w = 22, bar_top = area.y + 20;
+  const int bar_h = std::min(240, area.height - 60);
+  PutText(image, "mu", cv::Point(bar_x, bar_top - 8));
+  const struct {
+    FrictionBand band;
+    double from, to;
+  } bands[] = {{FrictionBand::kLow, 0.0, 0.5},
+               {FrictionBand::kMedium, 0.5, 0.8},
+               {FrictionBand::kHigh, 0.8, 1.2}};
+  const auto y_of = [&](double mu) {
+    return bar_top + bar_h - static_cast<int>(std::lround(mu / 1.2 * bar_h));
+  };
+  for (const auto& s : bands) {
+    const auto rgb = BandColorRgb(s.band);
+    cv::rectangle(image,
+                  cv::Point(bar_x, y_of(s.to)),
+                  cv::Point(bar_x + bar_w, y_of(s.from)),
+                  cv::Scalar(rgb[2], rgb[1], rgb[0]),
+                  cv::FILLED);
+  }
+  cv::rectangle(
+      image, cv::Point(bar_x, y_of(1.2)), cv::Point(bar_x + bar_w, y_of(0.0)), cv::Scalar(0, 0, 0));
+  for (const double mu : {0.0, 0.5, 0.8}) {
+    cv::line(image,
+             cv::Point(bar_x + bar_w, y_of(mu)),
+             cv::Point(bar_x + bar_w + 4, y_of(mu)),
+             cv::Scalar(0, 0, 0));
+    PutText(image, fmt::format("{:.1f}", mu), cv::Point(bar_x + bar_w + 7, y_of(mu) + 5));
+  }
+  PutText(image, "> 0.8", cv::Point(bar_x + bar_w + 7, y_of(1.0) + 5));
+  const auto unknown = BandColorRgb(FrictionBand::kUnknown);
+  const int unknown_y = bar_top + bar_h + 16;
+  cv::rectangle(image,
+                cv::Point(bar_x, unknown_y),
+                cv::Point(bar_x + bar_w, unknown_y + 14),
+                cv::Scalar(unknown[2], unknown[1], unknown[0]),
+                cv::FILLED);
+  PutText(image, "unknown", cv::Point(bar_x + bar_w + 7, unknown_y + 12));
+  // Axes: world mm along the image's right (bottom edge) and up (left edge) directions.
+  const cv::Scalar black(0, 0, 0);
+  const int x_axis_y = area.y + area.height, y_axis_x = area.x;
+  cv::line(image, cv::Point(area.x, x_axis_y), cv::Point(area.x + area.width, x_axis_y), black);
+  cv::line(image, cv::Point(y_axis_x, area.y), cv::Point(y_axis_x, x_axis_y), black);
+  const double x_from = (area.x - p.offset.x()) / p.scale,
+               x_to = (area.x + area.width - p.offset.x()) / p.scale;
+  const double step_x = TickStep(x_to - x_from, 6);
+  for (double v = std::ceil(x_from / step_x) * step_x; v <= x_to; v += step_x) {
+    const int x = static_cast<int>(std::lround(p.offset.x() + p.scale * v));
+    cv::line(image, cv::Point(x, x_axis_y), cv::Point(x, x_axis_y + 5), black);
+    PutText(image,
+            fmt::format("{:g}", std::abs(v) < 1e-9 ? 0.0 : v),
+            cv::Point(x - 10, x_axis_y + 20),
+            0.4);
+  }
+  PutText(image,
+          fmt::format("{} (mm)", DirectionName(b.right)),
+          cv::Point(area.x + area.width / 2 - 20, x_axis_y + 44));
+  // Up is -down: the tick's value grows upwards.
+  const double y_from = -(area.y + area.height - p.offset.y()) / p.scale,
+               y_to = -(area.y - p.offset.y()) / p.scale;
+  const double step_y = TickStep(y_to - y_from, 5);
+  for (double v = std::ceil(y_from / step_y) * step_y; v <= y_to; v += step_y) {
+    const int y = static_cast<int>(std::lround(p.offset.y() - p.scale * v));
+    cv::line(image, cv::Point(y_axis_x - 5, y), cv::Point(y_axis_x, y), black);
+    PutText(image, fmt::format("{:g}", std::abs(v) < 1e-9 ? 0.0 : v), cv::Point(4, y + 5), 0.4);
+  }
+  PutText(image, fmt::format("{} (mm)", DirectionName(-b.down)), cv::Point(4, area.y - 6), 0.4);
 }
 
 }  // namespace
@@ -146,6 +267,11 @@ void RenderOptions::Validate() const {
   if (height < 16 || height > 8192) fail("height", std::to_string(height), "in [16, 8192]");
   if (!(margin >= 0 && margin <= 0.45)) fail("margin", fmt::format("{}", margin), "in [0, 0.45]");
   if (!(ambient >= 0 && ambient <= 1)) fail("ambient", fmt::format("{}", ambient), "in [0, 1]");
+  if (annotate && (width < 400 || height < 300)) {
+    fail("width x height",
+         fmt::format("{} x {}", width, height),
+         "at least 400 x 300 when annotated");
+  }
 }
 
 RenderSummary WriteFrictionMapPng(const FrictionMapResult& map,
@@ -156,7 +282,8 @@ RenderSummary WriteFrictionMapPng(const FrictionMapResult& map,
     throw Error(fmt::format("friction map PNG '{}': the map has no triangle", path));
   TAC3D_DEMAND(map.mu.size() == map.vertices_mm.size());
   const ViewBasis basis = MakeViewBasis(options);
-  const std::vector<Eigen::Vector3d> q = Project(map, options, basis);
+  Projection projection;
+  const std::vector<Eigen::Vector3d> q = Project(map, options, basis, &projection);
   cv::Mat image(options.height, options.width, CV_8UC3, cv::Scalar(255, 255, 255));
   cv::Mat depth(
       options.height, options.width, CV_64F, cv::Scalar(std::numeric_limits<double>::infinity()));
@@ -205,6 +332,7 @@ RenderSummary WriteFrictionMapPng(const FrictionMapResult& map,
       ++summary.band_pixels[k];
     }
   }
+  if (options.annotate) Annotate(image, options, basis, projection);
   WriteImageFile(path, image);
   return summary;
 }

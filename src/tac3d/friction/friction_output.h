@@ -48,6 +48,9 @@ struct RenderOptions {
   /// Lambert shading: colour * (ambient + (1 - ambient) |n . l|), l = view_direction
   /// (in [0, 1]).
   double ambient = 0.3;
+  /// A title, the bands' colour bar with its mu scale, and axes in mm along the image's right
+  /// and up directions around the mesh; needs an image of at least 400 x 300.
+  bool annotate = true;
 
   /// @throws Error naming the field and its bound.
   void Validate() const;
@@ -61,7 +64,8 @@ struct RenderSummary {
 };
 
 /// Renders the mesh coloured by band (the nearest vertex's band on each pixel) with a
-/// z-buffer and Lambert shading, white background, and writes it as PNG.
+/// z-buffer and Lambert shading, white background, annotated (RenderOptions::annotate), and
+/// writes it as PNG.
 /// @throws Error if the options are invalid, the map has no triangle, or the file cannot be
 ///   written.
 RenderSummary WriteFrictionMapPng(const FrictionMapResult& map,

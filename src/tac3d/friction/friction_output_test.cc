@@ -9,6 +9,7 @@
 #include <iterator>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "tac3d/scene/ply.h"
 #include "tac3d/testing/testing.h"
@@ -114,6 +115,7 @@ TEST(WriteFrictionMapPng, BandColoursFromAbove) {
   options.width = 400;
   options.height = 300;
   options.ambient = 0.3;
+  options.annotate = false;  // the mesh alone fills the image
   const RenderSummary summary = WriteFrictionMapPng(map, path, options);
   const cv::Mat image = cv::imread(path, cv::IMREAD_COLOR);
   ASSERT_FALSE(image.empty());
@@ -149,6 +151,43 @@ TEST(WriteFrictionMapPng, BandColoursFromAbove) {
   EXPECT_TRUE(is_green || is_red) << centre;
 }
 
+// Annotated: the mesh inside a plot area, the bands left to right as x grows (seen from above,
+// the viewer's orientation), a title over it and the colour bar beside it in the band colours.
+TEST(WriteFrictionMapPng, AnnotatedWithTitleColourBarAndAxes) {
+  const FrictionMapResult map = BandedSheet();
+  const std::string path = tac3d::testing::MakeTempDir("friction_output") + "/annotated.png";
+  RenderOptions options;
+  options.width = 600;
+  options.height = 400;
+  const RenderSummary summary = WriteFrictionMapPng(map, path, options);
+  const cv::Mat image = cv::imread(path, cv::IMREAD_COLOR);
+  ASSERT_FALSE(image.empty());
+  // The plot area is 386 x 304 pixels from (64, 40); the 4 x 3 sheet fills 90% of its width.
+  EXPECT_NEAR(summary.covered_pixels, 347 * 260, 0.03 * 347 * 260);
+  const auto is_band = [&](cv::Point at, FrictionBand band) {
+    const auto rgb = BandColorRgb(band);
+    return image.at<cv::Vec3b>(at) == cv::Vec3b(rgb[2], rgb[1], rgb[0]);
+  };
+  const int y = 40 + 304 / 2;
+  EXPECT_TRUE(is_band({64 + 386 / 2 - 130, y}, FrictionBand::kLow));
+  EXPECT_TRUE(is_band({64 + 386 / 2 + 130, y}, FrictionBand::kUnknown));
+  // The colour bar (x 474-496, 1.2 over 240 pixels from y 60): high at the top, low at the
+  // bottom.
+  EXPECT_TRUE(is_band({485, 70}, FrictionBand::kHigh));
+  EXPECT_TRUE(is_band({485, 200}, FrictionBand::kMedium));
+  EXPECT_TRUE(is_band({485, 280}, FrictionBand::kLow));
+  // Text: dark pixels in the title's strip and under the x axis.
+  const auto dark_pixels = [&](cv::Rect r) {
+    cv::Mat grey;
+    cv::cvtColor(image(r), grey, cv::COLOR_BGR2GRAY);
+    return cv::countNonZero(grey < 100);
+  };
+  EXPECT_GT(dark_pixels({64, 8, 300, 26}), 100);
+  EXPECT_GT(dark_pixels({64, 350, 386, 50}), 50);
+  options.width = 399;  // too small for the annotations
+  EXPECT_THROW(WriteFrictionMapPng(map, path, options), Error);
+}
+
 nlohmann::json ReadJson(const std::string& path) {
   std::ifstream in(path);
   return nlohmann::json::parse(in);
@@ -166,6 +205,7 @@ TEST(WriteFrictionMapOutputs, WritesTheFilesAndASummaryOfInputsOptionsAndMap) {
   RenderOptions view;
   view.width = 64;
   view.height = 48;
+  view.annotate = false;
   const nlohmann::json returned = WriteFrictionMapOutputs(
       map, options, folder, view, {{"dataset", "slide"}, {"strokes", 3}, {"frames_in", 40}});
   const nlohmann::json summary = ReadJson(folder + "/summary.json");
@@ -199,13 +239,15 @@ TEST(WriteFrictionMapOutputs, NeverWritesThroughALinkPlantedInItsFolder) {
   RenderOptions view;
   view.width = 64;
   view.height = 48;
+  view.annotate = false;
   for (const char* file : {"slip_points.csv", "map.ply", "map.png", "summary.json"}) {
     const std::string link = folder + "/" + file;
     std::filesystem::create_symlink(dir + "/victim.txt", link);
     FrictionMapResult map = BandedSheet();
     map.summary.status = FrictionMapStatus::kOk;
-    EXPECT_THROW(WriteFrictionMapOutputs(map, FrictionMapOptions{}, folder, view, nlohmann::json::object()),
-                 Error)
+    EXPECT_THROW(
+        WriteFrictionMapOutputs(map, FrictionMapOptions{}, folder, view, nlohmann::json::object()),
+        Error)
         << file;
     std::ifstream victim(dir + "/victim.txt");
     EXPECT_EQ(std::string(std::istreambuf_iterator<char>(victim), {}), "keep") << file;

@@ -57,6 +57,7 @@ SlipEstimator::SlipEstimator(int num_markers, const SlipOptions& options)
   slipping_.assign(n, false);
   on_plateau_.assign(n, false);
   on_cone_.assign(n, false);
+  in_contact_.assign(n, false);
   previous_mm_.assign(n, Eigen::Vector3d::Zero());
   previous_valid_.assign(n, false);
   for (auto& a : axis_) a.resize(n);
@@ -106,9 +107,15 @@ FrameSlip SlipEstimator::Estimate(const TactileFrame& frame) {
     out.state = SlipState::kNone;
     num_contact_ = 0;
     gross_seen_still_ = false;
+    carried_since_stick_ = false;
     held_friction_ = held_friction_sigma_ = FrameSlip::kNaN;
   } else {
     FindPlateau();
+    contact_normal_.setZero();
+    for (int c = 0; c < num_contact_; ++c) {
+      contact_normal_ += normal_n_[c] * frame.normals[contact_index_[c]];
+    }
+    if (contact_normal_.norm() > 0.0) contact_normal_.normalize();
     ApplyMotion(frame);
     const LoadRatio contact = CalcLoadRatio(frame, nullptr);
     ratio = contact.ratio;
@@ -121,6 +128,7 @@ FrameSlip SlipEstimator::Estimate(const TactileFrame& frame) {
     } else if (out.state == SlipState::kPartialSlip) {
       EstimateFriction(frame, contact, &out);
     } else if (out.state == SlipState::kStick) {
+      carried_since_stick_ = false;
       std::fill(slipping_.begin(), slipping_.end(), false);
       num_slipping_ = 0;
     }
@@ -146,6 +154,7 @@ FrameSlip SlipEstimator::Estimate(const TactileFrame& frame) {
 
 void SlipEstimator::CollectRatios(const TactileFrame& frame) {
   num_contact_ = 0;
+  std::fill(in_contact_.begin(), in_contact_.end(), false);
   for (int i = 0; i < num_markers_; ++i) {
     if (!frame.contact[i] || !frame.valid[i]) continue;
     const Eigen::Vector3d& f = frame.forces_n[i];
@@ -154,6 +163,7 @@ void SlipEstimator::CollectRatios(const TactileFrame& frame) {
     if (!(fn > 0.0) || !f.allFinite() || !n.allFinite()) continue;
     const double r = (f + fn * n).norm() / fn;
     contact_index_[num_contact_] = i;
+    in_contact_[i] = true;
     normal_n_[num_contact_] = fn;
     ratio_[num_contact_] = r;
     // First-order noise of |F_t| / F_n under an isotropic force noise sigma.
@@ -193,11 +203,18 @@ void SlipEstimator::ApplyMotion(const TactileFrame& frame) {
   }
   const double step_noise_mm = std::sqrt(2.0) * displacement_sigma_mm_;
   moving_ = false;
+  bool carried = false;
   if (count >= options_.min_contact_markers) {
     for (int a = 0; a < 3; ++a) rigid_increment_mm_[a] = Median(axis_[a], count);
     moving_ = rigid_increment_mm_.norm() > k * step_noise_mm;
+    // Carried along by the object: the tangential part moved (the normal part is indentation,
+    // which a changing grip force moves).
+    const Eigen::Vector3d& n = contact_normal_;
+    carried = (rigid_increment_mm_ - rigid_increment_mm_.dot(n) * n).norm() > k * step_noise_mm;
   }
   if (!moving_) rigid_increment_mm_.setZero();
+  // Without a motion history the load may have come with the object's motion.
+  if (count < options_.min_contact_markers || carried) carried_since_stick_ = true;
   const double lag_mm = k * step_noise_mm + options_.lag_tolerance * rigid_increment_mm_.norm();
   for (int c = 0; c < num_contact_; ++c) {
     const int i = contact_index_[c];
@@ -225,7 +242,12 @@ SlipState SlipEstimator::Classify(const TactileFrame& frame, double ratio, doubl
   }
   gross_seen_still_ = false;
   if (!(ratio > options_.noise_sigmas * sigma)) return SlipState::kStick;  // no tangential load
-  if (std::abs(ratio - median) <= tol * median && !dragged) {
+  // Gross slip starts on a contact the object carried along before it came to rest (a stuck
+  // contact under a load held or growing by the noise a frame looks saturated and still too),
+  // and only with a marker inside the contact's rim (without one, the force inverse smooths a
+  // stuck contact's edge-concentrated shear to uniform ratios).
+  if (std::abs(ratio - median) <= tol * median && !dragged && carried_since_stick_ &&
+      HasInteriorMarker(frame)) {
     gross_seen_still_ = seen;
     return SlipState::kGrossSlip;
   }
@@ -239,10 +261,20 @@ SlipState SlipEstimator::Classify(const TactileFrame& frame, double ratio, doubl
   return fraction < options_.stick_below ? SlipState::kStick : SlipState::kPartialSlip;
 }
 
+bool SlipEstimator::HasInteriorMarker(const TactileFrame& frame) const {
+  const int rows = frame.rows, cols = frame.cols;
+  for (int c = 0; c < num_contact_; ++c) {
+    const int i = contact_index_[c], row = i / cols, col = i % cols;
+    if (row > 0 && row < rows - 1 && col > 0 && col < cols - 1 && in_contact_[i - 1] &&
+        in_contact_[i + 1] && in_contact_[i - cols] && in_contact_[i + cols]) {
+      return true;
+    }
+  }
+  return false;
+}
+
 bool SlipEstimator::IsDragged(const TactileFrame& frame, bool* seen) {
-  Eigen::Vector3d normal = Eigen::Vector3d::Zero();
-  for (int c = 0; c < num_contact_; ++c) normal += normal_n_[c] * frame.normals[contact_index_[c]];
-  if (normal.norm() > 0.0) normal.normalize();
+  const Eigen::Vector3d& normal = contact_normal_;
   // The tangential increment of each contact marker (the normal part is indentation).
   int count = 0;
   for (int c = 0; c < num_contact_; ++c) {

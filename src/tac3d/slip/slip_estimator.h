@@ -76,8 +76,12 @@ struct SlipOptions {
 /// - gross slip: the ratio field uniform (R within saturation_tolerance of the median ratio)
 ///   and the contact not dragged (the plateau_quantile of its markers' tangential increments
 ///   since the previous frame within noise: no stuck core moves with the object): the whole
-///   contact sits on the friction limit while the object slides over it. It persists while R
-///   holds (drops less than saturation_tolerance a frame), once it has been seen still;
+///   contact sits on the friction limit while the object slides over it. It starts only on a
+///   contact the object has carried along (its tangential rigid increment above noise in a
+///   frame) since it last read stick, or one without a motion history yet, and that has a
+///   marker inside its rim (on a contact whose every marker is at its edge the force inverse
+///   smooths a stuck contact's edge-concentrated shear to the same uniform ratios). It persists
+///   while R holds (drops less than saturation_tolerance a frame), once it has been seen still;
 ///   mu = R, with sigma from the force noise and the ratios' spread;
 /// - partial slip otherwise: a tangential load with a saturated annulus (R below the median
 ///   ratio, or a thin annulus of markers on the plateau that lag), or a saturated contact still
@@ -113,6 +117,7 @@ class SlipEstimator {
   void Reset() {
     has_previous_ = false;
     gross_seen_still_ = false;
+    carried_since_stick_ = false;
     held_friction_ = held_friction_sigma_ = FrameSlip::kNaN;
   }
 
@@ -159,6 +164,8 @@ class SlipEstimator {
   // previous frame is above noise (a stuck core moves); *seen is false when too few contact
   // markers have an increment.
   bool IsDragged(const TactileFrame& frame, bool* seen);
+  // Whether a contact marker has its four grid neighbours in contact too.
+  bool HasInteriorMarker(const TactileFrame& frame) const;
   SlipState Classify(const TactileFrame& frame, double ratio, double sigma);
   static double Median(std::vector<double>& v, int count);
 
@@ -174,7 +181,12 @@ class SlipEstimator {
   std::vector<bool> slipping_;
   std::vector<bool> on_plateau_;  // by contact slot
   std::vector<bool> on_cone_;     // by contact slot: the markers mu in partial slip comes from
+  std::vector<bool> in_contact_;  // by marker: a contact marker this frame
   bool moving_ = false;           // the contact moved since the previous frame (ApplyMotion)
+  Eigen::Vector3d contact_normal_ = Eigen::Vector3d::UnitZ();  // load-weighted mean normal
+  // The object carried the contact along (its tangential rigid increment above noise), or the
+  // contact had no motion history, since it last read stick: what a gross slip starts from.
+  bool carried_since_stick_ = false;
   // The last mu (and sigma) estimated from a moving contact, held while it stays in partial
   // slip without moving (its slipping markers cannot be told from the stuck ones then).
   double held_friction_ = FrameSlip::kNaN;

@@ -231,6 +231,57 @@ TEST(SlipEstimator, GrossSlipPersistsWhileItsFrictionHolds) {
   EXPECT_NE(slip.state, SlipState::kGrossSlip);
 }
 
+// A stuck contact whose tangential load grew without the object carrying it along (a grasp
+// holding a growing weight: the markers creep by less than the noise a frame) looks as
+// saturated and still as a sliding one; it does not start a gross slip.
+TEST(SlipEstimator, AContactLoadedWithoutBeingCarriedIsNotGrossSlip) {
+  std::mt19937_64 rng(testing::kRandomSeed);
+  SlipEstimator estimator(kSide * kSide);
+  const Eigen::Vector3d still = Eigen::Vector3d::Zero();
+  // The grip closes: a press without tangential load.
+  ASSERT_EQ(estimator.Estimate(MakeContact(Load::kGross, 0, kBase, still, 0, rng, 0.0).frame).state,
+            SlipState::kStick);
+  for (int k = 1; k <= 5; ++k) {
+    const double ratio = kMu * k / 5;  // uniform over the contact, as the inverse smooths it
+    const FrameSlip slip =
+        estimator.Estimate(MakeContact(Load::kGross, 0, kBase, still, 0, rng, ratio).frame);
+    EXPECT_EQ(slip.state, SlipState::kPartialSlip) << k;
+  }
+}
+
+// The same load reached by the object carrying the contact along, then at rest: gross slip.
+TEST(SlipEstimator, GrossSlipStartsWhenACarriedContactComesToRest) {
+  std::mt19937_64 rng(testing::kRandomSeed);
+  SlipEstimator estimator(kSide * kSide);
+  const Eigen::Vector3d still = Eigen::Vector3d::Zero();
+  ASSERT_EQ(estimator.Estimate(MakeContact(Load::kGross, 0, kBase, still, 0, rng, 0.0).frame).state,
+            SlipState::kStick);
+  EXPECT_EQ(estimator.Estimate(MakeContact(Load::kGross, 0, kBase, kStep, 1, rng).frame).state,
+            SlipState::kPartialSlip);  // dragged
+  for (int k = 0; k < 3; ++k) {
+    const FrameSlip slip =
+        estimator.Estimate(MakeContact(Load::kGross, 0, kBase + kStep, still, 0, rng).frame);
+    EXPECT_EQ(slip.state, SlipState::kGrossSlip) << k;
+    EXPECT_NEAR(slip.friction, kMu, 0.02) << k;
+  }
+}
+
+// Gross slip needs a marker inside the contact's rim: a 2 x 3 contact does not get one from its
+// uniform ratios, a 3 x 3 contact (one inner marker) does.
+TEST(SlipEstimator, GrossSlipNeedsAMarkerInsideTheContactsRim) {
+  for (const int cols : {3, 2}) {
+    std::mt19937_64 rng(testing::kRandomSeed);
+    SlipEstimator estimator(kSide * kSide);
+    Contact c = MakeContact(Load::kGross, 0, kBase, Eigen::Vector3d::Zero(), 0, rng);
+    for (int i = 0; i < kSide * kSide; ++i) {
+      const int row = i / kSide, col = i % kSide;
+      c.frame.contact[i] = row >= 9 && row < 12 && col >= 9 && col < 9 + cols;
+    }
+    const FrameSlip slip = estimator.Estimate(c.frame);
+    EXPECT_EQ(slip.state, cols == 3 ? SlipState::kGrossSlip : SlipState::kPartialSlip) << cols;
+  }
+}
+
 // The figures of docs/slip.md: over seeded noise draws, mu's error in gross slip and the slip
 // fraction's error in partial slip, with the state right every time.
 TEST(SlipEstimator, AccuracyOverLoads) {

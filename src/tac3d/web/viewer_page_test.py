@@ -168,6 +168,9 @@ def check_view(tac3d, work, recording):
         slider = re.search(r'id="slider" min="0" max="(\d+)"', dom)
         if not slider or int(slider.group(1)) != 29:
             fail("the time slider does not span the 30 recorded frames: " + (slider.group(0) if slider else "none"))
+        # A recording is said to be one, at the rate it was recorded (not the server's 0 fps).
+        if 'id="mode">recording<' not in dom or not re.search(r'recorded at \d+\.\d</span> fps', dom):
+            fail("the page does not say it shows a recording at its recorded rate")
         if "0.5: 1 vertices" not in dom or "unknown: 1" not in dom:
             fail("the friction map's band counts are missing")
         rect = re.search(r'data-friction-canvas="([^"]+)"', dom)
@@ -282,10 +285,14 @@ def main():
             fail("no frames arrived in the page in 5 loads: " + (received.group(0) if received else dom[:400]))
         if "TAC3D-TWIN" not in dom or 'id="connection" class="good"' not in dom:
             fail("the sensor's panel or the connection state is missing")
-        # The margin gauge (docs/viewer.md): its meter and its text, "-" or "0.42 +- 0.03, ...".
-        if not re.search(r'<meter class="margin"', dom) or not re.search(
+        # The margin estimate (docs/viewer.md): labelled with its measured error, no gauge; its
+        # text "-" or "0.42 +- 0.03, ...".
+        if re.search(r'<meter', dom) or "margin estimate (median error 0.2)" not in dom or not re.search(
                 r'class="margin-text">(-|\d\.\d\d)', dom):
-            fail("the margin gauge is missing or its text is not a margin")
+            fail("the margin estimate's label or text is missing, or a gauge is back")
+        # The 3D surface's colour scale, with its top in N.
+        if 'id="mode">live viewer<' not in dom or not re.search(r'class="colour-max">\d\.\d{3}</span> N', dom):
+            fail("the live label or the surface's colour scale is missing")
         rect = re.search(r'data-canvas="([^"]+)"', dom)
         if not rect:
             fail("the page did not report its 3D canvas")

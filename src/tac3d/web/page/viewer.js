@@ -127,6 +127,14 @@ function makePanel(sn, rows, cols) {
     forcePlot: makePlot($('force-plot'), ['Fx', 'Fy', 'Fz']),
     momentPlot: makePlot($('moment-plot'), ['Mx', 'My', 'Mz']),
   };
+  // The surface's colour scale: heat() from no load to the panel's current largest normal force.
+  const bar = $('colour-scale'), ctx = bar.getContext('2d');
+  const swatch = new THREE.Color();
+  for (let x = 0; x < bar.width; ++x) {
+    heat(x / (bar.width - 1), swatch);
+    ctx.fillStyle = '#' + swatch.getHexString();
+    ctx.fillRect(x, 0, 1, bar.height);
+  }
   sensors.set(sn, panel);
   return panel;
 }
@@ -207,12 +215,12 @@ function onFrame(m) {
   }
   const $ = panel.$;
   $('index').textContent = m.index;
-  $('fps').textContent = m.fps === null ? '-' : m.fps.toFixed(1);
+  // Replaying, the rate the frames were recorded at; live, the server's measured rate.
+  const fps = replay ? replay.rate : m.fps;
+  $('fps').textContent = (replay ? 'recorded at ' : '') + (fps === null ? '-' : fps.toFixed(1));
+  $('colour-max').textContent = panel.maxNormal.toFixed(3);
   $('slip').textContent = m.slip;
   $('mu').textContent = m.mu === null ? '' : '\u03bc = ' + m.mu.toFixed(3) + (m.mu_sigma === null ? '' : ' \u00b1 ' + m.mu_sigma.toFixed(3));
-  // The margin gauge, hidden while mu is not known (stick, no contact).
-  $('margin').hidden = m.slip_margin === null;
-  if (m.slip_margin !== null) $('margin').value = Math.max(0, Math.min(1, m.slip_margin));
   $('margin-text').textContent = m.slip_margin === null ? '-' :
     m.slip_margin.toFixed(2) + (m.slip_margin_sigma === null ? '' : ' \u00b1 ' + m.slip_margin_sigma.toFixed(2)) +
     (m.least_normal_force_n === null ? '' : ', hold with ' + m.least_normal_force_n.toFixed(2) + ' N');
@@ -300,6 +308,9 @@ async function startReplay() {
   if (!r.ok) return;
   replay = await r.json();
   if (replay.count === 0) return;
+  const span = replay.t[replay.count - 1] - replay.t[0];
+  replay.rate = replay.count > 1 && span > 0 ? (replay.count - 1) / span : null;
+  document.getElementById('mode').textContent = 'recording';
   document.getElementById('replay').hidden = false;
   document.getElementById('zero').hidden = true;
   const slider = document.getElementById('slider');
@@ -341,6 +352,7 @@ async function showFrictionMap() {
   const map = await r.json();
   const section = document.getElementById('friction');
   section.hidden = false;
+  if (!replay) document.getElementById('mode').textContent = 'friction map';
   document.getElementById('friction-path').textContent = map.path;
   const panel = makeView(document.getElementById('friction-view'), 'canvas3d-friction');
   const geometry = bandRegions(map);
