@@ -2,6 +2,7 @@
 // (docs/recording.md).
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <cstdio>
 #include <filesystem>
@@ -132,24 +133,30 @@ void Import(const ImportArgs& a) {
 void ExportMcap(const ExportArgs& a) {
   const McapExportOptions options{.frame_id = a.frame_id, .overwrite = a.overwrite};
   McapExportResult result;
+  std::optional<RecordingReader> reader;
   if (a.path.starts_with(kVendorPrefix)) {
     const std::string folder = a.path.substr(kVendorPrefix.size());
-    const VendorFrames frames(ReadVendorRecording(folder));
+    // Read at the first frame, once the output was checked.
+    std::optional<VendorFrames> frames;
     std::int64_t f = 0;
     result = ExportFramesToMcap(
         a.out,
         [&]() -> std::optional<RecordedFrame> {
-          if (f == frames.frames()) return std::nullopt;
-          return RecordedFrame{frames.Frame(f++), {}};
+          if (!frames) frames.emplace(ReadVendorRecording(folder));
+          if (f == frames->frames()) return std::nullopt;
+          return RecordedFrame{frames->Frame(f++), {}};
         },
         options, {folder});
   } else {
-    RecordingReader reader(a.path);
-    result = ExportFramesToMcap(a.out, [&] { return reader.Next(); }, options, {a.path});
-    ReportEnd(reader.status(), reader.message(), fmt::format("the {} frames before it were exported", result.frames));
+    reader.emplace(a.path);
+    result = ExportFramesToMcap(a.out, [&] { return reader->Next(); }, options, {a.path});
   }
   std::printf("exported %lld frames to %s: %llu messages on %s\n", static_cast<long long>(result.frames),
-              a.out.c_str(), static_cast<unsigned long long>(result.messages), fmt::format("{}", fmt::join(result.topics, " ")).c_str());
+              a.out.c_str(), static_cast<unsigned long long>(result.messages),
+              fmt::format("{}", fmt::join(result.topics, " ")).c_str());
+  if (reader) {
+    ReportEnd(reader->status(), reader->message(), fmt::format("the {} frames before it were exported", result.frames));
+  }
 }
 
 void Export(const ExportArgs& a) {

@@ -320,7 +320,7 @@ TEST_F(McapFileTest, StructureAndIndexesAndValues) {
       EXPECT_EQ(r.String(), "tac3d_AD2_0065L");
       if (topic.ends_with("/wrench")) {
         for (int k = 0; k < 3; ++k) EXPECT_EQ(r.Get<double>(), f.resultant_force_n[k]);
-        for (int k = 0; k < 3; ++k) EXPECT_DOUBLE_EQ(r.Get<double>(), f.resultant_moment_nmm[k] / 1000);
+        for (int k = 0; k < 3; ++k) EXPECT_EQ(r.Get<double>(), f.resultant_moment_nmm[k] / 1000);
       } else if (topic.ends_with("/markers")) {
         EXPECT_EQ(r.Get<std::uint32_t>(), 3u);
         EXPECT_EQ(r.Get<std::uint32_t>(), 4u);
@@ -341,8 +341,8 @@ TEST_F(McapFileTest, StructureAndIndexesAndValues) {
           std::memcpy(v, p, sizeof v);
           for (int k = 0; k < 3; ++k) {
             if (f.valid[m]) {
-              EXPECT_EQ(v[k], static_cast<float>(f.positions_mm[m][k] * 1e-3));
-              EXPECT_EQ(v[3 + k], static_cast<float>(f.displacements_mm[m][k] * 1e-3));
+              EXPECT_EQ(v[k], static_cast<float>(f.positions_mm[m][k] / 1000));
+              EXPECT_EQ(v[3 + k], static_cast<float>(f.displacements_mm[m][k] / 1000));
             }
             EXPECT_EQ(v[6 + k], static_cast<float>(f.forces_n[m][k]));
           }

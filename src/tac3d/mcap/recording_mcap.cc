@@ -100,7 +100,7 @@ McapExportResult ExportFramesToMcap(const std::string& path,
       const auto time_ns = static_cast<std::int64_t>(std::llround(frame.timestamp_s * 1e9));
       const RosHeader header = RosHeaderAt(time_ns, s.frame_id);
       mcap.Write(s.wrench, time_ns,
-                 CdrWrenchStamped(header, frame.resultant_force_n, frame.resultant_moment_nmm * 1e-3));  // N mm -> N m
+                 CdrWrenchStamped(header, frame.resultant_force_n, frame.resultant_moment_nmm / 1000.0));  // N mm -> N m
       mcap.Write(s.markers, time_ns, CdrMarkerCloud(header, frame));
       if (!recorded->image.empty()) {
         if (!s.image) s.image = channel(ns + "/image", CompressedImageSchema());

@@ -119,10 +119,10 @@ std::vector<std::uint8_t> CdrMarkerCloud(const RosHeader& header, const TactileF
   for (int i = 0; i < n; ++i) {
     std::uint8_t* point = data.data() + static_cast<std::size_t>(i) * kMarkerPointStep;
     const Eigen::Vector3d* vectors[] = {&frame.positions_mm[i], &frame.displacements_mm[i], &frame.forces_n[i]};
-    const double scales[] = {1e-3, 1e-3, 1.0};  // mm to m (REP 103); N stays
+    const double divisors[] = {1000.0, 1000.0, 1.0};  // mm to m (REP 103); N stays
     for (int v = 0; v < 3; ++v) {
       for (int k = 0; k < 3; ++k) {
-        const float value = static_cast<float>((*vectors[v])[k] * scales[v]);
+        const float value = static_cast<float>((*vectors[v])[k] / divisors[v]);
         std::memcpy(point + 4 * (3 * v + k), &value, 4);
       }
     }
