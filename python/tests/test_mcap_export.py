@@ -207,3 +207,21 @@ def test_vendor_recording_exports_to_mcap(oracle, recording, tac3d_cli, tmp_path
         assert int(m["log_time"]) == round(f.timestamp * 1e9)
         np.testing.assert_array_equal([m["message"]["wrench"]["force"][a] for a in "xyz"], f.resultant_force)
         np.testing.assert_array_equal([m["message"]["wrench"]["torque"][a] for a in "xyz"], f.resultant_moment / 1000)
+
+
+def test_mcap_export_refusals_and_a_truncated_recording(recording, tac3d_cli, tmp_path):
+    path, _ = recording
+    run = lambda *args: subprocess.run([tac3d_cli, "recording", "export", *args], capture_output=True, text=True)
+    done = run(str(path), "--format", "mcap", "--out", str(tmp_path / "x.bag"))
+    assert done.returncode == 1 and ".mcap" in done.stderr
+    done = run(str(path), "--format", "csv", "--out", str(tmp_path / "csv"), "--frame-id", "tip")
+    assert done.returncode == 1 and "--frame-id is for --format mcap" in done.stderr
+    done = run(f"vendor:{tmp_path}", "--format", "npy", "--out", str(tmp_path / "npy"))
+    assert done.returncode == 1 and "only with --format mcap" in done.stderr
+    # Cut inside its last record: the good frames are exported, with a warning and exit 0.
+    cut = tmp_path / "cut.tac3d"
+    cut.write_bytes(path.read_bytes()[:-100])
+    done = run(str(cut), "--format", "mcap", "--out", str(tmp_path / "cut.mcap"))
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.startswith(f"exported {FRAMES - 1} frames")
+    assert "tac3d: warning:" in done.stderr and "truncated" in done.stderr
