@@ -2,6 +2,7 @@
 // (docs/recording.md).
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <cstdio>
 #include <filesystem>
@@ -12,6 +13,7 @@
 
 #include "commands.h"
 #include "tac3d/io/recording_export.h"
+#include "tac3d/mcap/recording_mcap.h"
 #include "tac3d/record/recording_info.h"
 #include "tac3d/reference_log/reference_log.h"
 #include "tac3d/util/file_io.h"
@@ -74,8 +76,12 @@ struct ExportArgs {
   std::string path;
   std::string out;
   std::string format = "npy";
+  std::string frame_id;
   bool overwrite = false;
 };
+
+// The vendor's recording folder of `tac3d recording export vendor:DIR --format mcap`.
+constexpr std::string_view kVendorPrefix = "vendor:";
 
 void Info(const InfoArgs& a) {
   const RecordingInfo info = ReadRecordingInfo(a.path);
@@ -123,7 +129,44 @@ void Import(const ImportArgs& a) {
               static_cast<long long>(vendor.markers()), vendor.serial_number.c_str(), a.out.c_str());
 }
 
+// A ROS 2 bag in MCAP (docs/recording.md, "Export to MCAP"), of a recording or a vendor recording.
+void ExportMcap(const ExportArgs& a) {
+  const McapExportOptions options{.frame_id = a.frame_id, .overwrite = a.overwrite};
+  McapExportResult result;
+  std::optional<RecordingReader> reader;
+  if (a.path.starts_with(kVendorPrefix)) {
+    const std::string folder = a.path.substr(kVendorPrefix.size());
+    // Read at the first frame, once the output was checked.
+    std::optional<VendorFrames> frames;
+    std::int64_t f = 0;
+    result = ExportFramesToMcap(
+        a.out,
+        [&]() -> std::optional<RecordedFrame> {
+          if (!frames) frames.emplace(ReadVendorRecording(folder));
+          if (f == frames->frames()) return std::nullopt;
+          return RecordedFrame{frames->Frame(f++), {}};
+        },
+        options, {folder});
+  } else {
+    reader.emplace(a.path);
+    result = ExportFramesToMcap(a.out, [&] { return reader->Next(); }, options, {a.path});
+  }
+  std::printf("exported %lld frames to %s: %llu messages on %s\n", static_cast<long long>(result.frames),
+              a.out.c_str(), static_cast<unsigned long long>(result.messages),
+              fmt::format("{}", fmt::join(result.topics, " ")).c_str());
+  if (reader) {
+    ReportEnd(reader->status(), reader->message(), fmt::format("the {} frames before it were exported", result.frames));
+  }
+}
+
 void Export(const ExportArgs& a) {
+  if (a.format == "mcap") return ExportMcap(a);
+  if (a.path.starts_with(kVendorPrefix)) {
+    throw Error(fmt::format("'{}': a vendor recording exports only with --format mcap (`tac3d recording import` "
+                            "makes a tac3d recording of it)",
+                            a.path));
+  }
+  if (!a.frame_id.empty()) throw Error("--frame-id is for --format mcap");
   if (a.format == "vendor") return ExportVendor(a);
   const RecordingExportResult result = ExportRecording(
       a.path, a.out, {.format = ParseRecordingExportFormat(a.format), .overwrite = a.overwrite});
@@ -233,13 +276,17 @@ void RegisterRecording(CLI::App& app) {
   auto ex = std::make_shared<ExportArgs>();
   CLI::App* export_cmd = recording->add_subcommand(
       "export",
-      "The good frames as .npy arrays (numpy) or CSV tables, one file per field or table, or in the vendor's "
-      "recording layout (<out>/<SN>/<field>.npy)");
-  export_cmd->add_option("FILE", ex->path, "the recording")->required();
-  export_cmd->add_option("--out", ex->out, "output folder (created if missing)")->required();
-  export_cmd->add_option("--format", ex->format, "npy, csv or vendor")
-      ->check(CLI::IsMember({"npy", "csv", "vendor"}))
+      "The good frames as .npy arrays (numpy) or CSV tables, one file per field or table, in the vendor's "
+      "recording layout (<out>/<SN>/<field>.npy), or as a ROS 2 bag in MCAP (Foxglove, ros2 bag play)");
+  export_cmd->add_option("FILE", ex->path, "the recording (for --format mcap also vendor:DIR, a vendor recording)")
+      ->required();
+  export_cmd->add_option("--out", ex->out, "output folder (created if missing); for --format mcap the .mcap file")
+      ->required();
+  export_cmd->add_option("--format", ex->format, "npy, csv, vendor or mcap")
+      ->check(CLI::IsMember({"npy", "csv", "vendor", "mcap"}))
       ->capture_default_str();
+  export_cmd->add_option("--frame-id", ex->frame_id,
+                         "--format mcap: the messages' header.frame_id (default tac3d_<SN>)");
   export_cmd->add_flag("--overwrite", ex->overwrite, "replace files already in the output folder");
   export_cmd->callback([ex] { Export(*ex); });
 
