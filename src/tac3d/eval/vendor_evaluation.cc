@@ -178,15 +178,18 @@ fem::ComplianceModel GelModel(const fem::BodyModelOptions& body, const VendorFor
              : fem::LoadOrBuildComplianceModel(body, options.cache_dir, options.show_progress).model;
 }
 
-// The frames' resultants through the pipeline's own code (Pipeline::RecomputeForces).
+// The frames' resultants through the pipeline's own code (Pipeline::RecomputeForces); with
+// `support_refined`, how many of them the contact-support re-solve ran on.
 std::vector<Eigen::Vector3d> RecomputedResultants(const SensorConfig& config, const fem::ComplianceModel& model,
                                                   const PipelineOptions& options,
-                                                  const std::vector<TactileFrame>& frames) {
+                                                  const std::vector<TactileFrame>& frames,
+                                                  int* support_refined = nullptr) {
   Pipeline pipeline(config, model.h, model.marker_positions, options);
   std::vector<Eigen::Vector3d> resultants;
   for (TactileFrame frame : frames) {
     pipeline.RecomputeForces(frame);
     resultants.push_back(frame.resultant_force_n);
+    if (support_refined) *support_refined += pipeline.force_frame().support_refined ? 1 : 0;
   }
   return resultants;
 }
@@ -211,16 +214,12 @@ VendorForceEvaluation EvaluateVendorForces(const SensorConfig& config, const Ven
   f.frames_compared = static_cast<int>(recorded.size());
   if (recorded.empty()) return f;
 
-  // `tac3d run`'s forces; beside them the same weight with the contact-support re-solve on (the
-  // pipeline does not say which frames it re-solved: the reconstructor does).
+  // `tac3d run`'s forces; beside them the same weight with the contact-support re-solve on.
   PipelineOptions with_resolve = run;
   with_resolve.force.support_refinement = true;
   f.tac3d = CompareResultants(RecomputedResultants(config, model, run, frames), recorded);
-  f.tac3d_support_resolve = CompareResultants(RecomputedResultants(config, model, with_resolve, frames), recorded);
-  ForceReconstructor support_resolve(model.h, model.marker_positions, with_resolve.force);
-  for (const TactileFrame& frame : frames) {
-    f.frames_support_refined += support_resolve.Reconstruct(PaperOrder(frame)).support_refined ? 1 : 0;
-  }
+  f.tac3d_support_resolve = CompareResultants(
+      RecomputedResultants(config, model, with_resolve, frames, &f.frames_support_refined), recorded);
 
   // For reference: F = K D at the weight the discrepancy principle picks for the datasheet's
   // position noise on these frames' displacements (never their forces).
@@ -253,7 +252,8 @@ VendorGainCalibration CalibrateGainsOnVendorRecording(const SensorConfig& config
   fit_options.on_poor_fit = PoorGainFit::kLeaveAtOne;
   fit_options.Validate();
   VendorGainCalibration c;
-  c.inverse = RunOptions(config, options).force;
+  const PipelineOptions run = RunOptions(config, options);
+  c.inverse = run.force;
   const ComparedFrames compared = SelectComparedFrames(config, recording, options.min_resultant_n);
   c.frames_compared = static_cast<int>(compared.frames.size());
   c.frames_not_finite = compared.not_finite;
@@ -264,7 +264,7 @@ VendorGainCalibration CalibrateGainsOnVendorRecording(const SensorConfig& config
   }
   const fem::ComplianceModel model = GelModel(VendorBodyModelOptions(config, options.gel), options);
   const std::vector<Eigen::Vector3d> measured =
-      RecomputedResultants(config, model, RunOptions(config, options), compared.frames);
+      RecomputedResultants(config, model, run, compared.frames);
   std::vector<ForcePair> pairs;
   for (size_t k = 0; k < measured.size(); ++k) pairs.push_back({.measured_n = measured[k], .reference_n = compared.recorded[k]});
   c.fit = FitForceGains(pairs, fit_options);

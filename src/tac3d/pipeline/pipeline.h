@@ -107,6 +107,9 @@ class Pipeline {
   /// states and estimates): for a caller that draws them (the viewer), read after Process and
   /// valid until the next call; no copy is made for it.
   const MarkerObservation& observation() const { return observation_; }
+  /// The inverse's output of the last Process or RecomputeForces call (whether the re-solve
+  /// ran, on how many markers); valid until the next call.
+  const ForceFrame& force_frame() const { return force_; }
 
   /// Takes the next reference_frames frames as the new reference (`$C`).
   void RequestZero();

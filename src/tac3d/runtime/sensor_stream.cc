@@ -131,10 +131,14 @@ void NoteShortenedWait(const std::string& log_prefix, std::optional<double> wait
 // displacements, through the pipeline `spec` gives the sensor of `spec.config`.
 class ForceRecomputation {
  public:
-  ForceRecomputation(const SensorRunSpec& spec, const ModelLoader& load_model, const std::string& log_prefix) {
+  // `check` sees the sensor's config before its model is loaded (or built: minutes).
+  ForceRecomputation(const SensorRunSpec& spec, const ModelLoader& load_model, const std::string& log_prefix,
+                     const std::function<void(const SensorConfig&)>& check = {}) {
     if (!spec.recompute_forces) return;
     if (!load_model) throw Error("recomputing forces needs the sensor's compliance model: none was given");
-    pipeline_ = MakePipeline(spec, LoadSensorOrDefault(spec.config), load_model, log_prefix);
+    const SensorConfig config = LoadSensorOrDefault(spec.config);
+    if (check) check(config);
+    pipeline_ = MakePipeline(spec, config, load_model, log_prefix);
   }
 
   void Apply(TactileFrame& frame) {
@@ -236,8 +240,9 @@ class VendorStream final : public SensorStream {
                                 "with that sensor's config)",
                                 path, sensors_.size(), path));
       }
-      // The forces of a sensor come from its own gel's model: checked before it is loaded.
-      const SensorConfig config = LoadSensorConfig(spec.config);
+    }
+    // The forces of a sensor come from its own gel's model.
+    const auto same_sensor = [&](const SensorConfig& config) {
       const std::string& recorded_sn = sensors_.front().recording().serial_number;
       if (config.vendor_camera && !config.vendor_camera->serial_number.empty() &&
           config.vendor_camera->serial_number != recorded_sn) {
@@ -245,8 +250,8 @@ class VendorStream final : public SensorStream {
                                 "another gel",
                                 recorded_sn, spec.config, config.vendor_camera->serial_number));
       }
-    }
-    recompute_.emplace(spec, load_model, log_prefix_);
+    };
+    recompute_.emplace(spec, load_model, log_prefix_, same_sensor);
   }
 
   void Start(const StreamClock& clock) override { clock_ = clock; }
