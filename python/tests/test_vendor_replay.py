@@ -76,6 +76,23 @@ def test_json_lines_and_an_sn_folder(tmp_path, tac3d_cli):
     assert [line["timestamp_s"] for line in lines] == fields["sendTimestamp"].tolist()
 
 
+def test_a_resultant_the_vendor_left_nan_is_said_and_sent_as_unknown(tmp_path, tac3d_cli):
+    fields = write_vendor_recording(tmp_path, "AD2-0065L", 5, first_time_s=1.0)
+    fields["3D_ResultantForce"][1, 0, :] = np.nan
+    fields["3D_ResultantMoment"][3, 0, 2] = np.inf
+    for name in ("3D_ResultantForce", "3D_ResultantMoment"):
+        np.save(tmp_path / "AD2-0065L" / f"{name}.npy", fields[name])
+    run = subprocess.run([tac3d_cli, "run", "--source", f"vendor:{tmp_path}", "--speed", "0", "--json"],
+                         capture_output=True, text=True, timeout=60)
+    assert run.returncode == 0, run.stderr
+    assert "2 frame(s) with a NaN or infinite resultant, sent as recorded (null in JSON)" in run.stderr
+    lines = [json.loads(line) for line in run.stdout.splitlines()]
+    assert len(lines) == 5
+    assert lines[1]["resultant_force_n"] == [None, None, None]
+    assert lines[3]["resultant_moment_nmm"][2] is None
+    assert lines[0]["resultant_force_n"] == fields["3D_ResultantForce"][0, 0].tolist()
+
+
 def test_a_truncated_or_misshapen_file_is_refused_naming_it(tmp_path, tac3d_cli):
     write_vendor_recording(tmp_path, "AD2-0065L", 5, first_time_s=1.0)
     forces = tmp_path / "AD2-0065L" / "3D_Forces.npy"

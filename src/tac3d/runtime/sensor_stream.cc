@@ -212,12 +212,17 @@ class VendorStream final : public SensorStream {
     std::vector<std::string> described;
     for (VendorRecording& recording : ReadVendorRecordings(path)) {
       const double shift_mm = recording.MaxReferenceShiftMm();
+      const std::int64_t no_resultant = recording.FramesWithNonFiniteResultant();
       sensors_.emplace_back(std::move(recording));
       const VendorFrames& sensor = sensors_.back();
-      described.push_back(fmt::format("{} ({} frames of {} markers, zero point moved up to {:.3f} mm{})",
-                                      sensor.recording().serial_number, sensor.frames(),
-                                      sensor.recording().markers(), shift_mm,
-                                      sensor.has_normals() ? "" : ", no grid surface: normals zero"));
+      described.push_back(fmt::format(
+          "{} ({} frames of {} markers, zero point moved up to {:.3f} mm{}{})", sensor.recording().serial_number,
+          sensor.frames(), sensor.recording().markers(), shift_mm,
+          sensor.has_normals() ? "" : ", no grid surface: normals zero",
+          no_resultant == 0 || spec.recompute_forces ? ""
+                            : fmt::format(", {} frame(s) with a NaN or infinite resultant, sent as recorded (null in "
+                                          "JSON)",
+                                          no_resultant)));
     }
     if (replace_sn && sensors_.size() > 1) {
       throw Error(fmt::format("vendor recording '{}' holds {} sensors: an SN to give them all would mix them up; "

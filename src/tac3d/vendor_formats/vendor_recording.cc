@@ -120,6 +120,14 @@ std::int64_t VendorRecording::FirstNonFiniteMarker(std::int64_t frame) const {
   return -1;
 }
 
+std::int64_t VendorRecording::FramesWithNonFiniteResultant() const {
+  std::int64_t count = 0;
+  for (std::int64_t f = 0; f < frames(); ++f) {
+    if (!Frame(resultant_force, f).allFinite() || !Frame(resultant_moment, f).allFinite()) ++count;
+  }
+  return count;
+}
+
 double VendorRecording::MaxReferenceShiftMm() const {
   if (frames() == 0) return 0.0;
   const Eigen::MatrixX3d first = ReferencePositions(0);

@@ -49,6 +49,9 @@ struct VendorRecording {
                              Eigen::Index i) {
     return positions.row(i).allFinite() && displacements.row(i).allFinite() && forces.row(i).allFinite();
   }
+  /// How many frames have a NaN or an infinity in their resultant force or moment (replayed as
+  /// recorded: the vendor's resultant is not the sum of its per-marker forces, so none is made up).
+  std::int64_t FramesWithNonFiniteResultant() const;
   /// How far the vendor's zero point moved over the recording: the largest distance of a
   /// marker's reference position (ReferencePositions) in a frame from its own in frame 0 (mm).
   double MaxReferenceShiftMm() const;

@@ -163,6 +163,19 @@ TEST(VendorRecording, MaxReferenceShiftIsHowFarTheZeroPointMoved) {
   EXPECT_NEAR(r.MaxReferenceShiftMm(), 0.05, 1e-12);
 }
 
+TEST(VendorRecording, FramesWithANonFiniteResultantAreCounted) {
+  VendorRecording r = SmallRecording();
+  EXPECT_EQ(r.FramesWithNonFiniteResultant(), 0);
+  std::vector<double> force = r.resultant_force.Float64Values();
+  std::vector<double> moment = r.resultant_moment.Float64Values();
+  force[1 * 3 + 2] = std::numeric_limits<double>::quiet_NaN();
+  moment[3 * 3 + 0] = -std::numeric_limits<double>::infinity();
+  moment[1 * 3 + 1] = std::numeric_limits<double>::infinity();  // frame 1 again: counted once
+  r.resultant_force.data.assign(reinterpret_cast<const char*>(force.data()), force.size() * sizeof(double));
+  r.resultant_moment.data.assign(reinterpret_cast<const char*>(moment.data()), moment.size() * sizeof(double));
+  EXPECT_EQ(r.FramesWithNonFiniteResultant(), 2);
+}
+
 // The vendor's own files: read, and written back byte for byte (every .npy and overview.csv).
 TEST(VendorRecording, RealRecordingsRoundTripByteForByte) {
   TAC3D_REQUIRE_REALDATA(realdata);
