@@ -3,11 +3,15 @@
 #include <dds/dds.h>
 #include <fmt/format.h>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <cstdlib>
+#include <deque>
 #include <mutex>
 #include <optional>
+#include <thread>
 
 #include "std_msgs_empty.h"  // idlc's, in the build folder
 #include "tac3d/mcap/ros2_messages.h"
@@ -127,6 +131,67 @@ void Ros2PublisherOptions::Validate() const {
   }
 }
 
+// The samples a publisher's thread writes, in order, so that the sensor's thread pays for the
+// encoding only: a write through the network stack costs it tens of microseconds, and a reliable
+// writer may wait for a lagging reader.
+class WriteQueue {
+ public:
+  // More samples than this waiting (a writer stuck on a reader): the oldest are dropped.
+  static constexpr std::size_t kMaxQueued = 64;
+
+  WriteQueue() : thread_([this] { Loop(); }) {}
+  ~WriteQueue() {
+    {
+      std::lock_guard lock(mutex_);
+      stopping_ = true;
+    }
+    wake_.notify_one();
+    thread_.join();
+  }
+
+  void Push(dds_entity_t writer, const internal::CdrTopic& topic, std::vector<std::uint8_t> cdr) {
+    {
+      std::lock_guard lock(mutex_);
+      if (queue_.size() >= kMaxQueued) {
+        queue_.pop_front();
+        ++failed_;
+      }
+      queue_.push_back({writer, &topic, std::move(cdr)});
+    }
+    wake_.notify_one();
+  }
+
+  std::int64_t failed() const { return failed_; }
+
+ private:
+  struct Sample {
+    dds_entity_t writer;
+    const internal::CdrTopic* topic;
+    std::vector<std::uint8_t> cdr;
+  };
+
+  // Writes until stopped, the queue drained.
+  void Loop() {
+    std::unique_lock lock(mutex_);
+    while (true) {
+      wake_.wait(lock, [this] { return stopping_ || !queue_.empty(); });
+      if (queue_.empty()) return;
+      Sample sample = std::move(queue_.front());
+      queue_.pop_front();
+      lock.unlock();
+      if (internal::WriteCdr(sample.writer, *sample.topic, std::move(sample.cdr)) < 0) ++failed_;
+      lock.lock();
+    }
+  }
+
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  std::deque<Sample> queue_;
+  bool stopping_ = false;
+  std::atomic<std::int64_t> failed_{0};
+  std::thread thread_;  // last: started once the rest is made
+};
+
 struct Ros2Publisher::Impl {
   Ros2PublisherOptions options;
   std::string ns;
@@ -140,11 +205,13 @@ struct Ros2Publisher::Impl {
   std::string frame_id_sn;                      // the SN frame_id was made for
   std::string frame_id;
   Ros2PublisherStats stats;
+  std::optional<WriteQueue> writes;  // made last, stopped first
 
   explicit Impl(const Ros2PublisherOptions& o)
       : options(o), ns(Ros2Namespace(o.ns)), participant(Participant::Shared()), status_cadence(o.status_period_s) {}
 
   ~Impl() {
+    writes.reset();  // every sample queued is written
     for (auto it = entities.rbegin(); it != entities.rend(); ++it) dds_delete(*it);
   }
 
@@ -176,7 +243,7 @@ struct Ros2Publisher::Impl {
   }
 
   void Write(dds_entity_t writer, const internal::CdrTopic& topic, std::vector<std::uint8_t> cdr) {
-    if (internal::WriteCdr(writer, topic, std::move(cdr)) < 0) ++stats.failed_writes;
+    writes->Push(writer, topic, std::move(cdr));
   }
 };
 
@@ -189,6 +256,7 @@ Ros2Publisher::Ros2Publisher(const Ros2PublisherOptions& options) {
   p.status = p.Writer(p.status_topic, "status", "diagnostic_msgs::msg::dds_::DiagnosticArray_");
   if (options.image) p.image = p.Writer(p.image_topic, "image", "sensor_msgs::msg::dds_::CompressedImage_");
   p.zero = p.ZeroReader();
+  p.writes.emplace();
 }
 
 Ros2Publisher::~Ros2Publisher() = default;
@@ -225,7 +293,17 @@ bool Ros2Publisher::TakeZeroRequest() {
   return requested;
 }
 
-Ros2PublisherStats Ros2Publisher::stats() const { return impl_->stats; }
+Ros2PublisherStats Ros2Publisher::stats() const {
+  Ros2PublisherStats stats = impl_->stats;
+  stats.failed_writes = impl_->writes->failed();
+  return stats;
+}
+
+int Ros2Publisher::subscribers() const {
+  dds_publication_matched_status_t status;
+  if (dds_get_publication_matched_status(impl_->markers, &status) < 0) return 0;
+  return static_cast<int>(status.current_count);
+}
 
 const std::string& Ros2Publisher::topic_namespace() const { return impl_->ns; }
 

@@ -45,7 +45,8 @@ struct Ros2PublisherOptions {
 /// What a publisher did.
 struct Ros2PublisherStats {
   std::int64_t frames = 0;          ///< frames published
-  std::int64_t failed_writes = 0;   ///< samples a writer did not take (a reliable reader lagging)
+  /// Samples not written: a writer refused them, or more than 64 waited (a reliable reader lagging).
+  std::int64_t failed_writes = 0;
   std::int64_t zero_requests = 0;   ///< messages received on NAMESPACE/zero
 };
 
@@ -63,7 +64,8 @@ class Ros2Publisher {
   Ros2Publisher& operator=(const Ros2Publisher&) = delete;
 
   /// Publishes the frame: wrench and markers, the image when asked for and `image` is not empty,
-  /// the status when due. Stamps are the frames' capture times on the system clock: the clock
+  /// the status when due. The messages are encoded on the caller's thread and written by the
+  /// publisher's own, in order (what the caller pays: bench/ros2_benchmark.cc). Stamps are the frames' capture times on the system clock: the clock
   /// at the first frame less its timestamp_s, plus each frame's timestamp_s.
   /// @throws Error if the image cannot be encoded. A sample a writer does not take is counted
   ///   (stats().failed_writes), not thrown: the sensor goes on.
@@ -73,6 +75,8 @@ class Ros2Publisher {
   bool TakeZeroRequest();
 
   Ros2PublisherStats stats() const;
+  /// The readers NAMESPACE/markers is matched with now (DDS discovery found them).
+  int subscribers() const;
   /// The namespace in its full form ("/tac3d/left").
   const std::string& topic_namespace() const;
 
