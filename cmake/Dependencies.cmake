@@ -29,6 +29,7 @@ endif()
 
 if(NOT TAC3D_FIND_FOR_CONSUMER)
   find_package(CLI11 REQUIRED)
+  find_program(CYCLONEDDS_IDLC idlc REQUIRED)  # the zero subscription's type (src/tac3d/ros2)
   if(TAC3D_BUILD_TESTS)
     find_package(GTest REQUIRED)
     # The second DDS implementation the ROS 2 interop test subscribes with (tests/ros2_interop):
