@@ -12,6 +12,9 @@ find_package(Boost 1.74 REQUIRED)
 # Normals, Poisson reconstruction and kd-trees for the friction map (only tac3d::friction links
 # it). DESIGN.md: Poisson depth 8 on 50k points in 2.7 s; PCL is 480 packages and 2x slower.
 find_package(Open3D REQUIRED)
+# ROS 2 topics without ROS 2 (tac3d::ros2, docs/ros2.md): Cyclone DDS 0.10 (cyclonedds-dev; its
+# IDL compiler idlc from cyclonedds-tools).
+find_package(CycloneDDS REQUIRED)
 
 # SuiteSparse ships no CMake config in Debian 12.
 find_path(CHOLMOD_INCLUDE_DIR cholmod.h PATH_SUFFIXES suitesparse REQUIRED)
@@ -26,8 +29,14 @@ endif()
 
 if(NOT TAC3D_FIND_FOR_CONSUMER)
   find_package(CLI11 REQUIRED)
+  find_program(CYCLONEDDS_IDLC idlc REQUIRED)  # the zero subscription's type (src/tac3d/ros2)
   if(TAC3D_BUILD_TESTS)
     find_package(GTest REQUIRED)
+    # The second DDS implementation the ROS 2 interop test subscribes with (tests/ros2_interop):
+    # Fast DDS 2.9 (libfastrtps-dev, libfastcdr-dev) and its type generator fastddsgen (Java).
+    find_package(fastrtps REQUIRED)
+    find_package(fastcdr REQUIRED)
+    find_program(FASTDDSGEN fastddsgen REQUIRED)
   endif()
   if(TAC3D_BUILD_BENCHMARKS)
     find_package(benchmark REQUIRED)

@@ -10,6 +10,8 @@ packages=(
   libyaml-cpp-dev nlohmann-json3-dev libfmt-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libopen3d-dev
+  cyclonedds-dev cyclonedds-tools  # tac3d run --ros2 (src/tac3d/ros2): Cyclone DDS and its idlc
+  libfastrtps-dev libfastcdr-dev fastddsgen  # the ROS 2 interop test's subscriber (tests/ros2_interop); fastddsgen brings a JRE
   libboost-dev  # Boost.Beast (header-only), the viewer's HTTP + WebSocket server (src/tac3d/web)
   libjs-three   # three.js r111, copied into the build's page folder (docs/viewer.md)
   chromium      # web/viewer_page_test loads the page headless

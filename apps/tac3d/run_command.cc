@@ -106,7 +106,8 @@ void RunFile(const RunArgs& a) {
 // The one-sensor flags that a run file replaces.
 constexpr std::initializer_list<const char*> kSensorFlags = {
     "--source", "--config", "--sn", "--udp", "--udp-items", "--udp-progress", "--allow-zero-under-load", "--record",
-    "--record-images", "--overwrite", "--reference-frames", "--weight", "--support-resolve", "--gains",
+    "--record-images", "--overwrite", "--ros2", "--ros2-reliable", "--ros2-image", "--ros2-frame-id",
+    "--reference-frames", "--weight", "--support-resolve", "--gains",
     "--recompute-forces", "--drift", "--drift-time-constant-s", "--width", "--height", "--fps", "--exposure",
     "--pixel-format", "--speed"};
 
@@ -147,6 +148,17 @@ void RegisterRun(CLI::App& app) {
   cmd->add_option("--record", sensor.outputs.record, "record the frames to this file (crash-safe)");
   cmd->add_flag("--record-images", sensor.outputs.record_images, "record the raw camera images too (with --record)");
   cmd->add_flag("--overwrite", sensor.outputs.overwrite, "replace the --record file if it exists");
+  cmd->add_option("--ros2", sensor.outputs.ros2,
+                  "publish ROS 2 topics NAMESPACE/wrench, /markers, /status and take a zero on NAMESPACE/zero, "
+                  "for ROS 2 nodes without any tac3d package (docs/ros2.md); domain ROS_DOMAIN_ID, DDS "
+                  "config CYCLONEDDS_URI");
+  cmd->add_flag("--ros2-reliable", sensor.outputs.ros2_reliable,
+                "with --ros2, ROS 2's default QoS (reliable, keep-last 10) instead of the sensor-data profile "
+                "(best effort, keep-last 5)");
+  cmd->add_flag("--ros2-image", sensor.outputs.ros2_image,
+                "with --ros2, also publish NAMESPACE/image, the camera frame as PNG (sensor_msgs/CompressedImage)");
+  cmd->add_option("--ros2-frame-id", sensor.outputs.ros2_frame_id,
+                  "with --ros2, the messages' frame_id (default: tac3d_<SN>)");
   cmd->add_flag("--json", a->json, "print each frame's summary as a JSON line");
   cmd->add_option("--reference-frames", sensor.reference_frames, "static frames taken as the reference")
       ->capture_default_str();

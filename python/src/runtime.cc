@@ -35,7 +35,8 @@ SensorRunSpec MakeSpec(const std::string& sn, const std::string& source, const s
                        const std::string& pixel_format,
                        const std::string& udp, const std::string& udp_items, bool udp_progress,
                        bool allow_zero_under_load, const std::string& record, bool record_images,
-                       bool overwrite) {
+                       bool overwrite, const std::string& ros2, bool ros2_reliable, bool ros2_image,
+                       const std::string& ros2_frame_id) {
   SensorRunSpec s;
   s.sn = sn;
   s.source = source;
@@ -58,6 +59,10 @@ SensorRunSpec MakeSpec(const std::string& sn, const std::string& source, const s
   s.outputs.record = record;
   s.outputs.record_images = record_images;
   s.outputs.overwrite = overwrite;
+  s.outputs.ros2 = ros2;
+  s.outputs.ros2_reliable = ros2_reliable;
+  s.outputs.ros2_image = ros2_image;
+  s.outputs.ros2_frame_id = ros2_frame_id;
   s.outputs.sn = sn;
   s.Validate();
   return s;
@@ -151,6 +156,8 @@ naming the field).
            py::arg("record") = d.outputs.record,
            py::arg("record_images") = d.outputs.record_images,
            py::arg("overwrite") = d.outputs.overwrite,
+           py::arg("ros2") = d.outputs.ros2, py::arg("ros2_reliable") = d.outputs.ros2_reliable,
+           py::arg("ros2_image") = d.outputs.ros2_image, py::arg("ros2_frame_id") = d.outputs.ros2_frame_id,
            "sn: the serial number in the stream, recording and frames; source: camera:N,\n"
            "/dev/videoN, a video file, an image folder, dataset:DIR, recording:FILE or vendor:DIR\n"
            "(a vendor recording's <SN> folder); config: a sensor YAML ('' the built-in\n"
@@ -164,7 +171,9 @@ naming the field).
            "('3D_Normals,SlipState', 'all'; tac3d run's --udp-items); udp_progress: also send\n"
            "the frames taken while the reference is taken (--udp-progress);\n"
            "allow_zero_under_load: take a $C while the sensor is loaded, with a warning, instead\n"
-           "of refusing it (--allow-zero-under-load); record: a new recording file.")
+           "of refusing it (--allow-zero-under-load); record: a new recording file; ros2: a ROS 2\n"
+           "namespace to publish the frames under (tac3d run's --ros2, docs/ros2.md), with\n"
+           "ros2_reliable, ros2_image, ros2_frame_id as --ros2-reliable, --ros2-image, --ros2-frame-id.")
       .def_readonly("sn", &SensorRunSpec::sn)
       .def_readonly("source", &SensorRunSpec::source)
       .def_readonly("config", &SensorRunSpec::config)
@@ -186,6 +195,10 @@ naming the field).
       .def_property_readonly("record", [](const SensorRunSpec& s) { return s.outputs.record; })
       .def_property_readonly("record_images", [](const SensorRunSpec& s) { return s.outputs.record_images; })
       .def_property_readonly("overwrite", [](const SensorRunSpec& s) { return s.outputs.overwrite; })
+      .def_property_readonly("ros2", [](const SensorRunSpec& s) { return s.outputs.ros2; })
+      .def_property_readonly("ros2_reliable", [](const SensorRunSpec& s) { return s.outputs.ros2_reliable; })
+      .def_property_readonly("ros2_image", [](const SensorRunSpec& s) { return s.outputs.ros2_image; })
+      .def_property_readonly("ros2_frame_id", [](const SensorRunSpec& s) { return s.outputs.ros2_frame_id; })
       .def("__repr__", [](const SensorRunSpec& s) {
         return fmt::format("tac3d.SensorSpec(sn='{}', source='{}')", s.sn, s.source);
       });

@@ -203,6 +203,10 @@ class SensorSpec:
         record: str = "",
         record_images: bool = False,
         overwrite: bool = False,
+        ros2: str = "",
+        ros2_reliable: bool = False,
+        ros2_image: bool = False,
+        ros2_frame_id: str = "",
     ) -> None: ...
     sn: str
     source: str
@@ -225,6 +229,10 @@ class SensorSpec:
     record: str
     record_images: bool
     overwrite: bool
+    ros2: str
+    ros2_reliable: bool
+    ros2_image: bool
+    ros2_frame_id: str
 
 class SensorReport:
     sn: str

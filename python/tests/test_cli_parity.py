@@ -26,7 +26,7 @@ def cli_flags_and_defaults(tac3d_cli, command):
     text = subprocess.run([tac3d_cli, command, "--help"], check=True,
                           capture_output=True, text=True, timeout=60).stdout
     flags = {}
-    for m in re.finditer(r"^\s+(?:-\w,)?--([a-z][a-z-]*)(?:\s+[A-Z]+(?:\s+x\s+\d+)?(?:=(\S+))?)?",
+    for m in re.finditer(r"^\s+(?:-\w,)?--([a-z][a-z0-9-]*)(?:\s+[A-Z]+(?:\s+x\s+\d+)?(?:=(\S+))?)?",
                          text, re.M):
         flags[m.group(1).replace("-", "_")] = m.group(2)
     return flags

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "tac3d/mcap/ros2_messages.h"
 #include "tac3d/record/recording.h"
 
 namespace tac3d {
@@ -16,15 +17,11 @@ namespace tac3d {
 // image) and `status` (diagnostic_msgs/msg/DiagnosticArray, the first frame and then about
 // once a second), CDR-encoded, stamped with the frame's timestamp.
 
-/// The SN as one ROS 2 name token: every character but [A-Za-z0-9_] an '_', and "sn_" before a
-/// leading digit ("AD2-0065L" -> "AD2_0065L"), so topic names are valid for `ros2 bag play`.
-std::string RosNameOfSerialNumber(const std::string& sn);
-
 /// The topics' prefix, "/tac3d/" + RosNameOfSerialNumber(sn).
 std::string McapTopicNamespace(const std::string& sn);
 
 struct McapExportOptions {
-  /// Every message's header.frame_id; empty: "tac3d_" + RosNameOfSerialNumber(sn).
+  /// Every message's header.frame_id; empty: DefaultRosFrameId(sn).
   std::string frame_id;
   /// false: refuse to replace an existing file.
   bool overwrite = false;

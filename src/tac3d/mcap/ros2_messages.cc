@@ -1,9 +1,13 @@
 #include "tac3d/mcap/ros2_messages.h"
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <initializer_list>
+#include <opencv2/imgcodecs.hpp>
 
 #include "tac3d/mcap/cdr.h"
+#include "tac3d/util/error.h"
 
 namespace tac3d {
 namespace {
@@ -29,6 +33,18 @@ void PutHeader(CdrWriter& cdr, const RosHeader& header) {
 }
 
 }  // namespace
+
+std::string RosNameOfSerialNumber(const std::string& sn) {
+  std::string name;
+  for (const char c : sn) {
+    const bool word = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_';
+    name += word ? c : '_';
+  }
+  if (name.empty() || (name[0] >= '0' && name[0] <= '9')) name = "sn_" + name;
+  return name;
+}
+
+std::string DefaultRosFrameId(const std::string& sn) { return "tac3d_" + RosNameOfSerialNumber(sn); }
 
 RosHeader RosHeaderAt(std::int64_t time_ns, std::string frame_id) {
   constexpr std::int64_t kNsPerS = 1'000'000'000;
@@ -90,6 +106,10 @@ std::vector<std::uint8_t> CdrWrenchStamped(const RosHeader& header,
   return cdr.Take();
 }
 
+std::vector<std::uint8_t> CdrFrameWrench(const RosHeader& header, const TactileFrame& frame) {
+  return CdrWrenchStamped(header, frame.resultant_force_n, frame.resultant_moment_nmm / 1000.0);
+}
+
 std::vector<std::pair<std::string, std::uint32_t>> MarkerCloudFields() {
   return {{"x", 0},  {"y", 4},  {"z", 8},  {"dx", 12}, {"dy", 16},      {"dz", 20},
           {"fx", 24}, {"fy", 28}, {"fz", 32}, {"valid", 36}, {"contact", 37}, {"slip_state", 38}};
@@ -146,6 +166,15 @@ std::vector<std::uint8_t> CdrCompressedImage(const RosHeader& header,
   return cdr.Take();
 }
 
+std::vector<std::uint8_t> CdrPngImage(const RosHeader& header, const cv::Mat& image) {
+  std::vector<std::uint8_t> png;
+  if (!cv::imencode(".png", image, png)) {
+    throw Error(fmt::format("cannot encode a {}x{} image of {} channels as PNG", image.cols, image.rows,
+                            image.channels()));
+  }
+  return CdrCompressedImage(header, "png", png);
+}
+
 std::vector<std::uint8_t> CdrDiagnosticArray(const RosHeader& header,
                                              const std::vector<DiagnosticStatus>& status) {
   CdrWriter cdr;
@@ -163,6 +192,42 @@ std::vector<std::uint8_t> CdrDiagnosticArray(const RosHeader& header,
     }
   }
   return cdr.Take();
+}
+
+StatusCadence::StatusCadence(double period_s) : period_s_(period_s) { TAC3D_DEMAND(period_s >= 0); }
+
+std::optional<DiagnosticStatus> StatusCadence::Next(const TactileFrame& frame) {
+  ++frames_since_status_;
+  if (last_index_ && frame.index > *last_index_ + 1) skipped_since_status_ += frame.index - *last_index_ - 1;
+  last_index_ = frame.index;
+  if (last_status_s_ && frame.timestamp_s - *last_status_s_ < period_s_) return std::nullopt;
+  const std::string rate =
+      last_status_s_ ? fmt::format("{:.3f}", static_cast<double>(frames_since_status_) / (frame.timestamp_s - *last_status_s_))
+                     : "unknown";
+  int valid = 0, contact = 0;
+  for (int i = 0; i < frame.num_markers(); ++i) {
+    valid += frame.valid[i] ? 1 : 0;
+    contact += frame.contact[i] ? 1 : 0;
+  }
+  const std::string flags = FrameFlagNames(frame.flags);
+  DiagnosticStatus status{.level = static_cast<std::uint8_t>(frame.flags == 0 ? 0 : 1),  // OK, or WARN with a flag
+                          .name = "tac3d " + frame.sn,
+                          .message = flags.empty() ? "ok" : flags,
+                          .hardware_id = frame.sn,
+                          .values = {{"frame_rate_hz", rate},
+                                     {"skipped_frames", std::to_string(skipped_since_status_)},
+                                     {"index", std::to_string(frame.index)},
+                                     {"markers", std::to_string(frame.num_markers())},
+                                     {"lost_markers", std::to_string(frame.num_markers() - valid)},
+                                     {"contact_markers", std::to_string(contact)},
+                                     {"flags", std::to_string(frame.flags)},
+                                     {"flag_names", flags},
+                                     {"initialize_progress", std::to_string(frame.initialize_progress)},
+                                     {"slip_state", SlipStateName(frame.slip.state)}}};
+  last_status_s_ = frame.timestamp_s;
+  frames_since_status_ = 0;
+  skipped_since_status_ = 0;
+  return status;
 }
 
 }  // namespace tac3d

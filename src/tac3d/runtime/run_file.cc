@@ -73,6 +73,10 @@ SensorRunSpec ReadSensor(YamlReader r, const std::string& base_dir) {
   s.outputs.record = FromBase(base_dir, r.String("record", ""));
   s.outputs.record_images = r.Bool("record_images", false);
   s.outputs.overwrite = r.Bool("overwrite", false);
+  s.outputs.ros2 = r.String("ros2", "");
+  s.outputs.ros2_reliable = r.Bool("ros2_reliable", false);
+  s.outputs.ros2_image = r.Bool("ros2_image", false);
+  s.outputs.ros2_frame_id = r.String("ros2_frame_id", "");
   s.outputs.sn = s.sn;
   // The outputs' own checks (HOST:PORT's form, the record file's folder), named by the line.
   const auto check = [&r](const char* key, const FrameOutputArgs& args) {
@@ -92,6 +96,14 @@ SensorRunSpec ReadSensor(YamlReader r, const std::string& base_dir) {
   if (r.Has("udp_items")) check("udp_items", udp_items);
   if (r.Has("udp_progress")) check("udp_progress", udp_progress);
   check("record", record);
+  FrameOutputArgs ros2;
+  ros2.ros2 = s.outputs.ros2;
+  ros2.ros2_frame_id = s.outputs.ros2_frame_id;
+  if (r.Has("ros2")) check("ros2", ros2);
+  for (const char* key : {"ros2_reliable", "ros2_image", "ros2_frame_id"}) {
+    if (r.Has(key) && s.outputs.ros2.empty()) r.FailAt(r.Required(key), r.Join(key), "needs ros2: NAMESPACE");
+  }
+  if (r.Has("ros2_frame_id")) check("ros2_frame_id", ros2);
   return s;
 }
 
@@ -109,7 +121,7 @@ std::vector<SensorRunSpec> ParseRunFile(const std::string& text,
              fmt::format("a run holds at most {} sensors", kMaxSensors));
   }
   std::vector<SensorRunSpec> sensors;
-  std::map<std::string, int> sn_line, record_line;
+  std::map<std::string, int> sn_line, record_line, ros2_line;
   for (size_t i = 0; i < list.size(); ++i) {
     sensors.push_back(ReadSensor(r.Element(list, "sensors", i), base_dir));
     const SensorRunSpec& s = sensors.back();
@@ -123,6 +135,7 @@ std::vector<SensorRunSpec> ParseRunFile(const std::string& text,
     };
     refuse_twice(sn_line, s.sn, "sn");
     if (!s.outputs.record.empty()) refuse_twice(record_line, s.outputs.record, "record file");
+    if (!s.outputs.ros2.empty()) refuse_twice(ros2_line, Ros2Namespace(s.outputs.ros2), "ROS 2 namespace");
   }
   return sensors;
 }

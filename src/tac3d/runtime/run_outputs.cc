@@ -109,6 +109,14 @@ void FrameOutputArgs::Validate() const {
   }
   if (web.empty() && web_hold_s != 0) throw Error("--web-hold needs --web HOST:PORT");
   if (web.empty() && !web_root.empty()) throw Error("--web-root needs --web HOST:PORT");
+  if (ros2.empty() && (ros2_reliable || ros2_image || !ros2_frame_id.empty())) {
+    throw Error("--ros2-reliable, --ros2-image and --ros2-frame-id need --ros2 NAMESPACE");
+  }
+  if (!ros2.empty()) Ros2Options(*this).Validate();
+}
+
+Ros2PublisherOptions Ros2Options(const FrameOutputArgs& args) {
+  return {.ns = args.ros2, .reliable = args.ros2_reliable, .image = args.ros2_image, .frame_id = args.ros2_frame_id};
 }
 
 std::shared_ptr<WebServer> OpenViewer(const FrameOutputArgs& args, WebApiHandler api) {
@@ -134,6 +142,13 @@ FrameOutputs::FrameOutputs(const FrameOutputArgs& args, std::shared_ptr<WebServe
                  sender_->local_endpoint().ToString().c_str());
   }
   if (!args.record.empty()) recorder_.emplace(args.record, RecordingWriterOptions{.overwrite = args.overwrite});
+  if (!args.ros2.empty()) {
+    ros2_ = std::make_unique<Ros2Publisher>(Ros2Options(args));
+    std::fprintf(stderr, "%spublishing ROS 2 topics %s/{wrench,markers,status%s} (%s QoS), zero on %s/zero\n",
+                 args.sn.empty() ? "" : (args.sn + ": ").c_str(), ros2_->topic_namespace().c_str(),
+                 args.ros2_image ? ",image" : "", args.ros2_reliable ? "reliable" : "sensor-data (best effort)",
+                 ros2_->topic_namespace().c_str());
+  }
   if (!args.web.empty()) web_ = OpenViewer(args);
 }
 
@@ -142,6 +157,7 @@ FrameOutputs::~FrameOutputs() = default;
 void FrameOutputs::Emit(const TactileFrame& frame, const cv::Mat& image, const MarkerObservation* markers) {
   if (recorder_) recorder_->Write(frame, args_.record_images ? image : cv::Mat());
   if (sender_) sender_->Send(frame);
+  if (ros2_) ros2_->Publish(frame, image);
   if (web_) web_->Publish(frame, image, markers);
   // Flushed line by line: a reader on a pipe gets each frame at once, and a killed run has
   // printed every frame it recorded.
@@ -156,6 +172,7 @@ void FrameOutputs::Emit(const TactileFrame& frame, const cv::Mat& image, const M
 
 std::optional<SensorCommand> FrameOutputs::PollCommand() {
   if (web_ && web_->TakeZeroRequest(args_.sn)) return SensorCommand::kZero;
+  if (ros2_ && ros2_->TakeZeroRequest()) return SensorCommand::kZero;
   return sender_ ? sender_->PollCommand() : std::nullopt;
 }
 
@@ -221,6 +238,11 @@ std::string FrameOutputs::RecordedNote() const {
     }
   }
   if (recorder_) note += fmt::format(", {} recorded to {}", recorder_->frames_written(), args_.record);
+  if (ros2_) {
+    const Ros2PublisherStats s = ros2_->stats();
+    note += fmt::format(", {} published on ROS 2 under {}", s.frames, ros2_->topic_namespace());
+    if (s.failed_writes > 0) note += fmt::format(" ({} samples not taken by a lagging reader)", s.failed_writes);
+  }
   if (web_) {
     const WebServerStats s = web_->stats();
     note += fmt::format(", viewer: {} messages sent, {} skipped, {} stalled clients dropped",

@@ -14,6 +14,7 @@
 #include "tac3d/frame/tactile_frame.h"
 #include "tac3d/protocol/udp_sender.h"
 #include "tac3d/record/recording.h"
+#include "tac3d/ros2/ros2_publisher.h"
 #include "tac3d/web/web_server.h"
 
 namespace tac3d {
@@ -37,13 +38,19 @@ struct FrameOutputArgs {
   /// After the source ends, keep serving the last frames this many seconds (< 0: until
   /// Ctrl-C); with `web` only.
   double web_hold_s = 0.0;
-  /// Take a `$C` (or the viewer's zero) under load too, with a warning, instead of refusing it
+  /// Publish ROS 2 topics under this namespace (docs/ros2.md), or "".
+  std::string ros2;
+  bool ros2_reliable = false;  ///< with ros2: Ros2PublisherOptions::reliable
+  bool ros2_image = false;     ///< with ros2: Ros2PublisherOptions::image
+  std::string ros2_frame_id;   ///< with ros2: Ros2PublisherOptions::frame_id
+  /// Take a `$C` (or the viewer's or ROS 2's zero) under load too, with a warning, instead of refusing it
   /// (ZeroLoad).
   bool allow_zero_under_load = false;
 
   /// Checks what can be checked before any work: HOST:PORT's form, --udp-items' names,
   /// --udp-items and --udp-progress only with --udp, --record-images and --overwrite only
-  /// with --record, --web-hold only with --web, the record file's folder.
+  /// with --record, --web-hold only with --web, the record file's folder, --ros2's namespace and
+  /// frame_id, --ros2-* only with --ros2.
   /// @throws Error naming the flag.
   void Validate() const;
 };
@@ -63,6 +70,9 @@ struct ZeroLoad {
 };
 ZeroLoad MeasureZeroLoad(const TactileFrame& frame);
 
+/// The publisher options of `args.ros2` and its flags.
+Ros2PublisherOptions Ros2Options(const FrameOutputArgs& args);
+
 /// Starts the viewer `args.web` names (docs/viewer.md), with `api` answering its /api/
 /// requests, and names it on stderr.
 /// @pre args.web is not empty. @throws Error as WebServer's constructor does.
@@ -71,22 +81,23 @@ std::shared_ptr<WebServer> OpenViewer(const FrameOutputArgs& args, WebApiHandler
 /// Opens the outputs a run asked for and sends every frame to each of them.
 class FrameOutputs {
  public:
-  /// Validates the arguments, opens the UDP sender and the recording and names them on stderr.
+  /// Validates the arguments, opens the UDP sender, the recording and the ROS 2 topics and names
+  /// them on stderr.
   /// @param shared_viewer a viewer several sensors publish to (then args.web must be empty);
   ///   else one is opened when args.web asks for it.
   /// @throws Error on a malformed HOST:PORT, a host that does not resolve, or a recording
-  /// file that exists or cannot be created.
+  /// file that exists or cannot be created, or DDS that cannot start (Ros2Publisher).
   explicit FrameOutputs(const FrameOutputArgs& args,
                         std::shared_ptr<WebServer> shared_viewer = nullptr);
   ~FrameOutputs();
 
   /// Records the frame (with `image` if record_images and it is not empty), streams it,
-  /// publishes it to the viewer (with `image` and the tracker's `markers` in it, when given,
+  /// publishes it on ROS 2 (with `image` if ros2_image), publishes it to the viewer (with `image` and the tracker's `markers` in it, when given,
   /// drawn on it) and prints its JSON line.
   /// @throws Error as RecordingWriter::Write and UdpSender::Send do.
   void Emit(const TactileFrame& frame, const cv::Mat& image, const MarkerObservation* markers = nullptr);
   /// The next command the UDP client sent (`$C`, `$Q`), or a zero the viewer asked for this
-  /// SN (`$C`); nullopt when none.
+  /// SN or a ROS 2 node on NAMESPACE/zero (`$C`); nullopt when none.
   std::optional<SensorCommand> PollCommand();
   /// Whether a `$C` received after `last` (the frame emitted last) is to be taken: at rest it
   /// is, quietly; under load (MeasureZeroLoad) it is refused with a line on stderr naming the
@@ -96,13 +107,14 @@ class FrameOutputs {
   /// is over or Ctrl-C / SIGTERM.
   void HoldWeb();
   /// ", N streamed (M initialising withheld)" when streaming, ", N recorded to FILE" when
-  /// recording, and the viewer's counts; else "".
+  /// recording, ", N published on ROS 2 under NAMESPACE", and the viewer's counts; else "".
   std::string RecordedNote() const;
 
  private:
   FrameOutputArgs args_;
   std::optional<UdpSender> sender_;
   std::optional<RecordingWriter> recorder_;
+  std::unique_ptr<Ros2Publisher> ros2_;
   std::shared_ptr<WebServer> web_;
 };
 
