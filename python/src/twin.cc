@@ -460,6 +460,52 @@ std::unique_ptr<simulation::TwinSimulation> MakeTwinSimulation(const Scene& scen
       scene, SharedTwinBodyModel(body, twin, cache_dir, model_json), options);
 }
 
+// simulate_arrays(measure=True): the scene's sensor as its user has it (scene.sensor: neither the
+// twin's deviation nor its spread) through the pipeline `tac3d run` runs (DefaultPipelineOptions,
+// the compliance model loaded once a process), fed the simulation's images as they are rendered.
+class ArraysMeasurement {
+ public:
+  ArraysMeasurement(const Scene& scene, const simulation::TwinSimulation& sim, const std::string& cache_dir) {
+    const auto start = std::chrono::steady_clock::now();
+    const std::shared_ptr<const fem::ComplianceModel> model =
+        SharedComplianceModel(scene.sensor, cache_dir, &report_["compliance_model"]);
+    measurement_ = std::make_unique<simulation::TwinMeasurement>(
+        scene.sensor, *model, DefaultPipelineOptions(scene.sensor));
+    reference_ = measurement_->TakeReference(sim);
+    frames_.reserve(sim.num_steps());
+    seconds_ += SecondsSince(start);
+  }
+
+  void Measure(const TwinStep& step) {
+    const auto start = std::chrono::steady_clock::now();
+    frames_.push_back(measurement_->Measure(step));
+    seconds_ += SecondsSince(start);
+  }
+
+  const std::vector<Frame>& reference() const { return reference_; }
+  std::vector<TactileFrame>& frames() { return frames_; }
+
+  // The pipeline's options, its model, and the seconds taken rendering the reference and
+  // running the pipeline (the latter also in the simulation's timings.write_s).
+  nlohmann::json Report() const {
+    const PipelineOptions& used = measurement_->pipeline().options();
+    nlohmann::json report = report_;
+    report["reference_frames"] = used.reference_frames;
+    report["sn"] = used.sn;
+    report["force_weight"] = used.force.weight;
+    report["support_refinement"] = used.force.support_refinement;
+    report["seconds"] = seconds_;
+    return report;
+  }
+
+ private:
+  std::unique_ptr<simulation::TwinMeasurement> measurement_;
+  std::vector<Frame> reference_;
+  std::vector<TactileFrame> frames_;
+  nlohmann::json report_;
+  double seconds_ = 0.0;
+};
+
 py::dict SimulateArrays(const py::object& scene_arg,
                         const std::string& cache_dir,
                         int steps,
@@ -472,11 +518,9 @@ py::dict SimulateArrays(const py::object& scene_arg,
   const Scene scene = SceneArg(scene_arg);
   const simulation::TwinBodyOptions twin = TwinOptions(twin_options);
   nlohmann::json model_json;
-  nlohmann::json measurement_json;
   simulation::SimulationSummary summary;
   std::vector<TwinStep> run;
-  std::vector<Frame> reference;
-  std::vector<TactileFrame> measured;
+  std::unique_ptr<ArraysMeasurement> measurement;
   {
     py::gil_scoped_release release;
     simulation::SimulationOptions options;
@@ -486,50 +530,28 @@ py::dict SimulateArrays(const py::object& scene_arg,
     const std::unique_ptr<simulation::TwinSimulation> sim =
         MakeTwinSimulation(scene, twin, cache_dir, options, scale_youngs_modulus, &model_json);
     run.reserve(sim->num_steps());
-    // The sensor as its user has it (scene.sensor: no deviation, no spread), as `tac3d run`
-    // runs it: DefaultPipelineOptions, its compliance model from the cache.
-    std::optional<simulation::TwinMeasurement> measurement;
-    double measure_s = 0.0;
-    if (measure) {
-      const auto start = std::chrono::steady_clock::now();
-      nlohmann::json pipeline_model_json;
-      const std::shared_ptr<const fem::ComplianceModel> model =
-          SharedComplianceModel(scene.sensor, cache_dir, &pipeline_model_json);
-      measurement.emplace(scene.sensor, *model, DefaultPipelineOptions(scene.sensor));
-      reference = measurement->TakeReference(*sim);
-      measured.reserve(sim->num_steps());
-      measure_s += SecondsSince(start);
-      measurement_json["compliance_model"] = pipeline_model_json;
-    }
+    if (measure) measurement = std::make_unique<ArraysMeasurement>(scene, *sim, cache_dir);
     summary = sim->Run([&](const TwinStep& step) {
       run.push_back(step);
       if (measurement) {
-        const auto start = std::chrono::steady_clock::now();
-        measured.push_back(measurement->Measure(step));
-        measure_s += SecondsSince(start);
+        measurement->Measure(step);
         if (!images) run.back().image.release();  // rendered for the pipeline only
       }
     });
-    if (measurement) {
-      const PipelineOptions& used = measurement->pipeline().options();
-      measurement_json["reference_frames"] = used.reference_frames;
-      measurement_json["sn"] = used.sn;
-      measurement_json["force_weight"] = used.force.weight;
-      measurement_json["support_refinement"] = used.force.support_refinement;
-      // Rendering the reference and running the pipeline; also inside timings.write_s.
-      measurement_json["seconds"] = measure_s;
-    }
   }
   if (run.empty()) throw Error(fmt::format("scene '{}' has no steps to simulate", scene.name));
   py::dict d = TruthArrays(run);
   d.attr("pop")("index");
   if (images) {
     d["images"] = StackImages(run, [](const TwinStep& step) -> const cv::Mat& { return step.image; });
-    if (measure) {
-      d["reference_images"] = StackImages(reference, [](const Frame& f) -> const cv::Mat& { return f.image; });
-    }
   }
-  if (measure) d["measured"] = RecordingToPython(std::move(measured));
+  if (measurement) {
+    if (images) {
+      d["reference_images"] =
+          StackImages(measurement->reference(), [](const Frame& f) -> const cv::Mat& { return f.image; });
+    }
+    d["measured"] = RecordingToPython(std::move(measurement->frames()));
+  }
   const SurfaceTractions& surface = run.front().surface;
   d["surface_positions"] = Vector3Owned(std::vector<Eigen::Vector3d>(surface.positions_mm));
   d["surface_tractions"] =
@@ -541,7 +563,7 @@ py::dict SimulateArrays(const py::object& scene_arg,
   nlohmann::json result = simulation::ToJson(summary);
   result["twin_body"] = model_json;
   result["youngs_modulus_scale"] = scale_youngs_modulus ? scene.deviation.youngs_modulus_factor : 1.0;
-  if (measure) result["measurement"] = measurement_json;
+  if (measurement) result["measurement"] = measurement->Report();
   d["summary"] = JsonToPython(result);
   return d;
 }
