@@ -21,7 +21,8 @@ std::vector<Frame> TwinMeasurement::TakeReference(const TwinSimulation& simulati
 TactileFrame TwinMeasurement::Measure(const TwinStep& step) {
   TAC3D_DEMAND(reference_taken_);
   if (step.image.empty()) {
-    throw Error(fmt::format("TwinMeasurement: step {} has no image (simulate with images)", step.index));
+    throw Error(
+        fmt::format("TwinMeasurement: step {} has no image (simulate with images)", step.index));
   }
   TactileFrame out;
   pipeline_.Process(Frame{step.image, step.t_s, step.index}, out);

@@ -4,9 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <memory>
-#include <vector>
-
 #include <opencv2/core.hpp>
+#include <vector>
 
 #include "tac3d/sensor/test_sensor.h"
 #include "tac3d/testing/testing.h"
@@ -74,7 +73,8 @@ TEST(TwinSimulation, RenderAtRestDrawsTheUnloadedSensorBeforeStepZero) {
     EXPECT_EQ(rest[r].image.type(), CV_8UC1);
   }
   // The same scene, noise of its own: the frames differ, but by the noise only (a few DN).
-  const double mean_abs = cv::norm(rest[0].image, rest[1].image, cv::NORM_L1) / rest[0].image.total();
+  const double mean_abs =
+      cv::norm(rest[0].image, rest[1].image, cv::NORM_L1) / rest[0].image.total();
   EXPECT_GT(mean_abs, 0.0);
   EXPECT_LT(mean_abs, 5.0);
   EXPECT_EQ(sim.summary().steps, 0);
@@ -100,7 +100,9 @@ TEST(TwinMeasurement, IsThePipelineOnTheRenderedImagesAndTracksTheTruth) {
   ASSERT_EQ(measured.size(), 11u);
 
   // A replay: the same images through a pipeline of the same options give the same frames.
-  Pipeline replay(testing::SmallSensor(), SmallCompliance().h, SmallCompliance().marker_positions,
+  Pipeline replay(testing::SmallSensor(),
+                  SmallCompliance().h,
+                  SmallCompliance().marker_positions,
                   SmallPipelineOptions());
   TactileFrame out;
   for (const Frame& frame : reference) replay.Process(frame, out);
