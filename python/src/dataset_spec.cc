@@ -19,6 +19,8 @@ void RegisterDatasetSpec(py::module_& m) {
       .def_readonly("seed", &DatasetSpec::seed)
       .def_readonly("steps", &DatasetSpec::steps)
       .def_readonly("images", &DatasetSpec::images)
+      .def_readonly("measured", &DatasetSpec::measured,
+                    "Whether episodes store what the sensor's pipeline measures beside the truth.")
       .def_readonly("sensor", &DatasetSpec::sensor)
       .def_property_readonly(
           "twin_options",

@@ -156,6 +156,16 @@ py::object FrameToPython(TactileFrame&& frame) {
   return py::cast(std::make_shared<TactileFrame>(std::move(frame)));
 }
 
+py::object RecordingToPython(std::vector<TactileFrame>&& frames) {
+  auto recording = std::make_shared<Recording>();
+  for (TactileFrame& frame : frames) {
+    recording->frames.push_back(std::make_shared<TactileFrame>(std::move(frame)));
+    recording->images.emplace_back();
+  }
+  recording->status = RecordingStatus::kComplete;
+  return py::cast(recording);
+}
+
 void RegisterFrames(py::module_& m) {
   py::class_<TactileFrame, FramePtr> frame(m, "TactileFrame", R"doc(
 The pipeline's output for one camera frame (C++ tac3d::TactileFrame). Per-marker fields are

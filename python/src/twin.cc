@@ -3,6 +3,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <chrono>
 #include <cstring>
 #include <map>
 #include <memory>
@@ -16,6 +17,7 @@
 
 #include "arrays.h"
 #include "bindings.h"
+#include "frame_binding.h"
 #include "tac3d/dataset/twin_dataset.h"
 #include "tac3d/design/light_path_design.h"
 #include "tac3d/friction/command_options.h"
@@ -25,9 +27,12 @@
 #include "tac3d/sensor/sensor_config.h"
 #include "tac3d/simulation/simulation.h"
 #include "tac3d/simulation/twin_body.h"
+#include "tac3d/simulation/twin_measurement.h"
 #include "tac3d/twin/camera_renderer.h"
 #include "tac3d/util/cache_file.h"
 #include "tac3d/util/file_io.h"
+#include "tac3d/util/seconds_since.h"
+#include "tac3d/vendor_formats/vendor_gel.h"
 #include "twin_common.h"
 
 namespace tac3d::python {
@@ -281,38 +286,55 @@ py::dict Truth(const Dataset& ds) {
   return TruthArrays(read);
 }
 
-// The twin body models this process has loaded, by cache file: a Dask worker runs many
-// episodes and loads each model it needs once, shared read-only by its simulations.
-std::shared_ptr<const simulation::TwinBodyModel> SharedTwinBodyModel(
-    const fem::BodyModelOptions& body,
-    const simulation::TwinBodyOptions& twin,
-    const std::string& cache_dir,
-    nlohmann::json* model_json) {
+// The models this process has loaded, by cache file (`key`): a Dask worker runs many episodes
+// and loads each model it needs once, shared read-only by its simulations. `load` returns a
+// cache result (model, path, status, elapsed_s); its report goes to `model_json`.
+template <typename Model, typename Load>
+std::shared_ptr<const Model> LoadedOnce(const std::string& key, const Load& load, nlohmann::json* model_json) {
   struct Loaded {
-    std::shared_ptr<const simulation::TwinBodyModel> model;
+    std::shared_ptr<const Model> model;
     std::string path;
   };
   static std::mutex mutex;
   static std::map<std::string, Loaded> loaded;
-  const std::string dir = ResolveCacheDir(cache_dir);
-  const std::string key =
-      fmt::format("{}/{:016x}", dir, simulation::CalcTwinBodyCacheKey(body, twin));
   const std::lock_guard<std::mutex> lock(mutex);
   auto it = loaded.find(key);
   if (it == loaded.end()) {
-    simulation::TwinBodyCacheResult cached =
-        simulation::LoadOrBuildTwinBodyModel(body, twin, dir, /*show_progress=*/false);
+    auto cached = load();
     *model_json = {{"cache_file", cached.path},
                    {"cache_status", Describe(cached.status)},
                    {"load_or_build_s", cached.elapsed_s}};
-    Loaded entry{std::make_shared<const simulation::TwinBodyModel>(std::move(cached.model)),
-                 cached.path};
+    Loaded entry{std::make_shared<const Model>(std::move(cached.model)), cached.path};
     it = loaded.emplace(key, std::move(entry)).first;
   } else {
     *model_json = {
         {"cache_file", it->second.path}, {"cache_status", "in memory"}, {"load_or_build_s", 0.0}};
   }
   return it->second.model;
+}
+
+std::shared_ptr<const simulation::TwinBodyModel> SharedTwinBodyModel(
+    const fem::BodyModelOptions& body,
+    const simulation::TwinBodyOptions& twin,
+    const std::string& cache_dir,
+    nlohmann::json* model_json) {
+  const std::string dir = ResolveCacheDir(cache_dir);
+  return LoadedOnce<simulation::TwinBodyModel>(
+      fmt::format("{}/twin_{:016x}", dir, simulation::CalcTwinBodyCacheKey(body, twin)),
+      [&] { return simulation::LoadOrBuildTwinBodyModel(body, twin, dir, /*show_progress=*/false); },
+      model_json);
+}
+
+// The compliance model the pipeline of `sensor` runs with (`tac3d run`'s, tac3d.Pipeline's).
+std::shared_ptr<const fem::ComplianceModel> SharedComplianceModel(const SensorConfig& sensor,
+                                                                  const std::string& cache_dir,
+                                                                  nlohmann::json* model_json) {
+  const std::string dir = ResolveCacheDir(cache_dir);
+  const fem::BodyModelOptions body = SensorBodyModelOptions(sensor);
+  return LoadedOnce<fem::ComplianceModel>(
+      fmt::format("{}/compliance_{:016x}", dir, fem::CalcComplianceCacheKey(body)),
+      [&] { return fem::LoadOrBuildComplianceModel(body, dir, /*show_progress=*/false); },
+      model_json);
 }
 
 // The renderer for `scene`'s images, kept for the next call while the sensor is the same: a
@@ -363,6 +385,38 @@ py::dict PrepareTwinBody(const py::object& scene_arg,
   return JsonToPython(model_json);
 }
 
+py::dict PrepareSensorModel(const py::object& scene_arg, const std::string& cache_dir) {
+  const Scene scene = SceneArg(scene_arg);
+  nlohmann::json model_json;
+  {
+    py::gil_scoped_release release;
+    const fem::ComplianceCacheResult cached = fem::LoadOrBuildComplianceModel(
+        SensorBodyModelOptions(scene.sensor), ResolveCacheDir(cache_dir), /*show_progress=*/false);
+    model_json = {{"cache_file", cached.path},
+                  {"cache_status", Describe(cached.status)},
+                  {"load_or_build_s", cached.elapsed_s}};
+  }
+  return JsonToPython(model_json);
+}
+
+// N x H x W uint8 of grey images of one size, `image_of(item)` each item's.
+template <typename Items, typename ImageOf>
+py::array_t<std::uint8_t> StackImages(const Items& items, const ImageOf& image_of) {
+  const cv::Mat& first = image_of(items.front());
+  py::array_t<std::uint8_t> stack({static_cast<py::ssize_t>(items.size()),
+                                   static_cast<py::ssize_t>(first.rows),
+                                   static_cast<py::ssize_t>(first.cols)});
+  std::uint8_t* data = stack.mutable_data();
+  for (const auto& item : items) {
+    const cv::Mat& image = image_of(item);
+    TAC3D_DEMAND(image.type() == CV_8UC1 && image.size == first.size);
+    for (int r = 0; r < image.rows; ++r, data += image.cols) {
+      std::memcpy(data, image.ptr<std::uint8_t>(r), image.cols);
+    }
+  }
+  return stack;
+}
+
 // T x rest, stacked from each step's vector (T x S x 3 for Vector3d, T x S otherwise).
 template <typename T, typename Get>
 py::array StackSteps(const std::vector<TwinStep>& steps, Get get) {
@@ -406,47 +460,97 @@ std::unique_ptr<simulation::TwinSimulation> MakeTwinSimulation(const Scene& scen
       scene, SharedTwinBodyModel(body, twin, cache_dir, model_json), options);
 }
 
+// simulate_arrays(measure=True): the scene's sensor as its user has it (scene.sensor: neither the
+// twin's deviation nor its spread) through the pipeline `tac3d run` runs (DefaultPipelineOptions,
+// the compliance model loaded once a process), fed the simulation's images as they are rendered.
+class ArraysMeasurement {
+ public:
+  ArraysMeasurement(const Scene& scene, const simulation::TwinSimulation& sim, const std::string& cache_dir) {
+    const auto start = std::chrono::steady_clock::now();
+    const std::shared_ptr<const fem::ComplianceModel> model =
+        SharedComplianceModel(scene.sensor, cache_dir, &report_["compliance_model"]);
+    measurement_ = std::make_unique<simulation::TwinMeasurement>(
+        scene.sensor, *model, DefaultPipelineOptions(scene.sensor));
+    reference_ = measurement_->TakeReference(sim);
+    frames_.reserve(sim.num_steps());
+    seconds_ += SecondsSince(start);
+  }
+
+  void Measure(const TwinStep& step) {
+    const auto start = std::chrono::steady_clock::now();
+    frames_.push_back(measurement_->Measure(step));
+    seconds_ += SecondsSince(start);
+  }
+
+  const std::vector<Frame>& reference() const { return reference_; }
+  std::vector<TactileFrame>& frames() { return frames_; }
+
+  // The pipeline's options, its model, and the seconds taken rendering the reference and
+  // running the pipeline (the latter also in the simulation's timings.write_s).
+  nlohmann::json Report() const {
+    const PipelineOptions& used = measurement_->pipeline().options();
+    nlohmann::json report = report_;
+    report["reference_frames"] = used.reference_frames;
+    report["sn"] = used.sn;
+    report["force_weight"] = used.force.weight;
+    report["support_refinement"] = used.force.support_refinement;
+    report["seconds"] = seconds_;
+    return report;
+  }
+
+ private:
+  std::unique_ptr<simulation::TwinMeasurement> measurement_;
+  std::vector<Frame> reference_;
+  std::vector<TactileFrame> frames_;
+  nlohmann::json report_;
+  double seconds_ = 0.0;
+};
+
 py::dict SimulateArrays(const py::object& scene_arg,
                         const std::string& cache_dir,
                         int steps,
                         bool images,
                         const py::dict& twin_options,
                         bool scale_youngs_modulus,
-                        bool window) {
+                        bool window,
+                        bool measure) {
   if (steps < 0) throw Error(fmt::format("steps must be >= 0, got {}", steps));
   const Scene scene = SceneArg(scene_arg);
   const simulation::TwinBodyOptions twin = TwinOptions(twin_options);
   nlohmann::json model_json;
   simulation::SimulationSummary summary;
   std::vector<TwinStep> run;
+  std::unique_ptr<ArraysMeasurement> measurement;
   {
     py::gil_scoped_release release;
     simulation::SimulationOptions options;
-    options.render_images = images;
+    options.render_images = images || measure;
     options.max_steps = steps;
     options.contact.windowed = window;
     const std::unique_ptr<simulation::TwinSimulation> sim =
         MakeTwinSimulation(scene, twin, cache_dir, options, scale_youngs_modulus, &model_json);
     run.reserve(sim->num_steps());
-    summary = sim->Run([&](const TwinStep& step) { run.push_back(step); });
+    if (measure) measurement = std::make_unique<ArraysMeasurement>(scene, *sim, cache_dir);
+    summary = sim->Run([&](const TwinStep& step) {
+      run.push_back(step);
+      if (measurement) {
+        measurement->Measure(step);
+        if (!images) run.back().image.release();  // rendered for the pipeline only
+      }
+    });
   }
   if (run.empty()) throw Error(fmt::format("scene '{}' has no steps to simulate", scene.name));
   py::dict d = TruthArrays(run);
   d.attr("pop")("index");
   if (images) {
-    const cv::Mat& first = run.front().image;
-    py::array_t<std::uint8_t> stack({static_cast<py::ssize_t>(run.size()),
-                                     static_cast<py::ssize_t>(first.rows),
-                                     static_cast<py::ssize_t>(first.cols)});
-    std::uint8_t* data = stack.mutable_data();
-    for (const TwinStep& step : run) {
-      const cv::Mat& image = step.image;
-      TAC3D_DEMAND(image.type() == CV_8UC1 && image.size == first.size);
-      for (int r = 0; r < image.rows; ++r, data += image.cols) {
-        std::memcpy(data, image.ptr<std::uint8_t>(r), image.cols);
-      }
+    d["images"] = StackImages(run, [](const TwinStep& step) -> const cv::Mat& { return step.image; });
+  }
+  if (measurement) {
+    if (images) {
+      d["reference_images"] =
+          StackImages(measurement->reference(), [](const Frame& f) -> const cv::Mat& { return f.image; });
     }
-    d["images"] = stack;
+    d["measured"] = RecordingToPython(std::move(measurement->frames()));
   }
   const SurfaceTractions& surface = run.front().surface;
   d["surface_positions"] = Vector3Owned(std::vector<Eigen::Vector3d>(surface.positions_mm));
@@ -459,6 +563,7 @@ py::dict SimulateArrays(const py::object& scene_arg,
   nlohmann::json result = simulation::ToJson(summary);
   result["twin_body"] = model_json;
   result["youngs_modulus_scale"] = scale_youngs_modulus ? scene.deviation.youngs_modulus_factor : 1.0;
+  if (measurement) result["measurement"] = measurement->Report();
   d["summary"] = JsonToPython(result);
   return d;
 }
@@ -748,6 +853,7 @@ void RegisterTwin(py::module_& m) {
         py::arg("twin_options") = py::dict(),
         py::arg("scale_youngs_modulus") = true,
         py::arg("window") = true,
+        py::arg("measure") = false,
         "Simulates a scene (a Scene, a built-in name or a YAML path) in memory (GIL released)\n"
         "and returns every step's truth as arrays, time first: t, world_from_sensor (T x 4 x 4),\n"
         "marker_positions, marker_forces (T x N x 3), marker_contact, marker_slip (T x N),\n"
@@ -757,8 +863,13 @@ void RegisterTwin(py::module_& m) {
         "touches, NaN elsewhere) and summary (dict). The body model is loaded (or built) once a\n"
         "process and kept. scale_youngs_modulus: the model at the scene's nu and E x 1, its\n"
         "compliance scaled to the scene's youngs_modulus_factor (one model for every E); else\n"
-        "the model at the scene's E, as tac3d.simulate. window: as tac3d.simulate's. Raises\n"
-        "tac3d.Error.");
+        "the model at the scene's E, as tac3d.simulate. window: as tac3d.simulate's.\n"
+        "measure: also run each rendered image through the pipeline of the scene's sensor as\n"
+        "`tac3d run` does (its defaults, its compliance model loaded or built in cache_dir\n"
+        "once a process), its reference taken from images of the sensor at rest before step\n"
+        "0: measured (a tac3d.Recording of T frames, one a step) and, with images,\n"
+        "reference_images (R x H x W uint8, what the pipeline took as its reference);\n"
+        "summary['measurement'] says how. Raises tac3d.Error.");
   m.def("prepare_twin_body",
         &PrepareTwinBody,
         py::arg("scene"),
@@ -769,6 +880,15 @@ void RegisterTwin(py::module_& m) {
         "Loads, or builds and saves in cache_dir, the body model simulate_arrays would use for\n"
         "the scene (not kept: a client makes sure the model is cached before its workers load\n"
         "it). Returns {cache_file, cache_status, load_or_build_s}.");
+
+  m.def("prepare_sensor_model",
+        &PrepareSensorModel,
+        py::arg("scene"),
+        py::kw_only(),
+        py::arg("cache_dir") = "",
+        "Loads, or builds and saves in cache_dir, the compliance model the pipeline of the\n"
+        "scene's sensor runs with (simulate_arrays(measure=True)'s, `tac3d run`'s; not kept).\n"
+        "Returns {cache_file, cache_status, load_or_build_s}.");
 
   py::class_<SteppedSimulation>(m, "TwinSimulation", R"doc(
 The twin stepped one step a call (docs/simulation.md, "Stepping from Python"): along the

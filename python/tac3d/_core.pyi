@@ -285,6 +285,8 @@ def simulate_arrays(
     images: bool = True,
     twin_options: Mapping[str, float] = ...,
     scale_youngs_modulus: bool = True,
+    window: bool = True,
+    measure: bool = False,
 ) -> dict[str, Any]: ...
 def prepare_twin_body(
     scene: Union[Scene, str],
@@ -293,6 +295,7 @@ def prepare_twin_body(
     twin_options: Mapping[str, float] = ...,
     scale_youngs_modulus: bool = True,
 ) -> dict[str, Any]: ...
+def prepare_sensor_model(scene: Union[Scene, str], *, cache_dir: str = "") -> dict[str, Any]: ...
 
 class TwinSimulation:
     def __init__(
@@ -335,6 +338,8 @@ class DatasetSpec:
     def steps(self) -> int: ...
     @property
     def images(self) -> bool: ...
+    @property
+    def measured(self) -> bool: ...
     @property
     def sensor(self) -> str: ...
     @property

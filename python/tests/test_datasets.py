@@ -20,9 +20,9 @@ SMALL = REPO / "examples" / "datasets" / "small.yaml"
 EPISODES = 4
 
 
-def generate(cli, cache_dir, out, workers, episodes=EPISODES, spec=SMALL, wait=True):
+def generate(cli, cache_dir, out, workers, episodes=EPISODES, spec=SMALL, wait=True, options=()):
     cmd = [cli, "dataset", "generate", "--spec", str(spec), "--out", str(out),
-           "--episodes", str(episodes), "--workers", str(workers), "--json"]
+           "--episodes", str(episodes), "--workers", str(workers), "--json", *options]
     env = dict(os.environ, TAC3D_CACHE_DIR=cache_dir)
     if not wait:
         return subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
@@ -220,6 +220,106 @@ def test_one_and_two_workers_give_identical_checksums(two_workers, tmp_path, tac
     reference = {k: v for k, v in checksums(out).items() if k < EPISODES}
     assert checksums(one) == reference
     assert len(set(reference.values())) == EPISODES
+
+
+# Array names of what the sensor measured, by the TactileFrame field a replay compares them to.
+MEASURED_MARKERS = {"measured_marker_positions": "positions", "measured_marker_displacements": "displacements",
+                    "measured_marker_forces": "forces", "measured_marker_normals": "normals",
+                    "measured_marker_valid": "valid", "measured_marker_contact": "contact"}
+MEASURED_FRAME = {"measured_total_force": "resultant_force", "measured_total_moment": "resultant_moment",
+                  "measured_flags": "flags", "measured_slip_fraction": "slip_fraction",
+                  "measured_friction": "friction", "measured_friction_sigma": "friction_sigma",
+                  "measured_slip_margin": "slip_margin", "measured_slip_margin_sigma": "slip_margin_sigma",
+                  "measured_least_normal_force": "least_normal_force_n"}
+SLIP_STATES = ("unknown", "none", "stick", "partial_slip", "gross_slip")  # measured_slip_state's codes
+
+
+def replay_through_the_pipeline(reference_images, images, times, cache_dir):
+    """The frames tac3d.Pipeline, as a user runs it on small.yaml's sensor (its defaults), gives
+    for the reference images (the sensor at rest before step 0) and then each step's image."""
+    pipeline = tac3d.Pipeline(config=str(SMALL.parent / "small_sensor.yaml"), cache_dir=cache_dir)
+    count = len(reference_images)
+    for k, image in enumerate(reference_images):
+        pipeline.process(image, timestamp=times[0] - (count - k) / 30.0)
+    assert not pipeline.initializing
+    return [pipeline.process(image, timestamp=float(t)) for image, t in zip(images, times)]
+
+
+def assert_measured_as_replayed(stored, replayed):
+    """The stored measured_* arrays (name -> T-first array) equal the replayed TactileFrames,
+    bit for bit (NaN where the pipeline gave NaN)."""
+    assert len(replayed) == len(stored["measured_total_force"])
+    for k, frame in enumerate(replayed):
+        for name, field in {**MEASURED_MARKERS, **MEASURED_FRAME}.items():
+            np.testing.assert_array_equal(stored[name][k], getattr(frame, field), err_msg=f"{name}, step {k}")
+        assert SLIP_STATES[stored["measured_slip_state"][k]] == frame.slip_state, k
+
+
+def test_measured_episodes_hold_the_pipelines_frames_of_their_images(tmp_path, tac3d_cli, cache_dir):
+    """--measured on 2 Dask workers: each episode also holds what the sensor's pipeline measured on
+    its rendered images; replaying the stored images (the reference, then each step's) through
+    tac3d.Pipeline gives those arrays exactly, and they follow the truth."""
+    out = tmp_path / "measured"
+    result = generate(tac3d_cli, cache_dir, out, workers=2, episodes=3, options=["--measured"])
+    assert result["measured"] is True and result["generated"] == 3
+    assert tac3d.datasets.verify(out)["verified"] == 3
+    ds = tac3d.datasets.open(out)
+    pressed = 0
+    for episode, record in zip(ds, ds.manifest()):
+        assert episode.measured and record["measured"] is True
+        measurement = episode.attrs["measurement"]
+        # The compliance model was built once, by the client: the workers load it (or have it).
+        assert measurement["compliance_model"]["cache_status"] in ("loaded from the cache", "in memory")
+        assert measurement["reference_frames"] == 20 and measurement["sn"] == "TAC3D-TWIN"
+        reference = episode.array("reference_images")
+        assert reference.shape == (20, 480, 640) and reference.dtype == np.uint8
+        frames = list(episode.frames())
+        assert frames[0]["measured_marker_positions"].shape == (9, 3)
+        stored = {name: np.stack([f[name] for f in frames]) for name in frames[0] if name.startswith("measured_")}
+        assert set(stored) == set(MEASURED_MARKERS) | set(MEASURED_FRAME) | {"measured_slip_state"}
+        replayed = replay_through_the_pipeline(reference, [f["image"] for f in frames],
+                                               [f["t"] for f in frames], cache_dir)
+        assert_measured_as_replayed(stored, replayed)
+        # Measured, not made up: every marker seen past the reference, nothing on the sensor at
+        # step 0, and under a press the normal force of the truth's sign and size (9 markers make
+        # a coarse inverse: within a factor of 2).
+        assert stored["measured_marker_valid"].all()
+        assert not (stored["measured_flags"] & 16).any()  # never initializing
+        assert np.linalg.norm(stored["measured_total_force"][0]) < 0.01
+        for f in frames:
+            if f["total_force"][2] < -0.05:
+                pressed += 1
+                assert 0.5 * f["total_force"][2] > f["measured_total_force"][2] > 2.0 * f["total_force"][2]
+    assert pressed >= 3
+    # A folder's episodes hold the same arrays: a run without the measurements is refused.
+    run = subprocess.run([tac3d_cli, "dataset", "generate", "--spec", str(SMALL), "--out", str(out),
+                          "--episodes", "4"], env=dict(os.environ, TAC3D_CACHE_DIR=cache_dir),
+                         capture_output=True, text=True, timeout=120)
+    assert run.returncode == 1 and "episodes 0, 1, 2 were generated with the sensor's measurements" in run.stderr
+    assert len(tac3d.datasets.open(out)) == 3
+
+
+def test_measured_without_stored_images_is_the_pipeline_on_the_same_images_rendered_again(
+        tmp_path, cache_dir):
+    """The spec's `measured: true` with `images: false`: the images are rendered for the pipeline
+    and not stored; rendering the same episode again and replaying its images through
+    tac3d.Pipeline gives the stored measurements exactly."""
+    spec = tmp_path / "small.yaml"
+    spec.write_text(SMALL.read_text().replace("images: true", "images: false\nmeasured: true"))
+    shutil.copy(SMALL.parent / "small_sensor.yaml", tmp_path)
+    out = tmp_path / "blind"
+    result = tac3d.datasets.generate(str(spec), str(out), 1, workers=1, cache_dir=cache_dir)
+    assert result["measured"] is True
+    episode = tac3d.datasets.open(out)[0]
+    assert episode.measured and not {"images", "reference_images"} & set(episode.arrays)
+    draw = tac3d.datasets.load_spec(str(spec)).draw(0)
+    again = tac3d.simulate_arrays(tac3d.parse_scene(draw["scene_yaml"]), cache_dir=cache_dir,
+                                  twin_options=tac3d.datasets.load_spec(str(spec)).twin_options,
+                                  images=True, measure=True)
+    np.testing.assert_array_equal(again["marker_positions"], episode.array("marker_positions"))
+    replayed = replay_through_the_pipeline(again["reference_images"], again["images"], again["t"], cache_dir)
+    assert_measured_as_replayed({name: episode.array(name) for name in episode.arrays
+                                 if name.startswith("measured_")}, replayed)
 
 
 IN_FLIGHT = re.compile(r"^\.episode_(\d+)\..*-(\d+)-[0-9a-f]{8}\.tmp$")

@@ -24,6 +24,9 @@ def main(argv=None):
     where.add_argument("--scheduler", help="an existing cluster's scheduler, tcp://HOST:PORT")
     g.add_argument("--cache-dir", default=os.environ.get("TAC3D_CACHE_DIR", ""),
                    help="the twin body model cache (default $TAC3D_CACHE_DIR, else ~/.cache/tac3d)")
+    g.add_argument("--measured", action="store_true", default=None,
+                   help="also store what the sensor's pipeline measures on the rendered images "
+                        "beside the truth (default: the spec's `measured`)")
     g.add_argument("--json", action="store_true", help="print the summary as JSON")
     v = commands.add_parser("verify", help="check a dataset's manifest and checksums")
     v.add_argument("folder")
@@ -31,7 +34,8 @@ def main(argv=None):
     try:
         if args.command == "generate":
             result = generate(args.spec, args.out, args.episodes, workers=args.workers,
-                              scheduler=args.scheduler, cache_dir=args.cache_dir)
+                              scheduler=args.scheduler, cache_dir=args.cache_dir,
+                              measured=args.measured)
             if args.json:
                 print(json.dumps(result))
             else:

@@ -83,20 +83,38 @@ def remove_temporaries(out):
                         os.unlink(entry.path)
 
 
-def prepare_models(spec_path, todo, cache_dir):
+def prepare_models(spec_path, todo, cache_dir, measured=False):
     """Loads, or builds and caches, each body model the episodes `todo` need (one a nu: E is
-    scaled from it) before any worker starts, so the workers only load models (a build of the
-    prototype's peaks at 7.4 GB, never to be done by every worker at once). Returns how many."""
+    scaled from it) and, with `measured`, the compliance model the sensor's pipeline runs with
+    (one: every episode's sensor is the spec's) before any worker starts, so the workers only
+    load models (a build of the prototype's body peaks at 7.4 GB, never to be done by every
+    worker at once). Returns how many body models."""
     spec = load_spec(spec_path)
     prepared = set()
     for episode in todo:
         draw = spec.draw(episode)
         nu = draw["parameters"]["sensor"]["poisson_ratio_factor"]
         if nu not in prepared:
+            scene = _core.parse_scene(draw["scene_yaml"], ".")
+            if measured and not prepared:
+                _core.prepare_sensor_model(scene, cache_dir=cache_dir)
             prepared.add(nu)
-            _core.prepare_twin_body(_core.parse_scene(draw["scene_yaml"], "."),
-                                    cache_dir=cache_dir, twin_options=spec.twin_options)
+            _core.prepare_twin_body(scene, cache_dir=cache_dir, twin_options=spec.twin_options)
     return len(prepared)
+
+
+def check_measured(out, records, measured):
+    """@raises tac3d.Error if a complete episode of `out` was generated with the sensor's
+    measurements and this run would not store them, or the other way round: a folder's episodes
+    hold the same arrays."""
+    other = sorted(episode for episode, record in records.items() if record.get("measured", False) != measured)
+    if other:
+        shown = ", ".join(map(str, other[:5])) + (", ..." if len(other) > 5 else "")
+        raise _core.Error(
+            f"dataset folder '{out}': episode{'s' if len(other) > 1 else ''} {shown} "
+            f"{'were' if len(other) > 1 else 'was'} generated {'without' if measured else 'with'} "
+            f"the sensor's measurements, which this run would {'store' if measured else 'leave out'}: "
+            f"generate with the same setting (the spec's `measured`, --measured) or into another folder")
 
 
 def max_workers():
@@ -152,27 +170,34 @@ def dask_client(workers, scheduler, stream):
         yield client
 
 
-def generate(spec, out, episodes, workers=1, scheduler=None, cache_dir="", stream=sys.stderr):
+def generate(spec, out, episodes, workers=1, scheduler=None, cache_dir="", stream=sys.stderr,
+             measured=None):
     """Generates episodes 0 .. episodes - 1 of `spec` into `out`, skipping complete ones.
-    Returns {episodes (complete in out), skipped, generated, seconds, workers}.
-    Raises tac3d.Error for a bad spec, count or folder, before any cluster starts."""
+    `measured`: store what the sensor's pipeline measures beside the truth (None: as the
+    spec's `measured` says). Returns {episodes (complete in out), skipped, generated, seconds,
+    workers, measured}.
+    Raises tac3d.Error for a bad spec, count or folder, or a folder whose episodes were
+    generated with the other `measured`, before any cluster starts."""
     spec_path = str(pathlib.Path(spec).resolve())
     out = str(pathlib.Path(out).resolve())
     check_arguments(episodes, workers, scheduler)
-    _core.load_dataset_spec(str(spec))  # a bad spec is refused here, named as the user gave it
+    parsed = _core.load_dataset_spec(str(spec))  # a bad spec is refused here, named as the user gave it
+    measured = parsed.measured if measured is None else bool(measured)
     prepare_folder(spec_path, out)
     records = store.complete_episodes(out)  # any id: a run of fewer episodes keeps the others
+    check_measured(out, records, measured)
     todo = [i for i in range(episodes) if i not in records]
     start = time.perf_counter()
     used_workers = 0
     if todo:
         from distributed import as_completed
 
-        prepare_models(spec_path, todo, cache_dir)
+        prepare_models(spec_path, todo, cache_dir, measured)
         with dask_client(workers, scheduler, stream) as client:
             used_workers = len(client.scheduler_info()["workers"])
             futures = client.map(run_episode, [spec_path] * len(todo), [out] * len(todo), todo,
-                                 [cache_dir] * len(todo), key=[f"tac3d-episode-{i}" for i in todo])
+                                 [cache_dir] * len(todo), [measured] * len(todo),
+                                 key=[f"tac3d-episode-{i}" for i in todo])
             bar = Progress(len(todo), stream)
             for future in as_completed(futures):
                 record = future.result()
@@ -181,4 +206,4 @@ def generate(spec, out, episodes, workers=1, scheduler=None, cache_dir="", strea
     remove_temporaries(out)
     store.write_manifest(out, records)
     return {"episodes": len(records), "skipped": episodes - len(todo), "generated": len(todo),
-            "seconds": round(time.perf_counter() - start, 3), "workers": used_workers}
+            "seconds": round(time.perf_counter() - start, 3), "workers": used_workers, "measured": measured}

@@ -48,7 +48,11 @@ EPISODE_FOLDER = re.compile(r"episode_([0-9]{6})\.zarr")
 MAX_JSON_BYTES = 16 << 20
 
 # Arrays chunked one frame a chunk; the others are one chunk each.
-PER_FRAME = ("images", "surface_tractions", "surface_states", "surface_friction")
+SURFACE_PER_FRAME = ("surface_tractions", "surface_states", "surface_friction")
+PER_FRAME = ("images", "reference_images") + SURFACE_PER_FRAME
+# Arrays whose first dimension is not the episode's steps: the surface's nodes, and the frames of
+# the sensor at rest its pipeline took as its reference before step 0.
+NOT_PER_STEP = ("surface_positions", "reference_images")
 # Frames Episode.frames reads with one zarr call: a call's overhead is paid once a block.
 READ_BLOCK_FRAMES = 32
 
@@ -170,7 +174,7 @@ def checksum(arrays, parameters):
 
 
 def compressor(name):
-    return IMAGE_COMPRESSOR if name == "images" else ARRAY_COMPRESSOR
+    return IMAGE_COMPRESSOR if name in ("images", "reference_images") else ARRAY_COMPRESSOR
 
 
 def write_group(path, arrays, attrs):
@@ -370,11 +374,17 @@ class Episode:
         if "t" not in self.arrays:
             raise _core.Error(f"{self.path}: no array 't'")
         for name, a in self.arrays.items():
-            if name != "surface_positions" and a.shape[0] != len(self):
+            if name not in NOT_PER_STEP and a.shape[0] != len(self):
                 raise _core.Error(f"{self.path}: array '{name}' has {a.shape[0]} frames, 't' {len(self)}")
 
     def __len__(self):
         return self.arrays["t"].shape[0]
+
+    @property
+    def measured(self):
+        """Whether the episode holds what the sensor's pipeline measured (the measured_* arrays)
+        beside the truth."""
+        return "measured_total_force" in self.arrays
 
     def array(self, name):
         """The whole array `name` (e.g. marker_forces, T x N x 3)."""
@@ -390,17 +400,19 @@ class Episode:
         return checksum({name: self.array(name) for name in self.arrays}, self.parameters)
 
     def frames(self, images=True, surface=False):
-        """Each frame as a dict of numpy arrays: t, sensor_pose, marker_*, total_force,
-        total_moment, and image (when the episode has images and `images`) and the surface
-        truth (surface_tractions, surface_states, surface_friction, with `surface`). The small
+        """Each frame as a dict of numpy arrays: t, sensor_pose, the truth (marker_*,
+        total_force, total_moment), what the sensor measured (measured_*, when the episode was
+        generated with measurements: `measured`), and image (when the episode has images and
+        `images`) and the surface truth (surface_tractions, surface_states, surface_friction,
+        with `surface`). The small
         per-marker arrays are read once; images and surface frames READ_BLOCK_FRAMES at a time,
         the next block read in a background thread (read_pool) while this one is yielded."""
-        small = {n: self.array(n) for n in self.arrays if n not in PER_FRAME and n != "surface_positions"}
+        small = {n: self.array(n) for n in self.arrays if n not in PER_FRAME and n not in NOT_PER_STEP}
         per_frame = []
         if images and "images" in self.arrays:
             per_frame.append(("image", "images"))
         if surface and "surface_tractions" in self.arrays:
-            per_frame += [(n, n) for n in PER_FRAME[1:] if n in self.arrays]
+            per_frame += [(n, n) for n in SURFACE_PER_FRAME if n in self.arrays]
         count = len(self)
 
         def read_block(start):

@@ -426,6 +426,7 @@ DatasetSpec ParseDatasetSpec(const std::string& yaml_text,
     r.FailAt(r.Required("steps"), "steps", fmt::format("must be in [2, {}]", kMaxEpisodeSteps));
   }
   spec.images = r.Bool("images", true);
+  spec.measured = r.Bool("measured", false);
   spec.clearance_mm = r.Double("clearance_mm", spec.clearance_mm);
   if (!(spec.clearance_mm > 0.0 && spec.clearance_mm <= 5.0)) {
     r.FailAt(r.Required("clearance_mm"), "clearance_mm", "must be in (0, 5]");

@@ -89,6 +89,10 @@ struct DatasetSpec {
   double fingertip_top_mm = 8.0;   ///< the sensor's thickness: where objects are placed above
   int steps = 100;                 ///< steps an episode
   bool images = true;
+  /// Also run each episode's rendered images through the sensor's pipeline and store what it
+  /// measures beside the truth (docs/datasets.md, "What the sensor measures"); rendered for it
+  /// even when `images` is false.
+  bool measured = false;
   double clearance_mm = 0.05;  ///< the object's gap to the fingertip at the start
   /// The twin: its scene deviation's mesh_refinement, and TwinBodyOptions by name
   /// (margin_mm, quadrature_points_per_side, cells_per_pitch) as `tac3d.simulate` takes them.

@@ -73,6 +73,8 @@ TEST(DatasetSpec, ParsesEveryFamily) {
   EXPECT_EQ(spec.seed, 11u);
   EXPECT_EQ(spec.steps, 20);
   EXPECT_FALSE(spec.images);
+  EXPECT_FALSE(spec.measured);  // unless asked for
+  EXPECT_TRUE(MixedSpec(ReplacedInSpec(kMixedSpec, "images: false", "images: false\nmeasured: true")).measured);
   EXPECT_EQ(spec.objects.size(), 5u);
   EXPECT_EQ(spec.trajectories.size(), 5u);
   EXPECT_EQ(spec.objects[0].weight, 2.0);
@@ -177,6 +179,8 @@ TEST(DatasetSpec, RefusesBadInputNamingTheLine) {
             "spec.yaml: line 5: duplicated key 'steps' (first at line 4)");
   EXPECT_EQ(DatasetSpecErrorOf(ReplacedInSpec(kMixedSpec, "images: false", "image: false")),
             "spec.yaml: line 5: image: unknown key (misspelt?)");
+  EXPECT_THAT(DatasetSpecErrorOf(ReplacedInSpec(kMixedSpec, "images: false", "images: false\nmeasured: often")),
+              HasSubstr("spec.yaml: line 6: measured"));
   EXPECT_EQ(DatasetSpecErrorOf(ReplacedInSpec(
                 kMixedSpec, "mu: \\{uniform: \\[0.2, 1.2\\]\\}", "mu: {uniform: [0.2, 7]}")),
             "spec.yaml: line 19: friction.mu.uniform[1]: 7 is out of range: must be in [0, 5]");

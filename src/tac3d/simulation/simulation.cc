@@ -252,6 +252,25 @@ TwinStep TwinSimulation::SimulateStep(const StepLoads* loads) {
   return out;
 }
 
+std::vector<Frame> TwinSimulation::RenderAtRest(int count) const {
+  if (count < 1) throw Error(fmt::format("TwinSimulation::RenderAtRest: count = {} must be >= 1", count));
+  if (!renderer_) {
+    throw Error(fmt::format("TwinSimulation::RenderAtRest: scene '{}' is simulated without images",
+                            scene_.name));
+  }
+  const FrameConditions conditions = scene_.conditions.At(0.0);
+  const double t0_s = scene_.trajectory.StepTime(0);
+  std::vector<Frame> frames(count);
+  for (int r = 0; r < count; ++r) {
+    Frame& frame = frames[r];
+    frame.index = r - count;
+    frame.timestamp_s = t0_s + frame.index * kRestFramePeriodS;
+    // A negative index wraps to its own noise stream, apart from every step's.
+    frame.image = renderer_->Render(model_->marker_positions, static_cast<std::uint64_t>(frame.index), conditions);
+  }
+  return frames;
+}
+
 Eigen::Vector2d TwinSimulation::TakeTangentialIncrement(const Rigid3& world_from_sensor) {
   Eigen::Vector2d increment = Eigen::Vector2d::Zero();
   if (previous_contact_) {

@@ -70,6 +70,9 @@ struct StepLoads {
 /// The sensor a scene's images are rendered with: its sensor after its manufacturing spread.
 SensorConfig RenderedSensor(const Scene& scene);
 
+/// The time between the frames of TwinSimulation::RenderAtRest (s): a camera at 30 Hz.
+inline constexpr double kRestFramePeriodS = 1.0 / 30.0;
+
 /// Wall time of a run's phases (s), summed over the steps.
 struct SimulationTimings {
   double gap_s = 0.0;       ///< ray casting the gaps and friction
@@ -141,6 +144,14 @@ class TwinSimulation {
   /// Simulates every remaining step, handing each to `sink` (e.g. TwinDatasetWriter::Write;
   /// its time is the write time).
   SimulationSummary Run(const std::function<void(const TwinStep&)>& sink);
+
+  /// The camera images of the sensor at rest before step 0, what a sensor started up before it
+  /// touches anything sees: the markers at their rest positions, the session's conditions at its
+  /// start, frames -count .. -1 (each with noise of its own; step k is frame k) at
+  /// kRestFramePeriodS apart ending one period before step 0's time. They are what
+  /// TwinMeasurement takes as the pipeline's reference. Timings and steps are untouched.
+  /// @throws tac3d::Error if count < 1 or the simulation renders no images.
+  std::vector<Frame> RenderAtRest(int count) const;
 
   /// The contact state the next step starts from.
   const contact::ContactState& state() const { return state_; }
