@@ -1,13 +1,14 @@
-// Image to TactileFrame per frame (issue: median <= 1 ms on one core): tracking, stereo,
+// Image to TactileFrame per frame (median <= 1 ms on one core): tracking, stereo,
 // displacement, F = K D, normals, contact, resultants and the live slip estimate, on twin
 // frames of a moving press (/0) and of a press that also shears the surface along x (/1, so
 // the slip estimate sees a tangential load); the slip estimate alone on the sheared press's
 // frames (BM_SlipEstimate/0) and on those around its partial slip (/1, the friction-cone mu);
 // and
 // the throughput with the Tac3D UDP sender on, streaming every frame to a loopback client
-// socket that drains what arrives (issue 6). At 1920 x 1080 on a vendor-calibrated sensor
-// (issue 23: median <= 2 ms on one core), with the decoding of a 1920 x 1080 MJPEG frame beside
-// it (BM_VendorImageToTactileFrame, BM_DecodeMjpeg1080p).
+// socket that drains what arrives. At 1920 x 1080 on a vendor-calibrated sensor
+// (median <= 2 ms on one core), with the decoding of a 1920 x 1080 MJPEG frame beside
+// it (BM_VendorImageToTactileFrame, BM_DecodeMjpeg1080p), and the two together as a camera's
+// MJPEG frames reach the pipeline (BM_VendorMjpegToTactileFrame: median <= 5 ms on one core).
 // Run: taskset -c 0 build/bin/bench_pipeline --benchmark_repetitions=10
 //        --benchmark_report_aggregates_only=true
 #include <array>
@@ -19,6 +20,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "tac3d/design/light_path_design.h"
+#include "tac3d/imagefile/jpeg_decoder.h"
 #include "tac3d/force/synthetic_compliance.h"
 #include "tac3d/pipeline/pipeline.h"
 #include "tac3d/protocol/udp_sender.h"
@@ -126,7 +128,7 @@ BENCHMARK(BM_DecodeMjpeg1080p)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 
 // The SlipEstimator's share: its Estimate alone on the sheared press's TactileFrames (/0), and
 // on the pairs of them whose second reads partial slip (/1: the frame before, then that frame,
-// so about half the calls take the friction-cone estimate of mu, issue 26's added cost).
+// so about half the calls take the friction-cone estimate of mu, its added cost).
 void BM_SlipEstimate(benchmark::State& state) {
   PressStream stream(0.4);
   std::vector<TactileFrame> frames(stream.frames.size());
@@ -167,6 +169,45 @@ void BM_SlipEstimate(benchmark::State& state) {
   state.counters["with_mu"] = static_cast<double>(with_mu) / iterations;
 }
 BENCHMARK(BM_SlipEstimate)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+
+// BM_VendorImageToTactileFrame's frames as an MJPEG camera sends them (each a JPEG of quality 90),
+// decoded and processed: /0 decoding each whole (cv::imdecode's grey), /1 only the region the
+// tracker reads next (JpegGreyDecoder, Pipeline::CalcReadRegion), as the camera source does.
+// decoded_fraction: the share of the image's pixels decoded.
+void BM_VendorMjpegToTactileFrame(benchmark::State& state) {
+  PressStream stream(0.0, Hdl1Sensor());
+  std::vector<std::vector<std::uint8_t>> jpegs;
+  for (const Frame& frame : stream.frames) {
+    cv::Mat bgr;
+    cv::cvtColor(frame.image, bgr, cv::COLOR_GRAY2BGR);
+    cv::imencode(".jpg", bgr, jpegs.emplace_back(), {cv::IMWRITE_JPEG_QUALITY, 90});
+  }
+  const bool partial = state.range(0) == 1;
+  JpegGreyDecoder decoder;
+  Frame frame;
+  TactileFrame out;
+  double decoded_pixels = 0;
+  size_t k = 0;
+  for (auto _ : state) {
+    const std::vector<std::uint8_t>& jpeg = jpegs[k % jpegs.size()];
+    frame.index = static_cast<std::int64_t>(k++);
+    if (partial) {
+      const std::optional<cv::Rect> region = stream.pipeline.CalcReadRegion();
+      const JpegDecodeResult result = decoder.Decode(jpeg, 1920, 1080, region, frame.image);
+      frame.decoded_region = region ? std::optional<cv::Rect>(result.decoded) : std::nullopt;
+      decoded_pixels += result.decoded.area();
+    } else {
+      frame.image = cv::imdecode(jpeg, cv::IMREAD_GRAYSCALE);
+      decoded_pixels += frame.image.total();
+    }
+    stream.pipeline.Process(frame, out);
+    benchmark::DoNotOptimize(out.resultant_force_n);
+  }
+  if (out.has(FrameFlag::kInitializing) || out.has(FrameFlag::kMarkersLost)) state.SkipWithError("bad frame");
+  state.counters["decoded_fraction"] =
+      decoded_pixels / (1920.0 * 1080.0 * static_cast<double>(std::max<std::int64_t>(state.iterations(), 1)));
+}
+BENCHMARK(BM_VendorMjpegToTactileFrame)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 
 // Image -> TactileFrame -> Tac3D datagrams to 127.0.0.1, a client socket on the same machine
 // taking them off its queue: frames/s end to end on loopback (no images in the stream).

@@ -5,6 +5,9 @@ find_package(yaml-cpp REQUIRED)
 find_package(nlohmann_json 3 REQUIRED)
 find_package(fmt REQUIRED)
 find_package(Threads REQUIRED)
+# libjpeg-turbo's libjpeg API (libjpeg62-turbo-dev): a camera's MJPEG decoded only where the
+# tracker reads (jpeg_crop_scanline, jpeg_skip_scanlines), which TurboJPEG 2.1 cannot.
+find_package(JPEG REQUIRED)
 # LAPACK's SVD for the force inverse's compliance spectrum (OpenBLAS's, libopenblas-dev).
 find_package(LAPACK REQUIRED)
 # The viewer's HTTP + WebSocket server: Boost.Beast, header-only in Boost 1.74 (libboost-dev).

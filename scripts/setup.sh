@@ -7,6 +7,7 @@ cd "$(dirname "$0")/.."
 packages=(
   cmake g++ make ninja-build pkg-config
   libopencv-dev libeigen3-dev libsuitesparse-dev libopenblas-dev
+  libjpeg62-turbo-dev  # libjpeg-turbo: a camera's MJPEG decoded partially (src/tac3d/imagefile)
   libyaml-cpp-dev nlohmann-json3-dev libfmt-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libopen3d-dev

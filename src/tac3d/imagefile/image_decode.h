@@ -31,4 +31,15 @@ struct DecodedImage {
 /// allocates what a corrupt header claims), and whatever the decoder refuses.
 DecodedImage DecodeGrayImage(const std::vector<std::uint8_t>& bytes, int max_width, int max_height);
 
+namespace internal {
+
+/// DecodeGrayImage's refusal of a file a decoder did not read.
+inline constexpr const char* kUnreadableImage = "not a readable image (corrupt or truncated)";
+
+/// DecodeGrayImage's refusals made before decoding (no bytes, a JPEG cut short, a header over the
+/// limit), or "" for bytes to hand to a decoder.
+std::string RefusalBeforeDecoding(const std::vector<std::uint8_t>& bytes, int max_width, int max_height);
+
+}  // namespace internal
+
 }  // namespace tac3d

@@ -178,7 +178,7 @@ void Pipeline::Process(const Frame& frame, TactileFrame& out) {
   if (out.num_markers() != n || out.positions_mm.size() != static_cast<size_t>(n)) {
     out = TactileFrame::Sized(rows_, cols_);
   }
-  tracker_.Track(frame.image, observation_);
+  tracker_.Track(frame.image, observation_, frame.decoded_region);
   triangulator_->Triangulate(observation_.half(ImageHalf::kLeft).uv, observation_.half(ImageHalf::kRight).uv,
                             field_);
   out.sn = options_.sn;

@@ -90,7 +90,8 @@ class Pipeline {
   ~Pipeline();
 
   /// Processes one camera image into `out` (its storage reused). A frame the tracker cannot
-  /// measure (no grid) still gives a TactileFrame, every marker invalid and flagged.
+  /// measure (no grid) still gives a TactileFrame, every marker invalid and flagged. Of a partly
+  /// decoded image (Frame::decoded_region) only that part is read.
   /// @throws Error if the timestamp is not finite (the frame could not be recorded or sent),
   ///   or the image is empty or not the camera's size and type.
   void Process(const Frame& frame, TactileFrame& out);
@@ -102,6 +103,10 @@ class Pipeline {
   /// @throws Error if the frame has another number of markers than the sensor, or a valid
   ///   marker's position or displacement is not finite.
   void RecomputeForces(TactileFrame& frame);
+
+  /// The part of the next camera image Process reads (MarkerTracker::CalcReadRegion), for a
+  /// source that can decode no more (FrameSource::SetDecodeRegion); nullopt: all of it.
+  std::optional<cv::Rect> CalcReadRegion() const { return tracker_.CalcReadRegion(); }
 
   /// The tracker's markers in the image the last Process call was given (both halves' pixels,
   /// states and estimates): for a caller that draws them (the viewer), read after Process and

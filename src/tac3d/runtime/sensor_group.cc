@@ -148,7 +148,9 @@ std::vector<SensorReport> RunSensorGroup(const std::vector<SensorRunSpec>& senso
     outputs.sn = sensors[i].sn;
     outputs.json = options.json;
     try {
-      open[i].stream = OpenSensorStream(sensors[i], shared_models, sensors[i].sn + ": ");
+      SensorRunSpec spec = sensors[i];
+      spec.shared_viewer = viewer != nullptr;
+      open[i].stream = OpenSensorStream(spec, shared_models, sensors[i].sn + ": ");
       open[i].outputs = std::make_unique<FrameOutputs>(outputs, viewer);
     } catch (const std::exception& e) {
       reports[i].failure = fmt::format("could not start: {}", Why(e));

@@ -76,6 +76,7 @@ class PipelineStream final : public SensorStream {
     if (clock_.common) frame_.timestamp_s = SecondsSince(clock_.epoch);
     try {
       pipeline_->Process(frame_, out_);
+      if (!spec_.NeedsWholeImages()) source_->SetDecodeRegion(pipeline_->CalcReadRegion());
     } catch (const Error& e) {
       last_skip_ = e.what();
       std::fprintf(stderr, "%sskipped frame %lld: %s\n", log_prefix_.c_str(),

@@ -50,6 +50,14 @@ struct SensorRunSpec {
   double exposure = 0.0;  ///< camera exposure in driver units; 0 automatic
   /// udp, record, record_images, overwrite, json; sn is set from `sn` for pipelines.
   FrameOutputArgs outputs;
+  /// A viewer shows the camera's images (one a run file's sensors share; outputs.web is this
+  /// sensor's own).
+  bool shared_viewer = false;
+
+  /// Whether the camera's images are shown or recorded (a viewer, record_images), so decoded
+  /// whole; else an MJPEG camera's frames are decoded only where the tracker reads
+  /// (FrameSource::SetDecodeRegion).
+  bool NeedsWholeImages() const { return shared_viewer || !outputs.web.empty() || outputs.record_images; }
 
   /// The pipeline's options for this sensor: DefaultPipelineOptions(config) with sn,
   /// reference_frames, weight, support_resolve, gains and drift as given.

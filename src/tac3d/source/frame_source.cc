@@ -11,6 +11,7 @@
 
 #include "tac3d/imagefile/grey_image.h"
 #include "tac3d/imagefile/image_decode.h"
+#include "tac3d/imagefile/jpeg_decoder.h"
 #include "tac3d/source/threaded_capture.h"
 #include "tac3d/util/error.h"
 
@@ -48,15 +49,17 @@ std::string CameraReadFailure(const std::string& path) {
   return fs::exists(path) ? "the driver stopped delivering frames" : "the device is gone (unplugged)";
 }
 
-// A camera streaming MJPEG: each frame's JPEG, as the driver delivered it, decoded to grey. A
-// frame that does not decode (a USB transfer cut short) is skipped; so many in a row that the
-// stream is not MJPEG fails the source.
+// A camera streaming MJPEG: each frame's JPEG, as the driver delivered it, decoded to grey
+// where the caller reads (JpegGreyDecoder). A frame that does not decode (a USB transfer cut
+// short) is skipped; so many in a row that the stream is not MJPEG fails the source.
 class MjpegGrab {
  public:
   MjpegGrab(std::shared_ptr<cv::VideoCapture> capture, std::string path, int width, int height)
-      : capture_(std::move(capture)), path_(std::move(path)), width_(width), height_(height) {}
+      : capture_(std::move(capture)), path_(std::move(path)), width_(width), height_(height),
+        decoder_(std::make_shared<JpegGreyDecoder>()) {}
 
-  bool operator()(cv::Mat& image, std::string& error) {
+  bool operator()(const std::optional<cv::Rect>& region, cv::Mat& image, std::optional<cv::Rect>& decoded,
+                  std::string& error) {
     constexpr int kMaxUndecodable = 30;
     for (int undecodable = 0; undecodable < kMaxUndecodable; ++undecodable) {
       if (!capture_->read(raw_)) {
@@ -64,12 +67,12 @@ class MjpegGrab {
         return false;
       }
       bytes_.assign(raw_.datastart, raw_.dataend);
-      DecodedImage decoded = DecodeGrayImage(bytes_, width_, height_);
-      if (!decoded.image.empty()) {
-        image = std::move(decoded.image);
+      const JpegDecodeResult result = decoder_->Decode(bytes_, width_, height_, region, image);
+      if (result.refusal.empty()) {
+        decoded = region ? std::optional<cv::Rect>(result.decoded) : std::nullopt;
         return true;
       }
-      error = decoded.refusal;
+      error = result.refusal;
     }
     error = fmt::format("{} MJPEG frames in a row did not decode (last: {})", kMaxUndecodable, error);
     return false;
@@ -80,6 +83,7 @@ class MjpegGrab {
   std::string path_;
   int width_;
   int height_;
+  std::shared_ptr<JpegGreyDecoder> decoder_;  // shared: std::function copies the grab
   cv::Mat raw_;
   std::vector<std::uint8_t> bytes_;
 };
@@ -234,7 +238,8 @@ std::unique_ptr<FrameSource> OpenCamera(const CameraSourceOptions& options) {
   const std::string description =
       fmt::format("camera {} {}x{} {} @ {} fps", path, width, height, format, capture->get(cv::CAP_PROP_FPS));
   if (format == "MJPG" && capture->set(cv::CAP_PROP_CONVERT_RGB, 0)) {
-    return std::make_unique<ThreadedCapture>(description, MjpegGrab(capture, path, width, height), kCameraTimeoutS);
+    return std::make_unique<ThreadedCapture>(description, ThreadedCapture::DecodingGrab(MjpegGrab(capture, path, width, height)),
+                                             kCameraTimeoutS);
   }
   auto grab = [capture, path](cv::Mat& image, std::string& error) {
     if (capture->read(image)) return true;

@@ -18,6 +18,9 @@ struct Frame {
   cv::Mat image;              ///< CV_8UC1 (colour sources are converted to grey)
   double timestamp_s = 0.0;   ///< since the source was opened (or the file's own clock)
   std::int64_t index = 0;     ///< 0, 1, 2, ... in the order read
+  /// The part of `image` decoded, when the source decoded only the region it was asked for
+  /// (FrameSource::SetDecodeRegion); the other pixels are 0. nullopt: the whole image.
+  std::optional<cv::Rect> decoded_region;
 };
 
 enum class ReadStatus {
@@ -37,6 +40,11 @@ class FrameSource {
   virtual ReadStatus Read(Frame& frame) = 0;
   /// What this source is, for messages ("camera /dev/video0 640x480 @ 30 fps").
   virtual std::string Describe() const = 0;
+  /// The part of the images the caller reads from now on (its tracker's, MarkerTracker::
+  /// CalcReadRegion), or nullopt for all of it, the default. A source of compressed frames (an
+  /// MJPEG camera) may then decode only that part, saying so in Frame::decoded_region; the
+  /// others ignore it.
+  virtual void SetDecodeRegion(const std::optional<cv::Rect>& region) {}
   /// Why the last Read did not return kOk (empty after kOk).
   const std::string& last_error() const { return last_error_; }
 
@@ -55,7 +63,8 @@ struct CameraSourceOptions {
   /// The V4L2 pixel format asked of the driver, as its four-character code ("MJPG", "YUYV");
   /// empty: the driver's choice. A USB 2 camera gives 1920 x 1080 at 30 fps only as MJPEG.
   /// MJPEG frames are decoded straight to grey, the luma alone (at 1920 x 1080 about half the
-  /// time of decoding to colour and converting: docs/real-sensors.md).
+  /// time of decoding to colour and converting: docs/real-sensors.md), and only the region set
+  /// with SetDecodeRegion (JpegGreyDecoder).
   std::string pixel_format;
 
   /// @throws Error naming the field and its bound.

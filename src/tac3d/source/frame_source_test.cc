@@ -12,6 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
 
+#include "tac3d/imagefile/jpeg_decoder.h"
 #include "tac3d/source/threaded_capture.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
@@ -95,6 +96,44 @@ TEST(ThreadedCapture, StalledDriverTimesOutInsteadOfHanging) {
     EXPECT_EQ(capture.Read(frame), ReadStatus::kFailed);
   }  // the destructor leaves the stuck thread behind
   *release = true;
+}
+
+// The MJPEG camera's path without a camera: the grab decodes each JPEG with the region the
+// caller set last, and the frame says what was decoded; until a region is set, and after it is
+// cleared, frames are decoded whole.
+TEST(ThreadedCapture, ADecodingGrabDecodesTheRegionTheCallerSet) {
+  std::vector<std::uint8_t> jpeg;
+  ASSERT_TRUE(cv::imencode(".jpg", Pattern(90), jpeg));
+  auto decoder = std::make_shared<JpegGreyDecoder>();
+  ThreadedCapture capture(
+      "test MJPEG camera",
+      ThreadedCapture::DecodingGrab([decoder, jpeg](const std::optional<cv::Rect>& region, cv::Mat& image,
+                                                    std::optional<cv::Rect>& decoded, std::string& error) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        const JpegDecodeResult result = decoder->Decode(jpeg, 64, 48, region, image);
+        error = result.refusal;
+        decoded = region ? std::optional<cv::Rect>(result.decoded) : std::nullopt;
+        return error.empty();
+      }),
+      5.0);
+  Frame frame;
+  ASSERT_EQ(capture.Read(frame), ReadStatus::kOk) << capture.last_error();
+  EXPECT_FALSE(frame.decoded_region);
+  EXPECT_NEAR(frame.image.at<std::uint8_t>(47, 63), 90, 2);
+  const cv::Rect region(20, 5, 30, 20);
+  capture.SetDecodeRegion(region);
+  // A frame decoded before the region was set may still come first.
+  for (int k = 0; k < 3 && capture.Read(frame) == ReadStatus::kOk && !frame.decoded_region; ++k) {
+  }
+  ASSERT_TRUE(frame.decoded_region);
+  EXPECT_EQ(*frame.decoded_region, cv::Rect(16, 5, 34, 20));
+  EXPECT_EQ(frame.image.at<std::uint8_t>(47, 63), 0);  // not decoded
+  EXPECT_NEAR(frame.image.at<std::uint8_t>(15, 25), 255 - 90, 4);
+  capture.SetDecodeRegion(std::nullopt);
+  for (int k = 0; k < 3 && capture.Read(frame) == ReadStatus::kOk && frame.decoded_region; ++k) {
+  }
+  EXPECT_FALSE(frame.decoded_region);
+  EXPECT_NEAR(frame.image.at<std::uint8_t>(47, 63), 90, 2);
 }
 
 TEST(ImageFolder, ReadsImagesInNameOrderAndFlagsACorruptOne) {

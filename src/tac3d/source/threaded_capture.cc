@@ -16,7 +16,9 @@ struct ThreadedCapture::Shared {
   std::mutex mutex;
   std::condition_variable changed;
   cv::Mat latest;  // grey
+  std::optional<cv::Rect> latest_decoded;
   double latest_s = 0.0;
+  std::optional<cv::Rect> region;  // asked for by SetDecodeRegion
   bool has_new = false;
   bool failed = false;
   bool stop = false;
@@ -26,15 +28,30 @@ struct ThreadedCapture::Shared {
 };
 
 ThreadedCapture::ThreadedCapture(std::string description, Grab grab, double timeout_s)
+    : ThreadedCapture(
+          std::move(description),
+          [grab = std::move(grab)](const std::optional<cv::Rect>&, cv::Mat& image, std::optional<cv::Rect>& decoded,
+                                   std::string& error) {
+            decoded.reset();
+            return grab(image, error);
+          },
+          timeout_s) {}
+
+ThreadedCapture::ThreadedCapture(std::string description, DecodingGrab grab, double timeout_s)
     : description_(std::move(description)), timeout_s_(timeout_s), shared_(std::make_shared<Shared>()) {
   // The thread owns a reference to the shared state, so a thread left behind by the
   // destructor still has valid memory when its blocked read finally returns.
   shared_->thread = std::thread([shared = shared_, grab = std::move(grab)] {
     const auto start = std::chrono::steady_clock::now();
     cv::Mat image;
+    std::optional<cv::Rect> region, decoded;
     while (true) {
+      {
+        std::lock_guard lock(shared->mutex);
+        region = shared->region;
+      }
       std::string error;
-      const bool ok = grab(image, error);
+      const bool ok = grab(region, image, decoded, error);
       const double t = SecondsSince(start);
       std::lock_guard lock(shared->mutex);
       if (shared->stop) break;
@@ -44,6 +61,7 @@ ThreadedCapture::ThreadedCapture(std::string description, Grab grab, double time
         break;
       }
       ConvertToGrey(image, shared->latest);
+      shared->latest_decoded = decoded;
       shared->latest_s = t;
       shared->has_new = true;
       shared->changed.notify_all();
@@ -77,6 +95,7 @@ ReadStatus ThreadedCapture::Read(Frame& frame) {
       [&] { return shared_->has_new || shared_->failed; });
   if (shared_->has_new) {
     shared_->latest.copyTo(frame.image);
+    frame.decoded_region = shared_->latest_decoded;
     frame.timestamp_s = shared_->latest_s;
     frame.index = next_index_++;
     shared_->has_new = false;
@@ -88,6 +107,11 @@ ReadStatus ThreadedCapture::Read(Frame& frame) {
                                     description_, timeout_s_);
   timed_out_ = !ready;
   return ReadStatus::kFailed;
+}
+
+void ThreadedCapture::SetDecodeRegion(const std::optional<cv::Rect>& region) {
+  std::lock_guard lock(shared_->mutex);
+  shared_->region = region;
 }
 
 }  // namespace tac3d

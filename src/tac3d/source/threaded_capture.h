@@ -2,6 +2,7 @@
 
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include <opencv2/core.hpp>
@@ -20,11 +21,19 @@ class ThreadedCapture : public FrameSource {
  public:
   /// Fills the image (any 8-bit type) and returns true, or returns false with a reason.
   using Grab = std::function<bool(cv::Mat& image, std::string& error)>;
+  /// A grab that decodes compressed frames (a camera's MJPEG): given the region last set with
+  /// SetDecodeRegion, fills the image and the part of it decoded (Frame::decoded_region).
+  using DecodingGrab = std::function<bool(const std::optional<cv::Rect>& region, cv::Mat& image,
+                                          std::optional<cv::Rect>& decoded, std::string& error)>;
 
   ThreadedCapture(std::string description, Grab grab, double timeout_s);
+  /// Decoding on the grab's thread too: the next frame is decoded while the caller processes this
+  /// one, with the region the caller set after the one before (a frame behind).
+  ThreadedCapture(std::string description, DecodingGrab grab, double timeout_s);
   ~ThreadedCapture() override;
 
   ReadStatus Read(Frame& frame) override;
+  void SetDecodeRegion(const std::optional<cv::Rect>& region) override;
   std::string Describe() const override { return description_; }
 
  private:

@@ -13,6 +13,13 @@ namespace {
 // grid neighbour is accepted (its prediction gets better), up to this bound.
 constexpr int kMaxTries = 3;
 
+// How far a marker may move between frames for CalcReadRegion's region to hold its next
+// measurement, in pitches: as far as tracking follows.
+constexpr double kReadRegionMotionPitch = 1.0;
+// MeasureBlob's reads beyond its blob radius from where it puts the blob: the background ring
+// (1.25 px out) and the rounding of pixel positions.
+constexpr double kReadBeyondBlobPx = 3.0;
+
 }  // namespace
 
 void MarkerTrackerOptions::Validate() const {
@@ -179,20 +186,20 @@ void GridTracker::Grow(const cv::Mat& image, int head, int tail) {
       // last position: its prediction is not known yet).
       if (head < tail) {
         const int next = queue_[head];
-        PrefetchDisk(image, roi_, base_[next], (options_.search_radius + options_.blob_radius) * pitch_[next]);
+        PrefetchDisk(image, frame_roi_, base_[next], (options_.search_radius + options_.blob_radius) * pitch_[next]);
       }
       const Eigen::Vector2d prediction = Predict(i);
       ++tries_[i];
       const double pitch = pitch_[i];
       Blob blob;
-      const BlobStatus status = MeasureBlob(image, roi_, prediction, options_.search_radius * pitch,
+      const BlobStatus status = MeasureBlob(image, frame_roi_, prediction, options_.search_radius * pitch,
                                             options_.blob_radius * pitch, options_.blob, blob);
       if (status == BlobStatus::kNoBlob) {
         state_[i] = MarkerState::kNotFound;
         continue;
       }
       // A dot cut by the border fails the shape checks too, so the border is checked first.
-      const std::uint8_t sides = BlobReachesBorder(image, roi_, blob, options_.blob_radius * pitch);
+      const std::uint8_t sides = BlobReachesBorder(image, frame_roi_, blob, options_.blob_radius * pitch);
       if (sides != 0) {
         state_[i] = JudgeCut(i, blob, sides, prediction);
         continue;
@@ -307,7 +314,7 @@ bool GridTracker::GridJumped(const cv::Mat& image) const {
       const double pitch = pitch_[i];
       Blob blob;
       const double gate = options_.gate * pitch;
-      dots += MeasureBlob(image, roi_, beyond, options_.search_radius * pitch, options_.blob_radius * pitch,
+      dots += MeasureBlob(image, frame_roi_, beyond, options_.search_radius * pitch, options_.blob_radius * pitch,
                           options_.blob, blob) == BlobStatus::kFound &&
               (blob.center - beyond).squaredNorm() <= gate * gate;
     }
@@ -425,13 +432,16 @@ void GridTracker::Acquire(const cv::Mat& image) {
   tracking_ = best_valid >= options_.min_valid_fraction * n;
 }
 
-void GridTracker::Track(const cv::Mat& image, GridObservation& out) {
+void GridTracker::Track(const cv::Mat& image, GridObservation& out, const std::optional<cv::Rect>& decoded) {
   TAC3D_DEMAND(image.type() == CV_8UC1 && (roi_ & cv::Rect(0, 0, image.cols, image.rows)) == roi_);
   const int n = rows_ * cols_;
   const double nan = std::numeric_limits<double>::quiet_NaN();
+  frame_roi_ = decoded ? roi_ & *decoded : roi_;
   out.acquired = false;
   if (tracking_) TrackGrid(image);
-  if (!tracking_) {
+  // Acquisition searches the whole roi: of a partly decoded image, the grid is lost until a whole
+  // one comes (CalcReadRegion asks for it).
+  if (!tracking_ && frame_roi_ == roi_) {
     out.acquired = true;
     Acquire(image);
   }
@@ -454,6 +464,25 @@ void GridTracker::Track(const cv::Mat& image, GridObservation& out) {
     ++out.state_counts[static_cast<int>(out.state[i])];
   }
   out.valid_markers = out.state_counts[static_cast<int>(MarkerState::kValid)];
+}
+
+std::optional<cv::Rect> GridTracker::CalcReadRegion() const {
+  if (!tracking_) return std::nullopt;
+  // A marker is measured within its search radius of its prediction (its estimate moved by its
+  // neighbours' motion), over its blob radius around the darkest pixel there, whose centroid
+  // may lie a blob radius further.
+  const double reach_pitch = options_.search_radius + 2 * options_.blob_radius + kReadRegionMotionPitch;
+  double x0 = std::numeric_limits<double>::infinity(), y0 = x0, x1 = -x0, y1 = -x0;
+  for (int i = 0; i < rows_ * cols_; ++i) {
+    const double reach = reach_pitch * pitch_[i] + kReadBeyondBlobPx;
+    x0 = std::min(x0, estimate_[i].x() - reach);
+    y0 = std::min(y0, estimate_[i].y() - reach);
+    x1 = std::max(x1, estimate_[i].x() + reach);
+    y1 = std::max(y1, estimate_[i].y() + reach);
+  }
+  const int left = static_cast<int>(std::floor(x0)), top = static_cast<int>(std::floor(y0));
+  const int right = static_cast<int>(std::ceil(x1)), bottom = static_cast<int>(std::ceil(y1));
+  return cv::Rect(left, top, right - left + 1, bottom - top + 1) & roi_;
 }
 
 }  // namespace tac3d

@@ -2,6 +2,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -128,7 +129,17 @@ class GridTracker {
 
   /// Measures the grid's markers in `image` (CV_8UC1 containing roi), writing into `out`
   /// (whose storage is reused: no allocation once it has been filled once).
-  void Track(const cv::Mat& image, GridObservation& out);
+  /// @param decoded the part of `image` decoded (Frame::decoded_region), nullopt: all of it.
+  ///   Nothing outside it is read: a blob reaching its edge is cut as by the roi's. A grid lost in
+  ///   a partly decoded image is not acquired in it: it stays lost until the next whole image.
+  void Track(const cv::Mat& image, GridObservation& out, const std::optional<cv::Rect>& decoded = std::nullopt);
+
+  /// The part of the next image Track reads (within roi), for a decoder that decodes no more
+  /// (JpegGreyDecoder): each marker's estimate with its search radius, twice its blob radius and
+  /// a pitch of motion around it (a marker that moves further in one frame is lost to tracking
+  /// anyway). nullopt while the grid is not tracked (first frame, grid lost): acquisition reads
+  /// all of roi.
+  std::optional<cv::Rect> CalcReadRegion() const;
 
   /// Forgets the tracked grid: the next frame is acquired afresh.
   void Reset() { tracking_ = false; }
@@ -172,6 +183,7 @@ class GridTracker {
   int rows_ = 0;
   int cols_ = 0;
   cv::Rect roi_;
+  cv::Rect frame_roi_;  // the part of roi decoded in the image being tracked
   std::vector<Eigen::Vector2d> nominal_;
   std::vector<double> pitch_;
   MarkerTrackerOptions options_;

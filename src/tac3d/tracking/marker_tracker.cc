@@ -116,7 +116,18 @@ void MarkerTracker::Reset() {
   for (GridTracker& half : halves_) half.Reset();
 }
 
-void MarkerTracker::Track(const cv::Mat& image, MarkerObservation& observation) {
+std::optional<cv::Rect> MarkerTracker::CalcReadRegion() const {
+  cv::Rect region;
+  for (const GridTracker& half : halves_) {
+    const std::optional<cv::Rect> part = half.CalcReadRegion();
+    if (!part) return std::nullopt;
+    region |= *part;
+  }
+  return region;
+}
+
+void MarkerTracker::Track(const cv::Mat& image, MarkerObservation& observation,
+                          const std::optional<cv::Rect>& decoded) {
   const auto start = std::chrono::steady_clock::now();
   CheckTrackerImage(image, width_, height_);
   observation.rows = halves_[0].rows();
@@ -126,7 +137,7 @@ void MarkerTracker::Track(const cv::Mat& image, MarkerObservation& observation) 
   summary.frame_index = frame_index_++;
   for (int h = 0; h < 2; ++h) {
     HalfObservation& out = observation.halves[h];
-    halves_[h].Track(image, out);
+    halves_[h].Track(image, out, decoded);
     summary.invalid_markers += static_cast<int>(out.state.size()) - out.valid_markers;
     summary.acquired |= out.acquired;
     summary.grid_lost |= out.grid_lost;

@@ -2,6 +2,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string_view>
 #include <vector>
 
@@ -59,13 +60,21 @@ class MarkerTracker {
   /// Measures the markers in a camera frame, writing into `observation` (whose storage is
   /// reused: no allocation once it has been filled once).
   /// @param image CV_8UC1 of the camera's size.
+  /// @param decoded the part of `image` decoded (Frame::decoded_region), nullopt: all of it
+  ///   (GridTracker::Track).
   /// @throws Error if the image is empty, not CV_8UC1 or not the camera's size.
-  void Track(const cv::Mat& image, MarkerObservation& observation);
+  void Track(const cv::Mat& image, MarkerObservation& observation,
+             const std::optional<cv::Rect>& decoded = std::nullopt);
   /// The same, returning a new observation.
   MarkerObservation Track(const cv::Mat& image);
 
   /// Forgets the tracked grid: the next frame is acquired afresh.
   void Reset();
+
+  /// The part of the next image Track reads: the bounding box of both halves' regions
+  /// (GridTracker::CalcReadRegion), or nullopt while either half is not tracked (the first frame,
+  /// after a grid was lost or Reset): the whole image is then read.
+  std::optional<cv::Rect> CalcReadRegion() const;
 
   /// The nominal sensor's marker pixels in a half (the acquisition's prediction).
   const std::vector<Eigen::Vector2d>& nominal_uv(ImageHalf half) const {

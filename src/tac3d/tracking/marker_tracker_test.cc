@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "tac3d/design/light_path_design.h"
+#include "tac3d/imagefile/jpeg_decoder.h"
 #include "tac3d/sensor/test_sensor.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/twin/test_renderer.h"
@@ -345,6 +346,68 @@ TEST(MarkerTracker, BlackFrameIsFlaggedAndTrackingRecovers) {
   EXPECT_EQ(back.summary.paired_markers, 400);
   EXPECT_LT(Compare(back, TruePixels(DefaultSensor(), markers)).max_px, kCentroidTolerancePx);
   ExpectGridLost(tracker.Track(cv::Mat::zeros(480, 640, CV_8UC1)));  // while tracking
+}
+
+// A frame as an MJPEG camera sends it: colour JPEG (YCbCr 4:2:0), quality 90.
+std::vector<std::uint8_t> CompressAsCamera(const cv::Mat& grey) {
+  cv::Mat bgr;
+  cv::cvtColor(grey, bgr, cv::COLOR_GRAY2BGR);
+  std::vector<std::uint8_t> jpeg;
+  EXPECT_TRUE(cv::imencode(".jpg", bgr, jpeg, {cv::IMWRITE_JPEG_QUALITY, 90}));
+  return jpeg;
+}
+
+void ExpectSameMarkers(const MarkerObservation& a, const MarkerObservation& b, size_t frame) {
+  for (int h = 0; h < 2; ++h) {
+    EXPECT_EQ(a.halves[h].state, b.halves[h].state) << "frame " << frame;
+    for (size_t i = 0; i < a.halves[h].uv.size(); ++i) {
+      if (!a.halves[h].valid(static_cast<int>(i))) continue;
+      ASSERT_EQ(a.halves[h].uv[i], b.halves[h].uv[i]) << "frame " << frame << ", half " << h << ", marker " << i;
+    }
+  }
+}
+
+// The shearing sequence (up to a pitch a frame), JPEG-compressed: decoding only the tracker's read
+// region gives the markers a whole decode gives, to the last bit; the first frame, and the one
+// after the grid is lost (a dark frame), are decoded whole.
+TEST(MarkerTracker, DecodingOnlyTheReadRegionMeasuresTheSameMarkers) {
+  const double pitch = DefaultSensor().markers.pitch_mm;
+  const std::vector<double> amplitude_pitches = {0, 0.5, 1.5, 2, 1, 0, -1, -2, -1, 0};
+  const Eigen::Vector2d direction(std::cos(DegToRad(30)), std::sin(DegToRad(30)));
+  std::vector<std::vector<std::uint8_t>> jpegs;
+  for (size_t k = 0; k < amplitude_pitches.size(); ++k) {
+    jpegs.push_back(CompressAsCamera(DefaultRenderer().Render(Sheared(amplitude_pitches[k] * pitch * direction, 6.0), k)));
+  }
+  jpegs.insert(jpegs.begin() + 5, CompressAsCamera(cv::Mat(480, 640, CV_8UC1, cv::Scalar(3))));  // the light off
+  MarkerTracker whole_tracker(DefaultSensor()), partial_tracker(DefaultSensor());
+  JpegGreyDecoder decoder;
+  cv::Mat whole, partial;
+  MarkerObservation expected, observation;
+  int partial_frames = 0;
+  for (size_t k = 0; k < jpegs.size(); ++k) {
+    ASSERT_EQ(decoder.Decode(jpegs[k], 640, 480, std::nullopt, whole).refusal, "");
+    whole_tracker.Track(whole, expected);
+    const std::optional<cv::Rect> region = partial_tracker.CalcReadRegion();
+    // Whole: the first frame, and the one after the dark frame.
+    EXPECT_EQ(!region, k == 0 || k == 6) << "frame " << k;
+    const JpegDecodeResult decoded = decoder.Decode(jpegs[k], 640, 480, region, partial);
+    ASSERT_EQ(decoded.refusal, "");
+    if (region) {
+      ++partial_frames;
+      EXPECT_LT(decoded.decoded.area(), 0.9 * 640 * 480) << "frame " << k << ": " << decoded.decoded;
+    }
+    partial_tracker.Track(partial, observation, region ? std::optional<cv::Rect>(decoded.decoded) : std::nullopt);
+    if (k == 5) {
+      // Lost in a partly decoded frame: not searched for in it, so the next one is decoded whole.
+      ExpectGridLost(observation);
+      EXPECT_FALSE(observation.summary.acquired);
+      continue;
+    }
+    EXPECT_EQ(observation.summary.paired_markers, 400) << "frame " << k;
+    EXPECT_EQ(observation.summary.acquired, k == 0 || k == 6) << "frame " << k;
+    ExpectSameMarkers(expected, observation, k);
+  }
+  EXPECT_EQ(partial_frames, 9);
 }
 
 TEST(MarkerTracker, ImageOfWrongSizeTypeOrEmptyThrows) {
