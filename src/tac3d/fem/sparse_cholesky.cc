@@ -133,11 +133,14 @@ struct SparseCholesky::Impl {
     cholmod_finish(&common);
   }
 
+  // CHOLMOD's supernodal L: supernode k holds columns super[k] .. super[k + 1] - 1, its rows
+  // are row_index[pi[k] ..  pi[k + 1] - 1] (its own columns first), its values a column-major
+  // block from value[px[k]].
   const int* super() const { return static_cast<const int*>(factor->super); }
   const int* pi() const { return static_cast<const int*>(factor->pi); }
   const int* px() const { return static_cast<const int*>(factor->px); }
-  const int* s() const { return static_cast<const int*>(factor->s); }
-  const double* x() const { return static_cast<const double*>(factor->x); }
+  const int* row_index() const { return static_cast<const int*>(factor->s); }
+  const double* value() const { return static_cast<const double*>(factor->x); }
 
   // The columns of x in blocks of at most block_columns, columns whose first non-zero (in L's
   // order) is close together (they share most of their reach), with their reaches.
@@ -245,7 +248,7 @@ SparseCholesky::SparseCholesky(const Eigen::SparseMatrix<double>& lower,
   for (int k = 0; k < nsuper; ++k) {
     const int ncol = super[k + 1] - super[k];
     const int nrow = s.pi()[k + 1] - s.pi()[k];
-    if (nrow > ncol) s.parent[k] = s.column_supernode[s.s()[s.pi()[k] + ncol]];
+    if (nrow > ncol) s.parent[k] = s.column_supernode[s.row_index()[s.pi()[k] + ncol]];
   }
   const int* factor_perm = static_cast<const int*>(s.factor->Perm);
   s.permuted.resize(s.n);
@@ -273,8 +276,9 @@ Eigen::MatrixXd SparseCholesky::Solve(const Eigen::MatrixXd& rhs) const {
   b.dtype = CHOLMOD_DOUBLE;
   const std::lock_guard<std::mutex> lock(s.solve_mutex);
   cholmod_dense* x = cholmod_solve(CHOLMOD_A, s.factor, &b, &s.common);
-  if (x == nullptr)
+  if (x == nullptr) {
     throw Error(fmt::format("CHOLMOD's solve failed: {}", CholmodStatusText(s.common.status)));
+  }
   Eigen::MatrixXd result =
       Eigen::Map<const Eigen::MatrixXd>(static_cast<const double*>(x->x), rhs.rows(), rhs.cols());
   cholmod_free_dense(&x, &s.common);
@@ -373,7 +377,7 @@ void SparseCholesky::Impl::ForwardSolve(const Eigen::SparseMatrix<double>& x,
     const int ncol = super()[k + 1] - super()[k];
     const int nrow = pi()[k + 1] - pi()[k];
     const int below = nrow - ncol;
-    const double* lk = this->x() + px()[k];
+    const double* lk = value() + px()[k];
     double* yk = y.data() + block->offsets[t];
     dtrsm_("L", "L", "N", "N", &ncol, &cols, &one, lk, &nrow, yk, &rows);
     if (below == 0) continue;
@@ -392,7 +396,7 @@ void SparseCholesky::Impl::ForwardSolve(const Eigen::SparseMatrix<double>& x,
            work.data(),
            &below);
     target.resize(below);
-    for (int i = 0; i < below; ++i) target[i] = local_row(s()[pi()[k] + ncol + i]);
+    for (int i = 0; i < below; ++i) target[i] = local_row(row_index()[pi()[k] + ncol + i]);
     for (int j = 0; j < cols; ++j) {
       double* yj = y.data() + static_cast<long>(j) * rows;
       const double* wj = work.data() + static_cast<long>(j) * below;
@@ -417,12 +421,12 @@ void SparseCholesky::Impl::BackwardSolve(const std::vector<int>& supernodes,
     const int ncol = super()[k + 1] - super()[k];
     const int nrow = pi()[k + 1] - pi()[k];
     const int below = nrow - ncol;
-    const double* lk = this->x() + px()[k];
+    const double* lk = value() + px()[k];
     double* zk = z->data() + offsets[t];
     if (below > 0) {
       work.resize(static_cast<size_t>(below) * cols);
       for (int i = 0; i < below; ++i) {
-        const int r = s()[pi()[k] + ncol + i];
+        const int r = row_index()[pi()[k] + ncol + i];
         const int u = column_supernode[r];
         TAC3D_DEMAND(position[u] >= 0);
         const double* source = z->data() + position[u] + r - super()[u];
