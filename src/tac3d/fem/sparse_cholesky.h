@@ -60,7 +60,7 @@ class SparseCholesky {
   Eigen::MatrixXd CalcBilinear(const Eigen::SparseMatrix<double>& left,
                                const Eigen::SparseMatrix<double>& right,
                                Method method = Method::kCheapest,
-                               int block_columns = 64,
+                               int block_columns = 100,
                                const std::function<void(double)>& on_progress = {}) const;
 
   int size() const;
