@@ -1,6 +1,7 @@
-// FEM benchmarks: the element stiffness, assembly + factorisation over mesh sizes, and the
-// full build of the default sensor's compliance matrix H (run it alone: it takes ~45 s):
-//   build-fem/bin/bench_fem --benchmark_filter=DefaultSensor
+// FEM benchmarks: the element stiffness, assembly + factorisation over mesh sizes, H alone on
+// a factored body, and the full build of the default sensor's compliance matrix H (run them
+// alone: the default sensor's take ~15 s each):
+//   build/bin/bench_fem --benchmark_filter='ComplianceMatrix|DefaultSensor'
 #include <benchmark/benchmark.h>
 
 #include <cstdio>
@@ -40,6 +41,27 @@ BENCHMARK(BM_DomeAssembleAndFactor)
     ->Arg(4)
     ->Unit(benchmark::kMillisecond)
     ->Iterations(1);
+
+// H alone, the body meshed and factored beforehand: the small test dome with 4 x 5 markers
+// (range(0) = 0) and the default sensor (range(0) = 1; 400 markers, 1200 load cases).
+void BM_ComplianceMatrix(benchmark::State& state) {
+  BodyModelOptions options;
+  if (state.range(0) == 0) {
+    options.base_diameter_mm = 12.0;
+    options.thickness_mm = 3.0;
+    options.sphere_radius_mm = 20.0;
+    options.marker_rows = 4;
+    options.marker_cols = 5;
+  }
+  const BodyModel model(options);
+  for (auto _ : state) {
+    const ComplianceModel compliance = CalcComplianceModel(model);
+    state.counters["solves_s"] = compliance.provenance.solves_s;
+  }
+  state.counters["free_dofs"] = model.solver().summary().num_free_dofs;
+  state.counters["load_cases"] = 3 * options.num_markers();
+}
+BENCHMARK(BM_ComplianceMatrix)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 // The default sensor's H (400 markers, 1200 load cases), from options to matrix.
 void BM_DefaultSensorComplianceBuild(benchmark::State& state) {

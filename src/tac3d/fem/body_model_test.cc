@@ -273,6 +273,20 @@ TEST(ComplianceModel, RespectsTheDomesMirrorSymmetries) {
   EXPECT_EQ(model.provenance.num_elements, BuildDomeMesh(SmallDome()).mesh.num_elements());
 }
 
+TEST(ComplianceModel, EqualsPerColumnSolves) {
+  // H without a solve a column (SparseCholesky::CalcBilinear) against the straightforward way:
+  // one full solve for each load case, read at the markers. 4 x 5 markers: 60 cases.
+  const BodyModel model(SmallDome(4, 5));
+  const ComplianceModel compliance = CalcComplianceModel(model);
+  const Eigen::SparseMatrix<double> readout = model.CalcPointInterpolation(model.marker_positions());
+  const Eigen::SparseMatrix<double> loads = model.CalcMarkerPatchLoads();
+  Eigen::MatrixXd expected(readout.rows(), loads.cols());
+  for (int c = 0; c < loads.cols(); ++c) {
+    expected.col(c) = readout * model.solver().Solve(Eigen::VectorXd(loads.col(c)));
+  }
+  EXPECT_THAT(compliance.h, EigenNear(expected, 1e-10 * expected.cwiseAbs().maxCoeff()));
+}
+
 TEST(ComplianceModel, IsTheSameForTheSameBodyMoved) {
   // A body moved (its base centre) with its markers given where they moved to is the same
   // body: H is unchanged; the markers are where they were put.

@@ -48,7 +48,8 @@ struct ComplianceModel {
 /// revision changes whenever a code change changes H, which invalidates cached models.
 std::string FemCodeVersion();
 
-/// Builds H on the model's mesh: one factorisation, 3N solves in chunks of 100.
+/// Builds H on the model's (factored) mesh: H = R K^-1 F for the readout at the markers R and
+/// the patch loads F, without a solve a load case (ElasticSolver::CalcResponse).
 /// @param show_progress tac3d::ProgressBar lines on stderr.
 ComplianceModel CalcComplianceModel(const BodyModel& model, bool show_progress = false);
 

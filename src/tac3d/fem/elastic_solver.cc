@@ -1,12 +1,12 @@
 #include "tac3d/fem/elastic_solver.h"
 
-#include <Eigen/CholmodSupport>
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <exception>
-#include <mutex>
 #include <thread>
 
+#include "tac3d/fem/sparse_cholesky.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/progress.h"
 #include "tac3d/util/seconds_since.h"
@@ -25,27 +25,6 @@ std::vector<std::vector<int>> NodeNeighbours(const HexMesh& mesh) {
     list.erase(std::unique(list.begin(), list.end()), list.end());
   }
   return neighbours;
-}
-
-const char* CholmodStatusText(int status) {
-  switch (status) {
-    case CHOLMOD_NOT_INSTALLED:
-      return "method not installed";
-    case CHOLMOD_OUT_OF_MEMORY:
-      return "out of memory";
-    case CHOLMOD_TOO_LARGE:
-      return "problem too large (an integer overflows CHOLMOD's indices)";
-    case CHOLMOD_INVALID:
-      return "invalid input";
-    case CHOLMOD_GPU_PROBLEM:
-      return "GPU problem";
-    case CHOLMOD_NOT_POSDEF:
-      return "not positive definite";
-    case CHOLMOD_DSMALL:
-      return "tiny pivot";
-    default:
-      return "unknown status";
-  }
 }
 
 // Load cases as rows of a row-major block: the c-th value of every DOF is contiguous, so the
@@ -171,14 +150,13 @@ struct ElasticSolver::Impl {
   std::vector<int> fixed_index;                      // DOF -> fixed-DOF index, or -1
   Eigen::SparseMatrix<double> selection;             // num_dofs x free: embeds free DOFs
   Eigen::SparseMatrix<double> stiffness_free_fixed;  // K_fp
-  Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<double>, Eigen::Lower> llt;  // kDirect
+  std::unique_ptr<SparseCholesky> factor;            // kDirect, and the coarse level's
   // The iterative methods: the lower triangle of K_ff, the coarse level (its DOF maps and the
   // factor of the Galerkin operator P^T K_ff P), P on the free DOFs.
   Eigen::SparseMatrix<double> stiffness_lower;
   std::unique_ptr<Impl> coarse;
   Eigen::SparseMatrix<double> prolongation;
   PcgOptions pcg;
-  mutable std::mutex coarse_solve_mutex;
   // kTwoGridMixedMinres: stiffness_lower and the coarse level hold A_r; B on the free DOFs,
   // M = diag(V_e), K_bulk - r, and the pressure block of the preconditioner as a multiple of M.
   Eigen::SparseMatrix<double, Eigen::RowMajor> volume_change;
@@ -314,33 +292,24 @@ Eigen::SparseMatrix<double> ElasticSolver::Impl::Assemble(const HexMesh& mesh,
 void ElasticSolver::Impl::Factor(const Eigen::SparseMatrix<double>& k, bool show_progress) {
   const auto factor_start = std::chrono::steady_clock::now();
   ProgressBar factor_bar("fem: factorisation", 1, show_progress);
-  const auto fail = [&](const char* stage, const char* reason) {
-    return Error(fmt::format(
-        "ElasticSolver: CHOLMOD's {} of the {} x {} free-DOF stiffness matrix ({} non-zeros in "
-        "its lower triangle) failed: {}",
-        stage,
-        k.rows(),
-        k.cols(),
-        k.nonZeros(),
-        reason));
-  };
-  // Eigen does not check the analysis: a failed one leaves no factor, and factorising then
-  // dereferences a null pointer (the crash at refinement 2 of the default dome).
-  llt.analyzePattern(k);
-  if (llt.cholmod().status < CHOLMOD_OK) {
-    throw fail("analysis", CholmodStatusText(llt.cholmod().status));
+  // The ordering's vertices are the mesh nodes with a free DOF.
+  std::vector<int> node_of(summary.num_free_dofs);
+  int num_nodes = 0;
+  for (int d = 0; d < num_dofs; ++d) {
+    if (d % 3 == 0 && (free_index[d] >= 0 || free_index[d + 1] >= 0 || free_index[d + 2] >= 0)) {
+      ++num_nodes;
+    }
+    if (free_index[d] >= 0) node_of[free_index[d]] = num_nodes - 1;
   }
-  llt.factorize(k);
-  if (llt.info() != Eigen::Success || llt.cholmod().status != CHOLMOD_OK) {
-    throw fail("factorisation",
-               llt.cholmod().status == CHOLMOD_NOT_POSDEF || llt.cholmod().status == CHOLMOD_OK
-                   ? "not positive definite; the fixed DOFs leave a rigid-body motion free"
-                   : CholmodStatusText(llt.cholmod().status));
+  try {
+    factor = std::make_unique<SparseCholesky>(k, node_of, "free-DOF stiffness matrix");
+  } catch (const Error& e) {
+    throw Error(fmt::format("ElasticSolver: {}", e.what()));
   }
   factor_bar.Finish();
   summary.factorization_s = SecondsSince(factor_start);
-  summary.factor_nonzeros = llt.cholmod().lnz;
-  summary.factor_flops = llt.cholmod().fl;
+  summary.factor_nonzeros = factor->factor_nonzeros();
+  summary.factor_flops = factor->factor_flops();
 }
 
 void ElasticSolver::Impl::AssembleVolumeChange(const HexMesh& mesh, double bulk_excess_mpa) {
@@ -476,12 +445,7 @@ void ElasticSolver::Impl::Precondition(const Block& r,
   MultiplySymmetric(stiffness_lower, *z, scratch);
   *scratch = r - *scratch;
   const Eigen::MatrixXd coarse_rhs = prolongation.transpose() * *scratch;
-  Eigen::MatrixXd coarse_correction;
-  {
-    // CHOLMOD's solve writes to the factor's workspace (cholmod_common).
-    const std::lock_guard<std::mutex> lock(coarse_solve_mutex);
-    coarse_correction = coarse->llt.solve(coarse_rhs);
-  }
+  const Eigen::MatrixXd coarse_correction = coarse->factor->Solve(coarse_rhs);
   z->noalias() += prolongation * coarse_correction;
   for (int sweep = 0; sweep < pcg.smoothing_sweeps; ++sweep) {
     GaussSeidelSweep(stiffness_lower, r, false, z, work);
@@ -687,7 +651,7 @@ void ElasticSolver::Impl::SolveMixedMinres(const Block& rhs, Block* x, SolveSumm
 
 Eigen::MatrixXd ElasticSolver::Impl::SolveFree(const Eigen::MatrixXd& rhs,
                                                SolveSummary* out) const {
-  if (summary.method == ElasticSolverMethod::kDirect) return llt.solve(rhs);
+  if (summary.method == ElasticSolverMethod::kDirect) return factor->Solve(rhs);
   const auto start = std::chrono::steady_clock::now();
   // The load cases split into one block a thread, each iterated on its own: each thread
   // streams K, and only the coarse factor's solves take turns.
@@ -773,7 +737,18 @@ Eigen::MatrixXd ElasticSolver::CalcResponse(const Eigen::SparseMatrix<double>& r
   const Eigen::SparseMatrix<double> readout_free = readout * s.selection;
   const Eigen::SparseMatrix<double> forces_free = s.selection.transpose() * nodal_forces;
   const int cases = static_cast<int>(nodal_forces.cols());
-  if (s.summary.method != ElasticSolverMethod::kDirect && cases > 0) {
+  if (s.summary.method == ElasticSolverMethod::kDirect) {
+    ProgressBar bar("fem: solves (%)", 100, show_progress);
+    Eigen::MatrixXd response =
+        s.factor->CalcBilinear(readout_free.transpose(),
+                               forces_free,
+                               SparseCholesky::Method::kCheapest,
+                               chunk_columns,
+                               [&](double done) { bar.Update(std::lround(100.0 * done)); });
+    bar.Finish();
+    return response;
+  }
+  if (cases > 0) {
     // Equal chunks: a short last block would cost a full pass over K per iteration.
     const int chunks = (cases + s.pcg.block_columns - 1) / s.pcg.block_columns;
     chunk_columns = std::min(chunk_columns, (cases + chunks - 1) / chunks);

@@ -12,8 +12,9 @@ namespace tac3d::fem {
 
 /// How an ElasticSolver solves K u = f.
 enum class ElasticSolverMethod {
-  /// CHOLMOD supernodal LL^T of K, exact to rounding; memory and time grow steeply with the
-  /// mesh (refinement 1.5 of the default dome: 559,482 DOFs, 6.8 GB).
+  /// CHOLMOD supernodal LL^T of K (SparseCholesky: METIS on the mesh nodes), exact to
+  /// rounding; memory and time grow steeply with the mesh (refinement 1.5 of the default dome:
+  /// 559,482 DOFs, a 5 GB factor).
   kDirect,
   /// Conjugate gradients on K, preconditioned by a two-grid cycle whose coarse level is a
   /// coarser mesh of the same body, factored directly. K is stored once (lower triangle).
@@ -144,12 +145,15 @@ class ElasticSolver {
                         const Eigen::VectorXd& prescribed = Eigen::VectorXd(),
                         SolveSummary* summary = nullptr) const;
 
-  /// readout * u(nodal_forces) for many load cases with the fixed DOFs at zero, solved
-  /// `chunk_columns` load cases at a time (iterative: at most PcgOptions::block_columns,
-  /// the chunks of equal size) so the full displacement fields never coexist.
+  /// readout * u(nodal_forces) for many load cases with the fixed DOFs at zero.
+  /// kDirect: readout K^-1 nodal_forces without a full solve a case
+  /// (SparseCholesky::CalcBilinear: forward solves restricted to the part of the factor the
+  /// loads and the readout reach, `chunk_columns` columns at a time). Iterative:
+  /// `chunk_columns` load cases at a time (at most PcgOptions::block_columns, the chunks of
+  /// equal size) so the full displacement fields never coexist.
   /// @param readout rows x num_dofs, e.g. a CalcInterpolationMatrix.
   /// @param nodal_forces num_dofs x cases (N).
-  /// @param show_progress a tac3d::ProgressBar over the chunks.
+  /// @param show_progress a tac3d::ProgressBar over the chunks (kDirect: in percent).
   /// @param summary if not null, the iterations and residuals are appended to it (iterative).
   /// @return rows x cases.
   /// @throws tac3d::Error if the iteration does not converge within max_iterations.
