@@ -53,7 +53,8 @@ struct SensorReport {
 
 /// Runs each sensor on its own thread until all have ended (their sources ended, max_frames,
 /// `$Q` from their UDP client) or `stop` is set. The sensors are opened one after the other
-/// first (so a compliance model shared by several is loaded once); one that cannot be
+/// first (a compliance model several share is loaded once: CachedModelLoader's is one copy a
+/// process, its matrices shared by their pipelines); one that cannot be
 /// opened, or fails later, gets its failure in its report and the others go on. Frames are
 /// stamped with seconds since one steady-clock epoch taken when all are open, from which a
 /// dataset's pace counts too.
