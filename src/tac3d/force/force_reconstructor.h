@@ -90,7 +90,7 @@ struct ForceUncertainty {
 
 /// The matrices of the paper's inverse (section IV.A, eq. 3-4) that depend on H and w alone:
 /// K = (H^T H + w I)^-1 H^T in double and single precision, the influence matrix M = H K, and
-/// H^T H (~40 MB with H's 11.5 MB for 400 markers). Immutable, so one instance serves every
+/// H^T H (~40 MB for 400 markers, besides H's 11.5 MB). Immutable, so one instance serves every
 /// ForceReconstructor of the same H and w, on any thread (SharedTikhonovInverse).
 class TikhonovInverse {
  public:
@@ -104,8 +104,6 @@ class TikhonovInverse {
   TikhonovInverse(std::shared_ptr<const Eigen::MatrixXd> h, double weight);
 
   const Eigen::MatrixXd& h() const { return *h_; }
-  /// The H object this inverse holds (what SharedTikhonovInverse shares by).
-  const std::shared_ptr<const Eigen::MatrixXd>& shared_h() const { return h_; }
   double weight() const { return weight_; }
   /// K (3N x 3N, N/mm), double precision: for the uncertainty.
   const Eigen::MatrixXd& k_double() const { return k_double_; }
