@@ -32,7 +32,8 @@ void ValidateGains(const Eigen::Vector3d& gains, const char* where) {
 
 void ValidateWeight(double weight) {
   if (!(weight > 0.0 && std::isfinite(weight))) {
-    throw Error(fmt::format("ForceReconstructorOptions.weight must be > 0 and finite, got {}", weight));
+    throw Error(
+        fmt::format("ForceReconstructorOptions.weight must be > 0 and finite, got {}", weight));
   }
 }
 
@@ -62,8 +63,8 @@ Eigen::Vector3d ForceFrame::MarkerForce(int i) const {
 TikhonovInverse::TikhonovInverse(std::shared_ptr<const Eigen::MatrixXd> h, double weight)
     : h_(std::move(h)), weight_(weight) {
   if (!h_ || h_->rows() == 0 || h_->rows() != h_->cols()) {
-    throw Error(fmt::format("TikhonovInverse: H must be square and not empty, got {} x {}", h_ ? h_->rows() : 0,
-                            h_ ? h_->cols() : 0));
+    throw Error(fmt::format("TikhonovInverse: H must be square and not empty, got {} x {}",
+                            h_ ? h_->rows() : 0, h_ ? h_->cols() : 0));
   }
   ValidateWeight(weight_);
   const Eigen::MatrixXd& hm = *h_;
@@ -93,19 +94,21 @@ TikhonovInverse::TikhonovInverse(std::shared_ptr<const Eigen::MatrixXd> h, doubl
   influence_ = 0.5 * (influence_ + influence_.transpose()).eval();
 }
 
-std::shared_ptr<const TikhonovInverse> SharedTikhonovInverse(const std::shared_ptr<const Eigen::MatrixXd>& h,
-                                                             double weight) {
+std::shared_ptr<const TikhonovInverse> SharedTikhonovInverse(
+    const std::shared_ptr<const Eigen::MatrixXd>& h, double weight) {
   ValidateWeight(weight);  // a NaN would break the cache's ordering of its keys
   // Keyed by H's address: the inverse holds H, so no other matrix can take that address while
   // the inverse lives.
   static SharedCache<std::pair<const Eigen::MatrixXd*, double>, TikhonovInverse> inverses;
-  return inverses.Get({h.get(), weight}, [&] { return std::make_shared<const TikhonovInverse>(h, weight); });
+  return inverses.Get({h.get(), weight},
+                      [&] { return std::make_shared<const TikhonovInverse>(h, weight); });
 }
 
 ForceReconstructor::ForceReconstructor(const Eigen::MatrixXd& h,
                                        std::vector<Eigen::Vector3d> marker_positions_mm,
                                        const ForceReconstructorOptions& options)
-    : ForceReconstructor(std::make_shared<const Eigen::MatrixXd>(h), std::move(marker_positions_mm), options) {}
+    : ForceReconstructor(std::make_shared<const Eigen::MatrixXd>(h),
+                         std::move(marker_positions_mm), options) {}
 
 ForceReconstructor::ForceReconstructor(const std::shared_ptr<const Eigen::MatrixXd>& h,
                                        std::vector<Eigen::Vector3d> marker_positions_mm,

@@ -48,8 +48,9 @@ TEST(SharedCache, AValueIsFreedWithItsLastHolderAndMadeAnewWhenAskedAgain) {
 
 TEST(SharedCache, AFailedMakeReachesItsCallerAndTheNextCallerMakesAgain) {
   SharedCache<int, int> cache;
-  EXPECT_THROW(cache.Get(1, []() -> std::shared_ptr<const int> { throw std::runtime_error("no model"); }),
-               std::runtime_error);
+  EXPECT_THROW(
+      cache.Get(1, []() -> std::shared_ptr<const int> { throw std::runtime_error("no model"); }),
+      std::runtime_error);
   EXPECT_EQ(*cache.Get(1, [] { return std::make_shared<const int>(3); }), 3);
 }
 
@@ -101,7 +102,8 @@ TEST(SharedCache, AnotherKeyIsNotHeldUpWhileOneIsMade) {
     cache.Get(1, [&] {
       making.set_value();
       // Bounds the test if the cache held every key while making one (then this fails).
-      other_done_first = other_done.get_future().wait_for(std::chrono::seconds(60)) == std::future_status::ready;
+      other_done_first =
+          other_done.get_future().wait_for(std::chrono::seconds(60)) == std::future_status::ready;
       return std::make_shared<const int>(1);
     });
   });
