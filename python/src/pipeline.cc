@@ -110,13 +110,13 @@ std::unique_ptr<PyPipeline> MakePipeline(const std::string& config_path,
   auto p = std::make_unique<PyPipeline>();
   py::gil_scoped_release release;
   const std::string cache = ResolveCacheDir(cache_dir);
-  const fem::ComplianceCacheResult model = fem::LoadOrBuildComplianceModel(
-      SensorBodyModelOptions(config), cache, /*show_progress=*/false);
-  p->pipeline =
-      std::make_unique<Pipeline>(config, model.model.h, model.model.marker_positions, options);
+  // One model and inverse for every pipeline of the same gel and weight in the process.
+  const std::shared_ptr<const fem::ComplianceModel> model =
+      fem::LoadSharedComplianceModel(SensorBodyModelOptions(config), cache, /*show_progress=*/false);
+  p->pipeline = std::make_unique<Pipeline>(config, fem::SharedH(model), model->marker_positions, options);
   p->rows = config.markers.rows;
   p->cols = config.markers.cols;
-  p->rest_markers_mm = model.model.marker_positions;
+  p->rest_markers_mm = model->marker_positions;
   return p;
 }
 

@@ -6,6 +6,7 @@
 #include "tac3d/util/cache_file.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/seconds_since.h"
+#include "tac3d/util/shared_cache.h"
 #include "tac3d/util/version.h"
 
 namespace tac3d::fem {
@@ -153,6 +154,19 @@ ComplianceCacheResult LoadOrBuildComplianceModel(const BodyModelOptions& options
       SaveComplianceModel, &result.model, &result.reason);
   result.elapsed_s = SecondsSince(start);
   return result;
+}
+
+std::shared_ptr<const ComplianceModel> LoadSharedComplianceModel(const BodyModelOptions& options,
+                                                                 const std::string& cache_dir,
+                                                                 bool show_progress) {
+  options.Validate();
+  // The key covers every option H depends on and the code that builds it (as the cache file's
+  // name does): one key, one H, whichever cache_dir it comes from.
+  static SharedCache<std::uint64_t, ComplianceModel> models;
+  return models.Get(CalcComplianceCacheKey(options), [&] {
+    return std::make_shared<const ComplianceModel>(
+        LoadOrBuildComplianceModel(options, cache_dir, show_progress).model);
+  });
 }
 
 }  // namespace tac3d::fem

@@ -2,6 +2,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <memory>
 #include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
@@ -95,5 +96,21 @@ struct ComplianceCacheResult {
 ComplianceCacheResult LoadOrBuildComplianceModel(const BodyModelOptions& options,
                                                  const std::string& cache_dir,
                                                  bool show_progress = true);
+
+/// H for the options, one copy for the whole process: the model another holder already has
+/// (another sensor of the same gel: same CalcComplianceCacheKey), else LoadOrBuildComplianceModel's,
+/// kept for the next callers while anyone holds it (freed after the last). Thread-safe: callers
+/// asking for one model at once wait for one load or build (SharedCache).
+/// @throws tac3d::Error as LoadOrBuildComplianceModel.
+std::shared_ptr<const ComplianceModel> LoadSharedComplianceModel(const BodyModelOptions& options,
+                                                                 const std::string& cache_dir,
+                                                                 bool show_progress = true);
+
+/// The model's H, owning the model with it (std::shared_ptr's aliasing constructor): what a
+/// Pipeline or ForceReconstructor takes to share H, and their inverse, with the model's other
+/// users.
+inline std::shared_ptr<const Eigen::MatrixXd> SharedH(const std::shared_ptr<const ComplianceModel>& model) {
+  return {model, &model->h};
+}
 
 }  // namespace tac3d::fem

@@ -5,6 +5,8 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <memory>
+#include <thread>
 
 #include "tac3d/fem/test_domes.h"
 #include "tac3d/testing/testing.h"
@@ -50,6 +52,33 @@ TEST(ComplianceCache, BuildsOnceThenLoads) {
   ExpectSameModel(loaded.model, built.model);
   EXPECT_EQ(loaded.model.provenance.code_version, FemCodeVersion());
   EXPECT_GT(loaded.model.provenance.num_free_dofs, 0);
+}
+
+// Sensors of one gel in one process: one H, loaded (or built) once, even when two threads ask
+// for it at once; another gel gets its own; freed after its last holder.
+TEST(ComplianceCache, OneGelSharesOneModelInTheProcess) {
+  const std::string dir = testing::MakeTempDir("shared");
+  const BodyModelOptions gel = testing::SmallDome(2, 3);
+  std::shared_ptr<const ComplianceModel> first;
+  std::thread other([&] { first = LoadSharedComplianceModel(gel, dir, false); });
+  std::shared_ptr<const ComplianceModel> second = LoadSharedComplianceModel(gel, dir, false);
+  other.join();
+  EXPECT_EQ(first, second);
+  ExpectSameModel(*second, LoadOrBuildComplianceModel(gel, dir, false).model);
+  BodyModelOptions stiffer = gel;
+  stiffer.material.youngs_modulus_mpa *= 2.0;
+  const std::shared_ptr<const ComplianceModel> other_gel = LoadSharedComplianceModel(stiffer, dir, false);
+  EXPECT_NE(other_gel, first);
+  EXPECT_FALSE(other_gel->h == first->h);
+  // H taken from the model (SharedH, as a pipeline takes it) keeps the model.
+  std::shared_ptr<const Eigen::MatrixXd> h = SharedH(first);
+  EXPECT_EQ(h.get(), &first->h);
+  const std::weak_ptr<const ComplianceModel> model = first;
+  first.reset();
+  second.reset();
+  EXPECT_FALSE(model.expired());
+  h.reset();
+  EXPECT_TRUE(model.expired());
 }
 
 TEST(ComplianceCache, StaleKeyIsRebuiltNotUsed) {

@@ -3,11 +3,13 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 
 #include "tac3d/util/error.h"
+#include "tac3d/util/shared_cache.h"
 
 namespace tac3d {
 namespace {
@@ -28,13 +30,17 @@ void ValidateGains(const Eigen::Vector3d& gains, const char* where) {
   }
 }
 
-}  // namespace
-
-void ForceReconstructorOptions::Validate() const {
+void ValidateWeight(double weight) {
   if (!(weight > 0.0 && std::isfinite(weight))) {
     throw Error(
         fmt::format("ForceReconstructorOptions.weight must be > 0 and finite, got {}", weight));
   }
+}
+
+}  // namespace
+
+void ForceReconstructorOptions::Validate() const {
+  ValidateWeight(weight);
   ValidateGains(gains, "ForceReconstructorOptions");
   const auto require = [](bool ok, const char* field, const char* bound, double value) {
     if (!ok) throw Error(fmt::format("ForceReconstructorOptions.{} must be {}, got {}", field, bound, value));
@@ -54,7 +60,57 @@ Eigen::Vector3d ForceFrame::MarkerForce(int i) const {
   return {forces_n(i), forces_n(n + i), forces_n(2 * n + i)};
 }
 
+TikhonovInverse::TikhonovInverse(std::shared_ptr<const Eigen::MatrixXd> h, double weight)
+    : h_(std::move(h)), weight_(weight) {
+  if (!h_ || h_->rows() == 0 || h_->rows() != h_->cols()) {
+    throw Error(fmt::format("TikhonovInverse: H must be square and not empty, got {} x {}",
+                            h_ ? h_->rows() : 0, h_ ? h_->cols() : 0));
+  }
+  ValidateWeight(weight_);
+  const Eigen::MatrixXd& hm = *h_;
+  const Eigen::Index n = hm.rows();
+  if (!hm.allFinite()) throw Error("TikhonovInverse: H has a non-finite entry");
+  // Far above H^T H's eigenvalues, w I swamps the data term and every force is ~0.
+  const double mean_eigenvalue = hm.squaredNorm() / static_cast<double>(n);
+  if (weight_ > kMaxWeightToMeanEigenvalue * mean_eigenvalue) {
+    throw Error(fmt::format(
+        "TikhonovInverse: weight w = {} (mm/N)^2 is more than {:g} times H^T H's mean eigenvalue "
+        "({:.3g}): the regularisation would drive every force to ~0",
+        weight_, kMaxWeightToMeanEigenvalue, mean_eigenvalue));
+  }
+  // H^T H + w I, lower triangle; H^T H is kept for the contact-support re-solve.
+  hth_ = Eigen::MatrixXd::Identity(n, n) * weight_;
+  hth_.selfadjointView<Eigen::Lower>().rankUpdate(hm.transpose());
+  const Eigen::LLT<Eigen::MatrixXd> factor(hth_);
+  if (factor.info() != Eigen::Success) {
+    throw Error(fmt::format("TikhonovInverse: H^T H + w I is not positive definite in double "
+                            "precision with w = {} (mm/N)^2; choose a larger weight",
+                            weight_));
+  }
+  hth_.diagonal().array() -= weight_;
+  k_double_ = factor.solve(hm.transpose());
+  k_ = k_double_.cast<float>();
+  influence_.noalias() = hm * k_double_;
+  influence_ = 0.5 * (influence_ + influence_.transpose()).eval();
+}
+
+std::shared_ptr<const TikhonovInverse> SharedTikhonovInverse(
+    const std::shared_ptr<const Eigen::MatrixXd>& h, double weight) {
+  ValidateWeight(weight);  // a NaN would break the cache's ordering of its keys
+  // Keyed by H's address: the inverse holds H, so no other matrix can take that address while
+  // the inverse lives.
+  static SharedCache<std::pair<const Eigen::MatrixXd*, double>, TikhonovInverse> inverses;
+  return inverses.Get({h.get(), weight},
+                      [&] { return std::make_shared<const TikhonovInverse>(h, weight); });
+}
+
 ForceReconstructor::ForceReconstructor(const Eigen::MatrixXd& h,
+                                       std::vector<Eigen::Vector3d> marker_positions_mm,
+                                       const ForceReconstructorOptions& options)
+    : ForceReconstructor(std::make_shared<const Eigen::MatrixXd>(h),
+                         std::move(marker_positions_mm), options) {}
+
+ForceReconstructor::ForceReconstructor(const std::shared_ptr<const Eigen::MatrixXd>& h,
                                        std::vector<Eigen::Vector3d> marker_positions_mm,
                                        const ForceReconstructorOptions& options)
     : num_markers_(static_cast<int>(marker_positions_mm.size())),
@@ -62,32 +118,12 @@ ForceReconstructor::ForceReconstructor(const Eigen::MatrixXd& h,
       options_(options) {
   options_.Validate();
   const int n = 3 * num_markers_;
-  if (num_markers_ == 0 || h.rows() != n || h.cols() != n) {
+  if (num_markers_ == 0 || !h || h->rows() != n || h->cols() != n) {
     throw Error(fmt::format("ForceReconstructor: H must be 3N x 3N = {} x {} for N = {} markers, "
                             "got {} x {}",
-                            n, n, num_markers_, h.rows(), h.cols()));
+                            n, n, num_markers_, h ? h->rows() : 0, h ? h->cols() : 0));
   }
-  if (!h.allFinite()) throw Error("ForceReconstructor: H has a non-finite entry");
-  // Far above H^T H's eigenvalues, w I swamps the data term and every force is ~0.
-  const double mean_eigenvalue = h.squaredNorm() / n;
-  if (options_.weight > kMaxWeightToMeanEigenvalue * mean_eigenvalue) {
-    throw Error(fmt::format(
-        "ForceReconstructor: weight w = {} (mm/N)^2 is more than {:g} times H^T H's mean eigenvalue "
-        "({:.3g}): the regularisation would drive every force to ~0",
-        options_.weight, kMaxWeightToMeanEigenvalue, mean_eigenvalue));
-  }
-  Eigen::MatrixXd normal = Eigen::MatrixXd::Identity(n, n) * options_.weight;
-  normal.selfadjointView<Eigen::Lower>().rankUpdate(h.transpose());
-  const Eigen::LLT<Eigen::MatrixXd> factor(normal);
-  if (factor.info() != Eigen::Success) {
-    throw Error(fmt::format("ForceReconstructor: H^T H + w I is not positive definite in double "
-                            "precision with w = {} (mm/N)^2; choose a larger weight",
-                            options_.weight));
-  }
-  k_double_ = factor.solve(h.transpose());
-  k_ = k_double_.cast<float>();
-  influence_.noalias() = h * k_double_;
-  influence_ = 0.5 * (influence_ + influence_.transpose()).eval();
+  inverse_ = SharedTikhonovInverse(h, options_.weight);
   d_work_.resize(n);
   f_work_.resize(n);
   z_work_.resize(n);
@@ -97,8 +133,6 @@ ForceReconstructor::ForceReconstructor(const Eigen::MatrixXd& h,
 
   // The support's neighbourhoods, in marker pitches: the pitch is the smallest distance between
   // two markers in the sensor's (x, y).
-  hth_ = h.transpose() * h;
-  ht_ = h.transpose();
   double pitch = std::numeric_limits<double>::infinity();
   for (int i = 0; i < num_markers_; ++i) {
     for (int j = i + 1; j < num_markers_; ++j) {
@@ -135,7 +169,7 @@ void ForceReconstructor::FactorRestrictedProblem() {
   const int r = static_cast<int>(invalid_rows_.size());
   Eigen::Map<Eigen::MatrixXd> a = GrowOnlyMatrix(&restricted_storage_, r, r);
   for (int c = 0; c < r; ++c) {
-    const double* column = influence_.col(invalid_rows_[c]).data();
+    const double* column = inverse_->influence().col(invalid_rows_[c]).data();
     for (int k = c; k < r; ++k) a(k, c) = -column[invalid_rows_[k]];
     a(c, c) += 1.0;
   }
@@ -170,7 +204,9 @@ bool ForceReconstructor::RefineOnSupport(ForceFrame* frame) {
   }
   if (!support_factor_ok_) return false;
   Eigen::Ref<Eigen::VectorXd> x = support_rhs_.head(n);
-  for (int k = 0; k < n; ++k) x(k) = ht_.row(support_rows_[k]).dot(d_valid_);
+  // Row j of H^T is column j of H.
+  const Eigen::MatrixXd& h = inverse_->h();
+  for (int k = 0; k < n; ++k) x(k) = h.col(support_rows_[k]).dot(d_valid_);
   const auto l = support_matrix_.topLeftCorner(n, n).triangularView<Eigen::Lower>();
   l.solveInPlace(x);
   l.adjoint().solveInPlace(x);
@@ -184,15 +220,18 @@ bool ForceReconstructor::FactorSupportProblem() {
   const int n = static_cast<int>(support_rows_.size());
   // (H_v^T H_v)_SS + w_s I, lower triangle: H^T H less the invalid rows' share.
   Eigen::Ref<Eigen::MatrixXd> a = support_matrix_.topLeftCorner(n, n);
+  // The support rows increase, so these are in H^T H's lower triangle.
+  const Eigen::MatrixXd& hth = inverse_->hth();
   for (int c = 0; c < n; ++c) {
-    for (int r = c; r < n; ++r) a(r, c) = hth_(support_rows_[r], support_rows_[c]);
+    for (int r = c; r < n; ++r) a(r, c) = hth(support_rows_[r], support_rows_[c]);
   }
   if (!invalid_rows_.empty()) {
-    // Row k of H_R,S^T is row S_k of H^T at the invalid rows' columns.
+    // H_R,S^T (k, q) = H (R_q, S_k).
     const int r = static_cast<int>(invalid_rows_.size());
+    const Eigen::MatrixXd& h = inverse_->h();
     Eigen::Map<Eigen::MatrixXd> h_rs = GrowOnlyMatrix(&support_invalid_storage_, n, r);
     for (int q = 0; q < r; ++q) {
-      for (int k = 0; k < n; ++k) h_rs(k, q) = ht_(support_rows_[k], invalid_rows_[q]);
+      for (int k = 0; k < n; ++k) h_rs(k, q) = h(invalid_rows_[q], support_rows_[k]);
     }
     a.selfadjointView<Eigen::Lower>().rankUpdate(h_rs, -1.0);
   }
@@ -246,7 +285,8 @@ void ForceReconstructor::Reconstruct(const Eigen::VectorXd& d_mm,
     if (restricted_ok_) {
       const int r = static_cast<int>(invalid_rows_.size());
       Eigen::Ref<Eigen::VectorXd> z = z_work_.head(r);
-      for (int k = 0; k < r; ++k) z(k) = influence_.col(invalid_rows_[k]).dot(d_valid_);
+      const Eigen::MatrixXd& influence = inverse_->influence();
+      for (int k = 0; k < r; ++k) z(k) = influence.col(invalid_rows_[k]).dot(d_valid_);
       const Eigen::Map<const Eigen::MatrixXd> l(restricted_storage_.data(), r, r);
       l.triangularView<Eigen::Lower>().solveInPlace(z);
       l.triangularView<Eigen::Lower>().adjoint().solveInPlace(z);
@@ -259,12 +299,12 @@ void ForceReconstructor::Reconstruct(const Eigen::VectorXd& d_mm,
   // The support needs only the normal forces: K's z rows are a third of the GEMV, which is
   // memory-bound (K is 5.8 MB); the rest is computed only if the re-solve does not replace it.
   if (options_.support_refinement && frame->status == ForceStatus::kOk) {
-    f_work_.tail(m).noalias() = k_.bottomRows(m) * d_work_;
+    f_work_.tail(m).noalias() = inverse_->k().bottomRows(m) * d_work_;
     frame->forces_n.tail(m) = f_work_.tail(m).cast<double>();
     frame->support_refined = RefineOnSupport(frame);
   }
   if (!frame->support_refined) {
-    f_work_.noalias() = k_ * d_work_;
+    f_work_.noalias() = inverse_->k() * d_work_;
     frame->forces_n = f_work_.cast<double>();
   }
 
@@ -301,14 +341,15 @@ ForceUncertainty ForceReconstructor::CalcUncertainty(
   // S is diagonal: diag(K S K^T)_j = sum_i K_ji^2 S_ii.
   Eigen::VectorXd s(3 * m);
   for (int axis = 0; axis < 3; ++axis) s.segment(axis * m, m).setConstant(noise_variance_mm2(axis));
-  const Eigen::VectorXd variance = k_double_.cwiseAbs2() * s;
+  const Eigen::MatrixXd& k = inverse_->k_double();
+  const Eigen::VectorXd variance = k.cwiseAbs2() * s;
   ForceUncertainty uncertainty;
   uncertainty.marker_sigma_n.resize(3, m);
   for (int axis = 0; axis < 3; ++axis) {
     uncertainty.marker_sigma_n.row(axis) =
         options_.gains(axis) * variance.segment(axis * m, m).cwiseSqrt().transpose();
     // The resultant component is a^T D with a the sum of K's rows of that axis.
-    const Eigen::VectorXd a = k_double_.middleRows(axis * m, m).colwise().sum().transpose();
+    const Eigen::VectorXd a = k.middleRows(axis * m, m).colwise().sum().transpose();
     uncertainty.resultant_sigma_n(axis) =
         options_.gains(axis) * std::sqrt(a.cwiseAbs2().dot(s));
   }

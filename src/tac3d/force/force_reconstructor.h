@@ -1,5 +1,6 @@
 #pragma once
 
+#include <memory>
 #include <vector>
 
 #include <Eigen/Core>
@@ -87,6 +88,50 @@ struct ForceUncertainty {
   Eigen::Vector3d resultant_sigma_n = Eigen::Vector3d::Zero();
 };
 
+/// The matrices of the paper's inverse (section IV.A, eq. 3-4) that depend on H and w alone:
+/// K = (H^T H + w I)^-1 H^T in double and single precision, the influence matrix M = H K, and
+/// H^T H (~40 MB for 400 markers, besides H's 11.5 MB). Immutable, so one instance serves every
+/// ForceReconstructor of the same H and w, on any thread (SharedTikhonovInverse).
+class TikhonovInverse {
+ public:
+  using RowMajorMatrixXf = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+  /// @param h the compliance H (square, mm/N), paper ordering; held, not copied.
+  /// @param weight the Tikhonov weight w ((mm/N)^2).
+  /// @throws tac3d::Error if h is null, empty or not square, has a non-finite entry, w is not
+  ///   > 0 and finite or is more than kMaxWeightToMeanEigenvalue times H^T H's mean eigenvalue,
+  ///   or H^T H + w I is not positive definite in double precision (w far too small).
+  TikhonovInverse(std::shared_ptr<const Eigen::MatrixXd> h, double weight);
+
+  const Eigen::MatrixXd& h() const { return *h_; }
+  double weight() const { return weight_; }
+  /// K (3N x 3N, N/mm), double precision: for the uncertainty.
+  const Eigen::MatrixXd& k_double() const { return k_double_; }
+  /// K, single precision, row-major: the per-frame GEMV's.
+  const RowMajorMatrixXf& k() const { return k_; }
+  /// M = H K (3N x 3N), symmetric: column j is row j, the model's prediction of D_j from all of
+  /// D.
+  const Eigen::MatrixXd& influence() const { return influence_; }
+  /// H^T H, lower triangle only, for the contact-support re-solve.
+  const Eigen::MatrixXd& hth() const { return hth_; }
+
+ private:
+  std::shared_ptr<const Eigen::MatrixXd> h_;
+  double weight_;
+  Eigen::MatrixXd k_double_;
+  RowMajorMatrixXf k_;
+  Eigen::MatrixXd influence_;
+  Eigen::MatrixXd hth_;
+};
+
+/// The TikhonovInverse of this H object (shared, not compared by value) and w: the one alive in
+/// the process if another holder has it (another sensor of the same model), else a new one
+/// kept for the next callers while it lives. Thread-safe: callers asking for the same inverse
+/// at once wait for one computation (SharedCache).
+/// @throws tac3d::Error as TikhonovInverse's constructor.
+std::shared_ptr<const TikhonovInverse> SharedTikhonovInverse(
+    const std::shared_ptr<const Eigen::MatrixXd>& h, double weight);
+
 /// The paper's inverse (section IV.A, eq. 3-4): K = (H^T H + w I)^-1 H^T computed once,
 /// then F = K D per frame as one single-precision row-major GEMV that allocates nothing.
 ///
@@ -102,13 +147,19 @@ struct ForceUncertainty {
 /// with rows of M and one GEMV. The forces of invalid markers are then the regularised estimate
 /// from their neighbours, never NaN.
 ///
-/// Not thread-safe (per-frame workspace): one instance per stream.
+/// Not thread-safe (per-frame workspace): one instance per stream. Its matrices (K, M, H^T H:
+/// TikhonovInverse) are shared with every other reconstructor of the same H object and weight.
 class ForceReconstructor {
  public:
-  /// @param h the compliance H (3N x 3N, mm/N), paper ordering.
+  /// @param h the compliance H (3N x 3N, mm/N), paper ordering, shared: reconstructors of the
+  ///   same H object and weight share one TikhonovInverse (SharedTikhonovInverse).
   /// @param marker_positions_mm the N rest positions (mm, sensor frame), for the moment.
-  /// @throws tac3d::Error if the options are invalid, h is not 3N x 3N or not finite, or
+  /// @throws tac3d::Error if the options are invalid, h is null, not 3N x 3N or not finite, or
   ///   H^T H + w I is not positive definite in double precision (w far too small).
+  ForceReconstructor(const std::shared_ptr<const Eigen::MatrixXd>& h,
+                     std::vector<Eigen::Vector3d> marker_positions_mm,
+                     const ForceReconstructorOptions& options);
+  /// The same with a copy of h, shared with no other reconstructor.
   ForceReconstructor(const Eigen::MatrixXd& h,
                      std::vector<Eigen::Vector3d> marker_positions_mm,
                      const ForceReconstructorOptions& options);
@@ -137,9 +188,9 @@ class ForceReconstructor {
   const Eigen::Vector3d& gains() const { return options_.gains; }
   const std::vector<Eigen::Vector3d>& marker_positions() const { return marker_positions_; }
   /// K without gains (3N x 3N, N/mm), single precision, row-major.
-  const Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>& k() const {
-    return k_;
-  }
+  const TikhonovInverse::RowMajorMatrixXf& k() const { return inverse_->k(); }
+  /// The matrices, shared with every reconstructor of the same H object and weight.
+  const std::shared_ptr<const TikhonovInverse>& inverse() const { return inverse_; }
 
  private:
   // Factors I - M_RR for this frame's invalid markers into the restricted-problem cache.
@@ -155,12 +206,7 @@ class ForceReconstructor {
   int num_markers_;
   std::vector<Eigen::Vector3d> marker_positions_;
   ForceReconstructorOptions options_;
-  Eigen::MatrixXd k_double_;  // K in double, for the uncertainty and the invalid-marker update
-  Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> k_;
-
-  // M = H K (3N x 3N), symmetric, in double: column j is row j, the model's prediction of D_j
-  // from all of D.
-  Eigen::MatrixXd influence_;
+  std::shared_ptr<const TikhonovInverse> inverse_;
 
   // Per-frame workspace and the cache of the last validity mask. The matrices whose size
   // follows the number of invalid markers live in grow-only storage: a frame allocates only when
@@ -174,11 +220,8 @@ class ForceReconstructor {
   bool restricted_ok_ = false;          // whether that factorisation succeeded
   Eigen::VectorXd z_work_;              // 3N
 
-  // H^T, row-major: row j is column j of H (the support's right-hand side), column r is row r
-  // of H (H_R for lost markers). Then, for the contact-support refinement: H^T H, each
-  // marker's neighbours within the support margin, and the workspace of the support problem.
-  Eigen::MatrixXd hth_;
-  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> ht_;
+  // For the contact-support refinement: each marker's neighbours within the support margin, and
+  // the workspace of the support problem.
   std::vector<std::vector<int>> support_neighbours_;
   std::vector<char> in_support_;
   std::vector<int> support_;       // marker indices, increasing

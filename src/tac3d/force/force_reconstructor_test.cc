@@ -5,7 +5,9 @@
 #include <cstdio>
 #include <limits>
 #include <numeric>
+#include <memory>
 #include <random>
+#include <thread>
 #include <utility>
 
 #include <Eigen/Cholesky>
@@ -433,6 +435,10 @@ TEST_F(ForceReconstructorTest, BadInputThrows) {
                                   model_.marker_positions,
                                   {.weight = 1e-300}),
                Error);
+  EXPECT_THROW(ForceReconstructor(std::shared_ptr<const Eigen::MatrixXd>(), model_.marker_positions, {.weight = 1.0}),
+               Error);
+  EXPECT_THROW(TikhonovInverse(std::make_shared<const Eigen::MatrixXd>(model_.h.topRows(6)), 1.0), Error);
+  EXPECT_THROW(SharedTikhonovInverse(std::make_shared<const Eigen::MatrixXd>(model_.h), NAN), Error);
   ForceReconstructor reconstructor = Make(1e-4);
   EXPECT_THROW(reconstructor.Reconstruct(Eigen::VectorXd::Zero(5)), Error);
   EXPECT_THROW(reconstructor.Reconstruct(d_, std::vector<bool>(3, true)), Error);
@@ -443,6 +449,57 @@ TEST_F(ForceReconstructorTest, BadInputThrows) {
               ::testing::ThrowsMessage<Error>(::testing::HasSubstr(
                   "ForceReconstructor::set_gains.gains.y must be in (0, 1000], got 1e+300")));
   EXPECT_NO_THROW(reconstructor.set_gains(Eigen::Vector3d(1, kMaxForceGain, 1)));
+}
+
+// The sensors of one model: reconstructors of one H object and weight hold one copy of K, M and
+// H^T H, and H itself is not copied; another weight or another H object gets its own. Each keeps
+// its own per-frame state (its lost markers, its support), and gives what an unshared one gives.
+TEST_F(ForceReconstructorTest, ReconstructorsOfOneHAndWeightShareOneInverse) {
+  const auto h = std::make_shared<const Eigen::MatrixXd>(model_.h);
+  const ForceReconstructorOptions options{.weight = 1e-4 * s_max2_};
+  ForceReconstructor a(h, model_.marker_positions, options);
+  ForceReconstructor b(h, model_.marker_positions, options);
+  EXPECT_EQ(a.inverse(), b.inverse());
+  EXPECT_EQ(&a.inverse()->h(), h.get());
+  ForceReconstructorOptions heavier = options;
+  heavier.weight *= 2.0;
+  EXPECT_NE(ForceReconstructor(h, model_.marker_positions, heavier).inverse(), a.inverse());
+  ForceReconstructor unshared(model_.h, model_.marker_positions, options);  // a copy of H
+  EXPECT_NE(unshared.inverse(), a.inverse());
+  EXPECT_NE(&unshared.inverse()->h(), h.get());
+
+  const std::vector<bool> mask = RandomMask(0.1, testing::kRandomSeed);
+  const ForceFrame lost = a.Reconstruct(d_, mask);
+  const ForceFrame all = b.Reconstruct(d_);
+  EXPECT_EQ(lost.num_invalid_markers, static_cast<int>(0.1 * n_));
+  EXPECT_EQ(all.num_invalid_markers, 0);
+  EXPECT_THAT(lost.forces_n, EigenNear(unshared.Reconstruct(d_, mask).forces_n, 1e-12));
+  EXPECT_THAT(all.forces_n, EigenNear(unshared.Reconstruct(d_).forces_n, 1e-12));
+  EXPECT_THAT(a.Reconstruct(d_, mask).forces_n, EigenNear(lost.forces_n, 1e-12));
+}
+
+TEST_F(ForceReconstructorTest, TheSharedInverseIsFreedWithItsLastReconstructor) {
+  const auto h = std::make_shared<const Eigen::MatrixXd>(model_.h);
+  std::weak_ptr<const TikhonovInverse> inverse;
+  {
+    const ForceReconstructor a(h, model_.marker_positions, {.weight = 1e-4 * s_max2_});
+    inverse = a.inverse();
+    const ForceReconstructor b(h, model_.marker_positions, {.weight = 1e-4 * s_max2_});
+  }
+  EXPECT_TRUE(inverse.expired());
+}
+
+// Two sensors of one model opened on two threads at once get one inverse (util/shared_cache_test
+// checks that the second waits for the first's).
+TEST_F(ForceReconstructorTest, ReconstructorsMadeOnTwoThreadsAtOnceShareOneInverse) {
+  const auto h = std::make_shared<const Eigen::MatrixXd>(model_.h);
+  const ForceReconstructorOptions options{.weight = 1e-4 * s_max2_};
+  std::shared_ptr<const TikhonovInverse> first;
+  std::thread other([&] { first = ForceReconstructor(h, model_.marker_positions, options).inverse(); });
+  const std::shared_ptr<const TikhonovInverse> second =
+      ForceReconstructor(h, model_.marker_positions, options).inverse();
+  other.join();
+  EXPECT_EQ(first, second);
 }
 
 }  // namespace

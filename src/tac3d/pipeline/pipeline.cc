@@ -67,6 +67,10 @@ void PipelineOptions::Validate() const {
 
 Pipeline::Pipeline(const SensorConfig& config, const Eigen::MatrixXd& h,
                    const std::vector<Eigen::Vector3d>& fem_markers_mm, const PipelineOptions& options)
+    : Pipeline(config, std::make_shared<const Eigen::MatrixXd>(h), fem_markers_mm, options) {}
+
+Pipeline::Pipeline(const SensorConfig& config, const std::shared_ptr<const Eigen::MatrixXd>& h,
+                   const std::vector<Eigen::Vector3d>& fem_markers_mm, const PipelineOptions& options)
     : options_((options.Validate(), options)),
       rows_(config.markers.rows),
       cols_(config.markers.cols),

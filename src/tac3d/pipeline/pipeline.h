@@ -83,8 +83,13 @@ class Pipeline {
   /// @param config the sensor: calibrated virtual cameras (the twin's mirror model) or a
   ///   vendor camera model (`tac3d import-vendor`), and its markers.
   /// @param h the compliance H (3N x 3N) of the sensor's FEM and its rest marker positions:
-  ///   RestMarkerPositions(config).
+  ///   RestMarkerPositions(config). Shared, not copied: the pipelines of one H object and weight
+  ///   share the inverse's matrices (ForceReconstructor, ~50 MB with H for 400 markers); only
+  ///   the per-frame state is each pipeline's own.
   /// @throws Error if the options are invalid or the sensor, H and grid disagree.
+  Pipeline(const SensorConfig& config, const std::shared_ptr<const Eigen::MatrixXd>& h,
+           const std::vector<Eigen::Vector3d>& fem_markers_mm, const PipelineOptions& options = {});
+  /// The same with a copy of h, shared with no other pipeline.
   Pipeline(const SensorConfig& config, const Eigen::MatrixXd& h,
            const std::vector<Eigen::Vector3d>& fem_markers_mm, const PipelineOptions& options = {});
   ~Pipeline();
@@ -122,6 +127,8 @@ class Pipeline {
   /// The displacement noise variance (mm^2, per axis) measured on the last reference.
   const std::optional<Eigen::Vector3d>& noise_variance() const { return noise_variance_; }
   const PipelineOptions& options() const { return options_; }
+  /// The inverse's matrices (H, K, ...), shared with the other pipelines of the same H and weight.
+  const TikhonovInverse& inverse() const { return *reconstructor_.inverse(); }
 
  private:
   // A frame while the reference is being taken: markers as measured, no forces.

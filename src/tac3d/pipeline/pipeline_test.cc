@@ -1,6 +1,7 @@
 #include "tac3d/pipeline/pipeline.h"
 
 #include <cmath>
+#include <memory>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -46,6 +47,9 @@ struct TwinStream {
   explicit TwinStream(PipelineOptions options = {})
       : pipeline(DefaultSensor(), DefaultSyntheticCompliance(), DefaultSensor().MarkerPositions(), options),
         renderer(DefaultSensor()) {}
+  /// A sensor of the model `h` (shared with the model's other pipelines).
+  TwinStream(const std::shared_ptr<const Eigen::MatrixXd>& h, const PipelineOptions& options)
+      : pipeline(DefaultSensor(), h, DefaultSensor().MarkerPositions(), options), renderer(DefaultSensor()) {}
 
   double time_s() const { return frame_s * index; }
   /// The next frame, of markers at `markers` under the session's `conditions` (its truth).
@@ -127,6 +131,39 @@ TEST(Pipeline, InitialisesThenRecoversAKnownForceDistribution) {
   }
   EXPECT_GT(contact, 4);
   EXPECT_LT((centroid / weight - Eigen::Vector2d(2, -1)).norm(), 0.5);
+}
+
+// Two sensors of one model (two fingertips): their pipelines hold one H and one inverse
+// (K, M, H^T H), each with its own frames: one pressed while the other rests. A pipeline given
+// its own copy of H, or another weight, has its own.
+TEST(Pipeline, PipelinesOfOneModelShareItsMatricesAndKeepTheirOwnFrames) {
+  const auto h = std::make_shared<const Eigen::MatrixXd>(DefaultSyntheticCompliance());
+  TwinStream pressed(h, FiveReferenceFrames()), resting(h, FiveReferenceFrames());
+  EXPECT_EQ(&pressed.pipeline.inverse(), &resting.pipeline.inverse());
+  EXPECT_EQ(&pressed.pipeline.inverse().h(), h.get());
+  const TwinStream copied(FiveReferenceFrames());
+  EXPECT_NE(&copied.pipeline.inverse(), &pressed.pipeline.inverse());
+  PipelineOptions heavier = FiveReferenceFrames();
+  heavier.force.weight *= 2.0;
+  const TwinStream reweighted(h, heavier);
+  EXPECT_NE(&reweighted.pipeline.inverse(), &pressed.pipeline.inverse());
+  EXPECT_EQ(&reweighted.pipeline.inverse().h(), h.get());
+
+  const std::vector<Eigen::Vector3d> rest = DefaultSensor().MarkerPositions();
+  for (int k = 0; k < 5; ++k) {
+    pressed.Step(rest);
+    resting.Step(rest);
+  }
+  const Eigen::VectorXd f_true = TrueForces();
+  const Eigen::VectorXd d_true = *h * f_true;
+  const int n = static_cast<int>(rest.size());
+  std::vector<Eigen::Vector3d> displaced = rest;
+  for (int i = 0; i < n; ++i) displaced[i] += Eigen::Vector3d(d_true[i], d_true[n + i], d_true[2 * n + i]);
+  const TactileFrame press = pressed.Step(displaced);
+  const TactileFrame rests = resting.Step(rest);
+  const Eigen::Vector3d total(f_true.segment(0, n).sum(), f_true.segment(n, n).sum(), f_true.segment(2 * n, n).sum());
+  EXPECT_LT((press.resultant_force_n - total).norm(), 0.01 * total.norm());  // as the unshared pipeline above
+  EXPECT_LT(rests.resultant_force_n.norm(), 0.1);
 }
 
 TEST(Pipeline, ZeroingTakesANewReference) {

@@ -4,7 +4,6 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
-#include <map>
 #include <memory>
 #include <system_error>
 #include <thread>
@@ -41,16 +40,6 @@ class OpenCvOnCallersThread {
  private:
   int saved_;
 };
-
-// Several sensors with one config share one model (loaded once).
-ModelLoader Memoized(const ModelLoader& load_model) {
-  auto models = std::make_shared<std::map<std::string, std::shared_ptr<const fem::ComplianceModel>>>();
-  return [load_model, models](const SensorConfig& config) {
-    auto& model = (*models)[SensorConfigToYaml(config)];
-    if (!model) model = load_model(config);
-    return model;
-  };
-}
 
 // Why a sensor's work threw: a tac3d::Error's message, or what else ran out.
 std::string Why(const std::exception& e) {
@@ -138,7 +127,6 @@ std::vector<SensorReport> RunSensorGroup(const std::vector<SensorRunSpec>& senso
     throw Error(fmt::format("{} sensors: a run holds at most {}", sensors.size(), kMaxSensors));
   }
   for (const SensorRunSpec& spec : sensors) spec.Validate();
-  const ModelLoader shared_models = Memoized(load_model);
 
   std::vector<SensorReport> reports(sensors.size());
   std::vector<OpenSensor> open(sensors.size());
@@ -150,7 +138,7 @@ std::vector<SensorReport> RunSensorGroup(const std::vector<SensorRunSpec>& senso
     try {
       SensorRunSpec spec = sensors[i];
       spec.shared_viewer = viewer != nullptr;
-      open[i].stream = OpenSensorStream(spec, shared_models, sensors[i].sn + ": ");
+      open[i].stream = OpenSensorStream(spec, load_model, sensors[i].sn + ": ");
       open[i].outputs = std::make_unique<FrameOutputs>(outputs, viewer);
     } catch (const std::exception& e) {
       reports[i].failure = fmt::format("could not start: {}", Why(e));

@@ -16,9 +16,10 @@
 
 namespace tac3d::runtime {
 
-/// The most sensors a run holds (a run file, RunSensorGroup): each takes a thread and its
-/// pipeline's matrices (~70 MB for the prototype's 400 markers), so that many fit a 4 GB address
-/// space (`prlimit --as=4000000000`; docs/pipeline.md, "Several sensors").
+/// The most sensors a run holds (a run file, RunSensorGroup), for the worst case: sensors of
+/// as many different gels, each with its own model and inverse (~55 MB for the prototype's 400
+/// markers) and a thread, fit a 4 GB address space (`prlimit --as=4000000000`). Sensors of one
+/// gel share those (CachedModelLoader), ~2.5 MB each beyond the first (docs/performance.md).
 inline constexpr int kMaxSensors = 32;
 
 /// What the sensors of a run share.
@@ -53,7 +54,8 @@ struct SensorReport {
 
 /// Runs each sensor on its own thread until all have ended (their sources ended, max_frames,
 /// `$Q` from their UDP client) or `stop` is set. The sensors are opened one after the other
-/// first (so a compliance model shared by several is loaded once); one that cannot be
+/// first (a compliance model several share is loaded once: CachedModelLoader's is one copy a
+/// process, its matrices shared by their pipelines); one that cannot be
 /// opened, or fails later, gets its failure in its report and the others go on. Frames are
 /// stamped with seconds since one steady-clock epoch taken when all are open, from which a
 /// dataset's pace counts too.

@@ -38,7 +38,8 @@ std::unique_ptr<Pipeline> MakePipeline(const SensorRunSpec& spec, const SensorCo
                options.force.weight, options.force.support_refinement ? "on" : "off",
                spec.weight || spec.support_resolve ? "" : " (the sensor's defaults)");
   const std::shared_ptr<const fem::ComplianceModel> model = load_model(config);
-  return std::make_unique<Pipeline>(config, model->h, model->marker_positions, options);
+  // The sensors of one model share its H and the inverse's matrices (SharedTikhonovInverse).
+  return std::make_unique<Pipeline>(config, fem::SharedH(model), model->marker_positions, options);
 }
 
 // Camera images through the Pipeline.
@@ -409,10 +410,7 @@ std::unique_ptr<SensorStream> OpenSensorStream(const SensorRunSpec& spec,
 ModelLoader CachedModelLoader(const std::string& cache_dir) {
   return [cache_dir](const SensorConfig& config) {
     MakeCacheDirectory(cache_dir);
-    return std::make_shared<const fem::ComplianceModel>(
-        fem::LoadOrBuildComplianceModel(SensorBodyModelOptions(config), cache_dir,
-                                        /*show_progress=*/true)
-            .model);
+    return fem::LoadSharedComplianceModel(SensorBodyModelOptions(config), cache_dir, /*show_progress=*/true);
   };
 }
 

@@ -78,8 +78,9 @@ const char* DriftModeName(DriftMode mode);
 /// their timestamps.
 bool IsPacedSource(const std::string& source);
 
-/// The compliance model of a sensor config: the CLI loads (or builds) it from its cache;
-/// tests give a stand-in.
+/// The compliance model of a sensor config: the CLI loads (or builds) it from its cache, one
+/// copy for every sensor of the same gel (CachedModelLoader); tests give a stand-in. The
+/// pipelines of one model object share its H and their inverse's matrices.
 using ModelLoader = std::function<std::shared_ptr<const fem::ComplianceModel>(const SensorConfig&)>;
 
 /// How a stream's frames are timed, set when its loop starts.
@@ -151,7 +152,8 @@ std::unique_ptr<SensorStream> OpenVendorStream(const std::string& path,
                                                const ModelLoader& load_model = {},
                                                const std::string& log_prefix = "");
 
-/// The compliance model from `cache_dir`, built there the first time (~1 min).
+/// The compliance model from `cache_dir`, built there the first time (~1 min); one copy for
+/// the whole process, shared by every sensor of the same gel (fem::LoadSharedComplianceModel).
 ModelLoader CachedModelLoader(const std::string& cache_dir);
 
 }  // namespace tac3d::runtime
