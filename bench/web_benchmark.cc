@@ -1,6 +1,6 @@
 // Image to TactileFrame with the live viewer's server off (/0), on with one browser-like
 // client reading everything (/1), and on with that client plus one stalled client that never
-// reads (/2): the viewer must cost the pipeline nothing measurable (issue 13: within 5%).
+// reads (/2): the viewer must cost the pipeline nothing measurable (within 5%).
 // Publish (a copy into the latest-frame slot, and the image and its markers at image_hz) is
 // inside the timed loop; the server's thread serialises, draws and sends at stream_hz = 30.
 // Run: build/bin/bench_web --benchmark_repetitions=20 --benchmark_enable_random_interleaving=true

@@ -1,5 +1,5 @@
 // The command line as a user runs it: bad arguments get a clear error and exit code 1
-// before any work, and nothing is left half-written (issue 14, defects 6, 7 and 8).
+// before any work, and nothing is left half-written.
 #include <fmt/format.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>

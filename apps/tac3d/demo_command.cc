@@ -330,12 +330,12 @@ void RegisterDemo(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--steps", *steps, "simulate only the first N steps of each scene (0: all)")
       ->capture_default_str();
-  // 1.25, not the scenes' 1.5: the twin body's build then peaks at ~3 GB instead of ~7.3 GB,
+  // 1.25, not the scenes' 1.5: the twin body's build then peaks at ~3 GB instead of ~6.7 GB,
   // so the demo runs on an 8 GB machine (docs/getting-started.md has both runs' figures).
   auto twin_refinement = std::make_shared<double>(1.25);
   cmd->add_option("--twin-refinement", *twin_refinement,
                   "the twin's FEM refinement (pipeline's edges / this, in [1, 4]); the "
-                  "scenes' own is 1.5, whose build needs ~7.3 GB")
+                  "scenes' own is 1.5, whose build needs ~6.7 GB")
       ->capture_default_str();
   cmd->callback([out, steps, twin_refinement] { Demo(*out, *steps, *twin_refinement).Run(); });
 }

@@ -129,7 +129,7 @@ void RequireTwinRefinement(double refinement) {
 void AddTwinRefinementOption(CLI::App* cmd, std::optional<double>* refinement) {
   cmd->add_option("--twin-refinement", *refinement,
                   "the twin's FEM refinement (pipeline's edges / this, in [1, 4]) instead of the "
-                  "scene's; peak memory of the twin body's build: ~3 GB at 1.25, ~7.3 GB at 1.5");
+                  "scene's; peak memory of the twin body's build: ~3 GB at 1.25, ~6.7 GB at 1.5");
 }
 
 void RegisterSimulate(CLI::App& app) {

@@ -21,7 +21,7 @@ struct SimulateArgs {
   int steps = 0;
   /// The twin's FEM refinement instead of the scene's deviation.mesh_refinement (unset: the
   /// scene's). Memory grows steeply with it: 1.25 builds the default dome's twin body in
-  /// ~3 GB, the scenes' 1.5 in ~7.3 GB (docs/simulation.md).
+  /// ~3 GB, the scenes' 1.5 in ~6.7 GB (docs/simulation.md).
   std::optional<double> twin_refinement = std::nullopt;
   /// Solve each contact on the whole grid, not on a window around it
   /// (contact::ContactSolverOptions::windowed): the same solution, to time the two.

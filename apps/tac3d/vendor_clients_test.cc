@@ -1,4 +1,4 @@
-// `tac3d run --udp` as the vendor's C++ client (SDK 3.2.1) receives it (issue 22): every frame
+// `tac3d run --udp` as the vendor's C++ client (SDK 3.2.1) receives it: every frame
 // measured after the initialisation is delivered, and nothing is complained about with the
 // default items; with `--udp-items all` the extra items arrive (and that client complains
 // about each, every frame). The receiver is testing::VendorCppClient, a mimic written from

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """Frames a second reading every frame of a dataset folder with tac3d.datasets.open
-(docs/datasets.md, "Acceptance runs"; issue 25: >= 2,000 with images):
+(docs/datasets.md, "Acceptance runs"; target: >= 2,000 with images):
 
     PYTHONPATH=build/python /usr/bin/python3 python/bench/dataset_read.py DIR [--no-images] [--surface]
 

@@ -6,7 +6,7 @@
 Writes a 10,000-frame recording, times the C++ reader on it (bench_recording, Google
 Benchmark, wall time per frame), then the Python iteration (tac3d.RecordingReader: one
 TactileFrame object a frame; and the same touching four numpy fields a frame), the minimum
-over interleaved rounds of each, and prints the overhead per frame. Acceptance (issue 12): <= 20 us a frame.
+over interleaved rounds of each, and prints the overhead per frame. Acceptance: <= 20 us a frame.
 """
 import json
 import os

@@ -1,4 +1,4 @@
-"""Python and the CLI take the same options with the same defaults (issue 27): tac3d.friction_map
+"""Python and the CLI take the same options with the same defaults: tac3d.friction_map
 and `tac3d friction-map` (friction::FrictionMapCommandOptions) give the same map of the same
 frames, a small twin slide recorded once and mapped by both; tac3d.SensorSpec, tac3d.run and
 tac3d.Pipeline against `tac3d run` (runtime::SensorRunSpec)."""

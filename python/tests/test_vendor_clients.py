@@ -1,5 +1,5 @@
 """`tac3d run --udp` as the vendor's PyTac3D 3.3.0-p1 receives it when started BEFORE the
-sender (issue 22): it gives up for good at the first frame still initialising, so the stream
+sender: it gives up for good at the first frame still initialising, so the stream
 must send none by default, neither at the start nor while a `$C` re-takes the reference. The
 receiver is vendor_pytac3d.PyTac3DClient (plain sockets, no tac3d); the sender is the real CLI
 running a 3 x 3-marker twin dataset through the pipeline."""

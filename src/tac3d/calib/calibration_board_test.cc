@@ -51,7 +51,7 @@ TEST(CalibrationBoard, Validates) {
   board.spacing_mm = 0;
   EXPECT_THROW(board.Validate(), Error);
   board = {};
-  board.rows = 100000;  // issue 14, defect 5: died in bad_alloc
+  board.rows = 100000;  // once died in bad_alloc
   EXPECT_THROW(board.Validate(), Error);
   EXPECT_NO_THROW(CalibrationBoard{}.Validate());
 }

@@ -254,7 +254,7 @@ TEST(CalibrateVirtualStereo, TooFewGoodViewsIsAnError) {
   EXPECT_NO_THROW(CalibrateVirtualStereo(set.images, set.board_file, DefaultSensor(), fewer));
 }
 
-// Sensor-to-sensor spread (issue 15): a twin built at the manufacturing tolerances (mirrors
+// Sensor-to-sensor spread: a twin built at the manufacturing tolerances (mirrors
 // and camera off), seen through the pipeline given the nominal design and given the
 // calibration from its own board images. Marker positions and displacements (a Gaussian dent
 // of 0.2 mm) against the truth.
@@ -305,7 +305,7 @@ TEST(ManufacturingSpread, TheCalibrationRecoversTheMarkersOfASensorBuiltAtTolera
   // The nominal design does not describe this sensor: markers lost, or measured far off.
   EXPECT_TRUE(nominal.valid < 400 || nominal.position_rmse_mm > 2 * fixed.position_rmse_mm);
   EXPECT_EQ(fixed.valid, 400);
-  EXPECT_LE(fixed.displacement_rmse_mm, 0.01);  // issue 15's target
+  EXPECT_LE(fixed.displacement_rmse_mm, 0.01);  // the acceptance target
 }
 
 TEST(TwinCalibrationOptions, NeedFifteenViews) {

@@ -7,7 +7,7 @@
 
 #include "tac3d/eval/calibration_evaluation.h"
 
-// The acceptance figures (ctest label `eval`); the fast tests that can fail for the
+// The calibration's acceptance figures (ctest label `eval`); the fast tests that can fail for the
 // same reasons are in calibration_evaluation_test.
 
 namespace tac3d {

@@ -41,7 +41,7 @@ void ExpectEveryCheckPasses(const std::string& name, const std::string& scenes) 
   EXPECT_TRUE(report.at("overall").at("all_pass").get<bool>()) << report.at("overall").dump(2);
 }
 
-// The issue's three scenes (its item 5).
+// The three friction scenes of the acceptance.
 TEST(EvalFriction, MeetsTheAcceptanceOnTheFrictionScenes) {
   ExpectEveryCheckPasses("issue", "friction_block friction_bottle friction_paint_can");
 }

@@ -7,7 +7,7 @@
 
 #include "tac3d/eval/marker_evaluation.h"
 
-// The marker acceptance (ctest label `eval`): calibrated from rendered boards of a
+// The marker acceptance (ctest label `eval`): calibrated from rendered boards of a
 // perturbed sensor, then the marker layer under shear, dent and twist through the gel.
 
 namespace tac3d {

@@ -1,4 +1,4 @@
-// The incipient-slip family's truth on the twin (issue 26 item 3), on the tests' small
+// The incipient-slip family's truth on the twin, on the tests' small
 // fingertip so it runs in CI: the load ratio rises through 1 into gross slip while the stick
 // region shrinks, as Cattaneo-Mindlin says for a sphere.
 #include <gtest/gtest.h>

@@ -47,7 +47,7 @@ TEST(EvaluateMarkers, TrackingAndCompensatedStereoMeetTheAcceptanceOnTheKnownSen
 }
 
 // Issue 24: the frames rendered with a real camera's nuisances (coloured uneven LEDs, blur
-// 1.0 px, JPEG quality 85; RenderOptions::WithRealImageNuisances) still meet issue 3's
+// 1.0 px, JPEG quality 85; RenderOptions::WithRealImageNuisances) still meet the marker
 // acceptance, every marker valid.
 TEST(EvaluateMarkers, RealImageNuisancesStillMeetTheAcceptanceOnTheKnownSensor) {
   MarkerEvaluationOptions options;

@@ -1,4 +1,4 @@
-// Robustness of the marker measurement (issue 3): tracking and triangulation together on twin
+// Robustness of the marker measurement: tracking and triangulation together on twin
 // frames of a deformed marker layer, each bad input a test. A bad marker or frame is flagged
 // (invalid in the MarkerField, or a clear tac3d::Error / kBadFrame), the rest is measured in
 // 3D as accurately as in an untouched frame, and nothing crashes.
@@ -34,11 +34,11 @@ using ::testing::HasSubstr;
 
 // Per-marker 3D error of a valid marker against the rendered truth, polynomial compensation
 // on the designed sensor. `eval markers --known-sensor` gives an RMSE of a few microns; 0.02 mm
-// is the issue's position acceptance, taken here as a bound on every marker. A marker
+// is the position acceptance, taken here as a bound on every marker. A marker
 // mismatched by one pitch would be 1.27 mm off.
 constexpr double kPositionToleranceMm = 0.02;
 
-// The issue's dent (1 mm, 10 mm sphere) on top of its 0.5 mm shear: markers off the grid's
+// The acceptance's dent (1 mm, 10 mm sphere) on top of its 0.5 mm shear: markers off the grid's
 // rest positions in all three axes.
 const std::vector<Eigen::Vector3d>& Deformed() {
   static const std::vector<Eigen::Vector3d> markers = [] {

@@ -148,7 +148,7 @@ TEST(ReplayEvaluation, RefusesADatasetLoadedDuringTheReference) {
 
 // `tac3d eval conditions` (conditions_evaluation.h) on the synthetic dataset: a one-minute
 // session at the realistic levels, each nuisance alone, all together and a sensor built at
-// tolerance; with the creep re-zeroed every case holds issue 15's bounds, without it the
+// tolerance; with the creep re-zeroed every case holds the acceptance bounds, without it the
 // creep's case does not.
 TEST(ConditionsEvaluation, EachNuisanceAndAllTogetherHoldTheBoundsOnlyWithTheDriftHandled) {
   const TwinDatasetReader dataset(WriteDataset("conditions", 5, {{0.4, 0, -1.5}, {0.8, -0.3, -3}, {-0.5, 0.6, -4.5}}));

@@ -1,4 +1,4 @@
-// Seeded fuzzing of the pose CSV reader (issue 22, defect 8): mutated files, /dev/zero, a
+// Seeded fuzzing of the pose CSV reader: mutated files, /dev/zero, a
 // folder and a FIFO each load or throw tac3d::Error, within bounded time and memory.
 #include <gtest/gtest.h>
 

@@ -28,7 +28,7 @@ INSTANTIATE_TEST_SUITE_P(Formats,
                          ImageHeaderFormat,
                          ::testing::Values(".png", ".jpg", ".bmp", ".tiff", ".pgm"));
 
-// The file of issue 14: a small PNG whose header claims 60000 x 60000 pixels.
+// A hostile file: a small PNG whose header claims 60000 x 60000 pixels.
 TEST(ImageHeader, ReadsTheClaimOfAForgedPngWithoutDecodingIt) {
   std::vector<std::uint8_t> bytes = EncodeUniformImage(".png", 8, 8);
   const std::uint8_t huge[4] = {0x00, 0x00, 0xEA, 0x60};  // 60000, big-endian

@@ -363,7 +363,7 @@ TEST(PipelineConditions, DisplacementAccuracyHoldsUnderEachRealisticLightingNuis
       sum += rmse;
     }
     std::printf("%-22s displacement RMSE mean %.4f max %.4f mm\n", name.c_str(), sum / 4, worst);
-    EXPECT_LE(worst, 0.01) << name;  // issue 15's target
+    EXPECT_LE(worst, 0.01) << name;  // the calibration's acceptance target
   }
 }
 

@@ -432,7 +432,7 @@ TEST(WireFormat, DecoderRefusesEachKindOfBadHeaderAndField) {
             DropReason::kBadField);
 }
 
-// A datagram's header with aliases that stand for 10^8 values (issue 22, defect 7's YAML, 332
+// A datagram's header with aliases that stand for 10^8 values (a fuzzer's YAML, 332
 // bytes, fits in one datagram), or an alias inside the node it names: the decoder reads only
 // the header's top keys and each item's map, so it refuses both at the first item, which the
 // message names, instead of expanding them (a decoder that walked them would not return).

@@ -1,4 +1,4 @@
-// Seeded fuzzing of the run file's reader (issue 22, as the sensor config's since issue 14):
+// Seeded fuzzing of the run file's reader (as the sensor config's):
 // mutated run files, and run files of many sensors, must load or throw tac3d::Error, never
 // crash, hang or allocate without bound.
 #include <fmt/format.h>

@@ -1,4 +1,4 @@
-// A `$C` (zero) from the client while the sensor is loaded (issue 27): zeroing then takes the
+// A `$C` (zero) from the client while the sensor is loaded: zeroing then takes the
 // load for the undeformed state and offsets every later reading, so it is refused unless the
 // run allows it; at rest it zeroes quietly. Real sockets on 127.0.0.1, ephemeral ports.
 #include "tac3d/runtime/run_outputs.h"

@@ -1,4 +1,4 @@
-// Several sensors in one `tac3d run` (issue 13): three twin datasets streamed at 30 fps on
+// Several sensors in one `tac3d run`: three twin datasets streamed at 30 fps on
 // their own threads, every frame of each counted on UDP by SN, each on its own pace on one
 // clock; a sensor whose dataset disappears mid-run, or that cannot start, is reported and the
 // others go on. And the run file's validation. The compliance is the synthetic stand-in (the
@@ -287,7 +287,7 @@ SensorRunSpec ReplaySensor(const std::string& sn, const std::string& recording) 
 
 // While it lives, every new thread asks for a stack larger than any address space, so
 // pthread_create fails (EAGAIN) as it does when a run of many sensors has used up its address
-// space (`prlimit --as=4000000000`, issue 22 defect 6).
+// space (`prlimit --as=4000000000`).
 class ThreadsCannotStart {
  public:
   ThreadsCannotStart() {
@@ -307,7 +307,7 @@ class ThreadsCannotStart {
   pthread_attr_t saved_;
 };
 
-// Before issue 22 a std::thread that could not start left the others joinable when their
+// Once a std::thread that could not start left the others joinable when their
 // vector was destroyed: std::terminate ("terminate called without an active exception").
 // A paced dataset whose next frame is due in 11 days: a stop request (Ctrl-C, a client's $Q)
 // ends the wait at once, not when the frame is due.
@@ -346,7 +346,7 @@ TEST(SensorGroup, AThreadThatCannotStartFailsItsSensorNotTheRun) {
 }
 
 // An exception that is not a tac3d::Error (std::bad_alloc, say) on a sensor's thread fails that
-// sensor; before issue 22 it escaped the thread: std::terminate.
+// sensor; once it escaped the thread: std::terminate.
 TEST(SensorGroup, AnyExceptionOnASensorsThreadFailsOnlyThatSensor) {
   const std::string recording = MakeRecording(testing::MakeTempDir("throws"), 5);
   const std::vector<SensorRunSpec> sensors = {ReplaySensor("A", recording), ReplaySensor("B", recording)};

@@ -1,4 +1,4 @@
-// Seeded fuzzing of the sensor YAML reader (issues 14 and 22): mutated configs, some with
+// Seeded fuzzing of the sensor YAML reader: mutated configs, some with
 // nested aliases, must load or throw tac3d::Error, never crash, hang or allocate without bound.
 // The address space is capped so an allocation driven by a value in the file shows up as
 // std::bad_alloc, which fails the test.

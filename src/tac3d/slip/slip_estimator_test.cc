@@ -463,7 +463,7 @@ TEST(SlipEstimator, PureStickReportsNoFriction) {
   }
   std::printf("pure stick: friction reported in %d of %d draws\n", alarms, total);
   EXPECT_LE(alarms, 0.01 * total);
-  // Below 0.3 (issue 26's "pure stick" of the twin's evaluation) a thin annulus may be measured,
+  // Below 0.3 (the "pure stick" of the twin's evaluation) a thin annulus may be measured,
   // but a margin under 0.5 would be a false alarm.
   int low_margins = 0, measured = 0;
   total = 0;

@@ -1,4 +1,4 @@
-// Seeded fuzzing of the image sources (issue 14): mutated PNG, JPEG, BMP and TIFF files in an
+// Seeded fuzzing of the image sources: mutated PNG, JPEG, BMP and TIFF files in an
 // image folder must each be a good frame or a bad one, never an exception, a crash, a hang or
 // an allocation without bound (the address space is capped, so a decoder allocating what a
 // forged header claims fails as a thrown exception, which fails the test).

@@ -361,7 +361,7 @@ TEST(SingleViewTracker, RealGelSightMiniFramesEveryMarkerInsideFound) {
   EXPECT_GE(frames, 3);
 }
 
-// The whole video (where ../shared/realdata is present): the acceptance. Every marker
+// The whole video (where ../shared/realdata is present): the acceptance run. Every marker
 // whose dot is inside the image (not flagged kPartlyOutside, and its centre farther than the
 // dots' radius + 2 px from the edge) is measured in every frame, none moves by more than half
 // the pitch between frames (an identity swap), and in the frames without contact (before the
