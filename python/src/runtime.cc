@@ -220,8 +220,9 @@ last frame and the longest gap between two frames (NaN, NaN, 0 without frames).
       .def_readonly("first_frame_s", &SensorReport::first_frame_s)
       .def_readonly("last_frame_s", &SensorReport::last_frame_s)
       .def_readonly("max_gap_s", &SensorReport::max_gap_s)
+      .def_readonly("outputs", &SensorReport::outputs)
       .def("brief_report", &SensorReport::BriefReport,
-           "'SN: 30 frames, 0 skipped, 0.03-1.00 s, longest gap 35 ms[, FAILED: why]'.")
+           "'SN: 30 frames, 0 skipped, 0.03-1.00 s, longest gap 35 ms[, outputs][, FAILED: why]'.")
       .def("__repr__", [](const SensorReport& r) { return "<tac3d.SensorReport " + r.BriefReport() + ">"; });
 }
 

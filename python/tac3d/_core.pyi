@@ -244,6 +244,7 @@ class SensorReport:
     first_frame_s: float
     last_frame_s: float
     max_gap_s: float
+    outputs: str
     def brief_report(self) -> str: ...
 
 def load_run_file(path: str) -> list[SensorSpec]: ...

@@ -166,3 +166,38 @@ def test_the_gil_is_released_while_the_sensors_run(tmp_path):
     stop.set()
     thread.join()
     assert len(ticks) > 20  # 0.5 s of replay: the other thread ran meanwhile
+
+
+LOOPBACK_CYCLONE = ('<CycloneDDS><Domain id="any"><General><Interfaces><NetworkInterface name="lo"/></Interfaces>'
+                    '<AllowMulticast>false</AllowMulticast></General><Discovery><Peers><Peer address="127.0.0.1"/>'
+                    '</Peers><ParticipantIndex>auto</ParticipantIndex></Discovery></Domain></CycloneDDS>')
+
+
+def test_sensors_publish_on_ros2_under_their_namespaces_and_say_so(tmp_path, capfd, monkeypatch):
+    # What a ROS 2 node receives is checked by ros2/interop_test (a Fast DDS subscriber); here, that
+    # Python's specs and a run file reach the publisher, one namespace a sensor.
+    monkeypatch.setenv("CYCLONEDDS_URI", LOOPBACK_CYCLONE)
+    monkeypatch.setenv("ROS_DOMAIN_ID", "174")
+    a = write_recording(tmp_path / "a.tac3drec", 20, sn="REC-A")
+    b = write_recording(tmp_path / "b.tac3drec", 12, sn="REC-B")
+    specs = [tac3d.SensorSpec("THUMB", f"recording:{a}", speed=0, ros2="hand/thumb", ros2_reliable=True),
+             tac3d.SensorSpec("INDEX", f"recording:{b}", speed=0, ros2="/hand/index")]
+    reports = tac3d.run(specs)
+    assert [(r.frames, r.failure) for r in reports] == [(20, ""), (12, "")]
+    assert reports[0].outputs == ", 20 published on ROS 2 under /hand/thumb"
+    assert reports[1].outputs == ", 12 published on ROS 2 under /hand/index"
+    err = capfd.readouterr().err
+    assert "THUMB: 20 frames, 0 skipped" in err and "published on ROS 2 under /hand/thumb\n" in err
+
+    run_file = tmp_path / "hand.yaml"
+    run_file.write_text("sensors:\n  - sn: THUMB\n    source: recording:a.tac3drec\n    ros2: hand/thumb\n"
+                        "    ros2_frame_id: thumb_tip\n  - sn: INDEX\n    source: recording:b.tac3drec\n"
+                        "    ros2: hand/thumb\n")
+    with pytest.raises(tac3d.Error, match="hand/thumb"):
+        tac3d.load_run_file(str(run_file))
+    run_file.write_text(run_file.read_text().replace("ros2: hand/thumb\n", "ros2: hand/index\n")
+                        .replace("ros2: hand/index\n", "ros2: hand/thumb\n", 1))
+    specs = tac3d.load_run_file(str(run_file))
+    assert [(s.ros2, s.ros2_frame_id) for s in specs] == [("hand/thumb", "thumb_tip"), ("hand/index", "")]
+    with pytest.raises(tac3d.Error, match="ROS 2"):
+        tac3d.SensorSpec("X", f"recording:{a}", ros2="1st/bad")

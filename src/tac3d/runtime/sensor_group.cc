@@ -75,6 +75,7 @@ void RunSensor(OpenSensor& sensor, const StreamClock& clock, const SensorGroupOp
         {[&] { sensor.stream->Zero(); }, sensor.stream->ZeroRetakesReference()});
     report.frames = counts.emitted;
     report.skipped = counts.skipped;
+    report.outputs = sensor.outputs->RecordedNote();
     const StreamEnd end = sensor.stream->End(counts.emitted);
     report.failure = end.failure;
     report.warning = end.warning;
@@ -94,6 +95,7 @@ std::string SensorReport::BriefReport() const {
   if (frames > 0) {
     s += fmt::format(", {:.2f}-{:.2f} s, longest gap {:.0f} ms", first_frame_s, last_frame_s, 1e3 * max_gap_s);
   }
+  s += outputs;
   if (!last_skip.empty()) s += ", last skipped: " + last_skip;
   if (!warning.empty()) s += ", warning: " + warning;
   if (!failure.empty()) s += ", FAILED: " + failure;

@@ -46,8 +46,12 @@ struct SensorReport {
   double first_frame_s = std::numeric_limits<double>::quiet_NaN();
   double last_frame_s = std::numeric_limits<double>::quiet_NaN();
   double max_gap_s = 0.0;
+  /// What the outputs did with the frames, as a single sensor's run says it ("" without
+  /// outputs): ", 30 streamed to 127.0.0.1:9988, 30 recorded to x.tac3drec, 30 published on ROS 2
+  /// under /hand/thumb".
+  std::string outputs;
 
-  /// "SN: 30 frames, 0 skipped, 0.03-1.00 s, longest gap 35 ms[, last skipped: why]
+  /// "SN: 30 frames, 0 skipped, 0.03-1.00 s, longest gap 35 ms[, outputs][, last skipped: why]
   /// [, FAILED: why]".
   std::string BriefReport() const;
 };
