@@ -11,19 +11,24 @@
 #include "tac3d/imagefile/image_decode.h"
 
 namespace tac3d {
-namespace {
+namespace internal {
 
 // libjpeg reports a fatal error by calling error_exit, which must not return: it jumps back to
 // the setjmp of the call in progress. Between the setjmp and the jump only C data lives (no
-// destructor is skipped), and the message is kept for the refusal.
-struct ErrorManager {
+// destructor is skipped), and the message is kept for the refusal. Not in the anonymous
+// namespace: JpegGreyDecoder::Impl holds one.
+struct JpegErrorManager {
   jpeg_error_mgr pub;
   std::jmp_buf jump;
   char message[JMSG_LENGTH_MAX];
 };
 
+}  // namespace internal
+
+namespace {
+
 void ExitWithError(j_common_ptr cinfo) {
-  auto* err = reinterpret_cast<ErrorManager*>(cinfo->err);
+  auto* err = reinterpret_cast<internal::JpegErrorManager*>(cinfo->err);
   (*cinfo->err->format_message)(cinfo, err->message);
   std::longjmp(err->jump, 1);
 }
@@ -41,7 +46,7 @@ struct Span {
 
 struct JpegGreyDecoder::Impl {
   jpeg_decompress_struct cinfo;
-  ErrorManager err;
+  internal::JpegErrorManager err;
 
   Impl() {
     cinfo.err = jpeg_std_error(&err.pub);

@@ -136,7 +136,9 @@ TEST(JpegGreyDecoder, CorruptFramesAreDecodedOrRefusedAndTheNextOneDecodes) {
         trial % 3 == 0 ? std::nullopt : std::optional<cv::Rect>(cv::Rect(30, 20, 90, 70));
     const JpegDecodeResult result = decoder.Decode(bytes, 4096, 4096, region, image);
     refused += !result.refusal.empty();
-    if (result.refusal.empty()) EXPECT_EQ(image.type(), CV_8UC1);
+    if (result.refusal.empty()) {
+      EXPECT_EQ(image.type(), CV_8UC1);
+    }
     ASSERT_EQ(decoder.Decode(jpeg, 160, 120, std::nullopt, image).refusal, "") << "after trial " << trial;
   }
   EXPECT_GT(refused, 0);  // the header's edits do refuse some

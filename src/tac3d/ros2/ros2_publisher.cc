@@ -35,7 +35,36 @@ std::uint32_t RosDomainId() {
   return static_cast<std::uint32_t>(id);
 }
 
-// The process's one DDS participant, shared by its publishers; deleted with the last.
+// A QoS object, deleted with it.
+struct Qos {
+  Qos() : qos(dds_create_qos()) {}
+  ~Qos() { dds_delete_qos(qos); }
+  Qos(const Qos&) = delete;
+  Qos& operator=(const Qos&) = delete;
+  dds_qos_t* qos;
+};
+
+// ROS 2's profiles: default (reliable, keep-last 10) or sensor data (best effort, keep-last 5),
+// both volatile; classic CDR (XCDR1), the only encoding ROS 2 Humble's readers take.
+void SetRosQos(dds_qos_t* qos, bool reliable) {
+  dds_qset_reliability(qos, reliable ? DDS_RELIABILITY_RELIABLE : DDS_RELIABILITY_BEST_EFFORT, DDS_MSECS(100));
+  dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, reliable ? 10 : 5);
+  dds_qset_durability(qos, DDS_DURABILITY_VOLATILE);
+  const dds_data_representation_id_t xcdr1 = DDS_DATA_REPRESENTATION_XCDR1;
+  dds_qset_data_representation(qos, 1, &xcdr1);
+}
+
+std::int64_t RealtimeNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+}  // namespace
+
+namespace internal {
+
+// The process's one DDS participant, shared by its publishers; deleted with the last. Not in
+// the anonymous namespace: Ros2Publisher::Impl holds one.
 class Participant {
  public:
   static std::shared_ptr<Participant> Shared() {
@@ -69,31 +98,7 @@ class Participant {
   dds_entity_t entity_;
 };
 
-// A QoS object, deleted with it.
-struct Qos {
-  Qos() : qos(dds_create_qos()) {}
-  ~Qos() { dds_delete_qos(qos); }
-  Qos(const Qos&) = delete;
-  Qos& operator=(const Qos&) = delete;
-  dds_qos_t* qos;
-};
-
-// ROS 2's profiles: default (reliable, keep-last 10) or sensor data (best effort, keep-last 5),
-// both volatile; classic CDR (XCDR1), the only encoding ROS 2 Humble's readers take.
-void SetRosQos(dds_qos_t* qos, bool reliable) {
-  dds_qset_reliability(qos, reliable ? DDS_RELIABILITY_RELIABLE : DDS_RELIABILITY_BEST_EFFORT, DDS_MSECS(100));
-  dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, reliable ? 10 : 5);
-  dds_qset_durability(qos, DDS_DURABILITY_VOLATILE);
-  const dds_data_representation_id_t xcdr1 = DDS_DATA_REPRESENTATION_XCDR1;
-  dds_qset_data_representation(qos, 1, &xcdr1);
-}
-
-std::int64_t RealtimeNs() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
-
-}  // namespace
+}  // namespace internal
 
 std::string Ros2Namespace(const std::string& ns) {
   const std::string full = ns.starts_with('/') ? ns : "/" + ns;
@@ -195,7 +200,7 @@ class WriteQueue {
 struct Ros2Publisher::Impl {
   Ros2PublisherOptions options;
   std::string ns;
-  std::shared_ptr<Participant> participant;
+  std::shared_ptr<internal::Participant> participant;
   // Deleted (with their writers and reader) before the participant goes.
   std::vector<dds_entity_t> entities;
   internal::CdrTopic wrench_topic, markers_topic, status_topic, image_topic;
@@ -208,7 +213,7 @@ struct Ros2Publisher::Impl {
   std::optional<WriteQueue> writes;  // made last, stopped first
 
   explicit Impl(const Ros2PublisherOptions& o)
-      : options(o), ns(Ros2Namespace(o.ns)), participant(Participant::Shared()), status_cadence(o.status_period_s) {}
+      : options(o), ns(Ros2Namespace(o.ns)), participant(internal::Participant::Shared()), status_cadence(o.status_period_s) {}
 
   ~Impl() {
     writes.reset();  // every sample queued is written

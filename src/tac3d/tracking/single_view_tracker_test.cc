@@ -198,7 +198,9 @@ TEST(SingleViewTracker, EveryVisibleMarkerFoundWhenARowOrColumnIsCutAtEachBorder
                              p.y() + kDotRadiusPx < kImageSize.height - 1.5;
           if (whole) {
             EXPECT_TRUE(o.valid(i)) << what << ", frame " << frame << ", marker " << i << ": " << ToString(o.state[i]);
-            if (o.valid(i)) EXPECT_LT((o.uv[i] - p).norm(), kCentroidTolerancePx) << what << ", marker " << i;
+            if (o.valid(i)) {
+              EXPECT_LT((o.uv[i] - p).norm(), kCentroidTolerancePx) << what << ", marker " << i;
+            }
             continue;
           }
           ++cut;
