@@ -31,8 +31,8 @@ struct VendorForceOptions {
   /// The inverse checked: `tac3d run`'s for the sensor (DefaultPipelineOptions), with the
   /// weight w ((mm/N)^2) and the contact-support re-solve given here, as `tac3d run --weight
   /// --support-resolve` takes them; unset: the sensor's defaults.
-  std::optional<double> weight;
-  std::optional<bool> support_resolve;
+  std::optional<double> weight{};
+  std::optional<bool> support_resolve{};
   /// Morozov's tau of the figure given for reference: F = K D at the discrepancy principle's
   /// weight for the datasheet's position noise (SelectRegularizationWeight, kDiscrepancy) on
   /// the compared frames.

@@ -32,7 +32,7 @@ struct Ros2PublisherOptions {
   /// Also publish NAMESPACE/image, the camera frame as PNG (costs milliseconds a frame).
   bool image = false;
   /// Every header's frame_id; "" DefaultRosFrameId(the frame's SN).
-  std::string frame_id;
+  std::string frame_id{};
   /// How often NAMESPACE/status goes out (s of frame time; StatusCadence).
   double status_period_s = 1.0;
 

@@ -96,13 +96,13 @@ nlohmann::json Summary(const TactileFrame& f) {
 
 }  // namespace
 
-void FrameOutputArgs::Validate() const {
+void FrameOutputArgs::Validate(const std::vector<std::string>& inputs) const {
   if (record_images && record.empty()) throw Error("--record-images needs --record FILE");
   if (overwrite && record.empty()) throw Error("--overwrite needs --record FILE");
   if (udp.empty() && !udp_items.empty()) throw Error("--udp-items needs --udp HOST:PORT");
   if (udp.empty() && udp_progress) throw Error("--udp-progress needs --udp HOST:PORT");
   if (!udp.empty()) ParseUdp(*this);
-  if (!record.empty()) CheckOutputFile(record, "--record");
+  if (!record.empty()) CheckOutputFile(record, "--record", {}, inputs);
   if (!web.empty()) ParseWeb(*this).Validate();
   if (!std::isfinite(web_hold_s)) {
     throw Error(fmt::format("--web-hold {} must be a number of seconds (-1: until Ctrl-C)", web_hold_s));

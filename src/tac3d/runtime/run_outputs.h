@@ -10,6 +10,7 @@
 #include <opencv2/core.hpp>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "tac3d/frame/tactile_frame.h"
 #include "tac3d/protocol/udp_sender.h"
@@ -51,8 +52,10 @@ struct FrameOutputArgs {
   /// --udp-items and --udp-progress only with --udp, --record-images and --overwrite only
   /// with --record, --web-hold only with --web, the record file's folder, --ros2's namespace and
   /// frame_id, --ros2-* only with --ros2.
+  /// @param inputs what the run reads (its source, its config): the record file must be none of
+  ///   them (CheckOutputFile).
   /// @throws Error naming the flag.
-  void Validate() const;
+  void Validate(const std::vector<std::string>& inputs = {}) const;
 };
 
 /// A frame is under load for a `$C` when a valid marker is displaced more than this from its

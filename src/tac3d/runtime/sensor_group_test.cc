@@ -377,6 +377,27 @@ TEST(SensorGroup, RunsUpToTheLimitOfSensorsAndRefusesMore) {
                                                          kMaxSensors))));
 }
 
+// A sensor's record file is checked against what the sensor reads: never its recording, nor a
+// file inside its dataset folder.
+TEST(SensorRunSpec, RefusesARecordFileThatIsWhatTheSensorReads) {
+  const std::string dir = testing::MakeTempDir("record_input");
+  const std::string recording = dir + "/in.rec";
+  std::FILE* file = std::fopen(recording.c_str(), "wb");
+  ASSERT_NE(file, nullptr);
+  std::fclose(file);
+  SensorRunSpec spec;
+  spec.sn = "A";
+  spec.source = "recording:" + recording;
+  spec.outputs.record = recording;
+  EXPECT_THAT([&] { spec.Validate(); },
+              ThrowsMessage<Error>(HasSubstr(fmt::format("sensor A: --record '{0}' is the input '{0}'", recording))));
+  spec.source = "dataset:" + dir;
+  EXPECT_THAT([&] { spec.Validate(); },
+              ThrowsMessage<Error>(HasSubstr(fmt::format("would replace a file inside the input folder '{}'", dir))));
+  spec.outputs.record = testing::MakeTempDir("record_output") + "/out.rec";
+  EXPECT_NO_THROW(spec.Validate());
+}
+
 // Parses `text` as a run file in /tmp and returns the error, or "" if it was accepted.
 std::string RunFileError(const std::string& text) {
   try {

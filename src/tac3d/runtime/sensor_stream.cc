@@ -336,14 +336,9 @@ void SensorRunSpec::Validate() const {
     if (recompute_forces && !RecordingSourcePath(source) && !VendorSourcePath(source)) {
       throw Error("recompute_forces applies to recording:FILE and vendor:DIR only");
     }
-    outputs.Validate();
-    if (!outputs.record.empty()) {
-      // The source's file or folder, past its scheme (recording:FILE, vendor:DIR, dataset:DIR).
-      const std::size_t colon = source.find(':');
-      const std::string source_path =
-          IsPacedSource(source) ? source.substr(colon + 1) : source;
-      CheckOutputFile(outputs.record, "--record", {}, {source_path, config});
-    }
+    // The source's file or folder, past its scheme (recording:FILE, vendor:DIR, dataset:DIR).
+    const std::string source_path = IsPacedSource(source) ? source.substr(source.find(':') + 1) : source;
+    outputs.Validate({source_path, config});
   } catch (const Error& e) {
     throw Error(fmt::format("sensor {}: {}", sn, e.what()));
   }

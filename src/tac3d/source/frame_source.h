@@ -20,7 +20,7 @@ struct Frame {
   std::int64_t index = 0;     ///< 0, 1, 2, ... in the order read
   /// The part of `image` decoded, when the source decoded only the region it was asked for
   /// (FrameSource::SetDecodeRegion); the other pixels are 0. nullopt: the whole image.
-  std::optional<cv::Rect> decoded_region;
+  std::optional<cv::Rect> decoded_region{};
 };
 
 enum class ReadStatus {
