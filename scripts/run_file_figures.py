@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The `tac3d run --run-file` figures of docs/pipeline.md ("Measured: three twin sensors").
+"""The `tac3d run --run-file` figures of docs/pipeline.md ("Three twin sensors in one process", in its appendix).
 
 Copies a twin dataset three times (a, b, c) into WORK, writes hand.yaml (HAND-A/B/C, speed 1,
 reference_frames 5, each recording to a|b|c.rec), runs `tac3d run --run-file hand.yaml --json`
