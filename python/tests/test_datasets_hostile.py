@@ -1,9 +1,11 @@
 """Hostile dataset folders and arguments (tac3d.datasets, `tac3d dataset`): a damaged or planted
-store, a link planted in the output folder, a count beyond its bound or a scheduler that does not
-answer ends in a tac3d.Error naming the file or option (from the CLI, one `tac3d: error:` line
-and exit code 1), fast and without a traceback; nothing in a store is ever run or written
-through."""
+store, a link planted in the output folder, a count beyond its bound, a scheduler that does not
+answer or has no workers, or an episode that fails on a worker ends in a tac3d.Error naming the
+file, option or episode (from the CLI, one `tac3d: error:` line and exit code 1), fast and
+without a traceback; nothing in a store is ever run or written through."""
 import base64
+import contextlib
+import io
 import json
 import os
 import pathlib
@@ -13,7 +15,9 @@ import re
 import resource
 import shutil
 import signal
+import socket
 import subprocess
+import sys
 import time
 
 import pytest
@@ -109,15 +113,17 @@ def test_a_pickled_array_is_refused_before_zarr_decodes_it(copy, tmp_path, tac3d
 
 
 @pytest.mark.parametrize("option, value", [("--episodes", 1_000_000_000_000), ("--episodes", 0),
-                                           ("--workers", 1000), ("--workers", 0)])
+                                           ("--workers", 1000), ("--workers", 0),
+                                           ("--worker-timeout", 0), ("--worker-timeout", "nan")])
 def test_counts_beyond_their_bounds_are_refused_up_front(copy, tac3d_cli, cache_dir, option, value):
     # On the complete copy, a run within bounds would only rewrite the manifest.
     manifest = (copy / "manifest.jsonl").stat().st_mtime_ns
     counts = {"--episodes": 2, "--workers": 1, option: value}
     run, _ = cli(tac3d_cli, cache_dir, "generate", "--spec", SMALL, "--out", copy,
                  *[x for item in counts.items() for x in item])
-    workers = rf"\[1, {2 * len(os.sched_getaffinity(0))}\] \(twice this machine's cores\)"
-    bound = r"\[1, 1000000\]" if option == "--episodes" else workers
+    bound = {"--episodes": r"\[1, 1000000\]",
+             "--workers": rf"\[1, {2 * len(os.sched_getaffinity(0))}\] \(twice this machine's cores\)",
+             "--worker-timeout": r"\(0, 86400\] seconds"}[option]
     assert_one_line_error(run, rf"{option} must be in {bound}, got {value}$")
     assert (copy / "manifest.jsonl").stat().st_mtime_ns == manifest  # refused before any work
 
@@ -246,6 +252,156 @@ def test_a_scheduler_that_does_not_answer_fails_fast(tmp_path, tac3d_cli, cache_
                        "--episodes", 1, "--scheduler", address)
     assert_one_line_error(run, message)
     assert seconds < 30  # distributed alone waits 30 s
+
+
+def free_tcp_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def wait_until_listening(port, process, log):
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and process.poll() is None:
+        with socket.socket() as s:
+            if s.connect_ex(("127.0.0.1", port)) == 0:
+                return
+        time.sleep(0.1)
+    pytest.fail(f"the dask-scheduler did not listen on {port}: {log.read_text()}")
+
+
+@contextlib.contextmanager
+def started(command, log):
+    """`command` running (its output in `log`) for the block, stopped after."""
+    with open(log, "wb") as out:
+        process = subprocess.Popen(command, stdout=out, stderr=subprocess.STDOUT)
+    try:
+        yield process
+    finally:
+        process.terminate()
+        try:
+            process.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+
+
+@pytest.fixture
+def scheduler(tmp_path):
+    """The address of a `dask-scheduler` (Debian's python3-distributed) on a free port of
+    127.0.0.1, with no worker, stopped after the test."""
+    port = free_tcp_port()
+    log = tmp_path / "scheduler.log"
+    command = [sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
+               "--port", str(port), "--dashboard-address", "127.0.0.1:0"]
+    with started(command, log) as process:
+        wait_until_listening(port, process, log)
+        yield f"tcp://127.0.0.1:{port}"
+
+
+def without_progress(stderr):
+    """stderr's lines but the progress bar's (a line a tenth when not on a terminal)."""
+    return [line for line in stderr.strip().splitlines() if not line.startswith("episodes [")]
+
+
+def test_a_scheduler_without_workers_is_an_error_saying_how_to_start_one(scheduler, tmp_path, tac3d_cli,
+                                                                        cache_dir):
+    message = (f"the scheduler {scheduler} has no workers and none joined in 1 s: start one with "
+               f"`dask-worker {scheduler}`")
+    stream = io.StringIO()
+    with pytest.raises(tac3d.Error, match="^" + re.escape(message)):
+        tac3d.datasets.generate(str(SMALL), str(tmp_path / "api"), 1, scheduler=scheduler, cache_dir=cache_dir,
+                                stream=stream, worker_timeout=1)
+    assert stream.getvalue() == (f"the scheduler {scheduler} has no workers: waiting up to 1 s for a worker "
+                                 f"(start one with `dask-worker {scheduler}`)\n")
+    run, _ = cli(tac3d_cli, cache_dir, "generate", "--spec", SMALL, "--out", tmp_path / "cli", "--episodes", 1,
+                 "--scheduler", scheduler, "--worker-timeout", 1)
+    assert run.returncode == 1 and "Traceback" not in run.stderr, run.stderr
+    waiting, error = run.stderr.strip().splitlines()
+    assert waiting.startswith(f"the scheduler {scheduler} has no workers: waiting up to 1 s") and \
+        error.startswith(f"tac3d: error: {message}"), run.stderr
+
+
+def test_workers_that_all_leave_mid_run_are_an_error_keeping_the_complete_episodes(scheduler, tmp_path, tac3d_cli,
+                                                                                   cache_dir):
+    out = tmp_path / "left"
+    command = [sys.executable, "-m", "distributed.cli.dask_worker", scheduler, "--nthreads", "1", "--no-nanny",
+               "--no-dashboard", "--local-directory", str(tmp_path / "worker")]
+    with started(command, tmp_path / "worker.log") as worker:
+        run = subprocess.Popen([tac3d_cli, "dataset", "generate", "--spec", str(SMALL), "--out", str(out),
+                                "--episodes", "40", "--scheduler", scheduler, "--worker-timeout", "2"],
+                               env=dict(os.environ, TAC3D_CACHE_DIR=cache_dir), stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)
+        try:
+            deadline = time.monotonic() + 300
+            while run.poll() is None and time.monotonic() < deadline and \
+                    not list((out / "episodes").glob("episode_*.zarr")):
+                time.sleep(0.05)
+            worker.kill()  # with no nanny to start another
+            _, stderr = run.communicate(timeout=120)
+        finally:
+            if run.poll() is None:  # it hung: the test fails, the command is not left behind
+                run.kill()
+                run.wait()
+    assert run.returncode == 1 and "Traceback" not in stderr, stderr
+    complete = tac3d.datasets.open(out).ids
+    assert 1 <= len(complete) < 40
+    assert without_progress(stderr)[-1] == (
+        f"tac3d: error: the scheduler {scheduler} has no workers left and none joined in 2 s: start one with "
+        f"`dask-worker {scheduler}` (with the tac3d package importable), or wait longer with --worker-timeout; "
+        f"the episodes complete are kept: a run again generates only the others"), stderr
+    # The manifest lists every complete episode, as a finished run's would.
+    assert [r["episode"] for r in tac3d.datasets.open(out).manifest()] == complete
+    assert tac3d.datasets.verify(out) == {"episodes": len(complete), "verified": len(complete), "problems": []}
+
+
+def pins_spec(folder):
+    """small.yaml with pins of a drawn radius 0.3 or 0.6 mm, 1 mm apart: the spec takes both,
+    a scene only the first (its pins must be apart), so an episode that draws 0.6 fails when
+    its scene is read. Returns (the spec, the first failing episode, its seed)."""
+    text = re.sub(r"(?m)^  - \{shape: .*\n", "", SMALL.read_text())
+    text = text.replace("objects:\n", "objects:\n  - {shape: pins, radius_mm: {choice: [0.3, 0.6]}, "
+                                       "pitch_mm: 1.0, rows: 2, cols: 2}\n")
+    spec = folder / "pins.yaml"
+    spec.write_text(text)
+    shutil.copy(SMALL.parent / "small_sensor.yaml", folder)
+    draws = [tac3d.datasets.load_spec(str(spec)).draw(i) for i in range(10)]
+    radii = [d["parameters"]["object"]["radius_mm"] for d in draws]
+    # Episode 0, whose scene the client reads before the workers start, draws the good radius.
+    assert radii[0] == 0.3 and 0.6 in radii, radii
+    bad = radii.index(0.6)
+    return spec, bad, draws[bad]["seed"]
+
+
+def test_an_episode_that_fails_on_a_worker_is_one_error_naming_it(tmp_path, tac3d_cli, cache_dir):
+    spec, bad, seed = pins_spec(tmp_path)
+    reason = (r"scene: objects\[0\] \(pins 'object'\)\.pitch_mm = 1 is out of range: must be > 2 radius_mm "
+              r"\(pins apart\)")
+    message = rf"episode {bad} \(seed {seed}\) failed: {reason}"
+    out = tmp_path / "api"
+    with pytest.raises(tac3d.Error) as raised:
+        tac3d.datasets.generate(str(spec), str(out), bad + 1, workers=1, cache_dir=cache_dir,
+                                stream=io.StringIO())
+    assert re.fullmatch(message, str(raised.value)), str(raised.value)
+    # The episodes complete are in place and in the manifest; the failed one is not.
+    complete = tac3d.datasets.open(out).ids
+    assert bad not in complete and [r["episode"] for r in tac3d.datasets.open(out).manifest()] == complete
+    assert tac3d.datasets.verify(out)["problems"] == []
+    # From the CLI: the error line, without the worker's log of the task or a traceback.
+    run, _ = cli(tac3d_cli, cache_dir, "generate", "--spec", spec, "--out", tmp_path / "cli", "--episodes", bad + 1)
+    assert run.returncode == 1 and "Traceback" not in run.stderr and "distributed" not in run.stderr, run.stderr
+    assert len(without_progress(run.stderr)) == 1 and re.fullmatch(
+        "tac3d: error: " + message, without_progress(run.stderr)[0]), run.stderr
+    # --verbose adds the worker's traceback.
+    run, _ = cli(tac3d_cli, cache_dir, "generate", "--spec", spec, "--out", tmp_path / "verbose", "--episodes",
+                 bad + 1, "--verbose")
+    assert run.returncode == 1 and f"episode {bad} (seed {seed}): the worker's traceback:\nTraceback" in run.stderr
+    assert re.fullmatch("tac3d: error: " + message, run.stderr.strip().splitlines()[-1]), run.stderr
+    # A run again skips the episodes complete: the client reads the failing episode's scene
+    # first (if those before it are complete), and names it as the worker did.
+    with pytest.raises(tac3d.Error) as again:
+        tac3d.datasets.generate(str(spec), str(out), bad + 1, workers=1, cache_dir=cache_dir, stream=io.StringIO())
+    assert str(again.value) == str(raised.value)
 
 
 # The store fuzzed: files mutated a few at a time, each mutation read by verify, open, frames

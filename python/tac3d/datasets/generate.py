@@ -1,12 +1,14 @@
 """`tac3d dataset generate`: one Dask task an episode, on a local cluster of K worker
 processes or on an existing cluster (a `dask-scheduler` address)."""
 import contextlib
+import logging
 import os
 import pathlib
 import shutil
 import stat
 import sys
 import time
+import traceback
 
 from .. import _core
 from . import store
@@ -22,6 +24,7 @@ class Progress:
         self.start = time.perf_counter()
         self.tty = stream.isatty()
         self.last_decile = 0
+        self.mid_line = False  # a bar drawn in place, its line not ended
 
     def step(self):
         self.done += 1
@@ -37,7 +40,16 @@ class Progress:
                           f"{self.done}/{self.total} {time.perf_counter() - self.start:.1f}s{suffix}")
         if self.tty and self.done == self.total:
             self.stream.write("\n")
+        self.mid_line = self.tty and self.done < self.total
         self.stream.flush()
+
+    def interrupt(self):
+        """Ends the line of a bar drawn in place, so that what is written next (a message, an
+        error) starts a line of its own; the bar goes on below it."""
+        if self.mid_line:
+            self.stream.write("\n")
+            self.stream.flush()
+            self.mid_line = False
 
 
 def prepare_folder(spec_path, out):
@@ -92,10 +104,12 @@ def prepare_models(spec_path, todo, cache_dir, measured=False):
     spec = load_spec(spec_path)
     prepared = set()
     for episode in todo:
-        draw = spec.draw(episode)
+        with named_episode(spec, episode):
+            draw = spec.draw(episode)
         nu = draw["parameters"]["sensor"]["poisson_ratio_factor"]
         if nu not in prepared:
-            scene = _core.parse_scene(draw["scene_yaml"], ".")
+            with named_episode(spec, episode):
+                scene = _core.parse_scene(draw["scene_yaml"], ".")
             if measured and not prepared:
                 _core.prepare_sensor_model(scene, cache_dir=cache_dir)
             prepared.add(nu)
@@ -128,13 +142,25 @@ def max_workers():
 # Seconds to connect to --scheduler: an address that does not answer is reported in seconds
 # (distributed waits 30 s by default).
 SCHEDULER_CONNECT_S = 5
+# Seconds to wait for a worker (--worker-timeout) when the cluster has none: at the start (its
+# workers still starting) or after every worker left in the middle of a run. Without a bound
+# the tasks would wait on the scheduler for ever.
+WORKER_TIMEOUT_S = 30
+MAX_WORKER_TIMEOUT_S = 24 * 3600
+# Seconds between looks at the cluster's workers while no episode completes.
+WORKER_POLL_S = 1.0
+# What a run that ends early keeps (the episodes in place, and the manifest lists them).
+KEPT = "the episodes complete are kept: a run again generates only the others"
 
 
-def check_arguments(episodes, workers, scheduler):
+def check_arguments(episodes, workers, scheduler, worker_timeout=WORKER_TIMEOUT_S):
     """@raises tac3d.Error for a count out of its bounds or an address no Dask transport takes,
     before anything is written or started."""
     if not 1 <= episodes <= store.MAX_EPISODES:
         raise _core.Error(f"--episodes must be in [1, {store.MAX_EPISODES}], got {episodes}")
+    if not 0 < worker_timeout <= MAX_WORKER_TIMEOUT_S:  # NaN fails too
+        raise _core.Error(f"--worker-timeout must be in (0, {MAX_WORKER_TIMEOUT_S}] seconds, "
+                          f"got {worker_timeout:g}")
     if scheduler:
         from distributed.comm import parse_address
         from distributed.comm.registry import get_backend
@@ -147,9 +173,29 @@ def check_arguments(episodes, workers, scheduler):
 
 
 @contextlib.contextmanager
-def dask_client(workers, scheduler, stream):
+def named_episode(spec, episode):
+    """Raises a tac3d.Error of the block as one naming episode `episode` and its seed, as
+    episode_error does one of a worker."""
+    try:
+        yield
+    except _core.Error as e:
+        raise _core.Error(f"{episode_name(spec, episode)} failed: {e}") from e
+
+
+def episode_name(spec, episode):
+    """"episode 3 (seed 2159871899846873932)": what a rerun of one episode needs."""
+    try:
+        return f"episode {episode} (seed {spec.draw(episode)['seed']})"
+    except _core.Error:  # the draw itself fails (a damaged mesh of the spec's)
+        return f"episode {episode}"
+
+
+@contextlib.contextmanager
+def dask_client(workers, scheduler, stream, verbose=False):
     """A Dask client: of the cluster at `scheduler`, else of a local cluster of `workers`
-    processes of one thread each (with the dashboard where bokeh is installed), closed after."""
+    processes of one thread each (with the dashboard where bokeh is installed), closed after.
+    The local cluster's workers log errors only (`verbose`: Dask's warnings too): generate
+    reports a failed episode once, not also each worker that ran it."""
     from distributed import Client, LocalCluster
 
     if scheduler:
@@ -160,27 +206,127 @@ def dask_client(workers, scheduler, stream):
         return
     try:
         import bokeh  # noqa: F401  the dashboard's dependency
-        dashboard = ":0"
+        dashboard = True
     except ImportError:
-        dashboard = None
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                      dashboard_address=dashboard) as cluster, Client(cluster) as client:
+        dashboard = False
+    # Port 0 even without the dashboard: the scheduler's HTTP server (health, metrics) always
+    # starts, and on its default port 8787 it warns when another cluster holds that port.
+    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+                      scheduler_kwargs={"dashboard": dashboard},
+                      silence_logs=logging.WARNING if verbose else logging.ERROR) as cluster, \
+            Client(cluster) as client:
         if dashboard:
             stream.write(f"dashboard: {client.dashboard_link}\n")
         yield client
 
 
+def wait_for_a_worker(client, scheduler, timeout, stream, left=False, bar=None):
+    """Returns once the cluster has a worker (paused for memory counts: it resumes); if it has
+    none, waits up to `timeout` seconds for one to join, saying so on `stream` for the cluster
+    at `scheduler` (None: the local cluster, whose nanny restarts a worker that died).
+    @raises tac3d.Error saying how to start one if none joined; `left`: every worker left in
+    the middle of the run, whose progress `bar` the message interrupts."""
+    from distributed import TimeoutError as DaskTimeoutError  # asyncio's
+
+    if client.scheduler_info()["workers"]:
+        return
+    if scheduler:
+        what = f"the scheduler {scheduler} has no workers{' left' if left else ''}"
+        start = f"start one with `dask-worker {scheduler}`"
+        advice = f"{start} (with the tac3d package importable), or wait longer with --worker-timeout"
+        if bar:
+            bar.interrupt()
+        stream.write(f"{what}: waiting up to {timeout:g} s for a worker ({start})\n")
+        stream.flush()
+    else:
+        what = "the local cluster has no workers left"
+        advice = "they died and their nanny started none: out of memory? (--verbose shows the workers' logs)"
+    try:
+        client.wait_for_workers(1, timeout=timeout)
+    except DaskTimeoutError:
+        kept = f"; {KEPT}" if left else ""
+        raise _core.Error(f"{what} and none joined in {timeout:g} s: {advice}{kept}") from None
+
+
+def episode_error(spec, episode, future, stream, verbose):
+    """The tac3d.Error of the episode whose `future` failed on a worker: one line naming the
+    episode, its seed and the reason. `verbose`: the worker's traceback on `stream` first."""
+    from distributed import KilledWorker
+
+    e = future.exception()
+    name = episode_name(spec, episode)
+    if verbose:
+        stream.write(f"{name}: the worker's traceback:\n"
+                     + "".join(traceback.format_exception(type(e), e, future.traceback())))
+    if isinstance(e, KilledWorker):  # the scheduler's allowed-failures + 1 deaths
+        deaths = e.allowed_failures + 1
+        reason = (f"the worker running it died, {deaths} time{'s' if deaths > 1 else ''} (the last "
+                  f"{e.last_worker.address}): a crash or out of memory? (the workers' logs say; a "
+                  f"local cluster's with --verbose)")
+    elif isinstance(e, _core.Error):
+        reason = str(e)
+    else:
+        reason = f"{type(e).__name__}: {e}"
+        if not verbose:
+            reason += " (--verbose prints the worker's traceback)"
+    return _core.Error(f"{name} failed: {reason}")
+
+
+def run_episodes(client, scheduler, spec, spec_path, out, todo, cache_dir, measured, records, stream,
+                 worker_timeout, verbose):
+    """Runs the episodes `todo` on the client's cluster, adding each record to `records` as it
+    completes. @raises tac3d.Error at the first episode that fails (naming it), when every
+    worker has left and none joins within `worker_timeout` s (the tasks would wait for ever), or
+    when the scheduler drops the tasks."""
+    from distributed import as_completed
+
+    futures = client.map(run_episode, [spec_path] * len(todo), [out] * len(todo), todo,
+                         [cache_dir] * len(todo), [measured] * len(todo),
+                         key=[f"tac3d-episode-{i}" for i in todo])
+    episode_of = {future.key: i for future, i in zip(futures, todo)}
+    bar = Progress(len(todo), stream)
+    # With the results: fetched in the background, so a record lost with its worker before it
+    # was fetched (refetched once a worker reruns the task) never blocks the look at the workers.
+    completed = as_completed(futures, with_results=True, raise_errors=False)
+    looked = time.monotonic()
+    try:
+        while not completed.is_empty():
+            batch = completed.next_batch(block=False)
+            if not batch:  # as as_completed's own iteration waits, with a look at the workers a second
+                if time.monotonic() - looked >= WORKER_POLL_S:
+                    wait_for_a_worker(client, scheduler, worker_timeout, stream, left=True, bar=bar)
+                    looked = time.monotonic()
+                time.sleep(0.1)
+            for future, record in batch:
+                episode = episode_of[future.key]
+                if future.status == "error":
+                    bar.interrupt()  # before --verbose's traceback
+                    raise episode_error(spec, episode, future, stream, verbose)
+                if future.status == "cancelled":  # the client closed: it lost its scheduler
+                    raise _core.Error(f"the scheduler {scheduler or 'of the local cluster'} dropped the "
+                                      f"episodes (it stopped, or this client lost it); {KEPT}")
+                records[episode] = record
+                bar.step()
+    except BaseException:
+        bar.interrupt()  # the error on a line of its own
+        raise
+
+
 def generate(spec, out, episodes, workers=1, scheduler=None, cache_dir="", stream=sys.stderr,
-             measured=None):
+             measured=None, worker_timeout=WORKER_TIMEOUT_S, verbose=False):
     """Generates episodes 0 .. episodes - 1 of `spec` into `out`, skipping complete ones.
     `measured`: store what the sensor's pipeline measures beside the truth (None: as the
-    spec's `measured` says). Returns {episodes (complete in out), skipped, generated, seconds,
-    workers, measured}.
+    spec's `measured` says). `worker_timeout`: seconds to wait for a worker when the cluster
+    has none. `verbose`: a failed episode's traceback on `stream`, and the local cluster's
+    warnings. Returns {episodes (complete in out), skipped, generated, seconds, workers,
+    measured}.
     Raises tac3d.Error for a bad spec, count or folder, or a folder whose episodes were
-    generated with the other `measured`, before any cluster starts."""
+    generated with the other `measured`, before any cluster starts; for an episode that fails
+    (naming it) or a cluster without workers, after writing the manifest of the episodes
+    complete (a run again generates only the others)."""
     spec_path = str(pathlib.Path(spec).resolve())
     out = str(pathlib.Path(out).resolve())
-    check_arguments(episodes, workers, scheduler)
+    check_arguments(episodes, workers, scheduler, worker_timeout)
     parsed = _core.load_dataset_spec(str(spec))  # a bad spec is refused here, named as the user gave it
     measured = parsed.measured if measured is None else bool(measured)
     prepare_folder(spec_path, out)
@@ -189,20 +335,21 @@ def generate(spec, out, episodes, workers=1, scheduler=None, cache_dir="", strea
     todo = [i for i in range(episodes) if i not in records]
     start = time.perf_counter()
     used_workers = 0
-    if todo:
-        from distributed import as_completed
-
-        prepare_models(spec_path, todo, cache_dir, measured)
-        with dask_client(workers, scheduler, stream) as client:
-            used_workers = len(client.scheduler_info()["workers"])
-            futures = client.map(run_episode, [spec_path] * len(todo), [out] * len(todo), todo,
-                                 [cache_dir] * len(todo), [measured] * len(todo),
-                                 key=[f"tac3d-episode-{i}" for i in todo])
-            bar = Progress(len(todo), stream)
-            for future in as_completed(futures):
-                record = future.result()
-                records[record["episode"]] = record
-                bar.step()
+    try:
+        if todo:
+            prepare_models(spec_path, todo, cache_dir, measured)
+            with dask_client(workers, scheduler, stream, verbose) as client:
+                wait_for_a_worker(client, scheduler, worker_timeout, stream)
+                used_workers = len(client.scheduler_info()["workers"])
+                run_episodes(client, scheduler, parsed, spec_path, out, todo, cache_dir, measured, records,
+                             stream, worker_timeout, verbose)
+    except BaseException:
+        # The episodes complete so far are in place whatever ended the run (some maybe after
+        # the error, by a worker that was running them): list them. The temporaries stay (a
+        # remote worker may still be writing one); the next run removes them.
+        with contextlib.suppress(_core.Error):
+            store.write_manifest(out, store.complete_episodes(out))
+        raise
     remove_temporaries(out)
     store.write_manifest(out, records)
     return {"episodes": len(records), "skipped": episodes - len(todo), "generated": len(todo),
