@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "tac3d/sensor/test_sensor.h"
+#include "tac3d/simulation/test_scenes.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
 #include "tac3d/vendor_formats/vendor_gel.h"
@@ -17,17 +18,8 @@ namespace {
 
 using ::testing::HasSubstr;
 using ::testing::ThrowsMessage;
-
-std::shared_ptr<const TwinBodyModel> SmallTwinBody() {
-  static const auto model = [] {
-    TwinBodyOptions options;
-    options.margin_mm = 0.8;
-    options.quadrature_points_per_side = 2;
-    return std::make_shared<const TwinBodyModel>(
-        CalcTwinBodyModel(TwinBodyModelOptions(testing::SmallSensor(), {1.0, 1.0, 1.0}), options));
-  }();
-  return model;
-}
+using testing::SmallTwinBody;
+using testing::SphereScene;
 
 // The pipeline's compliance of the small sensor, as `tac3d run` has it.
 const fem::ComplianceModel& SmallCompliance() {
@@ -36,25 +28,10 @@ const fem::ComplianceModel& SmallCompliance() {
   return model;
 }
 
-// A sphere of radius 5 mm 0.05 mm above the fingertip at t = 0, pressed 0.1 mm into it by
-// t = 1 and slid 0.3 mm along x by t = 2: 11 steps.
+// A sphere 0.05 mm above the fingertip at t = 0, pressed 0.1 mm into it by t = 1 and slid
+// 0.3 mm along x by t = 2: 11 steps.
 Scene PressAndSlide() {
-  Scene scene;
-  scene.name = "press_and_slide";
-  scene.sensor = testing::SmallSensor();
-  SceneObject sphere;
-  sphere.name = "ball";
-  sphere.shape = SceneObject::Shape::kSphere;
-  sphere.radius_mm = 5.0;
-  sphere.world_from_object = Rigid3(Eigen::Translation3d(0, 0, 3.0 + 5.0));
-  sphere.friction.default_mu = 0.5;
-  scene.objects.push_back(sphere);
-  for (const auto& [t, p] : std::vector<std::pair<double, Eigen::Vector3d>>{
-           {0.0, {0, 0, -0.05}}, {1.0, {0, 0, 0.1}}, {2.0, {0.3, 0, 0.1}}}) {
-    scene.trajectory.keyframes.push_back({t, Rigid3(Eigen::Translation3d(p))});
-  }
-  scene.trajectory.steps = 11;
-  return scene;
+  return SphereScene({{0.0, {0, 0, -0.05}}, {1.0, {0, 0, 0.1}}, {2.0, {0.3, 0, 0.1}}}, 11);
 }
 
 PipelineOptions SmallPipelineOptions() {
