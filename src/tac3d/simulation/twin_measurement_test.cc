@@ -21,10 +21,11 @@ using ::testing::ThrowsMessage;
 using testing::SmallTwinBody;
 using testing::SphereScene;
 
-// The pipeline's compliance of the small sensor, as `tac3d run` has it.
-const fem::ComplianceModel& SmallCompliance() {
-  static const fem::ComplianceModel model =
-      fem::CalcComplianceModel(SensorBodyModelOptions(testing::SmallSensor()));
+// The pipeline's compliance of the small sensor, as `tac3d run` has it, one model for the
+// program (as fem::LoadSharedComplianceModel gives a process).
+std::shared_ptr<const fem::ComplianceModel> SmallCompliance() {
+  static const auto model = std::make_shared<const fem::ComplianceModel>(
+      fem::CalcComplianceModel(SensorBodyModelOptions(testing::SmallSensor())));
   return model;
 }
 
@@ -78,8 +79,8 @@ TEST(TwinMeasurement, IsThePipelineOnTheRenderedImagesAndTracksTheTruth) {
 
   // A replay: the same images through a pipeline of the same options give the same frames.
   Pipeline replay(testing::SmallSensor(),
-                  SmallCompliance().h,
-                  SmallCompliance().marker_positions,
+                  SmallCompliance()->h,
+                  SmallCompliance()->marker_positions,
                   SmallPipelineOptions());
   TactileFrame out;
   for (const Frame& frame : reference) replay.Process(frame, out);
@@ -107,6 +108,31 @@ TEST(TwinMeasurement, IsThePipelineOnTheRenderedImagesAndTracksTheTruth) {
   // Slid along x: the ball drags the fingertip along -x (its motion relative to the sensor).
   EXPECT_LT(steps[10].total_force_n.x(), -0.01);
   EXPECT_LT(measured[10].resultant_force_n.x(), 0.0);
+}
+
+// The episodes a process measures with one model (a Dask worker's) hold its H and one inverse
+// (K, M, H^T H), not a copy each; another weight has an inverse of its own on the same H.
+TEST(TwinMeasurement, MeasurementsOfOneModelShareItsHAndInverse) {
+  const std::shared_ptr<const fem::ComplianceModel> model = SmallCompliance();
+  const TwinMeasurement first(testing::SmallSensor(), model, SmallPipelineOptions());
+  const TwinMeasurement second(testing::SmallSensor(), model, SmallPipelineOptions());
+  EXPECT_EQ(&first.pipeline().inverse(), &second.pipeline().inverse());
+  EXPECT_EQ(&first.pipeline().inverse().h(), &model->h);
+  PipelineOptions heavier = SmallPipelineOptions();
+  heavier.force.weight *= 2.0;
+  const TwinMeasurement reweighted(testing::SmallSensor(), model, heavier);
+  EXPECT_NE(&reweighted.pipeline().inverse(), &first.pipeline().inverse());
+  EXPECT_EQ(&reweighted.pipeline().inverse().h(), &model->h);
+
+  // A measurement holds its model: no reference to one freed under it.
+  auto own = std::make_shared<const fem::ComplianceModel>(*model);
+  const std::weak_ptr<const fem::ComplianceModel> own_alive = own;
+  const TwinMeasurement holder(testing::SmallSensor(), own, SmallPipelineOptions());
+  own.reset();
+  ASSERT_FALSE(own_alive.expired());
+  EXPECT_EQ(&holder.pipeline().inverse().h(), &own_alive.lock()->h);
+  EXPECT_THAT([] { TwinMeasurement(testing::SmallSensor(), nullptr, SmallPipelineOptions()); },
+              ThrowsMessage<Error>(HasSubstr("no compliance model")));
 }
 
 TEST(TwinMeasurement, RefusesAStepWithoutImage) {
