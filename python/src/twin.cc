@@ -5,11 +5,11 @@
 
 #include <chrono>
 #include <cstring>
-#include <map>
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <set>
 #include <string>
 #include <type_traits>
 #include <utility>
@@ -44,6 +44,24 @@ std::string ResolveCacheDir(const std::string& dir) {
 }
 
 namespace {
+
+// {cache_file, cache_status, load_or_build_s}: what the reports say of each model they used.
+nlohmann::json CacheReport(const SharedModelSource& source) {
+  return {{"cache_file", source.path},
+          {"cache_status", source.status ? Describe(*source.status) : "in memory"},
+          {"load_or_build_s", source.elapsed_s}};
+}
+
+// Keeps `held` (a model, an inverse) for the process's life. The shared caches (fem's, the twin
+// body's, SharedTikhonovInverse) keep an object only while someone holds it, and an episode's
+// simulation and pipeline end with the episode: a Dask worker runs episode after episode, and
+// without this would load its models and compute the inverse anew for each.
+void KeepForTheProcess(std::shared_ptr<const void> held) {
+  static std::mutex mutex;
+  static std::set<std::shared_ptr<const void>> kept;
+  const std::lock_guard<std::mutex> lock(mutex);
+  kept.insert(std::move(held));
+}
 
 py::array_t<double> Matrix4(const Rigid3& pose) {
   py::array_t<double> out({4, 4});
@@ -150,7 +168,7 @@ py::object Simulate(const py::object& scene_arg,
     TwinDatasetWriter writer(out, {{"name", scene.name}, {"scene", scene_ref}});
     simulation::TwinBodyCacheResult cached = simulation::LoadOrBuildTwinBodyModel(
         body, twin, ResolveCacheDir(cache_dir), /*show_progress=*/false);
-    model_json = {{"cache_file", cached.path}, {"load_or_build_s", cached.elapsed_s}};
+    model_json = CacheReport({cached.path, cached.status, cached.elapsed_s});
     const auto model = std::make_shared<const simulation::TwinBodyModel>(std::move(cached.model));
     simulation::SimulationOptions options;
     options.render_images = images;
@@ -286,57 +304,6 @@ py::dict Truth(const Dataset& ds) {
   return TruthArrays(read);
 }
 
-// The models this process has loaded, by cache file (`key`): a Dask worker runs many episodes
-// and loads each model it needs once, shared read-only by its simulations. `load` returns a
-// cache result (model, path, status, elapsed_s); its report goes to `model_json`.
-template <typename Model, typename Load>
-std::shared_ptr<const Model> LoadedOnce(const std::string& key, const Load& load, nlohmann::json* model_json) {
-  struct Loaded {
-    std::shared_ptr<const Model> model;
-    std::string path;
-  };
-  static std::mutex mutex;
-  static std::map<std::string, Loaded> loaded;
-  const std::lock_guard<std::mutex> lock(mutex);
-  auto it = loaded.find(key);
-  if (it == loaded.end()) {
-    auto cached = load();
-    *model_json = {{"cache_file", cached.path},
-                   {"cache_status", Describe(cached.status)},
-                   {"load_or_build_s", cached.elapsed_s}};
-    Loaded entry{std::make_shared<const Model>(std::move(cached.model)), cached.path};
-    it = loaded.emplace(key, std::move(entry)).first;
-  } else {
-    *model_json = {
-        {"cache_file", it->second.path}, {"cache_status", "in memory"}, {"load_or_build_s", 0.0}};
-  }
-  return it->second.model;
-}
-
-std::shared_ptr<const simulation::TwinBodyModel> SharedTwinBodyModel(
-    const fem::BodyModelOptions& body,
-    const simulation::TwinBodyOptions& twin,
-    const std::string& cache_dir,
-    nlohmann::json* model_json) {
-  const std::string dir = ResolveCacheDir(cache_dir);
-  return LoadedOnce<simulation::TwinBodyModel>(
-      fmt::format("{}/twin_{:016x}", dir, simulation::CalcTwinBodyCacheKey(body, twin)),
-      [&] { return simulation::LoadOrBuildTwinBodyModel(body, twin, dir, /*show_progress=*/false); },
-      model_json);
-}
-
-// The compliance model the pipeline of `sensor` runs with (`tac3d run`'s, tac3d.Pipeline's).
-std::shared_ptr<const fem::ComplianceModel> SharedComplianceModel(const SensorConfig& sensor,
-                                                                  const std::string& cache_dir,
-                                                                  nlohmann::json* model_json) {
-  const std::string dir = ResolveCacheDir(cache_dir);
-  const fem::BodyModelOptions body = SensorBodyModelOptions(sensor);
-  return LoadedOnce<fem::ComplianceModel>(
-      fmt::format("{}/compliance_{:016x}", dir, fem::CalcComplianceCacheKey(body)),
-      [&] { return fem::LoadOrBuildComplianceModel(body, dir, /*show_progress=*/false); },
-      model_json);
-}
-
 // The renderer for `scene`'s images, kept for the next call while the sensor is the same: a
 // worker simulating episode after episode of one spec builds it (~1 s) once.
 std::shared_ptr<const MarkerImageRenderer> SharedRenderer(const Scene& scene) {
@@ -378,9 +345,7 @@ py::dict PrepareTwinBody(const py::object& scene_arg,
     const simulation::TwinBodyCacheResult cached = simulation::LoadOrBuildTwinBodyModel(
         SimulatedBody(scene, scale_youngs_modulus, &scale), twin, ResolveCacheDir(cache_dir),
         /*show_progress=*/false);
-    model_json = {{"cache_file", cached.path},
-                  {"cache_status", Describe(cached.status)},
-                  {"load_or_build_s", cached.elapsed_s}};
+    model_json = CacheReport({cached.path, cached.status, cached.elapsed_s});
   }
   return JsonToPython(model_json);
 }
@@ -392,9 +357,7 @@ py::dict PrepareSensorModel(const py::object& scene_arg, const std::string& cach
     py::gil_scoped_release release;
     const fem::ComplianceCacheResult cached = fem::LoadOrBuildComplianceModel(
         SensorBodyModelOptions(scene.sensor), ResolveCacheDir(cache_dir), /*show_progress=*/false);
-    model_json = {{"cache_file", cached.path},
-                  {"cache_status", Describe(cached.status)},
-                  {"load_or_build_s", cached.elapsed_s}};
+    model_json = CacheReport({cached.path, cached.status, cached.elapsed_s});
   }
   return JsonToPython(model_json);
 }
@@ -445,7 +408,7 @@ py::array StackSteps(const std::vector<TwinStep>& steps, Get get) {
 }
 
 // The twin simulation of simulate_arrays and TwinSimulation: the scene's body model shared
-// within the process (SharedTwinBodyModel, its report in `model_json`), the renderer too.
+// within the process and kept for its life (its report in `model_json`), the renderer too.
 // `options` says images, steps and the contact's; the rest is filled in here.
 std::unique_ptr<simulation::TwinSimulation> MakeTwinSimulation(const Scene& scene,
                                                                const simulation::TwinBodyOptions& twin,
@@ -456,8 +419,12 @@ std::unique_ptr<simulation::TwinSimulation> MakeTwinSimulation(const Scene& scen
   if (options.render_images) options.renderer = SharedRenderer(scene);
   const fem::BodyModelOptions body =
       SimulatedBody(scene, scale_youngs_modulus, &options.youngs_modulus_scale);
-  return std::make_unique<simulation::TwinSimulation>(
-      scene, SharedTwinBodyModel(body, twin, cache_dir, model_json), options);
+  SharedModelSource source;
+  const std::shared_ptr<const simulation::TwinBodyModel> model = simulation::LoadSharedTwinBodyModel(
+      body, twin, ResolveCacheDir(cache_dir), /*show_progress=*/false, &source);
+  KeepForTheProcess(model);
+  *model_json = CacheReport(source);
+  return std::make_unique<simulation::TwinSimulation>(scene, model, options);
 }
 
 // simulate_arrays(measure=True): the scene's sensor as its user has it (scene.sensor: neither the
@@ -467,10 +434,15 @@ class ArraysMeasurement {
  public:
   ArraysMeasurement(const Scene& scene, const simulation::TwinSimulation& sim, const std::string& cache_dir) {
     const auto start = std::chrono::steady_clock::now();
-    const std::shared_ptr<const fem::ComplianceModel> model =
-        SharedComplianceModel(scene.sensor, cache_dir, &report_["compliance_model"]);
+    SharedModelSource source;
+    const std::shared_ptr<const fem::ComplianceModel> model = fem::LoadSharedComplianceModel(
+        SensorBodyModelOptions(scene.sensor), ResolveCacheDir(cache_dir), /*show_progress=*/false, &source);
+    report_["compliance_model"] = CacheReport(source);
     measurement_ = std::make_unique<simulation::TwinMeasurement>(
-        scene.sensor, *model, DefaultPipelineOptions(scene.sensor));
+        scene.sensor, model, DefaultPipelineOptions(scene.sensor));
+    // The inverse, and with it the model (it holds H), for the worker's next episodes.
+    KeepForTheProcess(
+        SharedTikhonovInverse(fem::SharedH(model), measurement_->pipeline().options().force.weight));
     reference_ = measurement_->TakeReference(sim);
     frames_.reserve(sim.num_steps());
     seconds_ += SecondsSince(start);
@@ -865,11 +837,11 @@ void RegisterTwin(py::module_& m) {
         "compliance scaled to the scene's youngs_modulus_factor (one model for every E); else\n"
         "the model at the scene's E, as tac3d.simulate. window: as tac3d.simulate's.\n"
         "measure: also run each rendered image through the pipeline of the scene's sensor as\n"
-        "`tac3d run` does (its defaults, its compliance model loaded or built in cache_dir\n"
-        "once a process), its reference taken from images of the sensor at rest before step\n"
-        "0: measured (a tac3d.Recording of T frames, one a step) and, with images,\n"
-        "reference_images (R x H x W uint8, what the pipeline took as its reference);\n"
-        "summary['measurement'] says how. Raises tac3d.Error.");
+        "`tac3d run` does (its defaults, its compliance model loaded or built in cache_dir and\n"
+        "its inverse computed once a process, and kept), its reference taken from images of\n"
+        "the sensor at rest before step 0: measured (a tac3d.Recording of T frames, one a step)\n"
+        "and, with images, reference_images (R x H x W uint8, what the pipeline took as its\n"
+        "reference); summary['measurement'] says how. Raises tac3d.Error.");
   m.def("prepare_twin_body",
         &PrepareTwinBody,
         py::arg("scene"),

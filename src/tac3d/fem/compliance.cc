@@ -125,6 +125,11 @@ CacheFile ReadCacheFile(const std::string& path) {
   return file;
 }
 
+// The cache file of the model of `key` in cache_dir.
+std::string CacheFilePath(const std::string& cache_dir, std::uint64_t key) {
+  return (std::filesystem::path(cache_dir) / fmt::format("compliance_{:016x}.bin", key)).string();
+}
+
 }  // namespace
 
 ComplianceModel LoadComplianceModel(const std::string& path) {
@@ -147,8 +152,7 @@ ComplianceCacheResult LoadOrBuildComplianceModel(const BodyModelOptions& options
   const auto start = std::chrono::steady_clock::now();
   const std::uint64_t key = CalcComplianceCacheKey(options);
   ComplianceCacheResult result;
-  result.path =
-      (std::filesystem::path(cache_dir) / fmt::format("compliance_{:016x}.bin", key)).string();
+  result.path = CacheFilePath(cache_dir, key);
   result.status = LoadOrBuildCacheFile(
       result.path, key, ReadCacheFile, [&] { return CalcComplianceModel(options, show_progress); },
       SaveComplianceModel, &result.model, &result.reason);
@@ -158,15 +162,16 @@ ComplianceCacheResult LoadOrBuildComplianceModel(const BodyModelOptions& options
 
 std::shared_ptr<const ComplianceModel> LoadSharedComplianceModel(const BodyModelOptions& options,
                                                                  const std::string& cache_dir,
-                                                                 bool show_progress) {
+                                                                 bool show_progress,
+                                                                 SharedModelSource* source) {
   options.Validate();
   // The key covers every option H depends on and the code that builds it (as the cache file's
   // name does): one key, one H, whichever cache_dir it comes from.
   static SharedCache<std::uint64_t, ComplianceModel> models;
-  return models.Get(CalcComplianceCacheKey(options), [&] {
-    return std::make_shared<const ComplianceModel>(
-        LoadOrBuildComplianceModel(options, cache_dir, show_progress).model);
-  });
+  const std::uint64_t key = CalcComplianceCacheKey(options);
+  return GetSharedModel(
+      models, key, CacheFilePath(cache_dir, key),
+      [&] { return LoadOrBuildComplianceModel(options, cache_dir, show_progress); }, source);
 }
 
 }  // namespace tac3d::fem

@@ -101,10 +101,12 @@ ComplianceCacheResult LoadOrBuildComplianceModel(const BodyModelOptions& options
 /// (another sensor of the same gel: same CalcComplianceCacheKey), else LoadOrBuildComplianceModel's,
 /// kept for the next callers while anyone holds it (freed after the last). Thread-safe: callers
 /// asking for one model at once wait for one load or build (SharedCache).
+/// @param source if given, set to the model's cache file in cache_dir and how this call got it.
 /// @throws tac3d::Error as LoadOrBuildComplianceModel.
 std::shared_ptr<const ComplianceModel> LoadSharedComplianceModel(const BodyModelOptions& options,
                                                                  const std::string& cache_dir,
-                                                                 bool show_progress = true);
+                                                                 bool show_progress = true,
+                                                                 SharedModelSource* source = nullptr);
 
 /// The model's H, owning the model with it (std::shared_ptr's aliasing constructor): what a
 /// Pipeline or ForceReconstructor takes to share H, and their inverse, with the model's other

@@ -12,6 +12,7 @@
 
 #include "tac3d/sensor/default_sensor.h"
 #include "tac3d/sensor/test_sensor.h"
+#include "tac3d/simulation/test_scenes.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
 
@@ -19,40 +20,9 @@ namespace tac3d::simulation {
 namespace {
 
 using ::testing::HasSubstr;
-
-std::shared_ptr<const TwinBodyModel> SmallModelAt(double youngs_modulus_factor) {
-  TwinBodyOptions options;
-  options.margin_mm = 0.8;
-  options.quadrature_points_per_side = 2;
-  const TwinDeviation deviation{1.0, youngs_modulus_factor, 1.0};
-  return std::make_shared<const TwinBodyModel>(
-      CalcTwinBodyModel(TwinBodyModelOptions(testing::SmallSensor(), deviation), options));
-}
-
-std::shared_ptr<const TwinBodyModel> SmallModel() {
-  static const auto model = SmallModelAt(1.0);
-  return model;
-}
-
-// A sphere of radius 5 mm (mu 0.3) just touching the fingertip's top at the identity pose.
-Scene SphereScene(const std::vector<std::pair<double, Eigen::Vector3d>>& keyframes, int steps) {
-  Scene scene;
-  scene.name = "sphere";
-  scene.sensor = testing::SmallSensor();
-  scene.deviation = {1.0, 1.0, 1.0};
-  SceneObject sphere;
-  sphere.name = "ball";
-  sphere.shape = SceneObject::Shape::kSphere;
-  sphere.radius_mm = 5.0;
-  sphere.world_from_object = Rigid3(Eigen::Translation3d(0, 0, 3.0 + 5.0));
-  sphere.friction.default_mu = 0.3;
-  scene.objects.push_back(sphere);
-  for (const auto& [t, p] : keyframes) {
-    scene.trajectory.keyframes.push_back({t, Rigid3(Eigen::Translation3d(p))});
-  }
-  scene.trajectory.steps = steps;
-  return scene;
-}
+using testing::SmallTwinBody;
+using testing::SmallTwinBodyAt;
+using testing::SphereScene;
 
 SimulationOptions NoImages() {
   SimulationOptions options;
@@ -70,13 +40,13 @@ TEST(TwinSimulation, PressThenSlideObeysContactAndFriction) {
   // Steps at t = 0, 0.2, ..., 2: separated, pressed 0.1 mm at t = 1, slid 0.5 mm by t = 2.
   const Scene scene =
       SphereScene({{0.0, {0, 0, -0.05}}, {1.0, {0, 0, 0.1}}, {2.0, {0.5, 0, 0.1}}}, 11);
-  TwinSimulation sim(scene, SmallModel(), NoImages());
+  TwinSimulation sim(scene, SmallTwinBody(), NoImages());
   std::vector<TwinStep> steps;
   const SimulationSummary summary = sim.Run([&](const TwinStep& s) { steps.push_back(s); });
   ASSERT_EQ(steps.size(), 11u);
   EXPECT_EQ(summary.non_converged_steps, 0);
   EXPECT_EQ(summary.contact_at_grid_edge_steps, 0);
-  const double area = SmallModel()->grid.cell_area_mm2();
+  const double area = SmallTwinBody()->grid.cell_area_mm2();
 
   // Separated: nothing.
   EXPECT_EQ(steps[0].solver.at("status"), "separated");
@@ -100,7 +70,7 @@ TEST(TwinSimulation, PressThenSlideObeysContactAndFriction) {
     EXPECT_LT(s->solver.at("max_penetration_mm").get<double>(), 1e-5);
   }
   // The centre marker moves in (down) under the press; its neighbours less.
-  const std::vector<Eigen::Vector3d>& rest = SmallModel()->marker_positions;
+  const std::vector<Eigen::Vector3d>& rest = SmallTwinBody()->marker_positions;
   const double centre_dz = pressed.marker_positions_mm[4].z() - rest[4].z();
   EXPECT_LT(centre_dz, -0.01);
   EXPECT_GT(pressed.marker_positions_mm[1].z() - rest[1].z(), centre_dz);
@@ -155,9 +125,9 @@ TEST(TwinSimulation, YoungsModulusScaleIsTheModelBuiltAtThatModulus) {
       SphereScene({{0.0, {0, 0, -0.05}}, {1.0, {0, 0, 0.1}}, {2.0, {0.5, 0, 0.1}}}, 11);
   SimulationOptions doubled = NoImages();
   doubled.youngs_modulus_scale = 2.0;
-  const std::vector<TwinStep> at_e = RunAll(scene, SmallModel(), NoImages());
-  const std::vector<TwinStep> scaled = RunAll(scene, SmallModel(), doubled);
-  const std::vector<TwinStep> built = RunAll(scene, SmallModelAt(2.0), NoImages());
+  const std::vector<TwinStep> at_e = RunAll(scene, SmallTwinBody(), NoImages());
+  const std::vector<TwinStep> scaled = RunAll(scene, SmallTwinBody(), doubled);
+  const std::vector<TwinStep> built = RunAll(scene, SmallTwinBodyAt(2.0), NoImages());
   ASSERT_EQ(scaled.size(), at_e.size());
   ASSERT_EQ(built.size(), at_e.size());
   for (size_t k = 5; k < at_e.size(); ++k) {
@@ -177,8 +147,8 @@ TEST(TwinSimulation, ContactOptionsReachTheSolverWindowedOrNot) {
   const Scene scene = SphereScene({{0.0, {0, 0, 0.01}}, {1.0, {0, 0, 0.01}}}, 2);
   SimulationOptions whole_grid = NoImages();
   whole_grid.contact.windowed = false;
-  TwinSimulation windowed_sim(scene, SmallModel(), NoImages());
-  TwinSimulation whole_sim(scene, SmallModel(), whole_grid);
+  TwinSimulation windowed_sim(scene, SmallTwinBody(), NoImages());
+  TwinSimulation whole_sim(scene, SmallTwinBody(), whole_grid);
   const TwinStep windowed = windowed_sim.Step();
   const TwinStep whole = whole_sim.Step();
   const contact::SurfaceGrid& grid = whole_sim.compliance().grid();
@@ -193,7 +163,7 @@ TEST(TwinSimulation, ContactOptionsReachTheSolverWindowedOrNot) {
 TEST(TwinSimulation, HistoryCarriesTheShiftFromStepToStep) {
   // Pressed, then shifted 0.02 mm (partial slip): the tangential force comes from the history.
   const Scene moved = SphereScene({{0.0, {0, 0, 0.1}}, {1.0, {0.02, 0, 0.1}}}, 5);
-  TwinSimulation with_history(moved, SmallModel(), NoImages());
+  TwinSimulation with_history(moved, SmallTwinBody(), NoImages());
   TwinStep last;
   with_history.Run([&](const TwinStep& s) { last = s; });
   // The object moved -0.02 mm in the sensor frame, accumulated over 4 increments.
@@ -201,7 +171,7 @@ TEST(TwinSimulation, HistoryCarriesTheShiftFromStepToStep) {
   EXPECT_NEAR(with_history.state().shift_mm.y(), 0.0, 1e-12);
   // The same final pose pressed from unloaded has (almost) no tangential force.
   const Scene fresh = SphereScene({{0.0, {0.02, 0, 0.1}}, {1.0, {0.02, 0, 0.1}}}, 2);
-  TwinSimulation without(fresh, SmallModel(), NoImages());
+  TwinSimulation without(fresh, SmallTwinBody(), NoImages());
   const TwinStep only = without.Step();
   EXPECT_LT(last.total_force_n.x(), 0.0);
   EXPECT_GT(std::abs(last.total_force_n.x()), 20.0 * std::abs(only.total_force_n.x()));
@@ -209,7 +179,7 @@ TEST(TwinSimulation, HistoryCarriesTheShiftFromStepToStep) {
   EXPECT_LT(std::abs(last.total_force_n.x()), 0.3 * -last.total_force_n.z());
   // Lifting off resets the state.
   const Scene lift = SphereScene({{0.0, {0, 0, 0.1}}, {1.0, {0, 0, -0.2}}}, 2);
-  TwinSimulation lifted(lift, SmallModel(), NoImages());
+  TwinSimulation lifted(lift, SmallTwinBody(), NoImages());
   lifted.Step();
   EXPECT_GT(lifted.state().pressure_mpa.maxCoeff(), 0.0);
   lifted.Step();
@@ -226,7 +196,7 @@ TEST(TwinSimulation, TangentialLoadRampsThroughPartialSlipIntoGrossSlip) {
   ramp.final_load = 1.2;
   ramp.direction_deg = 30.0;
   scene.trajectory.tangential_load = ramp;
-  TwinSimulation sim(scene, SmallModel(), NoImages());
+  TwinSimulation sim(scene, SmallTwinBody(), NoImages());
   std::vector<TwinStep> steps;
   const SimulationSummary summary = sim.Run([&](const TwinStep& s) { steps.push_back(s); });
   ASSERT_EQ(steps.size(), 31u);
@@ -288,7 +258,7 @@ int CountNodes(const TwinStep& step, tac3d::ContactState state) {
 TEST(TwinSimulation, CallersLoadsPressAndLoadTheContactStepByStep) {
   // The sphere (mu 0.3) placed just touching and held there; a controller's loads each step.
   const Scene scene = SphereScene({{0.0, {0, 0, 0}}, {1.0, {0, 0, 0}}}, 6);
-  TwinSimulation sim(scene, SmallModel(), NoImages());
+  TwinSimulation sim(scene, SmallTwinBody(), NoImages());
   const double mu = 0.3;
   auto step = [&](double p, double qx) { return sim.Step(StepLoads{p, {qx, 0.0}}); };
 
@@ -343,7 +313,7 @@ TEST(TwinSimulation, CallersLoadsPressAndLoadTheContactStepByStep) {
 
 TEST(TwinSimulation, CallersLoadsAreChecked) {
   Scene scene = SphereScene({{0.0, {0, 0, 0}}, {1.0, {0, 0, 0}}}, 3);
-  TwinSimulation sim(scene, SmallModel(), NoImages());
+  TwinSimulation sim(scene, SmallTwinBody(), NoImages());
   EXPECT_THROW(
       {
         try {
@@ -369,7 +339,7 @@ TEST(TwinSimulation, CallersLoadsAreChecked) {
               ::testing::ThrowsMessage<Error>(
                   HasSubstr("StepLoads.tangential_force_n must be at most 1000 N long, got (1e+160, 0)")));
   scene.trajectory.tangential_load = TangentialLoadRamp{};
-  TwinSimulation ramped(scene, SmallModel(), NoImages());
+  TwinSimulation ramped(scene, SmallTwinBody(), NoImages());
   EXPECT_THROW(
       {
         try {
@@ -385,7 +355,7 @@ TEST(TwinSimulation, CallersLoadsAreChecked) {
 TEST(TwinSimulation, WritesADatasetTheReaderReadsBack) {
   const Scene scene = SphereScene({{0.0, {0, 0, -0.05}}, {1.0, {0.1, 0, 0.1}}}, 4);
   SimulationOptions options;  // with images
-  TwinSimulation sim(scene, SmallModel(), options);
+  TwinSimulation sim(scene, SmallTwinBody(), options);
   const std::string dir = testing::MakeTempDir("simulation") + "/run";
   std::vector<TwinStep> steps;
   {
@@ -414,11 +384,11 @@ TEST(TwinSimulation, WritesADatasetTheReaderReadsBack) {
 // darker, and the dataset keeps it.
 TEST(TwinSimulation, ConditionsGiveEachStepItsTruth) {
   Scene scene = SphereScene({{0.0, {0, 0, -0.5}}, {1.0, {0, 0, -0.5}}}, 3);  // clear of the ball
-  const TwinStep nominal = TwinSimulation(scene, SmallModel()).Step();
+  const TwinStep nominal = TwinSimulation(scene, SmallTwinBody()).Step();
   scene.conditions.session_s = 1.0;
   scene.conditions.illumination_gain = 0.5;
   scene.conditions.creep_mm = 0.02;
-  TwinSimulation sim(scene, SmallModel());
+  TwinSimulation sim(scene, SmallTwinBody());
   const TwinStep first = sim.Step();
   EXPECT_TRUE(first.conditions.is_null());  // t = 0: nothing yet
   sim.Step();
@@ -444,7 +414,7 @@ TEST(TwinSimulation, BadInputsThrowWithClearMessages) {
   EXPECT_THROW(
       {
         try {
-          TwinSimulation(scene, SmallModel(), stiffness);
+          TwinSimulation(scene, SmallTwinBody(), stiffness);
         } catch (const Error& e) {
           EXPECT_THAT(e.what(), HasSubstr("youngs_modulus_scale must be in (0, 10], got 0"));
           throw;
@@ -456,7 +426,7 @@ TEST(TwinSimulation, BadInputsThrowWithClearMessages) {
   EXPECT_THROW(
       {
         try {
-          TwinSimulation(scene, SmallModel(), bad);
+          TwinSimulation(scene, SmallTwinBody(), bad);
         } catch (const Error& e) {
           EXPECT_THAT(e.what(), HasSubstr("max_steps"));
           throw;
@@ -468,7 +438,7 @@ TEST(TwinSimulation, BadInputsThrowWithClearMessages) {
   EXPECT_THROW(
       {
         try {
-          TwinSimulation(other, SmallModel(), NoImages());
+          TwinSimulation(other, SmallTwinBody(), NoImages());
         } catch (const Error& e) {
           EXPECT_THAT(e.what(), HasSubstr("3 x 3 markers, the scene's sensor 20 x 20"));
           throw;
@@ -477,10 +447,10 @@ TEST(TwinSimulation, BadInputsThrowWithClearMessages) {
       Error);
   Scene empty = scene;
   empty.objects.clear();
-  EXPECT_THROW(TwinSimulation(empty, SmallModel(), NoImages()), Error);
+  EXPECT_THROW(TwinSimulation(empty, SmallTwinBody(), NoImages()), Error);
   SimulationOptions limited = NoImages();
   limited.max_steps = 1;
-  EXPECT_EQ(TwinSimulation(scene, SmallModel(), limited).num_steps(), 1);
+  EXPECT_EQ(TwinSimulation(scene, SmallTwinBody(), limited).num_steps(), 1);
 }
 
 }  // namespace

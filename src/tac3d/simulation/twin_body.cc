@@ -8,6 +8,7 @@
 #include "tac3d/util/cache_file.h"
 #include "tac3d/util/error.h"
 #include "tac3d/util/seconds_since.h"
+#include "tac3d/util/shared_cache.h"
 #include "tac3d/vendor_formats/vendor_gel.h"
 
 namespace tac3d::simulation {
@@ -516,6 +517,11 @@ CachedModel ReadTwinBodyFile(const std::string& path) {
   return cached;
 }
 
+// The cache file of the model of `key` in cache_dir.
+std::string CacheFilePath(const std::string& cache_dir, std::uint64_t key) {
+  return (std::filesystem::path(cache_dir) / fmt::format("twin_body_{:016x}.bin", key)).string();
+}
+
 }  // namespace
 
 TwinBodyModel LoadTwinBodyModel(const std::string& path) {
@@ -538,14 +544,28 @@ TwinBodyCacheResult LoadOrBuildTwinBodyModel(const fem::BodyModelOptions& body,
   const auto start = Clock::now();
   const std::uint64_t key = CalcTwinBodyCacheKey(body, options);
   TwinBodyCacheResult result;
-  result.path =
-      (std::filesystem::path(cache_dir) / fmt::format("twin_body_{:016x}.bin", key)).string();
+  result.path = CacheFilePath(cache_dir, key);
   result.status = LoadOrBuildCacheFile(
       result.path, key, ReadTwinBodyFile,
       [&] { return CalcTwinBodyModel(body, options, show_progress); }, SaveTwinBodyModel,
       &result.model, &result.reason);
   result.elapsed_s = SecondsSince(start);
   return result;
+}
+
+std::shared_ptr<const TwinBodyModel> LoadSharedTwinBodyModel(const fem::BodyModelOptions& body,
+                                                             const TwinBodyOptions& options,
+                                                             const std::string& cache_dir,
+                                                             bool show_progress,
+                                                             SharedModelSource* source) {
+  body.Validate();
+  options.Validate();
+  // One key, one model, whichever cache_dir it comes from (as fem::LoadSharedComplianceModel).
+  static SharedCache<std::uint64_t, TwinBodyModel> models;
+  const std::uint64_t key = CalcTwinBodyCacheKey(body, options);
+  return GetSharedModel(
+      models, key, CacheFilePath(cache_dir, key),
+      [&] { return LoadOrBuildTwinBodyModel(body, options, cache_dir, show_progress); }, source);
 }
 
 }  // namespace tac3d::simulation

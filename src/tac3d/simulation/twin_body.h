@@ -179,4 +179,16 @@ TwinBodyCacheResult LoadOrBuildTwinBodyModel(const fem::BodyModelOptions& body,
                                              const std::string& cache_dir,
                                              bool show_progress = true);
 
+/// The model for the options, one copy for the whole process (fem::LoadSharedComplianceModel's
+/// policy): the one another holder already has (same CalcTwinBodyCacheKey), else
+/// LoadOrBuildTwinBodyModel's, kept for the next callers while anyone holds it (freed after the
+/// last). Thread-safe: callers asking for one model at once wait for one load or build.
+/// @param source if given, set to the model's cache file in cache_dir and how this call got it.
+/// @throws tac3d::Error as LoadOrBuildTwinBodyModel.
+std::shared_ptr<const TwinBodyModel> LoadSharedTwinBodyModel(const fem::BodyModelOptions& body,
+                                                             const TwinBodyOptions& options,
+                                                             const std::string& cache_dir,
+                                                             bool show_progress = true,
+                                                             SharedModelSource* source = nullptr);
+
 }  // namespace tac3d::simulation

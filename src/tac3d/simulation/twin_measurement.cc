@@ -3,11 +3,22 @@
 #include "tac3d/util/error.h"
 
 namespace tac3d::simulation {
+namespace {
+
+// The pipeline of the model's H, shared (fem::SharedH), not copied.
+Pipeline MakeSharedPipeline(const SensorConfig& sensor,
+                            const std::shared_ptr<const fem::ComplianceModel>& model,
+                            const PipelineOptions& options) {
+  if (!model) throw Error("TwinMeasurement: no compliance model given");
+  return Pipeline(sensor, fem::SharedH(model), model->marker_positions, options);
+}
+
+}  // namespace
 
 TwinMeasurement::TwinMeasurement(const SensorConfig& sensor,
-                                 const fem::ComplianceModel& model,
+                                 const std::shared_ptr<const fem::ComplianceModel>& model,
                                  const PipelineOptions& options)
-    : pipeline_(sensor, model.h, model.marker_positions, options) {}
+    : pipeline_(MakeSharedPipeline(sensor, model, options)) {}
 
 std::vector<Frame> TwinMeasurement::TakeReference(const TwinSimulation& simulation) {
   TAC3D_DEMAND(!reference_taken_);

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <memory>
 #include <vector>
 
 #include "tac3d/fem/compliance.h"
@@ -19,12 +20,15 @@ class TwinMeasurement {
   /// @param sensor the sensor as its user has it: a scene's `sensor`, without the twin's
   ///   deviation (E, nu, refinement) or manufacturing spread, which the user does not know.
   /// @param model the sensor's compliance, as `tac3d run` loads it:
-  ///   fem::LoadOrBuildComplianceModel(SensorBodyModelOptions(sensor)).
+  ///   fem::LoadSharedComplianceModel(SensorBodyModelOptions(sensor), ...). Shared, not copied:
+  ///   the measurements of one model (a worker's episodes) and the other pipelines of the
+  ///   process hold one H and, at one weight, one inverse (Pipeline's shared H).
   /// @param options the pipeline's options; DefaultPipelineOptions(sensor) is what the sensor
   ///   runs with.
-  /// @throws Error as Pipeline's constructor does (invalid options, a model of another sensor).
+  /// @throws Error if model is null, or as Pipeline's constructor does (invalid options, a
+  ///   model of another sensor).
   TwinMeasurement(const SensorConfig& sensor,
-                  const fem::ComplianceModel& model,
+                  const std::shared_ptr<const fem::ComplianceModel>& model,
                   const PipelineOptions& options);
 
   /// Renders the pipeline's reference_frames images of `simulation`'s sensor at rest and hands

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "tac3d/sensor/test_sensor.h"
+#include "tac3d/simulation/test_scenes.h"
 #include "tac3d/testing/testing.h"
 #include "tac3d/util/error.h"
 #include "tac3d/vendor_formats/vendor_gel.h"
@@ -17,44 +18,21 @@ namespace {
 
 using ::testing::HasSubstr;
 using ::testing::ThrowsMessage;
+using testing::SmallTwinBody;
+using testing::SphereScene;
 
-std::shared_ptr<const TwinBodyModel> SmallTwinBody() {
-  static const auto model = [] {
-    TwinBodyOptions options;
-    options.margin_mm = 0.8;
-    options.quadrature_points_per_side = 2;
-    return std::make_shared<const TwinBodyModel>(
-        CalcTwinBodyModel(TwinBodyModelOptions(testing::SmallSensor(), {1.0, 1.0, 1.0}), options));
-  }();
+// The pipeline's compliance of the small sensor, as `tac3d run` has it, one model for the
+// program (as fem::LoadSharedComplianceModel gives a process).
+std::shared_ptr<const fem::ComplianceModel> SmallCompliance() {
+  static const auto model = std::make_shared<const fem::ComplianceModel>(
+      fem::CalcComplianceModel(SensorBodyModelOptions(testing::SmallSensor())));
   return model;
 }
 
-// The pipeline's compliance of the small sensor, as `tac3d run` has it.
-const fem::ComplianceModel& SmallCompliance() {
-  static const fem::ComplianceModel model =
-      fem::CalcComplianceModel(SensorBodyModelOptions(testing::SmallSensor()));
-  return model;
-}
-
-// A sphere of radius 5 mm 0.05 mm above the fingertip at t = 0, pressed 0.1 mm into it by
-// t = 1 and slid 0.3 mm along x by t = 2: 11 steps.
+// A sphere 0.05 mm above the fingertip at t = 0, pressed 0.1 mm into it by t = 1 and slid
+// 0.3 mm along x by t = 2: 11 steps.
 Scene PressAndSlide() {
-  Scene scene;
-  scene.name = "press_and_slide";
-  scene.sensor = testing::SmallSensor();
-  SceneObject sphere;
-  sphere.name = "ball";
-  sphere.shape = SceneObject::Shape::kSphere;
-  sphere.radius_mm = 5.0;
-  sphere.world_from_object = Rigid3(Eigen::Translation3d(0, 0, 3.0 + 5.0));
-  sphere.friction.default_mu = 0.5;
-  scene.objects.push_back(sphere);
-  for (const auto& [t, p] : std::vector<std::pair<double, Eigen::Vector3d>>{
-           {0.0, {0, 0, -0.05}}, {1.0, {0, 0, 0.1}}, {2.0, {0.3, 0, 0.1}}}) {
-    scene.trajectory.keyframes.push_back({t, Rigid3(Eigen::Translation3d(p))});
-  }
-  scene.trajectory.steps = 11;
-  return scene;
+  return SphereScene({{0.0, {0, 0, -0.05}}, {1.0, {0, 0, 0.1}}, {2.0, {0.3, 0, 0.1}}}, 11);
 }
 
 PipelineOptions SmallPipelineOptions() {
@@ -101,8 +79,8 @@ TEST(TwinMeasurement, IsThePipelineOnTheRenderedImagesAndTracksTheTruth) {
 
   // A replay: the same images through a pipeline of the same options give the same frames.
   Pipeline replay(testing::SmallSensor(),
-                  SmallCompliance().h,
-                  SmallCompliance().marker_positions,
+                  SmallCompliance()->h,
+                  SmallCompliance()->marker_positions,
                   SmallPipelineOptions());
   TactileFrame out;
   for (const Frame& frame : reference) replay.Process(frame, out);
@@ -130,6 +108,31 @@ TEST(TwinMeasurement, IsThePipelineOnTheRenderedImagesAndTracksTheTruth) {
   // Slid along x: the ball drags the fingertip along -x (its motion relative to the sensor).
   EXPECT_LT(steps[10].total_force_n.x(), -0.01);
   EXPECT_LT(measured[10].resultant_force_n.x(), 0.0);
+}
+
+// The episodes a process measures with one model (a Dask worker's) hold its H and one inverse
+// (K, M, H^T H), not a copy each; another weight has an inverse of its own on the same H.
+TEST(TwinMeasurement, MeasurementsOfOneModelShareItsHAndInverse) {
+  const std::shared_ptr<const fem::ComplianceModel> model = SmallCompliance();
+  const TwinMeasurement first(testing::SmallSensor(), model, SmallPipelineOptions());
+  const TwinMeasurement second(testing::SmallSensor(), model, SmallPipelineOptions());
+  EXPECT_EQ(&first.pipeline().inverse(), &second.pipeline().inverse());
+  EXPECT_EQ(&first.pipeline().inverse().h(), &model->h);
+  PipelineOptions heavier = SmallPipelineOptions();
+  heavier.force.weight *= 2.0;
+  const TwinMeasurement reweighted(testing::SmallSensor(), model, heavier);
+  EXPECT_NE(&reweighted.pipeline().inverse(), &first.pipeline().inverse());
+  EXPECT_EQ(&reweighted.pipeline().inverse().h(), &model->h);
+
+  // A measurement holds its model: no reference to one freed under it.
+  auto own = std::make_shared<const fem::ComplianceModel>(*model);
+  const std::weak_ptr<const fem::ComplianceModel> own_alive = own;
+  const TwinMeasurement holder(testing::SmallSensor(), own, SmallPipelineOptions());
+  own.reset();
+  ASSERT_FALSE(own_alive.expired());
+  EXPECT_EQ(&holder.pipeline().inverse().h(), &own_alive.lock()->h);
+  EXPECT_THAT([] { TwinMeasurement(testing::SmallSensor(), nullptr, SmallPipelineOptions()); },
+              ThrowsMessage<Error>(HasSubstr("no compliance model")));
 }
 
 TEST(TwinMeasurement, RefusesAStepWithoutImage) {

@@ -5,11 +5,13 @@
 #include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <system_error>
 #include <vector>
 
 #include "tac3d/util/error.h"
+#include "tac3d/util/shared_cache.h"
 
 namespace tac3d {
 
@@ -83,6 +85,39 @@ enum class CacheStatus {
 
 /// A phrase for messages: "loaded from the cache", "built (not cached yet)", ...
 const char* Describe(CacheStatus status);
+
+/// How a caller of a process-wide model cache (fem::LoadSharedComplianceModel,
+/// simulation::LoadSharedTwinBodyModel) got its model, for a report of where it came from.
+struct SharedModelSource {
+  /// The model's cache file in the caller's cache folder.
+  std::string path;
+  /// What this call's load-or-build did; nullopt: another holder had the model in memory, so
+  /// no file was read.
+  std::optional<CacheStatus> status;
+  /// Wall time of this call's load or build (s); 0 when in memory.
+  double elapsed_s = 0.0;
+};
+
+/// The model of `key`, one copy for the whole process (SharedCache: kept while anyone holds it):
+/// the one alive, else load()'s, a load-or-build result (members model, status, elapsed_s).
+/// @param source if given, set to `path` (the model's cache file) and how this call got it.
+template <typename Model, typename Load>
+std::shared_ptr<const Model> GetSharedModel(SharedCache<std::uint64_t, Model>& models,
+                                            std::uint64_t key,
+                                            const std::string& path,
+                                            const Load& load,
+                                            SharedModelSource* source) {
+  SharedModelSource got;
+  got.path = path;
+  std::shared_ptr<const Model> model = models.Get(key, [&] {
+    auto cached = load();
+    got.status = cached.status;
+    got.elapsed_s = cached.elapsed_s;
+    return std::make_shared<const Model>(std::move(cached.model));
+  });
+  if (source) *source = std::move(got);
+  return model;
+}
 
 /// An exclusive lock on building the cache file `path` (a flock on `path`.lock, released when
 /// this goes): a second process (or thread) that needs the same model waits for the first to
