@@ -55,7 +55,7 @@ struct PressStream {
   std::vector<Frame> frames;
 
   explicit PressStream(double shear = 0.0, SensorConfig sensor = DefaultSensorConfig())
-      : config(std::move(sensor)), pipeline(config, SyntheticCompliance(config), RestMarkerPositions(config), Options()) {
+      : config(std::move(sensor)), pipeline(config, SyntheticCompliance(config), RestMarkerPositions(config), Options(config)) {
     // H's values do not change the cost; the synthetic one saves building the FEM here.
     const std::vector<Eigen::Vector3d> rest = RestMarkerPositions(config);
     const MarkerImageRenderer renderer(config);
@@ -72,8 +72,10 @@ struct PressStream {
     TactileFrame out;
     for (int k = 0; k < 2; ++k) pipeline.Process({renderer.Render(rest, 100 + k), 0.0, k}, out);
   }
-  static PipelineOptions Options() {
-    PipelineOptions options;
+  // What `tac3d run` runs for the sensor (an imported one: no contact-support re-solve), with
+  // the shortest reference.
+  static PipelineOptions Options(const SensorConfig& sensor) {
+    PipelineOptions options = DefaultPipelineOptions(sensor);
     options.reference_frames = 2;
     return options;
   }
