@@ -863,9 +863,10 @@ void RegisterTwin(py::module_& m) {
         "Returns {cache_file, cache_status, load_or_build_s}.");
 
   py::class_<SteppedSimulation>(m, "TwinSimulation", R"doc(
-The twin stepped one step a call (docs/simulation.md, "Stepping from Python"): along the
-scene's trajectory, or under the normal and tangential forces a controller chooses each step
-from what it measured (closed-loop control; examples/python/hold_without_slip.py).
+The twin stepped one step a call (docs/simulation.md, "One step": under a caller's loads):
+along the scene's trajectory, or under the normal and tangential forces a controller chooses
+each step from what it measured (closed-loop control; docs/grasping.md,
+examples/python/hold_without_slip.py).
 )doc")
       .def(py::init(&MakeSteppedSimulation),
            py::arg("scene"),

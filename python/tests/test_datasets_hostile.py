@@ -355,6 +355,37 @@ def test_workers_that_all_leave_mid_run_are_an_error_keeping_the_complete_episod
     assert tac3d.datasets.verify(out) == {"episodes": len(complete), "verified": len(complete), "problems": []}
 
 
+def test_ctrl_c_ends_a_local_run_with_one_line_keeping_the_complete_episodes(tmp_path, tac3d_cli, cache_dir):
+    """Ctrl-C, as a terminal sends it (SIGINT to the whole process group: the CLI, Python and the
+    local cluster's workers): exit code 130, one line saying what is kept, no worker's
+    traceback, and the manifest lists every complete episode."""
+    out = tmp_path / "interrupted"
+    run = subprocess.Popen([tac3d_cli, "dataset", "generate", "--spec", str(SMALL), "--out", str(out),
+                            "--episodes", "3000", "--workers", "2"],
+                           env=dict(os.environ, TAC3D_CACHE_DIR=cache_dir), stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, text=True, start_new_session=True,
+                           # a terminal's job takes SIGINT; a test runner's child may inherit it ignored
+                           preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    try:
+        deadline = time.monotonic() + 300
+        while run.poll() is None and time.monotonic() < deadline and \
+                len(list((out / "episodes").glob("episode_*.zarr"))) < 2:
+            time.sleep(0.05)
+        os.killpg(run.pid, signal.SIGINT)
+        _, stderr = run.communicate(timeout=120)
+    finally:
+        if run.poll() is None:  # it hung: the test fails, nothing is left behind
+            os.killpg(run.pid, signal.SIGKILL)
+            run.wait()
+    assert run.returncode == 130 and "Traceback" not in stderr and "KeyboardInterrupt" not in stderr, stderr
+    assert without_progress(stderr) == [
+        "tac3d: interrupted; the episodes complete are kept: a run again generates only the others"], stderr
+    complete = tac3d.datasets.open(out).ids
+    assert 2 <= len(complete) < 3000
+    assert [r["episode"] for r in tac3d.datasets.open(out).manifest()] == complete
+    assert tac3d.datasets.verify(out) == {"episodes": len(complete), "verified": len(complete), "problems": []}
+
+
 def pins_spec(folder):
     """small.yaml with pins of a drawn radius 0.3 or 0.6 mm, 1 mm apart: the spec takes both,
     a scene only the first (its pins must be apart), so an episode that draws 0.6 fails when

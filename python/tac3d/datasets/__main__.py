@@ -6,7 +6,7 @@ import os
 import sys
 
 from .. import _core
-from .generate import WORKER_TIMEOUT_S, generate
+from .generate import KEPT, WORKER_TIMEOUT_S, generate
 from .store import verify
 
 
@@ -62,6 +62,11 @@ def main(argv=None):
     except _core.Error as e:
         print(f"tac3d: error: {e}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:
+        # generate has listed the episodes complete in the manifest; a traceback says nothing more.
+        what = f"; {KEPT}" if args.command == "generate" else ""
+        print(f"tac3d: interrupted{what}", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

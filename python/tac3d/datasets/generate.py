@@ -5,8 +5,10 @@ import logging
 import os
 import pathlib
 import shutil
+import signal
 import stat
 import sys
+import threading
 import time
 import traceback
 
@@ -211,13 +213,31 @@ def dask_client(workers, scheduler, stream, verbose=False):
         dashboard = False
     # Port 0 even without the dashboard: the scheduler's HTTP server (health, metrics) always
     # starts, and on its default port 8787 it warns when another cluster holds that port.
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
-                      scheduler_kwargs={"dashboard": dashboard},
-                      silence_logs=logging.WARNING if verbose else logging.ERROR) as cluster, \
-            Client(cluster) as client:
+    with workers_ignoring_ctrl_c():
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+                               scheduler_kwargs={"dashboard": dashboard},
+                               silence_logs=logging.WARNING if verbose else logging.ERROR)
+    with cluster, Client(cluster) as client:
         if dashboard:
             stream.write(f"dashboard: {client.dashboard_link}\n")
         yield client
+
+
+@contextlib.contextmanager
+def workers_ignoring_ctrl_c():
+    """Ctrl-C reaches every process of the terminal's process group. Processes started in this
+    block ignore it (an ignored signal stays ignored in a child; Python then installs no
+    KeyboardInterrupt), so a local cluster's workers do not each print a traceback: this
+    process alone handles it, closing the cluster and listing the episodes kept. Off the main
+    thread, where no signal handler can be set, the workers start as they are."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def wait_for_a_worker(client, scheduler, timeout, stream, left=False, bar=None):
