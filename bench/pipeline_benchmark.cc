@@ -200,7 +200,8 @@ BENCHMARK(BM_SlipEstimate)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 // BM_VendorImageToTactileFrame's frames as an MJPEG camera sends them (each a JPEG of quality 90),
 // decoded and processed: /0 decoding each whole (cv::imdecode's grey), /1 only the region the
 // tracker reads next (JpegGreyDecoder, Pipeline::CalcReadRegion), as the camera source does.
-// decoded_fraction: the share of the image's pixels decoded.
+// decoded_fraction: the share of the image's pixels decoded; entropy_decoded_rows: the share of
+// its rows whose compressed data is read (down to the region's last: the entropy decoding's).
 void BM_VendorMjpegToTactileFrame(benchmark::State& state) {
   PressStream stream(0.0, Hdl1Sensor());
   std::vector<std::vector<std::uint8_t>> jpegs;
@@ -213,7 +214,7 @@ void BM_VendorMjpegToTactileFrame(benchmark::State& state) {
   JpegGreyDecoder decoder;
   Frame frame;
   TactileFrame out;
-  double decoded_pixels = 0;
+  double decoded_pixels = 0, entropy_rows = 0;
   size_t k = 0;
   for (auto _ : state) {
     const std::vector<std::uint8_t>& jpeg = jpegs[k % jpegs.size()];
@@ -223,16 +224,19 @@ void BM_VendorMjpegToTactileFrame(benchmark::State& state) {
       const JpegDecodeResult result = decoder.Decode(jpeg, 1920, 1080, region, frame.image);
       frame.decoded_region = region ? std::optional<cv::Rect>(result.decoded) : std::nullopt;
       decoded_pixels += result.decoded.area();
+      entropy_rows += result.decoded.br().y;
     } else {
       frame.image = cv::imdecode(jpeg, cv::IMREAD_GRAYSCALE);
       decoded_pixels += frame.image.total();
+      entropy_rows += frame.image.rows;
     }
     stream.pipeline.Process(frame, out);
     benchmark::DoNotOptimize(out.resultant_force_n);
   }
   if (out.has(FrameFlag::kInitializing) || out.has(FrameFlag::kMarkersLost)) state.SkipWithError("bad frame");
-  state.counters["decoded_fraction"] =
-      decoded_pixels / (1920.0 * 1080.0 * static_cast<double>(std::max<std::int64_t>(state.iterations(), 1)));
+  const double frames = static_cast<double>(std::max<std::int64_t>(state.iterations(), 1));
+  state.counters["decoded_fraction"] = decoded_pixels / (1920.0 * 1080.0 * frames);
+  state.counters["entropy_decoded_rows"] = entropy_rows / (1080.0 * frames);
 }
 BENCHMARK(BM_VendorMjpegToTactileFrame)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 
