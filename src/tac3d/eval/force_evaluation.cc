@@ -430,10 +430,7 @@ TrueResponses CalcTrueResponses(const EvalForceOptions& options,
   const int count = static_cast<int>(all.size());
   const std::uint64_t key = TrueResponsesKey(truth_options, solver_options, markers, all);
   const std::string path =
-      options.cache_dir.empty()
-          ? std::string()
-          : (std::filesystem::path(options.cache_dir) / fmt::format("force_truth_{:016x}.bin", key))
-                .string();
+      options.cache_dir.empty() ? std::string() : CacheFilePath(options.cache_dir, "force_truth", key);
   TruthProgress progress = LoadTruthProgress(
       path, key, static_cast<int>(markers.size()) * 3, count, options.show_progress);
   const int loaded = static_cast<int>(std::count(progress.solved.begin(), progress.solved.end(), true));

@@ -1,7 +1,6 @@
 #include "tac3d/fem/compliance.h"
 
 #include <chrono>
-#include <filesystem>
 
 #include "tac3d/util/cache_file.h"
 #include "tac3d/util/error.h"
@@ -125,11 +124,6 @@ CacheFile ReadCacheFile(const std::string& path) {
   return file;
 }
 
-// The cache file of the model of `key` in cache_dir.
-std::string CacheFilePath(const std::string& cache_dir, std::uint64_t key) {
-  return (std::filesystem::path(cache_dir) / fmt::format("compliance_{:016x}.bin", key)).string();
-}
-
 }  // namespace
 
 ComplianceModel LoadComplianceModel(const std::string& path) {
@@ -152,7 +146,7 @@ ComplianceCacheResult LoadOrBuildComplianceModel(const BodyModelOptions& options
   const auto start = std::chrono::steady_clock::now();
   const std::uint64_t key = CalcComplianceCacheKey(options);
   ComplianceCacheResult result;
-  result.path = CacheFilePath(cache_dir, key);
+  result.path = CacheFilePath(cache_dir, "compliance", key);
   result.status = LoadOrBuildCacheFile(
       result.path, key, ReadCacheFile, [&] { return CalcComplianceModel(options, show_progress); },
       SaveComplianceModel, &result.model, &result.reason);
@@ -170,7 +164,7 @@ std::shared_ptr<const ComplianceModel> LoadSharedComplianceModel(const BodyModel
   static SharedCache<std::uint64_t, ComplianceModel> models;
   const std::uint64_t key = CalcComplianceCacheKey(options);
   return GetSharedModel(
-      models, key, CacheFilePath(cache_dir, key),
+      models, key, CacheFilePath(cache_dir, "compliance", key),
       [&] { return LoadOrBuildComplianceModel(options, cache_dir, show_progress); }, source);
 }
 

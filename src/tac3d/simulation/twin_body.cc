@@ -2,7 +2,6 @@
 
 #include <chrono>
 #include <cmath>
-#include <filesystem>
 #include <limits>
 
 #include "tac3d/util/cache_file.h"
@@ -517,11 +516,6 @@ CachedModel ReadTwinBodyFile(const std::string& path) {
   return cached;
 }
 
-// The cache file of the model of `key` in cache_dir.
-std::string CacheFilePath(const std::string& cache_dir, std::uint64_t key) {
-  return (std::filesystem::path(cache_dir) / fmt::format("twin_body_{:016x}.bin", key)).string();
-}
-
 }  // namespace
 
 TwinBodyModel LoadTwinBodyModel(const std::string& path) {
@@ -544,7 +538,7 @@ TwinBodyCacheResult LoadOrBuildTwinBodyModel(const fem::BodyModelOptions& body,
   const auto start = Clock::now();
   const std::uint64_t key = CalcTwinBodyCacheKey(body, options);
   TwinBodyCacheResult result;
-  result.path = CacheFilePath(cache_dir, key);
+  result.path = CacheFilePath(cache_dir, "twin_body", key);
   result.status = LoadOrBuildCacheFile(
       result.path, key, ReadTwinBodyFile,
       [&] { return CalcTwinBodyModel(body, options, show_progress); }, SaveTwinBodyModel,
@@ -564,7 +558,7 @@ std::shared_ptr<const TwinBodyModel> LoadSharedTwinBodyModel(const fem::BodyMode
   static SharedCache<std::uint64_t, TwinBodyModel> models;
   const std::uint64_t key = CalcTwinBodyCacheKey(body, options);
   return GetSharedModel(
-      models, key, CacheFilePath(cache_dir, key),
+      models, key, CacheFilePath(cache_dir, "twin_body", key),
       [&] { return LoadOrBuildTwinBodyModel(body, options, cache_dir, show_progress); }, source);
 }
 

@@ -229,6 +229,10 @@ const char* Describe(CacheStatus status) {
   return "?";
 }
 
+std::string CacheFilePath(const std::string& cache_dir, std::string_view kind, std::uint64_t key) {
+  return (std::filesystem::path(cache_dir) / fmt::format("{}_{:016x}.bin", kind, key)).string();
+}
+
 CacheBuildLock::CacheBuildLock(const std::string& path) {
   const std::string lock_path = path + ".lock";
   fd_ = ::open(lock_path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0666);

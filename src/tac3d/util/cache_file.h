@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <system_error>
 #include <vector>
 
@@ -85,6 +86,10 @@ enum class CacheStatus {
 
 /// A phrase for messages: "loaded from the cache", "built (not cached yet)", ...
 const char* Describe(CacheStatus status);
+
+/// The cache file of a model of `kind` ("compliance", "twin_body") and `key` in cache_dir:
+/// cache_dir/<kind>_<key as 16 hex digits>.bin.
+std::string CacheFilePath(const std::string& cache_dir, std::string_view kind, std::uint64_t key);
 
 /// How a caller of a process-wide model cache (fem::LoadSharedComplianceModel,
 /// simulation::LoadSharedTwinBodyModel) got its model, for a report of where it came from.

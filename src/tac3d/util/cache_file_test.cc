@@ -29,6 +29,11 @@ CachedNumber ReadNumber(const std::string& path) {
 
 // Two processes building the same model both built it (minutes and gigabytes each): the second
 // waits for the first's build and loads what it saved.
+TEST(CacheFilePath, NamesTheKindAndTheKeyInHex) {
+  EXPECT_EQ(CacheFilePath("/tmp/cache", "twin_body", 0x00ab12cd34ef5678u), "/tmp/cache/twin_body_00ab12cd34ef5678.bin");
+  EXPECT_EQ(CacheFilePath("cache/", "compliance", 1), "cache/compliance_0000000000000001.bin");
+}
+
 TEST(LoadOrBuildCacheFile, ASecondBuilderWaitsForTheFirstAndLoadsItsFile) {
   const std::string path = testing::MakeTempDir("cache_lock") + "/model.bin";
   constexpr std::uint64_t kKey = 42;
