@@ -1,5 +1,7 @@
 #include "tac3d/imagefile/jpeg_decoder.h"
 
+#include <algorithm>
+#include <array>
 #include <csetjmp>
 #include <cstdio>  // jpeglib.h needs FILE and size_t declared before it
 #include <cstring>
@@ -9,6 +11,7 @@
 #include <fmt/format.h>
 
 #include "tac3d/imagefile/image_decode.h"
+#include "tac3d/imagefile/jpeg_luma_decoder.h"
 
 namespace tac3d {
 namespace internal {
@@ -47,6 +50,8 @@ struct Span {
 struct JpegGreyDecoder::Impl {
   jpeg_decompress_struct cinfo;
   internal::JpegErrorManager err;
+  internal::JpegLumaDecoder luma;
+  std::array<internal::JpegHuffmanSpec, 4> dc_specs, ac_specs;  // this frame's, for luma's scan
 
   Impl() {
     cinfo.err = jpeg_std_error(&err.pub);
@@ -68,8 +73,67 @@ struct JpegGreyDecoder::Impl {
     return true;
   }
 
-  // Decodes `span` into the rows of `pixels` (the image's first row, `step` bytes apart), its
-  // column start moved left to a block column; false (the message in err) if libjpeg refuses.
+  // Whether the frame is a baseline JPEG in the layout JpegLumaDecoder takes, and if so its scan.
+  // Motion-JPEG frames often leave out the Huffman tables, meaning JPEG's standard ones: libjpeg
+  // installs them as it starts decompressing. False (the message in err) if libjpeg refuses.
+  bool DescribeScan(internal::JpegScan& scan, bool& takes) {
+    takes = false;
+    if (cinfo.progressive_mode || cinfo.arith_code || cinfo.data_precision != 8) return true;
+    const bool grey = cinfo.jpeg_color_space == JCS_GRAYSCALE && cinfo.num_components == 1;
+    const bool ycc = cinfo.jpeg_color_space == JCS_YCbCr && cinfo.num_components == 3;
+    if (!(grey || ycc) || cinfo.comps_in_scan != cinfo.num_components) return true;
+    if (cinfo.Ss != 0 || cinfo.Se != DCTSIZE2 - 1 || cinfo.Ah != 0 || cinfo.Al != 0) return true;
+    // Table numbers past the slots are refused by libjpeg as it decodes, not as it reads the header.
+    for (int i = 0; i < cinfo.comps_in_scan; ++i) {
+      const jpeg_component_info& c = *cinfo.cur_comp_info[i];
+      if (c.dc_tbl_no < 0 || c.dc_tbl_no >= NUM_HUFF_TBLS || c.ac_tbl_no < 0 || c.ac_tbl_no >= NUM_HUFF_TBLS) return true;
+    }
+    const int quant_slot = cinfo.comp_info[0].quant_tbl_no;
+    if (quant_slot < 0 || quant_slot >= NUM_QUANT_TBLS || cinfo.quant_tbl_ptrs[quant_slot] == nullptr) return true;
+    const JQUANT_TBL* quant = cinfo.quant_tbl_ptrs[quant_slot];
+    const auto tables_missing = [&] {
+      for (int i = 0; i < cinfo.comps_in_scan; ++i) {
+        const jpeg_component_info& c = *cinfo.cur_comp_info[i];
+        if (!cinfo.dc_huff_tbl_ptrs[c.dc_tbl_no] || !cinfo.ac_huff_tbl_ptrs[c.ac_tbl_no]) return true;
+      }
+      return false;
+    };
+    if (tables_missing()) {
+      if (setjmp(err.jump)) {
+        jpeg_abort_decompress(&cinfo);
+        return false;
+      }
+      jpeg_start_decompress(&cinfo);
+      if (tables_missing()) return true;
+    }
+    scan = {};
+    scan.width = static_cast<int>(cinfo.image_width);
+    scan.height = static_cast<int>(cinfo.image_height);
+    for (int i = 0; i < cinfo.comps_in_scan; ++i) {
+      const jpeg_component_info& c = *cinfo.cur_comp_info[i];
+      scan.components.push_back({c.h_samp_factor, c.v_samp_factor, &c == &cinfo.comp_info[0], c.dc_tbl_no, c.ac_tbl_no});
+    }
+    for (std::size_t t = 0; t < 4; ++t) {
+      const auto copy = [](const JHUFF_TBL* table, internal::JpegHuffmanSpec& spec) -> const internal::JpegHuffmanSpec* {
+        if (table == nullptr) return nullptr;
+        std::memcpy(spec.counts.data(), table->bits, spec.counts.size());
+        std::memcpy(spec.symbols.data(), table->huffval, spec.symbols.size());
+        return &spec;
+      };
+      scan.dc[t] = copy(cinfo.dc_huff_tbl_ptrs[t], dc_specs[t]);
+      scan.ac[t] = copy(cinfo.ac_huff_tbl_ptrs[t], ac_specs[t]);
+    }
+    std::copy(std::begin(quant->quantval), std::end(quant->quantval), scan.luma_quant.begin());
+    scan.restart_interval = static_cast<int>(cinfo.restart_interval);
+    scan.data = cinfo.src->next_input_byte;
+    scan.size = cinfo.src->bytes_in_buffer;
+    takes = internal::JpegLumaDecoder::Takes(scan);
+    return true;
+  }
+
+  // Decodes `span` into the rows of `pixels` (the image's first row, `step` bytes apart) with
+  // libjpeg, its column start moved left to a block column; false (the message in err) if
+  // libjpeg refuses.
   bool DecodeRows(Span& span, std::uint8_t* pixels, std::size_t step) {
     if (setjmp(err.jump)) {
       jpeg_abort_decompress(&cinfo);
@@ -88,6 +152,21 @@ struct JpegGreyDecoder::Impl {
     // The rows below are not needed: the rest of the data is not read.
     jpeg_abort_decompress(&cinfo);
     return true;
+  }
+
+  // Decodes `span` as DecodeRows does, with JpegLumaDecoder where it takes the frame; "" or why
+  // the frame does not decode.
+  std::string Decode(Span& span, std::uint8_t* pixels, std::size_t step) {
+    internal::JpegScan scan;
+    bool takes = false;
+    if (!DescribeScan(scan, takes)) return err.message;
+    if (!takes) return DecodeRows(span, pixels, step) ? "" : err.message;
+    const int col_end = span.col_begin + span.col_width;
+    span.col_begin -= span.col_begin % DCTSIZE;
+    span.col_width = col_end - span.col_begin;
+    const std::string error = luma.Decode(scan, {span.row_begin, span.row_end, span.col_begin, col_end}, pixels, step);
+    jpeg_abort_decompress(&cinfo);
+    return error;
   }
 };
 
@@ -120,7 +199,10 @@ JpegDecodeResult JpegGreyDecoder::Decode(const std::vector<std::uint8_t>& bytes,
     return result;
   }
   Span span{wanted.y, wanted.br().y, wanted.x, wanted.width};
-  if (!impl_->DecodeRows(span, image.data, image.step)) return refuse();
+  if (const std::string error = impl_->Decode(span, image.data, image.step); !error.empty()) {
+    result.refusal = fmt::format("{}: {}", internal::kUnreadableImage, error);
+    return result;
+  }
   result.decoded = cv::Rect(span.col_begin, span.row_begin, span.col_width, span.row_end - span.row_begin);
   // What was not decoded is 0, not the last frame's pixels.
   image.rowRange(0, result.decoded.y).setTo(0);
