@@ -13,10 +13,7 @@
 //        --benchmark_report_aggregates_only=true
 #include <array>
 #include <cmath>
-#include <cstdio>  // jpeglib.h needs FILE and size_t declared before it
 #include <filesystem>
-
-#include <jpeglib.h>
 
 #include <benchmark/benchmark.h>
 #include <opencv2/imgcodecs.hpp>
@@ -106,21 +103,10 @@ void BM_VendorImageToTactileFrame(benchmark::State& state) {
 }
 BENCHMARK(BM_VendorImageToTactileFrame)->Unit(benchmark::kMicrosecond);
 
-// The entropy (Huffman) decoding alone of a JPEG, to its DCT coefficients: what every decode
-// of the frame's rows must do, whatever it crops or skips (libjpeg's own error handling: the
-// benchmark's JPEG is its own encoder's).
-void DecodeEntropyOnly(jpeg_decompress_struct& cinfo, const std::vector<std::uint8_t>& jpeg) {
-  jpeg_mem_src(&cinfo, jpeg.data(), static_cast<unsigned long>(jpeg.size()));
-  jpeg_read_header(&cinfo, TRUE);
-  jvirt_barray_ptr* coefficients = jpeg_read_coefficients(&cinfo);
-  benchmark::DoNotOptimize(coefficients);
-  jpeg_finish_decompress(&cinfo);
-}
-
-// A 1920 x 1080 MJPEG frame (one JPEG, quality 90, of a twin image of HDL1-0001) decoded to the
-// pipeline's 8-bit grey image: /0 as the camera source does it (cv::VideoCapture's BGR, then
-// cvtColor), /1 decoding the luma only (cv::IMREAD_GRAYSCALE); /2 its entropy decoding alone
-// (DecodeEntropyOnly), the floor of /1 and of a partial decode.
+// A 1920 x 1080 MJPEG frame (one JPEG, quality 90, of a twin image of HDL1-0001) decoded whole
+// to the pipeline's 8-bit grey image: /0 as OpenCV's camera capture does it (BGR, then
+// cvtColor), /1 OpenCV's luma only (cv::IMREAD_GRAYSCALE), /2 the camera source's decoder
+// (JpegGreyDecoder).
 void BM_DecodeMjpeg1080p(benchmark::State& state) {
   const SensorConfig config = Hdl1Sensor();
   const cv::Mat grey = MarkerImageRenderer(config).Render(RestMarkerPositions(config), 0);
@@ -128,27 +114,21 @@ void BM_DecodeMjpeg1080p(benchmark::State& state) {
   cv::cvtColor(grey, bgr, cv::COLOR_GRAY2BGR);
   std::vector<std::uint8_t> jpeg;
   cv::imencode(".jpg", bgr, jpeg, {cv::IMWRITE_JPEG_QUALITY, 90});
-  if (state.range(0) == 2) {
-    jpeg_decompress_struct cinfo;
-    jpeg_error_mgr err;
-    cinfo.err = jpeg_std_error(&err);
-    jpeg_create_decompress(&cinfo);
-    for (auto _ : state) DecodeEntropyOnly(cinfo, jpeg);
-    if (cinfo.image_width != 1920 || cinfo.image_height != 1080) state.SkipWithError("not 1920 x 1080");
-    jpeg_destroy_decompress(&cinfo);
-  } else {
-    cv::Mat decoded, out;
-    for (auto _ : state) {
-      if (state.range(0) == 0) {
-        decoded = cv::imdecode(jpeg, cv::IMREAD_COLOR);
-        cv::cvtColor(decoded, out, cv::COLOR_BGR2GRAY);
-      } else {
-        out = cv::imdecode(jpeg, cv::IMREAD_GRAYSCALE);
-      }
-      benchmark::DoNotOptimize(out.data);
+  JpegGreyDecoder decoder;
+  cv::Mat decoded, out;
+  for (auto _ : state) {
+    if (state.range(0) == 0) {
+      decoded = cv::imdecode(jpeg, cv::IMREAD_COLOR);
+      cv::cvtColor(decoded, out, cv::COLOR_BGR2GRAY);
+    } else if (state.range(0) == 1) {
+      out = cv::imdecode(jpeg, cv::IMREAD_GRAYSCALE);
+    } else if (!decoder.Decode(jpeg, 1920, 1080, std::nullopt, out).refusal.empty()) {
+      state.SkipWithError("refused");
+      break;
     }
-    if (out.cols != 1920 || out.rows != 1080) state.SkipWithError("not 1920 x 1080");
+    benchmark::DoNotOptimize(out.data);
   }
+  if (out.cols != 1920 || out.rows != 1080) state.SkipWithError("not 1920 x 1080");
   state.counters["jpeg_kib"] = static_cast<double>(jpeg.size()) / 1024.0;
 }
 BENCHMARK(BM_DecodeMjpeg1080p)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMicrosecond);
@@ -199,7 +179,9 @@ BENCHMARK(BM_SlipEstimate)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 
 // BM_VendorImageToTactileFrame's frames as an MJPEG camera sends them (each a JPEG of quality 90),
 // decoded and processed: /0 decoding each whole (cv::imdecode's grey), /1 only the region the
-// tracker reads next (JpegGreyDecoder, Pipeline::CalcReadRegion), as the camera source does.
+// tracker reads next (JpegGreyDecoder, Pipeline::CalcReadRegion), as the camera source does;
+// /2 as /1, the camera putting a restart marker after each row of MCUs (some do), so that the
+// rows above the region are skipped unread.
 // decoded_fraction: the share of the image's pixels decoded; entropy_decoded_rows: the share of
 // its rows whose compressed data is read (down to the region's last: the entropy decoding's).
 void BM_VendorMjpegToTactileFrame(benchmark::State& state) {
@@ -208,9 +190,11 @@ void BM_VendorMjpegToTactileFrame(benchmark::State& state) {
   for (const Frame& frame : stream.frames) {
     cv::Mat bgr;
     cv::cvtColor(frame.image, bgr, cv::COLOR_GRAY2BGR);
-    cv::imencode(".jpg", bgr, jpegs.emplace_back(), {cv::IMWRITE_JPEG_QUALITY, 90});
+    const int restart_interval = state.range(0) == 2 ? 1920 / 16 : 0;
+    cv::imencode(".jpg", bgr, jpegs.emplace_back(),
+                 {cv::IMWRITE_JPEG_QUALITY, 90, cv::IMWRITE_JPEG_RST_INTERVAL, restart_interval});
   }
-  const bool partial = state.range(0) == 1;
+  const bool partial = state.range(0) >= 1;
   JpegGreyDecoder decoder;
   Frame frame;
   TactileFrame out;
@@ -224,7 +208,8 @@ void BM_VendorMjpegToTactileFrame(benchmark::State& state) {
       const JpegDecodeResult result = decoder.Decode(jpeg, 1920, 1080, region, frame.image);
       frame.decoded_region = region ? std::optional<cv::Rect>(result.decoded) : std::nullopt;
       decoded_pixels += result.decoded.area();
-      entropy_rows += result.decoded.br().y;
+      // With restart markers the rows above the region's row of MCUs are skipped.
+      entropy_rows += result.decoded.br().y - (state.range(0) == 2 ? result.decoded.y / 16 * 16 : 0);
     } else {
       frame.image = cv::imdecode(jpeg, cv::IMREAD_GRAYSCALE);
       decoded_pixels += frame.image.total();
@@ -238,7 +223,7 @@ void BM_VendorMjpegToTactileFrame(benchmark::State& state) {
   state.counters["decoded_fraction"] = decoded_pixels / (1920.0 * 1080.0 * frames);
   state.counters["entropy_decoded_rows"] = entropy_rows / (1080.0 * frames);
 }
-BENCHMARK(BM_VendorMjpegToTactileFrame)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_VendorMjpegToTactileFrame)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMicrosecond);
 
 // Image -> TactileFrame -> Tac3D datagrams to 127.0.0.1, a client socket on the same machine
 // taking them off its queue: frames/s end to end on loopback (no images in the stream).

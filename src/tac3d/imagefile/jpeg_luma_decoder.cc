@@ -25,6 +25,8 @@ constexpr std::array<std::uint8_t, 64> kNaturalOrder = {
 
 // Codes this short (and, in AC tables, a code with its value bits) are decoded by one table read.
 constexpr int kLookupBits = 10;
+// Flags an AC table's end-of-block code in its value lookup.
+constexpr std::int32_t kEndOfBlock = 1 << 14;
 
 // A value of `size` bits as JPEG codes it: the upper half of the range positive, the lower negative.
 inline int Extend(int bits, int size) { return bits < (1 << (size - 1)) ? bits - (1 << size) + 1 : bits; }
@@ -204,7 +206,8 @@ struct JpegLumaDecoder::Tables {
   JpegHuffmanSpec spec;
   bool ac = false;
   std::array<std::uint16_t, 1 << kLookupBits> lookup{};  // (code length << 8) | symbol; 0: longer
-  // AC: (value << 16) | (run << 8) | length of code and value bits; 0: not in kLookupBits
+  // AC: (value << 16) | (run << 8) | length of code and value bits, or kEndOfBlock | length of
+  // the code; 0: not in kLookupBits
   std::array<std::int32_t, 1 << kLookupBits> value_lookup{};
   std::array<std::int32_t, 18> max_code{};  // the largest code of each length; -1: none
   std::array<std::int32_t, 17> first_symbol{};  // symbols[code + first_symbol[length]]
@@ -229,6 +232,7 @@ struct JpegLumaDecoder::Tables {
           const int slot = (code << spare) | tail;
           lookup[slot] = static_cast<std::uint16_t>((length << 8) | symbol);
           const int run = symbol >> 4, size = symbol & 15;
+          if (ac && symbol == 0) value_lookup[slot] = kEndOfBlock | length;
           if (ac && size != 0 && size <= spare) {
             const int value = Extend((tail >> (spare - size)) & ((1 << size) - 1), size);
             value_lookup[slot] = static_cast<std::int32_t>(static_cast<std::uint32_t>(value) << 16) | (run << 8) |
@@ -289,9 +293,10 @@ bool DecodeBlock(BitReader& reader, const Tables& dc, const Tables& ac, int& dc_
     const std::int32_t entry = ac.value_lookup[bits.Peek(kLookupBits)];
     int run, value;
     if (entry != 0) {
+      bits.Skip(entry & 0xFF);
+      if (entry & kEndOfBlock) break;
       run = (entry >> 8) & 15;
       value = entry >> 16;
-      bits.Skip(entry & 0xFF);
     } else {
       const int symbol = ac.Decode(bits);
       if (symbol < 0) return false;
@@ -396,9 +401,15 @@ std::string JpegLumaDecoder::Decode(const JpegScan& scan, const JpegPixelSpan& s
   const int first_row = span.row_begin / mcu_height, last_row = (span.row_end - 1) / mcu_height;
   const int first_col = span.col_begin / mcu_width, last_col = (span.col_end - 1) / mcu_width;
   const int end = (last_row + 1) * mcus_across;  // the MCUs read: down to the span's last row
-  const auto holds_span = [&](int m) {
-    const int row = m / mcus_across, col = m % mcus_across;
-    return row >= first_row && col >= first_col && col <= last_col;
+  // Whether MCUs [first_mcu, past_mcu) hold a block of the span: they run along rows of MCUs.
+  const auto hold_span = [&](int first_mcu, int past_mcu) {
+    const int first = std::max(first_mcu, first_row * mcus_across);
+    for (int row = first / mcus_across; row * mcus_across < past_mcu; ++row) {
+      const int from = std::max(first, row * mcus_across) - row * mcus_across;
+      const int to = std::min(past_mcu, (row + 1) * mcus_across) - row * mcus_across;  // past the last
+      if (from <= last_col && to > first_col) return true;
+    }
+    return false;
   };
   Row quant[8];
   for (int i = 0; i < 64; ++i) quant[i / 8][i % 8] = scan.luma_quant[static_cast<std::size_t>(i)];
@@ -414,14 +425,13 @@ std::string JpegLumaDecoder::Decode(const JpegScan& scan, const JpegPixelSpan& s
     row += col / mcus_across;
     col %= mcus_across;
   };
-  for (int m = 0, restarts = 0; m < end;) {
-    if (interval > 0 && m % interval == 0) {
+  for (int m = 0, restarts = 0, next_restart = interval > 0 ? 0 : end; m < end;) {
+    if (m == next_restart) {
       if (m > 0 && !bits.Restart(restarts++ % 8)) return fmt::format("restart marker {} is missing", restarts - 1);
       predictions.fill(0);
       const int interval_end = std::min(m + interval, end);
-      bool needed = false;
-      for (int k = m; k < interval_end && !needed; ++k) needed = holds_span(k);
-      if (!needed) {
+      next_restart = interval_end;
+      if (!hold_span(m, interval_end)) {
         if (interval_end == end) break;
         if (!bits.SkipInterval()) return fmt::format("restart marker {} is missing", restarts % 8);
         advance(interval_end - m);
