@@ -141,18 +141,12 @@ struct IdctBasis {
 };
 const IdctBasis kBasis;
 
-// A block's quantised coefficients, natural (row-major) order, as decoded one at a time.
+// A block's dequantised coefficients, natural (row-major) order, as decoded one at a time. Floats
+// in memory: the transform multiplies each by a row of the basis, loading it broadcast.
 struct alignas(32) Coefficients {
-  std::int16_t values[64];
+  float values[64];
   void Clear() { std::memset(values, 0, sizeof(values)); }
   void ClearRow(int v) { std::memset(values + 8 * v, 0, 8 * sizeof(values[0])); }
-  // Row v dequantised by `quant` (its rows as floats).
-  Row Dequantised(int v, const Row* quant) const {
-    using Shorts = std::int16_t __attribute__((vector_size(16)));
-    Shorts row;
-    std::memcpy(&row, values + 8 * v, sizeof(row));
-    return __builtin_convertvector(row, Row) * quant[v];
-  }
 };
 
 // The pixels of `levels` (grey levels less 128) rounded to the nearest and clamped to 0-255.
@@ -167,11 +161,11 @@ void StoreLevels(const Row& levels, std::uint8_t* out) {
 #endif
 }
 
-// The block's pixels from its coefficients, dequantised by `quant` (the rows with a non-zero one
-// flagged in `rows`, which are cleared), with the part [x_begin, x_end) x [y_begin, y_end) of the
+// The block's pixels from its coefficients (the rows with a non-zero one flagged in `rows`, which
+// are cleared), with the part [x_begin, x_end) x [y_begin, y_end) of the
 // block written to `out` (its top-left pixel). Separable: each coefficient row's 1-D transform
 // across, then their sum weighted down the columns; the sums split in independent chains.
-void InverseDct(Coefficients& coefs, const Row* quant, unsigned rows, int x_begin, int x_end, int y_begin,
+void InverseDct(Coefficients& coefs, unsigned rows, int x_begin, int x_end, int y_begin,
                 int y_end, std::uint8_t* out, std::size_t step) {
   // Every index constant once unrolled, so that the rows stay in registers.
   Row pixels[8];
@@ -179,10 +173,10 @@ void InverseDct(Coefficients& coefs, const Row* quant, unsigned rows, int x_begi
   for (int y = 0; y < 8; ++y) pixels[y] = Row{};
   for (int v = 0; v < 8; ++v) {
     if (!(rows >> v & 1)) continue;
-    const Row c = coefs.Dequantised(v, quant);
-    coefs.ClearRow(v);
+    const float* c = coefs.values + 8 * v;
     const Row across = (c[0] * kBasis.m[0] + c[1] * kBasis.m[1]) + (c[2] * kBasis.m[2] + c[3] * kBasis.m[3]) +
                        ((c[4] * kBasis.m[4] + c[5] * kBasis.m[5]) + (c[6] * kBasis.m[6] + c[7] * kBasis.m[7]));
+    coefs.ClearRow(v);
 #pragma GCC unroll 8
     for (int y = 0; y < 8; ++y) pixels[y] += kBasis.m[v][y] * across;
   }
@@ -268,11 +262,12 @@ namespace {
 
 using Tables = JpegLumaDecoder::Tables;
 
-// Decodes one block's coefficients: with kKeep, into `coefs` (all 0 before), the rows holding
-// one flagged in `rows`; else read past. False if the data is corrupt.
+// Decodes one block's coefficients: with kKeep, dequantised by `quant` (natural order) into
+// `coefs` (all 0 before), the rows holding one flagged in `rows`; else read past. False if the
+// data is corrupt.
 template <bool kKeep>
-bool DecodeBlock(BitReader& reader, const Tables& dc, const Tables& ac, int& dc_prediction, Coefficients* coefs,
-                 unsigned& rows) {
+bool DecodeBlock(BitReader& reader, const Tables& dc, const Tables& ac, int& dc_prediction, const float* quant,
+                 Coefficients* coefs, unsigned& rows) {
   // The reader's state and the rows in locals, which stores of coefficients cannot alias.
   BitReader bits = reader;
   unsigned nonzero = 0;
@@ -285,7 +280,7 @@ bool DecodeBlock(BitReader& reader, const Tables& dc, const Tables& ac, int& dc_
                                      static_cast<unsigned>(Extend(bits.Take(dc_size), dc_size)));
   }
   if constexpr (kKeep) {
-    coefs->values[0] = static_cast<std::int16_t>(dc_prediction);
+    coefs->values[0] = static_cast<float>(static_cast<std::int16_t>(dc_prediction)) * quant[0];
     nonzero |= 1;
   }
   for (int k = 1; k < 64;) {
@@ -313,7 +308,7 @@ bool DecodeBlock(BitReader& reader, const Tables& dc, const Tables& ac, int& dc_
     if (k > 63) return false;
     if constexpr (kKeep) {
       const int at = kNaturalOrder[static_cast<std::size_t>(k)];
-      coefs->values[at] = static_cast<std::int16_t>(value);
+      coefs->values[at] = static_cast<float>(value) * quant[at];
       nonzero |= 1u << (at >> 3);
     }
     ++k;
@@ -411,8 +406,8 @@ std::string JpegLumaDecoder::Decode(const JpegScan& scan, const JpegPixelSpan& s
     }
     return false;
   };
-  Row quant[8];
-  for (int i = 0; i < 64; ++i) quant[i / 8][i % 8] = scan.luma_quant[static_cast<std::size_t>(i)];
+  float quant[64];
+  for (int i = 0; i < 64; ++i) quant[i] = scan.luma_quant[static_cast<std::size_t>(i)];
 
   BitReader bits(scan.data, scan.size);
   std::array<int, 4> predictions{};
@@ -447,12 +442,12 @@ std::string JpegLumaDecoder::Decode(const JpegScan& scan, const JpegPixelSpan& s
       const int y_begin = std::max(y0, span.row_begin), y_end = std::min(y0 + 8, span.row_end);
       unsigned rows = 0;
       if (block.luma && in_span && x_begin < x_end && y_begin < y_end) {
-        if (!DecodeBlock<true>(bits, *block.dc, *block.ac, prediction, &coefs, rows)) {
+        if (!DecodeBlock<true>(bits, *block.dc, *block.ac, prediction, quant, &coefs, rows)) {
           return fmt::format("its compressed data is corrupt (MCU row {})", row);
         }
-        InverseDct(coefs, quant, rows, x_begin - x0, x_end - x0, y_begin - y0, y_end - y0,
+        InverseDct(coefs, rows, x_begin - x0, x_end - x0, y_begin - y0, y_end - y0,
                    pixels + static_cast<std::size_t>(y0) * step + x0, step);
-      } else if (!DecodeBlock<false>(bits, *block.dc, *block.ac, prediction, nullptr, rows)) {
+      } else if (!DecodeBlock<false>(bits, *block.dc, *block.ac, prediction, nullptr, nullptr, rows)) {
         return fmt::format("its compressed data is corrupt (MCU row {})", row);
       }
     }
