@@ -104,7 +104,11 @@ struct JpegGreyDecoder::Impl {
         return false;
       }
       jpeg_start_decompress(&cinfo);
-      if (tables_missing()) return true;
+      if (tables_missing()) {
+        jpeg_abort_decompress(&cinfo);
+        std::snprintf(err.message, sizeof(err.message), "a Huffman table its scan uses is not defined");
+        return false;
+      }
     }
     scan = {};
     scan.width = static_cast<int>(cinfo.image_width);

@@ -14,17 +14,23 @@ namespace tac3d {
 struct JpegDecodeResult {
   std::string refusal;  ///< why the bytes were refused (as DecodeGrayImage says it); empty when decoded
   /// The part of the image decoded: the whole image, or the region asked for with its left edge
-  /// moved left to a JPEG block column (libjpeg crops at 8 or 16 px steps). Empty when refused.
+  /// moved left to a block column (a multiple of 8 px; 16 for the JPEGs libjpeg decodes). Empty
+  /// when refused.
   cv::Rect decoded;
 };
 
 /// Decodes a camera's MJPEG frames (JPEG images) to 8-bit grey, the luma alone (a YCbCr JPEG's
-/// colour is not decoded), whole or only where the caller will read them: libjpeg-turbo's
-/// partial decoding, which still reads all of the compressed data above the region (a JPEG's
-/// rows cannot be skipped without decoding them, short of restart markers) but transforms only
-/// the region's 8 x 8 blocks (the inverse DCT) and stops after its last row. Inside the decoded
-/// rectangle the pixels equal a whole decode's, to the last bit. One decompressor, kept from frame
-/// to frame; not thread-safe.
+/// colour is not decoded), whole or only where the caller will read them. Baseline JPEGs (every
+/// camera's MJPEG, with or without their Huffman tables, any chroma subsampling, restart markers
+/// or not) go through tac3d's own decoder (internal::JpegLumaDecoder): the compressed data is
+/// read down to the region's last row and no further, coefficients are kept and transformed only
+/// for the region's 8 x 8 blocks, and with restart markers the intervals above the region are
+/// skipped unread. Its inverse DCT is the exact one in single precision, so its pixels are within
+/// one grey level of libjpeg's (whose integer transform JPEG allows that error), a few percent of
+/// them differing. Other JPEGs (progressive, arithmetic-coded, 12-bit, RGB) are decoded by
+/// libjpeg-turbo, cropping and skipping rows as it can. Either way a partial decode's pixels
+/// equal the whole decode's inside the decoded rectangle. One decompressor, kept from frame to
+/// frame; not thread-safe.
 class JpegGreyDecoder {
  public:
   JpegGreyDecoder();
@@ -34,8 +40,9 @@ class JpegGreyDecoder {
 
   /// Decodes `bytes` into `image` (CV_8UC1 of the JPEG's size; its storage reused when it fits).
   /// Refused, never thrown, as DecodeGrayImage refuses: no bytes, a JPEG cut short, a header
-  /// claiming more than max_width x max_height pixels (checked before decoding), or data libjpeg
-  /// cannot decode; `image` is then unspecified.
+  /// claiming more than max_width x max_height pixels (checked before decoding), or data that
+  /// does not decode (a code no table holds, data ending before the rows asked for, a restart
+  /// marker missing, what libjpeg refuses); `image` is then unspecified.
   /// @param region the pixels the caller will read (clipped to the image); nullopt: all of them.
   ///   Outside JpegDecodeResult::decoded the image is 0.
   JpegDecodeResult Decode(const std::vector<std::uint8_t>& bytes, int max_width, int max_height,
