@@ -75,9 +75,10 @@ struct JpegGreyDecoder::Impl {
 
   // Whether the frame is a baseline JPEG in the layout JpegLumaDecoder takes, and if so its scan.
   // Motion-JPEG frames often leave out the Huffman tables, meaning JPEG's standard ones: libjpeg
-  // installs them as it starts decompressing. False (the message in err) if libjpeg refuses.
-  bool DescribeScan(internal::JpegScan& scan, bool& takes) {
-    takes = false;
+  // installs them (for the frames after too) as it starts decompressing, which `started` then
+  // says. False (the message in err) if libjpeg refuses.
+  bool DescribeScan(internal::JpegScan& scan, bool& takes, bool& started) {
+    takes = started = false;
     if (cinfo.progressive_mode || cinfo.arith_code || cinfo.data_precision != 8) return true;
     const bool grey = cinfo.jpeg_color_space == JCS_GRAYSCALE && cinfo.num_components == 1;
     const bool ycc = cinfo.jpeg_color_space == JCS_YCbCr && cinfo.num_components == 3;
@@ -104,6 +105,7 @@ struct JpegGreyDecoder::Impl {
         return false;
       }
       jpeg_start_decompress(&cinfo);
+      started = true;
       if (tables_missing()) {
         jpeg_abort_decompress(&cinfo);
         std::snprintf(err.message, sizeof(err.message), "a Huffman table its scan uses is not defined");
@@ -158,13 +160,27 @@ struct JpegGreyDecoder::Impl {
     return true;
   }
 
-  // Decodes `span` as DecodeRows does, with JpegLumaDecoder where it takes the frame; "" or why
-  // the frame does not decode.
-  std::string Decode(Span& span, std::uint8_t* pixels, std::size_t step) {
+  // Decodes `span` of the JPEG `data` (its header read) as DecodeRows does, with JpegLumaDecoder
+  // where it takes the frame; "" or why the frame does not decode.
+  std::string Decode(const std::uint8_t* data, std::size_t size, Span& span, std::uint8_t* pixels,
+                     std::size_t step) {
     internal::JpegScan scan;
-    bool takes = false;
-    if (!DescribeScan(scan, takes)) return err.message;
-    if (!takes) return DecodeRows(span, pixels, step) ? "" : err.message;
+    bool takes = false, started = false;
+    if (!DescribeScan(scan, takes, started)) return err.message;
+    if (!takes) {
+      // libjpeg decodes it, from its header again if DescribeScan started decompressing.
+      if (started) {
+        jpeg_abort_decompress(&cinfo);
+        if (!ReadHeader(data, size)) return err.message;
+      }
+      // A luma sampled less than the colour planes is upsampled, which libjpeg does differently
+      // at a cropped or skipped edge: such a frame is decoded whole.
+      const jpeg_component_info& luma_info = cinfo.comp_info[0];
+      if (luma_info.h_samp_factor != cinfo.max_h_samp_factor || luma_info.v_samp_factor != cinfo.max_v_samp_factor) {
+        span = {0, static_cast<int>(cinfo.image_height), 0, static_cast<int>(cinfo.image_width)};
+      }
+      return DecodeRows(span, pixels, step) ? "" : err.message;
+    }
     const int col_end = span.col_begin + span.col_width;
     span.col_begin -= span.col_begin % DCTSIZE;
     span.col_width = col_end - span.col_begin;
@@ -203,7 +219,8 @@ JpegDecodeResult JpegGreyDecoder::Decode(const std::vector<std::uint8_t>& bytes,
     return result;
   }
   Span span{wanted.y, wanted.br().y, wanted.x, wanted.width};
-  if (const std::string error = impl_->Decode(span, image.data, image.step); !error.empty()) {
+  if (const std::string error = impl_->Decode(bytes.data(), bytes.size(), span, image.data, image.step);
+      !error.empty()) {
     result.refusal = fmt::format("{}: {}", internal::kUnreadableImage, error);
     return result;
   }

@@ -14,8 +14,8 @@ namespace tac3d {
 struct JpegDecodeResult {
   std::string refusal;  ///< why the bytes were refused (as DecodeGrayImage says it); empty when decoded
   /// The part of the image decoded: the whole image, or the region asked for with its left edge
-  /// moved left to a block column (a multiple of 8 px; 16 for the JPEGs libjpeg decodes). Empty
-  /// when refused.
+  /// moved left to a block column (a multiple of 8 px; up to 32 for the JPEGs libjpeg decodes, which
+  /// may also decode the whole image). Empty when refused.
   cv::Rect decoded;
 };
 
@@ -28,8 +28,9 @@ struct JpegDecodeResult {
 /// skipped unread. Its inverse DCT is the exact one in single precision, so its pixels are within
 /// one grey level of libjpeg's (whose integer transform JPEG allows that error), a few percent of
 /// them differing. Other JPEGs (progressive, arithmetic-coded, 12-bit, RGB) are decoded by
-/// libjpeg-turbo, cropping and skipping rows as it can. Either way a partial decode's pixels
-/// equal the whole decode's inside the decoded rectangle. One decompressor, kept from frame to
+/// libjpeg-turbo, cropping and skipping rows as it can (whole when the luma is sampled less than
+/// the colour planes). Either way a partial decode's pixels equal the whole decode's inside the
+/// decoded rectangle. One decompressor, kept from frame to
 /// frame; not thread-safe.
 class JpegGreyDecoder {
  public:

@@ -48,6 +48,7 @@ std::vector<std::uint8_t> Encode(const cv::Mat& grey, bool colour) {
 struct JpegLayout {
   bool colour = true;
   int luma_h = 2, luma_v = 2;  // the luma's sampling: 2 x 2 is 4:2:0, 2 x 1 is 4:2:2 (UVC cameras), 1 x 1 is 4:4:4
+  int chroma_h = 1, chroma_v = 1;  // the colour planes' (more than the luma's: a JPEG libjpeg decodes)
   int restart_interval = 0;  // MCUs between restart markers
   bool optimised_tables = false;  // Huffman tables made for the frame, not JPEG's standard ones
   bool progressive = false;
@@ -70,6 +71,10 @@ std::vector<std::uint8_t> EncodeWithLibjpeg(const cv::Mat& grey, const JpegLayou
   jpeg_set_defaults(&cinfo);
   cinfo.comp_info[0].h_samp_factor = layout.luma_h;
   cinfo.comp_info[0].v_samp_factor = layout.luma_v;
+  for (int c = 1; c < cinfo.num_components; ++c) {
+    cinfo.comp_info[c].h_samp_factor = layout.chroma_h;
+    cinfo.comp_info[c].v_samp_factor = layout.chroma_v;
+  }
   jpeg_set_quality(&cinfo, 90, TRUE);
   cinfo.restart_interval = static_cast<unsigned>(layout.restart_interval);
   cinfo.optimize_coding = layout.optimised_tables;
@@ -116,7 +121,7 @@ TEST(JpegGreyDecoder, EveryLayoutDecodesWithinOneGreyLevelOfOpenCvAndPartlyAsWho
       {.colour = false, .luma_h = 1, .luma_v = 1}, {.luma_h = 2, .luma_v = 2}, {.luma_h = 2, .luma_v = 1},
       {.luma_h = 1, .luma_v = 1}, {.luma_h = 1, .luma_v = 2}, {.restart_interval = 1},
       {.restart_interval = 7}, {.colour = false, .restart_interval = 13}, {.optimised_tables = true},
-      {.progressive = true}};
+      {.progressive = true}, {.luma_h = 1, .luma_v = 1, .chroma_h = 2, .chroma_v = 2}};
   for (size_t i = 0; i < layouts.size(); ++i) {
     const std::vector<std::uint8_t> jpeg = EncodeWithLibjpeg(grey, layouts[i]);
     cv::Mat whole, partial;
@@ -132,18 +137,26 @@ TEST(JpegGreyDecoder, EveryLayoutDecodesWithinOneGreyLevelOfOpenCvAndPartlyAsWho
 }
 
 // A Motion-JPEG frame without Huffman tables means JPEG's standard ones: decoded as the same
-// frame with them is.
+// frame with them is, by tac3d's decoder (4:2:2, as UVC cameras send) or libjpeg (colour planes
+// sampled more than the luma).
 TEST(JpegGreyDecoder, AFrameWithoutHuffmanTablesUsesTheStandardOnes) {
-  JpegGreyDecoder decoder;
-  const std::vector<std::uint8_t> jpeg = EncodeWithLibjpeg(DotsFrame(160, 120), {.luma_h = 2, .luma_v = 1});
-  const std::vector<std::uint8_t> mjpeg = WithoutHuffmanTables(jpeg);
-  ASSERT_LT(mjpeg.size(), jpeg.size() - 400);  // the four standard tables are gone
-  cv::Mat with, without;
-  ASSERT_EQ(decoder.Decode(jpeg, 160, 120, std::nullopt, with).refusal, "");
-  // A fresh decoder: no table left over from an earlier frame.
-  JpegGreyDecoder fresh;
-  ASSERT_EQ(fresh.Decode(mjpeg, 160, 120, std::nullopt, without).refusal, "");
-  EXPECT_EQ(cv::norm(with, without, cv::NORM_INF), 0);
+  for (const JpegLayout& layout : {JpegLayout{.luma_h = 2, .luma_v = 1},
+                                   JpegLayout{.luma_h = 1, .luma_v = 1, .chroma_h = 2, .chroma_v = 2}}) {
+    const std::vector<std::uint8_t> jpeg = EncodeWithLibjpeg(DotsFrame(160, 120), layout);
+    const std::vector<std::uint8_t> mjpeg = WithoutHuffmanTables(jpeg);
+    ASSERT_LT(mjpeg.size(), jpeg.size() - 400);  // the four standard tables are gone
+    JpegGreyDecoder decoder;
+    cv::Mat with, without;
+    ASSERT_EQ(decoder.Decode(jpeg, 160, 120, std::nullopt, with).refusal, "");
+    // A fresh decoder: no table left over from an earlier frame.
+    JpegGreyDecoder fresh;
+    ASSERT_EQ(fresh.Decode(mjpeg, 160, 120, std::nullopt, without).refusal, "") << layout.chroma_h;
+    EXPECT_EQ(cv::norm(with, without, cv::NORM_INF), 0) << layout.chroma_h;
+    // And the next frame, partly.
+    const JpegDecodeResult partial = fresh.Decode(mjpeg, 160, 120, cv::Rect(20, 30, 100, 50), without);
+    ASSERT_EQ(partial.refusal, "") << layout.chroma_h;
+    EXPECT_EQ(cv::norm(with(partial.decoded), without(partial.decoded), cv::NORM_INF), 0) << layout.chroma_h;
+  }
 }
 
 // With restart markers, the intervals above the region are not decoded: damage there does not
