@@ -196,8 +196,10 @@ def episode_name(spec, episode):
 def dask_client(workers, scheduler, stream, verbose=False):
     """A Dask client: of the cluster at `scheduler`, else of a local cluster of `workers`
     processes of one thread each (with the dashboard where bokeh is installed), closed after.
-    The local cluster's workers log errors only (`verbose`: Dask's warnings too): generate
-    reports a failed episode once, not also each worker that ran it."""
+    The local cluster's workers log only what is critical (`verbose`: Dask's warnings and
+    errors too): generate reports a failed episode once, not also each worker that ran it, and a
+    worker's error as the cluster closes (one still beating while the scheduler drops it) is
+    not the user's."""
     from distributed import Client, LocalCluster
 
     if scheduler:
@@ -216,7 +218,7 @@ def dask_client(workers, scheduler, stream, verbose=False):
     with workers_ignoring_ctrl_c():
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
                                scheduler_kwargs={"dashboard": dashboard},
-                               silence_logs=logging.WARNING if verbose else logging.ERROR)
+                               silence_logs=logging.WARNING if verbose else logging.CRITICAL)
     with cluster, Client(cluster) as client:
         if dashboard:
             stream.write(f"dashboard: {client.dashboard_link}\n")
